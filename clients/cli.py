@@ -1,0 +1,56 @@
+"""The ``zwidth`` command line."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import typer
+
+app = typer.Typer(help="zwidth: the stiffest wall, the lightest feel and the filter that are still safe to render.",
+                  no_args_is_help=True)
+
+
+@app.command()
+def analyze(preset: str = typer.Argument("lhifam", help="preset name, or 'all'"),
+            local: bool = typer.Option(True, help="compute in-process (no server)"),
+            as_json: bool = typer.Option(False, "--json", help="machine-readable output")) -> None:
+    """Exact critical stiffness of a preset (rigid and cable models) beside the linear estimate (eq. 10)."""
+    from models.device import PRESETS, Device
+    from optim.margins import critical_stiffness, linear_estimate
+
+    names = sorted(PRESETS) if preset == "all" else [preset]
+    rows = []
+    for name in names:
+        if name not in PRESETS:
+            typer.echo(f"unknown preset {name!r}; known: {', '.join(sorted(PRESETS))}", err=True)
+            raise typer.Exit(2)
+        full = Device(preset=name)
+        for label, dev in (("cable", full), ("rigid", full.rigid())):
+            if label == "cable" and dev.cable is None:
+                continue
+            r = critical_stiffness(dev)
+            rows.append({"preset": name, "model": label, "critical_stiffness": r.critical_stiffness,
+                         "gain_db": 20 * math.log10(r.critical_stiffness),
+                         "crossover_frequency": r.crossover_frequency,
+                         "linear_estimate": linear_estimate(dev)})
+    if as_json:
+        typer.echo(json.dumps(rows, indent=2))
+        return
+    typer.echo(f"{'preset':28} {'model':6} {'K_cr exact':>14} {'dB':>8} {'w_cr rad/s':>11} {'K linear eq.10':>15}")
+    for r in rows:
+        typer.echo(f"{r['preset']:28} {r['model']:6} {r['critical_stiffness']:14.6g} {r['gain_db']:8.3f} "
+                   f"{r['crossover_frequency']:11.5g} {r['linear_estimate']:15.6g}")
+
+
+@app.command()
+def serve(host: str = typer.Option("127.0.0.1"), port: int = typer.Option(8000),
+          workers: int = typer.Option(1)) -> None:
+    """Serve the HTTP API with uvicorn."""
+    import uvicorn
+
+    uvicorn.run("service.app:app", host=host, port=port, workers=workers)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    app()

@@ -1,0 +1,274 @@
+"""Exact zero-order-hold discretisation with a loop delay of any real length.
+
+Everything here is dimensionless (Table 1): time in sample periods, masses in
+units of the total mass m, so a plant's sampled transfer is G_n(z) = G(z)·m/T².
+The delay t_d = (d + f)·T is split into whole samples d (a factor z^-d) and a
+fraction f ∈ [0, 1) handled exactly by the modified z-transform written as two
+input matrices (Γ0 acts during the last (1-f) of a period, Γ1 during the first f):
+
+    x[k+1] = Φ x[k] + Γ0 u[k-d] + Γ1 u[k-d-1],   Γ0 = Ψ(1-f) B,  Γ1 = e^{A(1-f)} Ψ(f) B,
+
+with Ψ(σ) = ∫₀^σ e^{As} ds.  No Padé approximation, no rounding of the delay.
+
+Numerical traps avoided (FIELD-NOTES.md): the rigid plant's coefficients use the
+series of φ₁(x) = (1-e^{-x})/x and φ₂(x) = (x-1+e^{-x})/x² below |x| = 1, and the
+poles are handled through their distance from 1 (1 - e^{-δ} = -expm1(-δ)), never
+through e^{-δ} itself, so δ = 1e-12 keeps full precision.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from fractions import Fraction
+from functools import lru_cache
+
+import numpy as np
+from scipy.linalg import expm
+
+__all__ = [
+    "phi1",
+    "phi2",
+    "split_delay",
+    "RigidZOH",
+    "StateSpaceZOH",
+    "cable_state_space",
+]
+
+_SERIES_TERMS = 30
+
+
+@lru_cache(maxsize=None)
+def _series(name: str) -> tuple[float, ...]:
+    """Taylor coefficients in x, exact rationals rounded once to double."""
+    n = _SERIES_TERMS
+    fact = [math.factorial(k) for k in range(n + 3)]
+    p = [Fraction((-1) ** k, fact[k]) for k in range(n)]                 # e^{-x}
+    f1 = [Fraction((-1) ** k, fact[k + 1]) for k in range(n)]            # φ₁
+    f2 = [Fraction((-1) ** k, fact[k + 2]) for k in range(n)]            # φ₂
+
+    def mul(a: list[Fraction], b: list[Fraction]) -> list[Fraction]:
+        return [sum((a[i] * b[k - i] for i in range(k + 1)), Fraction(0)) for k in range(n)]
+
+    if name == "phi1":
+        c = f1
+    elif name == "phi2":
+        c = f2
+    elif name == "rigid_c":
+        # c(δ) = φ₁² - (1 + e^{-δ}) φ₂ = -δ/6 + ...: N(-1) of the undelayed rigid plant.
+        one_plus_p = [p[0] + 1] + p[1:]
+        c = [a - b for a, b in zip(mul(f1, f1), mul(one_plus_p, f2))]
+    else:  # pragma: no cover - programming error
+        raise KeyError(name)
+    return tuple(float(v) for v in c)
+
+
+def _horner(coeffs: tuple[float, ...], x: float) -> float:
+    acc = 0.0
+    for c in reversed(coeffs):
+        acc = acc * x + c
+    return acc
+
+
+def phi1(x: float) -> float:
+    """φ₁(x) = (1 - e^{-x})/x, with φ₁(0) = 1."""
+    if abs(x) < 1.0:
+        return _horner(_series("phi1"), x)
+    return -math.expm1(-x) / x
+
+
+def phi2(x: float) -> float:
+    """φ₂(x) = (x - 1 + e^{-x})/x², with φ₂(0) = 1/2 (series below |x| = 1)."""
+    if abs(x) < 1.0:
+        return _horner(_series("phi2"), x)
+    return (x + math.expm1(-x)) / (x * x)
+
+
+def _rigid_c(delta: float) -> float:
+    if delta < 1.0:
+        return _horner(_series("rigid_c"), delta)
+    p = math.exp(-delta)
+    return phi1(delta) ** 2 - (1.0 + p) * phi2(delta)
+
+
+def split_delay(delay_samples: float) -> tuple[int, float]:
+    """d = t_d/T split into whole samples and a fraction in [0, 1).
+
+    A fraction within 64 ulp of an integer is taken as that integer: 0.003/0.001
+    is 2.9999999999999996 in binary floating point, and the intent is 3.  K_cr is
+    continuous in the delay, so this changes nothing beyond rounding.
+    """
+    if delay_samples < 0 or not math.isfinite(delay_samples):
+        raise ValueError("delay must be finite and non-negative")
+    nearest = round(delay_samples)
+    if abs(delay_samples - nearest) <= 64 * np.finfo(float).eps * max(1.0, delay_samples):
+        return int(nearest), 0.0
+    whole = math.floor(delay_samples)
+    return int(whole), float(delay_samples - whole)
+
+
+@dataclass(frozen=True)
+class RigidZOH:
+    """Rigid plant 1/(ms² + bs) (eq. 14) under ZOH and delay, in closed form.
+
+    G_n(z) = N(z) / ((z - 1)(z - p)) · z^{-d},  p = e^{-δ}, with N from the
+    closed-form Φ, Γ0, Γ1 above written with φ₁, φ₂.
+    """
+
+    delta: float
+    d: int
+    f: float = 0.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "_coef", self._compute_coefficients())
+        object.__setattr__(self, "_c0", (phi2(self.delta), _rigid_c(self.delta)))
+
+    def _coefficients(self) -> tuple[float, float, float, float, float, float, float]:
+        return self._coef  # type: ignore[attr-defined]
+
+    def _compute_coefficients(self) -> tuple[float, float, float, float, float, float, float]:
+        dl, f = self.delta, self.f
+        s0 = 1.0 - f
+        one_minus_p = -math.expm1(-dl)
+        phi12 = phi1(dl)                                   # Φ[0,1]
+        g0p = s0 * s0 * phi2(dl * s0)
+        g0v = s0 * phi1(dl * s0)
+        g1p = f * f * phi2(dl * f) + s0 * phi1(dl * s0) * f * phi1(dl * f)
+        g1v = math.exp(-dl * s0) * f * phi1(dl * f)
+        return one_minus_p, phi12, g0p, g0v, g1p, g1v, s0
+
+    def numerator(self, z: np.ndarray) -> np.ndarray:
+        one_minus_p, phi12, g0p, g0v, g1p, g1v, _ = self._coefficients()
+        if self.f == 0.0:
+            # φ₂·(z + 1) + c(δ): the zero near z = -1 without cancellation.
+            a, c = self._c0  # type: ignore[attr-defined]
+            return a * (z + 1.0) + c
+        zinv = 1.0 / z
+        gpos = g0p + g1p * zinv
+        gvel = g0v + g1v * zinv
+        return gpos * ((z - 1.0) + one_minus_p) + phi12 * gvel
+
+    def inverse_response(self, theta: np.ndarray) -> np.ndarray:
+        """1/G_n(e^{jθ}) for θ in (0, π]."""
+        theta = np.asarray(theta, dtype=float)
+        z = np.exp(1j * theta)
+        zm1 = np.expm1(1j * theta)                         # z - 1 without cancellation
+        one_minus_p = self._coef[0]  # type: ignore[attr-defined]
+        den = zm1 * (zm1 + one_minus_p)
+        return den * np.exp(1j * self.d * theta) / self.numerator(z)
+
+    def response(self, theta: np.ndarray) -> np.ndarray:
+        return 1.0 / self.inverse_response(theta)
+
+    def pole_angles(self) -> tuple[float, ...]:
+        return ()
+
+    def zero_angles(self) -> tuple[float, ...]:
+        return ()
+
+    def matrices(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(Φ, Γ0, Γ1, C) of the position/velocity model (dimensionless)."""
+        one_minus_p, phi12, g0p, g0v, g1p, g1v, _ = self._coefficients()
+        phi = np.array([[1.0, phi12], [0.0, 1.0 - one_minus_p]])
+        return phi, np.array([g0p, g0v]), np.array([g1p, g1v]), np.array([1.0, 0.0])
+
+
+def cable_state_space(mu_r: float, mu_d: float, delta_r: float, delta_d: float,
+                      kappa: float, delta_c: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Two-mass model of eq. 15-18 in centre-of-mass coordinates (dimensionless).
+
+    States [X, e, V, ė] with X = μ_r x_r + μ_d x_d and e = x_r - x_d, so the
+    rigid-body integrator is an exactly zero column of A and stays exactly at
+    z = 1 after discretisation.  Input: motor force; output: motor position x_r
+    (the collocated encoder: G_r = p_d/p of eq. 15).
+    """
+    dl = delta_r + delta_d
+    a = np.zeros((4, 4))
+    a[0, 2] = 1.0
+    a[1, 3] = 1.0
+    a[2, 2] = -dl
+    a[2, 3] = -(delta_r * mu_d - delta_d * mu_r)
+    a[3, 1] = -kappa * (1.0 / mu_r + 1.0 / mu_d)
+    a[3, 2] = -delta_r / mu_r + delta_d / mu_d
+    a[3, 3] = -(delta_r * mu_d / mu_r + delta_d * mu_r / mu_d + delta_c / mu_r + delta_c / mu_d)
+    b = np.array([0.0, 0.0, 1.0, 1.0 / mu_r])
+    c = np.array([1.0, mu_d, 0.0, 0.0])
+    return a, b, c
+
+
+def _phi_psi_b(a: np.ndarray, b: np.ndarray, sigma: float) -> tuple[np.ndarray, np.ndarray]:
+    """(e^{Aσ}, Ψ(σ)B) from one augmented matrix exponential."""
+    n = a.shape[0]
+    m = np.zeros((n + 1, n + 1))
+    m[:n, :n] = a
+    m[:n, n] = b
+    e = expm(m * sigma)
+    return e[:n, :n], e[:n, n]
+
+
+@dataclass(frozen=True)
+class StateSpaceZOH:
+    """Any continuous plant (A, B, C) (dimensionless) under ZOH and delay d + f.
+
+    The resolvent is evaluated as ((z - 1)I - E)^{-1} with E = Φ - I = A·Ψ(1),
+    never Φ - I formed by subtraction.
+    """
+
+    a: np.ndarray
+    b: np.ndarray
+    c: np.ndarray
+    d: int
+    f: float = 0.0
+    zeros_hint: tuple[float, ...] = ()
+    _cache: dict = field(default_factory=dict, compare=False, repr=False)
+
+    def _mats(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        if "m" not in self._cache:
+            n = self.a.shape[0]
+            big = np.zeros((2 * n, 2 * n))
+            big[:n, :n] = self.a
+            big[:n, n:] = np.eye(n)
+            e = expm(big)
+            phi, psi = e[:n, :n], e[:n, n:]
+            emat = self.a @ psi
+            s0 = 1.0 - self.f
+            e0, g0 = _phi_psi_b(self.a, self.b, s0)
+            if self.f > 0.0:
+                _, pf = _phi_psi_b(self.a, self.b, self.f)
+                g1 = e0 @ pf
+            else:
+                g1 = np.zeros(n)
+            self._cache["m"] = (phi, emat, g0, g1)
+        return self._cache["m"]
+
+    def inverse_response(self, theta: np.ndarray) -> np.ndarray:
+        return 1.0 / self.response(theta)
+
+    def response(self, theta: np.ndarray) -> np.ndarray:
+        """G_n(e^{jθ})."""
+        theta = np.atleast_1d(np.asarray(theta, dtype=float))
+        _, emat, g0, g1 = self._mats()
+        n = emat.shape[0]
+        zm1 = np.expm1(1j * theta)
+        zinv = np.exp(-1j * theta)
+        mats = zm1[:, None, None] * np.eye(n)[None] - emat[None]
+        rhs = g0[None, :] + zinv[:, None] * g1[None, :]
+        x = np.linalg.solve(mats, rhs[..., None])[..., 0]
+        return (x @ self.c) * np.exp(-1j * self.d * theta)
+
+    def pole_angles(self) -> tuple[float, ...]:
+        lam = np.linalg.eigvals(self.a)
+        return tuple(_fold(abs(v.imag)) for v in lam if abs(v.imag) > 0)
+
+    def zero_angles(self) -> tuple[float, ...]:
+        return tuple(_fold(abs(w)) for w in self.zeros_hint)
+
+    def matrices(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        phi, _, g0, g1 = self._mats()
+        return phi, g0, g1, self.c
+
+
+def _fold(angle: float) -> float:
+    """An angle per sample folded into [0, π] (aliasing of a sampled mode)."""
+    a = math.fmod(angle, 2 * math.pi)
+    return 2 * math.pi - a if a > math.pi else a

@@ -1,0 +1,133 @@
+"""Every point on (0, π] where a sampled loop's frequency function is real and positive.
+
+For the wall C(z) = K + B(1 - z⁻¹)/T the closed loop has a pole at z = e^{jθ}
+exactly when K = H(θ) = -1/G(e^{jθ}) - B(1 - e^{-jθ})/T.  A phase crossover of
+the loop is a θ where H(θ) is real; it matters for K > 0 when H(θ) > 0.
+
+The scan is adaptive: a log grid from far below the lowest possible crossover
+(≈ sqrt((δ+β)/(d+½)), FIELD-NOTES.md), a linear grid fine enough for the delay's
+phase (z^d turns by dθ), dense clusters around the plant's resonances and
+anti-resonances, then bisection of every interval where arg H turns by more than
+a quarter radian, so consecutive samples can't hide a crossing.  Each sign
+change of Im H with Re H > 0 is refined to full double precision, all at once.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["Crossing", "positive_real_crossings", "scan_grid"]
+
+_MAX_ARG_STEP = 0.25          # rad of arg H between consecutive samples after refinement
+_MAX_REFINE_ROUNDS = 60
+
+
+@dataclass(frozen=True)
+class Crossing:
+    """θ (rad per sample) where H(θ) is real and positive, with the value there."""
+
+    angle: float
+    value: float
+
+
+def scan_grid(theta_min: float, delay_samples: float, hints: Sequence[float], width_hint: float = 0.0) -> np.ndarray:
+    """Initial samples on [theta_min, π]."""
+    theta_lin = min(0.05, max(theta_min * 10, 1e-6))
+    parts = [np.geomspace(theta_min, theta_lin, max(40, int(60 * math.log10(theta_lin / theta_min)) + 2))]
+    step = min(0.02, math.pi / (16.0 * (delay_samples + 1.0)))
+    parts.append(np.linspace(theta_lin, math.pi, int(math.ceil((math.pi - theta_lin) / step)) + 1))
+    for h in hints:
+        if 0.0 < h <= math.pi:
+            w = max(width_hint, 1e-6) * 50
+            lo, hi = max(theta_min, h - w), min(math.pi, h + w)
+            parts.append(np.linspace(lo, hi, 201))
+            parts.append(h * (1.0 + np.geomspace(1e-9, 0.2, 60)))
+            parts.append(h * (1.0 - np.geomspace(1e-9, 0.2, 60)))
+    grid = np.unique(np.clip(np.concatenate(parts), theta_min, math.pi))
+    return grid
+
+
+def _refine(h: Callable[[np.ndarray], np.ndarray], grid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    values = h(grid)
+    for _ in range(_MAX_REFINE_ROUNDS):
+        turn = np.abs(np.angle(values[1:] / values[:-1]))
+        bad = turn > _MAX_ARG_STEP
+        width_ok = (grid[1:] - grid[:-1]) > 1e-14 * grid[1:]
+        bad &= width_ok
+        if not bad.any():
+            break
+        mids = 0.5 * (grid[:-1][bad] + grid[1:][bad])
+        mid_vals = h(mids)
+        grid = np.concatenate([grid, mids])
+        values = np.concatenate([values, mid_vals])
+        order = np.argsort(grid, kind="stable")
+        grid, values = grid[order], values[order]
+    return grid, values
+
+
+def _solve_brackets(f: Callable[[np.ndarray], np.ndarray], a: np.ndarray, b: np.ndarray,
+                    fa: np.ndarray, fb: np.ndarray) -> np.ndarray:
+    """Roots of f in every bracket [a, b] at once (Illinois regula falsi, bisection-safeguarded).
+
+    Stops when a bracket is 4 ulp wide or f is exactly 0: full double precision.
+    """
+    a, b, fa, fb = a.copy(), b.copy(), fa.copy(), fb.copy()
+    side = np.zeros(a.shape, dtype=int)
+    tol = 4 * np.finfo(float).eps
+    x = 0.5 * (a + b)
+    for it in range(200):
+        active = np.abs(b - a) > tol * np.maximum(np.abs(a), np.abs(b))
+        if not active.any():
+            break
+        with np.errstate(divide="ignore", invalid="ignore"):
+            x = np.where(fb != fa, b - fb * (b - a) / (fb - fa), 0.5 * (a + b))
+        # every fourth step bisects, so a bracket always shrinks geometrically
+        bad = ~((x > np.minimum(a, b)) & (x < np.maximum(a, b))) | (it % 4 == 3)
+        x = np.where(bad, 0.5 * (a + b), x)
+        x = np.where(active, x, a)
+        fx = np.where(active, f(x), fa)
+        done = fx == 0.0
+        left = np.sign(fx) == np.sign(fa)            # root in [x, b]
+        # Illinois: halve the stale end's value when the same side is kept twice
+        fb = np.where(active & left & (side == 1), fb / 2, fb)
+        fa = np.where(active & ~left & (side == -1), fa / 2, fa)
+        a_new = np.where(active & left, x, a)
+        fa_new = np.where(active & left, fx, fa)
+        b_new = np.where(active & ~left, x, b)
+        fb_new = np.where(active & ~left, fx, fb)
+        side = np.where(active, np.where(left, 1, -1), side)
+        a = np.where(done, x, a_new)
+        b = np.where(done, x, b_new)
+        fa, fb = np.where(done, 0.0, fa_new), np.where(done, 0.0, fb_new)
+    return np.where(np.abs(fa) <= np.abs(fb), a, b)
+
+
+def positive_real_crossings(h: Callable[[np.ndarray], np.ndarray], grid: np.ndarray) -> list[Crossing]:
+    """All θ in the grid's span where h(θ) is real and positive, refined.
+
+    ``grid`` must end at π; h(π) is real for a real-coefficient loop and counts
+    as a crossover (the Nyquist frequency, chapter eq. 32) when positive.
+    """
+    grid, values = _refine(h, grid)
+    im, re = values.imag, values.real
+    found: list[Crossing] = []
+    idx = np.nonzero((np.sign(im[:-1]) * np.sign(im[1:]) < 0) & ((re[:-1] > 0) | (re[1:] > 0)))[0]
+    if idx.size:
+        roots = _solve_brackets(lambda t: h(t).imag, grid[idx], grid[idx + 1], im[idx], im[idx + 1])
+        vals = h(roots).real
+        found += [Crossing(angle=float(t), value=float(v)) for t, v in zip(roots, vals) if v > 0]
+    for i in np.nonzero(im[1:-1] == 0.0)[0] + 1:          # an exact zero on a sample
+        if re[i] > 0:
+            found.append(Crossing(angle=float(grid[i]), value=float(re[i])))
+    v_pi = complex(h(np.array([math.pi]))[0])
+    if v_pi.real > 0:
+        # The Nyquist point is a crossover by symmetry; a rounding-level sign
+        # change of Im H just below π is the same crossover.
+        found = [c for c in found if math.pi - c.angle > 1e-9]
+        found.append(Crossing(angle=math.pi, value=v_pi.real))
+    found.sort(key=lambda c: c.angle)
+    return found

@@ -1,0 +1,126 @@
+"""Critical stiffness K_cr(B) of the sampled haptic loop, exactly (chapter §3.2, eq. 12-13, 20-21).
+
+K_cr(B) is the smallest K > 0 at which the loop 1 + (K + B(1 - z⁻¹)/T)·G(z) = 0
+gets a pole on the unit circle (ARCHITECTURE.md), the minimum over every phase
+crossover including the Nyquist frequency, and 0 when no K > 0 is stable.
+
+Why the minimum over crossovers is the answer: at K = 0⁺ every closed-loop pole
+is inside the unit circle provided the damper-only loop 1 + B(1 - z⁻¹)/T·G = 0 is
+stable (the pole at z = 1 then moves inwards with K).  That loop is stable for
+B below its own critical value B_max, found by the same crossover scan.  Above
+B_max nothing is stable: K_cr = 0 with that reason.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from models.device import Device
+from models.plants import stiffness_loop_plant
+
+from .crossovers import Crossing, positive_real_crossings, scan_grid
+
+__all__ = ["Crossover", "CriticalStiffness", "critical_stiffness", "max_stable_damping",
+           "linear_estimate", "gain_margin_db", "loop_plant"]
+
+
+@dataclass(frozen=True)
+class Crossover:
+    """A phase crossover of the loop with the stiffness that puts a pole there."""
+
+    frequency: float
+    """ω [rad/s]."""
+    stiffness: float
+    """K [N/m or N·m/rad] giving a closed-loop pole at e^{jωT}."""
+
+
+@dataclass(frozen=True)
+class CriticalStiffness:
+    """K_cr(B) of one device, with every crossover and the reason when it is 0."""
+
+    critical_stiffness: float
+    """K_cr [N/m]; 0 when no K > 0 is stable, inf when every K > 0 is."""
+    crossover_frequency: float | None
+    """ω [rad/s] of the crossover that sets K_cr (None when K_cr is 0 or inf)."""
+    crossovers: tuple[Crossover, ...]
+    """All phase crossovers with K > 0, by frequency."""
+    damping: float
+    """B [N·s/m] the answer is for."""
+    max_stable_damping: float | None
+    """B_max [N·s/m]: with B ≥ B_max no K > 0 is stable (computed only when B > 0)."""
+    reason: str | None = None
+    method: str = "exact"
+
+
+def loop_plant(device: Device):
+    return stiffness_loop_plant(device)
+
+
+def linear_estimate(device: Device, damping: float = 0.0) -> float:
+    """K < (b + B)/(T/2 + t_d), chapter eq. 10 [N/m]."""
+    return (device.damping + damping) / (device.sample_time / 2 + device.delay)
+
+
+def gain_margin_db(critical: float, stiffness: float) -> float:
+    """20·log10(K_cr/K), chapter eq. 13/21 [dB]."""
+    if critical <= 0:
+        return -math.inf
+    return 20.0 * math.log10(critical / stiffness)
+
+
+def _theta_min(device: Device, beta: float) -> float:
+    damp = device.delta + beta
+    return 1e-4 * min(1.0, math.sqrt(damp / (1.0 + 2.0 * device.delay_samples)), 10 * damp)
+
+
+def _grid(device: Device, plant, beta: float) -> np.ndarray:
+    hints = tuple(plant.pole_angles()) + tuple(plant.zero_angles())
+    return scan_grid(_theta_min(device, beta), device.delay_samples, hints, width_hint=device.delta)
+
+
+def _damper_crossings(device: Device, plant) -> list[Crossing]:
+    def h(theta: np.ndarray) -> np.ndarray:
+        return -plant.inverse_response(theta) / (-np.expm1(-1j * theta))
+    return positive_real_crossings(h, _grid(device, plant, 0.0))
+
+
+def max_stable_damping(device: Device) -> float:
+    """B_max [N·s/m]: the damper-only loop's critical gain; no K > 0 is stable at or above it."""
+    plant = loop_plant(device)
+    found = _damper_crossings(device, plant)
+    if not found:
+        return math.inf
+    return min(c.value for c in found) * device.damping_scale
+
+
+def critical_stiffness(device: Device, damping: float = 0.0) -> CriticalStiffness:
+    """Exact K_cr(B) (every crossover bracketed and refined to double precision)."""
+    if not (math.isfinite(damping) and damping >= 0.0):
+        raise ValueError("damping: virtual damping B must be finite and ≥ 0")
+    plant = loop_plant(device)
+    beta = damping / device.damping_scale
+    if device.damping + damping <= 0.0:
+        return CriticalStiffness(0.0, None, (), damping, 0.0,
+                                 reason="no physical or virtual damping: no positive stiffness is stable "
+                                        "(linear condition α < 2(δ+β)/(1+2d) with δ = β = 0)")
+    b_max = max_stable_damping(device) if damping > 0.0 else None
+    if b_max is not None and damping >= b_max:
+        return CriticalStiffness(0.0, None, (), damping, b_max,
+                                 reason=f"virtual damping B = {damping:.6g} N·s/m is at or above the largest "
+                                        f"stable virtual damping B_max = {b_max:.6g} N·s/m for this delay: "
+                                        "no positive stiffness is stable")
+
+    def h(theta: np.ndarray) -> np.ndarray:
+        return -plant.inverse_response(theta) + beta * np.expm1(-1j * theta)
+
+    found = positive_real_crossings(h, _grid(device, plant, beta))
+    scale, t = device.stiffness_scale, device.sample_time
+    crossovers = tuple(Crossover(frequency=c.angle / t, stiffness=c.value * scale) for c in found)
+    if not crossovers:
+        return CriticalStiffness(math.inf, None, (), damping, b_max,
+                                 reason="no phase crossover: every positive stiffness is stable")
+    best = min(crossovers, key=lambda c: c.stiffness)
+    return CriticalStiffness(best.stiffness, best.frequency, crossovers, damping, b_max)
