@@ -72,6 +72,7 @@ def _status(row: dict) -> StudyStatus:
     return StudyStatus(id=row["id"], name=req.get("name"), problem=row["problem"], status=row["status"],
                        total=total, done=done, failed=row["failed"], progress=done / total if total else 1.0,
                        rate=rate, eta_s=eta, created_at=row["created_at"], started_at=row["run_started_at"],
+                       resumed_from=row["run_start_done"],
                        finished_at=row["finished_at"], error=row["error"], sweep=list(req.get("sweep", {})))
 
 

@@ -81,6 +81,7 @@ class StudyStatus(BaseModel):
     eta_s: float | None = Field(description="seconds to completion at that rate")
     created_at: float = Field(description="Unix time [s]")
     started_at: float | None = Field(description="Unix time [s] the current (or last) run started")
+    resumed_from: int = Field(description="points already stored when the current (or last) run started")
     finished_at: float | None
     error: str | None
     sweep: list[str] = Field(description="the swept parameter paths, in column order")
