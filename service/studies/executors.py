@@ -93,7 +93,8 @@ class DaskExecutor:
         from distributed import wait
 
         try:
-            done, pending = wait(list(futures), timeout=timeout, return_when="FIRST_COMPLETED")
+            with self.client.as_current():  # wait() looks up the default client; ours is not the default
+                done, pending = wait(list(futures), timeout=timeout, return_when="FIRST_COMPLETED")
         except TimeoutError:
             return set(), set(futures)
         return set(done), set(pending)
