@@ -1,0 +1,176 @@
+"""Study throughput: points per second of whole studies (planner, executor, store) against the
+single-point baseline (the same evaluations one by one in this process, no store), side by side.
+
+    PYTHONPATH=. python -m bench.bench_studies          # writes docs/bench_studies.md
+
+Each configuration runs the same study ``repeats`` times on a fresh SQLite store; the pool (or
+the Dask cluster) is started and warmed before timing, as a running service's would be.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import platform
+import statistics
+import tempfile
+import time
+import uuid
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from optim.studies import ProblemUnavailable, evaluate_point, get_problem
+from service.studies.executors import DaskExecutor, LocalExecutor
+from service.studies.runner import StudyRunner, plan_from_request
+from service.studies.store import StudyStore
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def stability_study(points: int) -> dict:
+    """Rigid LHifAM wall (K = 1500 N/m) over delay × virtual damping: every point a full exact analysis."""
+    n_delay = max(1, points // 4)
+    return {"problem": "stability", "base": {"device": {"mass": 5.4, "damping": 3.5}, "requirements": {"stiffness": 1500.0}},
+            "sweep": {"device.delay": {"start": 0.0, "stop": 0.004, "num": n_delay},
+                      "requirements.damping": [0.0, 2.0, 5.0, 10.0]}}
+
+
+def stiffness_study(points: int) -> dict:
+    """Stiffness design (optim.stiffness, when in this build) over delay × gain margin."""
+    n_delay = max(1, points // 2)
+    return {"problem": "stiffness", "base": {"device": {"mass": 5.4, "damping": 3.5}, "requirements": {}},
+            "sweep": {"device.delay": {"start": 0.0, "stop": 0.004, "num": n_delay},
+                      "requirements.min_gain_margin_db": [6.0, 10.0]}}
+
+
+@dataclass(frozen=True)
+class Row:
+    problem: str
+    executor: str
+    points: int
+    times: tuple[float, ...]
+    """wall time of each repeat [s]."""
+    failed: int
+
+    @property
+    def median(self) -> float:
+        return statistics.median(self.times)
+
+    @property
+    def p95(self) -> float:
+        return float(np.percentile(self.times, 95))
+
+    @property
+    def rate(self) -> float:
+        return self.points / self.median
+
+
+def _baseline(study: dict, repeats: int) -> Row:
+    plan = plan_from_request(study)
+    inputs = [plan.inputs(v) for v in plan.values(0, plan.total).tolist()]
+    evaluate_point(plan.problem, *inputs[0])  # imports and caches outside the timing
+    times, failed = [], 0
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        failed = sum(evaluate_point(plan.problem, dev, req)[1] is not None for dev, req in inputs)
+        times.append(time.perf_counter() - t0)
+    return Row(plan.problem, "single point, in-process (baseline)", plan.total, tuple(times), failed)
+
+
+def _study(study: dict, executor, label: str, repeats: int, chunk_size: int) -> Row:
+    plan = plan_from_request(study)
+    times, failed = [], 0
+    with tempfile.TemporaryDirectory() as tmp:
+        for r in range(repeats + 1):  # the first run warms the workers (imports, solver caches)
+            store = StudyStore(f"sqlite:///{tmp}/bench{r}.db")
+            store.migrate()
+            sid = str(uuid.uuid4())
+            store.create(sid, plan.problem, study, plan.total)
+            runner = StudyRunner(store, lambda: executor, chunk_size=chunk_size)
+            t0 = time.perf_counter()
+            runner.run_until_idle()
+            elapsed = time.perf_counter() - t0
+            row = store.get(sid)
+            store.dispose()
+            if row["status"] != "done":
+                raise RuntimeError(f"{label}: study ended {row['status']}: {row['error']}")
+            if r:
+                times.append(elapsed)
+                failed = row["failed"]
+    return Row(plan.problem, label, plan.total, tuple(times), failed)
+
+
+def measure(points: int = 400, repeats: int = 3, workers: tuple[int, ...] = (1, 2), dask: bool = True,
+            chunk_size: int = 32) -> list[Row]:
+    studies = [stability_study(points)]
+    try:
+        get_problem("stiffness")
+        studies.append(stiffness_study(max(2, points // 4)))
+    except ProblemUnavailable:
+        pass
+    rows: list[Row] = []
+    for study in studies:
+        rows.append(_baseline(study, repeats))
+        for n in workers:
+            ex = LocalExecutor(n)
+            try:
+                rows.append(_study(study, ex, f"local pool, {n} worker{'s' if n > 1 else ''}", repeats, chunk_size))
+            finally:
+                ex.close()
+        if dask:
+            from bench.dask_cluster import local_dask_cluster
+
+            with local_dask_cluster(workers=2) as address:
+                ex = DaskExecutor(address)
+                try:
+                    rows.append(_study(study, ex, "Dask, 2 workers × 1 thread (loopback)", repeats, chunk_size))
+                finally:
+                    ex.close()
+    return rows
+
+
+def render(rows: list[Row], note: str = "") -> str:
+    import os
+
+    lines = [
+        "# Study throughput: points per second",
+        "",
+        f"Generated by `python -m bench.bench_studies` on {datetime.date.today()}, {platform.machine()} "
+        f"CPython {platform.python_version()}, {os.cpu_count()} cores (shared with other work while measured).",
+        "A *study* row is a whole study run by the service's runner: planning, content hashes, chunks on the "
+        "executor, results written to a fresh SQLite (WAL) store. The *baseline* evaluates the same points one "
+        "by one in this process without a store. Wall time per run (median / p95 over the repeats); the ratio is "
+        "points/s against the baseline of the same problem, measured in the same run.",
+        "",
+        "| problem | executor | points | median [s] | p95 [s] | points/s | ratio vs baseline | failed points |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    base = {r.problem: r.rate for r in rows if "baseline" in r.executor}
+    for r in rows:
+        lines.append(f"| {r.problem} | {r.executor} | {r.points} | {r.median:.3f} | {r.p95:.3f} | {r.rate:.0f} | "
+                     f"{r.rate / base[r.problem]:.2f} | {r.failed} |")
+    if not any(r.problem == "stiffness" for r in rows):
+        lines += ["", "Stiffness designs: `optim.stiffness` is not in this build, so the stiffness problem answers "
+                  "422 and is not measured here."]
+    if note:
+        lines += ["", note]
+    return "\n".join(lines) + "\n"
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--points", type=int, default=400)
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--no-dask", action="store_true")
+    ap.add_argument("--out", default=str(ROOT / "docs" / "bench_studies.md"))
+    args = ap.parse_args()
+    rows = measure(args.points, args.repeats, dask=not args.no_dask)
+    text = render(rows)
+    Path(args.out).write_text(text)
+    print(text)
+
+
+if __name__ == "__main__":
+    main()
