@@ -52,5 +52,7 @@ def serve(host: str = typer.Option("127.0.0.1"), port: int = typer.Option(8000),
     uvicorn.run("service.app:app", host=host, port=port, workers=workers)
 
 
+app.add_typer(__import__("clients.cli_study", fromlist=["app"]).app, name="study")  # zwidth study run|status|results
+
 if __name__ == "__main__":  # pragma: no cover
     app()
