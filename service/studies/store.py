@@ -38,6 +38,7 @@ studies = sa.Table(
     sa.Column("run_start_done", sa.Integer, nullable=False),
     sa.Column("finished_at", sa.Float),
     sa.Column("error", sa.Text),
+    sa.Index("ix_studies_status_created", "status", "created_at"),
 )
 results = sa.Table(
     "study_results", metadata,
@@ -47,6 +48,7 @@ results = sa.Table(
     sa.Column("params", sa.JSON, nullable=False),
     sa.Column("result", sa.JSON),
     sa.Column("error", sa.Text),
+    sa.Index("ix_study_results_idx", "study_id", "idx"),
 )
 
 _MIGRATIONS = Path(__file__).parent / "migrations"
