@@ -135,8 +135,8 @@ class StudyRunner:
     def _run_plan(self, study_id: str, row: dict) -> None:
         try:
             plan = plan_from_request(row["request"])
-        except StudyInputError as exc:  # e.g. a design module removed from the build since submission
-            self.store.finish(study_id, "failed", str(exc))
+        except (StudyInputError, KeyError, TypeError) as exc:  # e.g. a design module removed from the build
+            self.store.finish(study_id, "failed", f"the stored request cannot be planned: {exc}")
             return
         executor = self._executor()
         args = (plan.problem, dict(plan.device), dict(plan.requirements), [(a.path, a.kind) for a in plan.axes])

@@ -90,7 +90,10 @@ class StudyStore:
             from sqlalchemy.dialects.postgresql import insert
         else:
             raise ValueError(f"database_url: unsupported database {name!r} (SQLite or PostgreSQL)")
-        return lambda: insert(results).on_conflict_do_nothing(index_elements=["study_id", "point_hash"])
+        # RETURNING lists only the rows really inserted: the count of new points on both databases
+        # (a DBAPI's executemany rowcount is not reliable for ON CONFLICT DO NOTHING; psycopg's is not).
+        return lambda: (insert(results).on_conflict_do_nothing(index_elements=["study_id", "point_hash"])
+                        .returning(results.c.point_hash))
 
     def migrate(self) -> None:
         """Bring the schema to the newest Alembic revision."""
@@ -162,17 +165,13 @@ class StudyStore:
         new_ok = new_bad = 0
         with self.engine.begin() as conn:
             if ok:
-                new_ok = self._count(conn.execute(self._insert(), ok), len(ok))
+                new_ok = len(conn.execute(self._insert(), ok).all())
             if bad:
-                new_bad = self._count(conn.execute(self._insert(), bad), len(bad))
+                new_bad = len(conn.execute(self._insert(), bad).all())
             if new_ok or new_bad:
                 conn.execute(studies.update().where(studies.c.id == study_id)
                              .values(done=studies.c.done + new_ok + new_bad, failed=studies.c.failed + new_bad))
         return new_ok + new_bad
-
-    @staticmethod
-    def _count(res, n: int) -> int:
-        return res.rowcount if res.rowcount is not None and res.rowcount >= 0 else n
 
     def finish(self, study_id: str, status: str, error: str | None = None) -> None:
         """Close a running study (a cancel that came first wins)."""
