@@ -9,12 +9,12 @@ from typing import Annotated, Literal
 
 from fastapi import APIRouter, HTTPException, Query, Request, Response
 from fastapi.exceptions import RequestValidationError
-from fastapi.responses import PlainTextResponse
+from fastapi.responses import StreamingResponse
 
 from optim.studies import StudyInputError
 
 from ..schemas.studies import StudyCreated, StudyList, StudyRequest, StudyResults, StudyStatus
-from ..studies.export import columns, flat_row, to_csv, to_parquet
+from ..studies.export import columns, csv_chunks, flat_row, parquet_bytes, scan_columns
 from ..studies.lifespan import study_lifespan
 from ..studies.plot import plot_rows
 from ..studies.runner import StudyRunner, plan_from_request
@@ -136,12 +136,14 @@ def study_results(study_id: str, request: Request, format: Literal["json", "csv"
         return StudyResults(id=study_id, status=row["status"], total=row["total"], offset=offset, limit=limit,
                             next_offset=offset + len(rows) if len(rows) == limit else None,
                             columns=columns(paths, rows), rows=rows)
-    rows = [flat_row(paths, r) for r in runner.store.iter_results(study_id)]
-    cols = columns(paths, rows)
+    def rows():  # a fresh pass over the store each time: exports stream, they are not held in memory
+        return (flat_row(paths, r) for r in runner.store.iter_results(study_id))
+    cols, kinds = scan_columns(paths, rows())
     headers = {"Content-Disposition": f'attachment; filename="study-{study_id}.{format}"'}
     if format == "csv":
-        return PlainTextResponse(to_csv(cols, rows), media_type="text/csv", headers=headers)
-    return Response(to_parquet(cols, rows), media_type="application/vnd.apache.parquet", headers=headers)
+        return StreamingResponse(csv_chunks(cols, rows()), media_type="text/csv", headers=headers)
+    return Response(parquet_bytes(cols, kinds, rows()), media_type="application/vnd.apache.parquet",
+                    headers=headers)
 
 
 @router.get("/{study_id}/plot", responses={200: {"content": {"image/png": {}, "image/svg+xml": {}}}})
