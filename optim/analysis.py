@@ -83,7 +83,12 @@ def linear_error_estimate(device: Device, damping: float) -> float:
     beta = damping / device.damping_scale
     d = device.delay_samples
     x = beta * (1 + 2 * d)
-    return delta * (1 + d) / 6 + beta * (1 + (1 + 2 * d) / 6) + x * x / 12
+    rigid = delta * (1 + d) / 6 + beta * (1 + (1 + 2 * d) / 6) + x * x / 12
+    if device.cable is None:
+        return rigid
+    # eq. 10 ignores the cable mode; the chapter's own test (eq. 22-24) compares Q with K_lin:
+    # the resonant peak can move K_cr by about K_lin/Q.
+    return rigid + linear_estimate(device, damping) / Q_criterion(device)
 
 
 def grid_critical_stiffness(device: Device, damping: float, points: int) -> tuple[float, float | None, tuple[Crossover, ...], float]:
