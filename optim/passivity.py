@@ -43,6 +43,8 @@ class PassivityCheck:
     """whole samples of delay used (a fractional delay is rounded up)."""
     conservative: bool
     """True when a fractional delay was rounded up to the next whole sample."""
+    worst_angle: float | None = None
+    """θ = ωT [rad] where P(θ) is largest."""
 
 
 @dataclass(frozen=True)
@@ -104,8 +106,8 @@ def passivity_margin(device: Device, stiffness: float, damping: float) -> Passiv
     vals = minus_p(grid)
     # the three deepest local minima of −P, refined (the global one may sit between samples)
     order = np.argsort(vals)[:3]
-    best = -min(_refine_min(minus_p, grid, vals, int(i))[1] for i in order)
-    return PassivityCheck(device.damping > best, best, d, conservative)
+    t_best, v_best = min((_refine_min(minus_p, grid, vals, int(i)) for i in order), key=lambda tv: tv[1])
+    return PassivityCheck(device.damping > -v_best, -v_best, d, conservative, t_best)
 
 
 def is_passive(device: Device, stiffness: float, damping: float) -> bool:

@@ -26,9 +26,10 @@ from .loop import casadi_loop_function
 
 __all__ = ["ProblemKey", "ProblemSolution", "solve_problem", "N_CUTS", "IPOPT_OPTIONS"]
 
-N_CUTS = 6
+N_CUTS = 10
 IPOPT_OPTIONS = {"ipopt.print_level": 0, "print_time": 0, "ipopt.sb": "yes", "ipopt.tol": 1e-11,
-                 "ipopt.acceptable_tol": 1e-9, "ipopt.max_iter": 200, "calc_lam_p": True}
+                 "ipopt.acceptable_tol": 1e-9, "ipopt.max_iter": 200,
+                 "ipopt.bound_relax_factor": 1e-12, "calc_lam_p": True}
 _local = threading.local()
 
 

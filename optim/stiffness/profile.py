@@ -125,11 +125,13 @@ def _segments(curve: BoundaryCurve, betas: np.ndarray):
     b0, b1 = curve.beta[:-1], curve.beta[1:]
     a0, a1 = curve.alpha[:-1], curve.alpha[1:]
     x = betas[:, None]
-    cross = ((b0 - x) * (b1 - x) <= 0) & (b0 != b1)
+    # half-open segments: a crossing through a vertex is counted once
+    cross = (np.minimum(b0, b1) <= x) & (x < np.maximum(b0, b1))
     with np.errstate(divide="ignore", invalid="ignore"):
         w = np.where(cross, (x - b0) / (b1 - b0), 0.0)
-    alpha = a0 + w * (a1 - a0)
-    return cross & (alpha > 0), w, alpha
+    # a segment that straddles α = 0 (near B_max) counts, its α clamped at 0: K_cr → 0 there
+    alpha = np.maximum(a0 + w * (a1 - a0), 0.0)
+    return cross & ((a0 > 0) | (a1 > 0)), w, alpha
 
 
 def coarse_critical(curve: BoundaryCurve, betas: np.ndarray) -> np.ndarray:
