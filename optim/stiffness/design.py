@@ -22,6 +22,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from models.device import Device
+from models.plants import stiffness_loop_plant
+from optim.crossovers import positive_real_crossings, scan_grid
 from optim.margins import critical_stiffness, gain_margin_db, linear_estimate, max_stable_damping
 from optim.passivity import (kernel, largest_passive_stiffness, passive_alpha_on_grid, passivity_margin,
                              passivity_samples)
@@ -95,6 +97,7 @@ class _Context:
     beta_cap: float
     d_pass: int
     loop_flat: np.ndarray
+    n_states: int
 
 
 def _infeasible(reason: str, t0: float, **kw) -> StiffnessDesign:
@@ -106,7 +109,6 @@ def design_stiffness(device: Device, requirements: StiffnessRequirements | None 
     t0 = time.perf_counter()
     req = requirements or StiffnessRequirements()
     ks, bs = device.stiffness_scale, device.damping_scale
-    b_max = max_stable_damping(device)
     k_caps, b_caps = req.stiffness_caps(), req.damping_caps(device.sample_time)
     b_cap = min(b_caps.values(), default=math.inf)
     k_cap = min(k_caps.values(), default=math.inf)
@@ -117,8 +119,8 @@ def design_stiffness(device: Device, requirements: StiffnessRequirements | None 
                      + (" (the fractional delay rounded up: conservative)" if conservative else ""))
         if device.damping <= 0.0:
             return _infeasible("passivity required but the device has no physical damping: no stiffness is passive "
-                               "(b must exceed P(θ) ≥ 0 at some θ)", t0, max_stable_damping=_fin(b_max),
-                               passivity_delay_samples=d_pass, passivity_note=pass_note)
+                               "(b must exceed P(θ) ≥ 0 at some θ)", t0, passivity_delay_samples=d_pass, passivity_note=pass_note)
+    b_max = _max_stable_damping(device)
     if not b_max > 0.0:
         return _infeasible("no positive stiffness is stable for any virtual damping on this device", t0,
                            max_stable_damping=_fin(b_max))
@@ -128,8 +130,9 @@ def design_stiffness(device: Device, requirements: StiffnessRequirements | None 
                            "the design is unbounded in B", t0)
     beta_hi = upper_b / bs
     curve = boundary_curve(device, beta_hi)
-    ctx = _Context(device, req, curve, beta_hi, k_cap / ks if math.isfinite(k_cap) else 1e300,
-                   b_cap / bs if math.isfinite(b_cap) else 1e300, d_pass, loop_matrices(device).flat())
+    matrices = loop_matrices(device)
+    ctx = _Context(device, req, curve, beta_hi, k_cap / ks if math.isfinite(k_cap) else 1e30,
+                   b_cap / bs if math.isfinite(b_cap) else 1e30, d_pass, matrices.flat(), matrices.n)
     betas, objective, pass_theta = _coarse_profile(ctx)
     i = int(np.argmax(objective))
     if not objective[i] > 0.0:
@@ -138,13 +141,23 @@ def design_stiffness(device: Device, requirements: StiffnessRequirements | None 
                f"no positive stiffness meets the gain margin for any B in [0, {upper_b:.6g}] N·s/m")
         return _infeasible(why, t0, max_stable_damping=_fin(b_max), passivity_delay_samples=d_pass if req.passivity
                            else None, passivity_note=pass_note)
-    if not objective[i] < 1e299:
+    if not objective[i] < 1e29:
         return _infeasible("every positive stiffness is stable at this damping and no stiffness limit was given: "
                            "the design is unbounded", t0)
     setup_ms = (time.perf_counter() - t0) * 1e3
     best = _solve_from(ctx, float(betas[i]), float(objective[i]), pass_theta[i])
     solve_ms = (time.perf_counter() - t0) * 1e3 - setup_ms
     return _finish(ctx, best, b_max, k_caps, b_caps, pass_note, t0, setup_ms, solve_ms)
+
+
+def _max_stable_damping(device: Device) -> float:
+    """B_max [N·s/m]; optim.margins' scan starts at θ_min ∝ δ, which is 0 when b = 0, so that case scans here."""
+    if device.damping > 0.0:
+        return max_stable_damping(device)
+    plant = stiffness_loop_plant(device)
+    grid = scan_grid(1e-7, device.delay_samples, tuple(plant.pole_angles()) + tuple(plant.zero_angles()), 1e-6)
+    found = positive_real_crossings(lambda t: -plant.inverse_response(t) / (-np.expm1(-1j * t)), grid)
+    return min((c.value for c in found), default=math.inf) * device.damping_scale
 
 
 def _fin(x: float | None) -> float | None:
@@ -224,7 +237,7 @@ def _solve_from(ctx: _Context, beta0: float, alpha0: float, pass_theta0: float) 
     attempt = None
     for _ in range(_MAX_EXCHANGES):
         nyquist = bool(ctx.curve.nyquist_alpha(np.array([beta0]))[0] > 0)
-        key = ProblemKey(loop_matrices(dev).n, len(crossings), nyquist, N_CUTS if ctx.req.passivity else 0)
+        key = ProblemKey(ctx.n_states, len(crossings), nyquist, N_CUTS if ctx.req.passivity else 0)
         params = _params(ctx, ctx.loop_flat, dev.delta, ctx.alpha_cap, ctx.beta_cap, alpha_ref, beta_ref, cuts)
         x0 = np.array(x_start + [t for t, _ in crossings])
         sol = solve_problem(key, params, x0, (interval[0] / beta_ref, interval[1] / beta_ref), [b for _, b in crossings])

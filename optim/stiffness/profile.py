@@ -122,8 +122,13 @@ def _pieces(plant, theta, beta, alpha, b_scale) -> tuple[list[Piece], list[float
 
 
 def _segments(curve: BoundaryCurve, betas: np.ndarray):
+    """For each β and each relevant curve segment: crossed?, interpolation weight, α there (clamped at 0)."""
     b0, b1 = curve.beta[:-1], curve.beta[1:]
     a0, a1 = curve.alpha[:-1], curve.alpha[1:]
+    # only segments that reach the β range asked for and have α > 0 at an end can matter
+    keep = np.nonzero((np.maximum(b0, b1) >= betas.min()) & (np.minimum(b0, b1) <= betas.max())
+                      & ((a0 > 0) | (a1 > 0)))[0]
+    b0, b1, a0, a1 = b0[keep], b1[keep], a0[keep], a1[keep]
     x = betas[:, None]
     # half-open segments: a crossing through a vertex is counted once
     cross = (np.minimum(b0, b1) <= x) & (x < np.maximum(b0, b1))
@@ -131,22 +136,23 @@ def _segments(curve: BoundaryCurve, betas: np.ndarray):
         w = np.where(cross, (x - b0) / (b1 - b0), 0.0)
     # a segment that straddles α = 0 (near B_max) counts, its α clamped at 0: K_cr → 0 there
     alpha = np.maximum(a0 + w * (a1 - a0), 0.0)
-    return cross & ((a0 > 0) | (a1 > 0)), w, alpha
+    return cross, w, alpha, keep
 
 
 def coarse_critical(curve: BoundaryCurve, betas: np.ndarray) -> np.ndarray:
     """K_cr(β)/(m/T²) linearly interpolated on the sampled curve, for each β (inf: no crossover)."""
-    pos, _, alpha = _segments(curve, betas)
-    kcr = np.where(pos, alpha, np.inf).min(axis=1)
+    pos, _, alpha, _ = _segments(curve, betas)
+    kcr = np.where(pos, alpha, np.inf).min(axis=1) if pos.shape[1] else np.full(betas.shape, np.inf)
     nyq = curve.nyquist_alpha(betas)
     return np.where(nyq > 0, np.minimum(kcr, nyq), kcr)
 
 
 def crossings_at(curve: BoundaryCurve, beta: float) -> list[tuple[float, int]]:
     """The interior crossovers with α > 0 at β, as (θ interpolated on the curve, index of their piece)."""
-    pos, w, _ = _segments(curve, np.array([beta]))
-    idx = np.nonzero(pos[0])[0]
+    pos, w, _, keep = _segments(curve, np.array([beta]))
+    sel = np.nonzero(pos[0])[0]
+    idx = keep[sel]
     t0, t1 = curve.theta[idx], curve.theta[idx + 1]
     starts = np.searchsorted(curve.theta, [p.theta_lo for p in curve.pieces], side="left")
     piece = np.searchsorted(starts, idx, side="right") - 1
-    return [(float(a + w[0, j] * (b - a)), int(k)) for a, b, j, k in zip(t0, t1, idx, piece)]
+    return [(float(a + w[0, j] * (b - a)), int(k)) for a, b, j, k in zip(t0, t1, sel, piece)]
