@@ -91,7 +91,7 @@ def boundary_curve(device: Device, beta_hi: float) -> BoundaryCurve:
     pieces, folds = _pieces(plant, theta, beta, alpha, b_scale)
     inv_pi = complex(plant.inverse_response(np.array([math.pi]))[0])
     ends = [p.beta_lo for p in pieces] + [p.beta_hi for p in pieces]
-    brk = sorted({float(v) for v in ends + folds if 0.0 < v < beta_hi})
+    brk = sorted({float(v) for v in ends + folds if 1e-9 * beta_hi < v < beta_hi * (1 - 1e-9)})
     return BoundaryCurve(theta, beta, alpha, tuple(pieces), (-inv_pi.real, 2.0), tuple(brk))
 
 
