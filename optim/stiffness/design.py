@@ -222,7 +222,9 @@ def _solve_from(ctx: _Context, beta0: float, alpha0: float, pass_theta0: float) 
     interval = _interval(ctx, beta0)
     beta_ref = max(beta0, 1e-2 * ctx.beta_hi)
     alpha_ref = alpha0
-    crossings = [(t, _piece_bounds(ctx, t)) for t, _ in crossings_at(ctx.curve, beta0)]
+    # crossovers far above the objective cannot bind nearby; the exact re-check adds any that do
+    far = 50.0 * alpha0 / ctx.req.gain_factor
+    crossings = [(t, _piece_bounds(ctx, t)) for t, a in crossings_at(ctx.curve, beta0, with_alpha=True) if a <= far]
     # passivity cuts: the binding angle of the coarse profile, the kernel's zeros (they bound B alone) and π
     cuts = [2 * math.pi * k / (2 * ctx.d_pass + 1) for k in range(1, min(ctx.d_pass, N_CUTS - 2) + 1)]
     cuts = [math.pi] + cuts + [float(pass_theta0)] if ctx.req.passivity else []

@@ -3,7 +3,7 @@
 Decision variables (scaled): a = α/α_ref, b = β/β_ref and one angle θ_i per
 tracked interior phase crossover.  Constraints:
 
-    Im H(θ_i, β) = 0                      θ_i is a phase crossover at this β
+    Im H(θ_i, β)/|H| = 0                  θ_i is a phase crossover at this β
     α ≤ g·Re H(θ_i, β)                    gain margin at every tracked crossover, g = 10^(−GM/20)
     α ≤ g·H(π, β)                         the Nyquist crossover (H(π) is real for every β)
     α ≤ α_cap,  β ≤ β_cap                 stiffness and damping limits of the request
@@ -73,7 +73,7 @@ def _build(key: ProblemKey) -> ca.Function:
     eqs, ineqs = [], []
     for i in range(m):
         hr, hi = h(x[2 + i], beta, loop)
-        eqs.append(hi / a_ref)
+        eqs.append(hi / ca.sqrt(hr * hr + hi * hi))      # sin(arg H): scale-free, whatever |H| is
         ineqs.append(a - g_gain * hr / a_ref)
     if key.nyquist:
         hr, _ = h(np.pi, beta, loop)

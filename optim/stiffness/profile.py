@@ -147,12 +147,14 @@ def coarse_critical(curve: BoundaryCurve, betas: np.ndarray) -> np.ndarray:
     return np.where(nyq > 0, np.minimum(kcr, nyq), kcr)
 
 
-def crossings_at(curve: BoundaryCurve, beta: float) -> list[tuple[float, int]]:
-    """The interior crossovers with α > 0 at β, as (θ interpolated on the curve, index of their piece)."""
-    pos, w, _, keep = _segments(curve, np.array([beta]))
+def crossings_at(curve: BoundaryCurve, beta: float, with_alpha: bool = False) -> list[tuple[float, float]]:
+    """The interior crossovers with α > 0 at β, as (θ interpolated on the curve, its piece index or its α)."""
+    pos, w, alpha, keep = _segments(curve, np.array([beta]))
     sel = np.nonzero(pos[0])[0]
     idx = keep[sel]
     t0, t1 = curve.theta[idx], curve.theta[idx + 1]
     starts = np.searchsorted(curve.theta, [p.theta_lo for p in curve.pieces], side="left")
     piece = np.searchsorted(starts, idx, side="right") - 1
+    if with_alpha:
+        return [(float(a + w[0, j] * (b - a)), float(alpha[0, j])) for a, b, j in zip(t0, t1, sel)]
     return [(float(a + w[0, j] * (b - a)), int(k)) for a, b, j, k in zip(t0, t1, sel, piece)]
