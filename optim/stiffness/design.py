@@ -33,7 +33,8 @@ from .requirements import StiffnessRequirements
 
 __all__ = ["StiffnessDesign", "Sensitivity", "design_stiffness"]
 
-_MAX_EXCHANGES = 12
+_MAX_EXCHANGES = 16
+_PASSIVITY_RTOL = 1e-7   # cutting planes converge linearly at a smooth passivity optimum: stop here, then clip
 _VERIFY_RTOL = 1e-8          # an NLP optimum may exceed the exact bound by this much before we re-solve
 _ACTIVE_RTOL = 1e-6
 
@@ -251,7 +252,7 @@ def _solve_from(ctx: _Context, beta0: float, alpha0: float, pass_theta0: float) 
             if th < math.pi * (1 - 1e-9) and all(abs(th - t) > 1e-7 * th for t, _ in crossings):
                 crossings = [(t, bb) for t, bb in crossings] + [(th, _piece_bounds(ctx, th))]
                 changed = True
-        if pk is not None and k > pk.stiffness * (1 + _VERIFY_RTOL):
+        if pk is not None and k > pk.stiffness * (1 + _PASSIVITY_RTOL):
             # the semi-infinite constraint's most violated angle at the NLP point becomes a new cut
             check = passivity_margin(dev, k, b)
             if check.worst_angle is not None and all(abs(check.worst_angle - c) > 1e-12 for c in cuts):
