@@ -2,8 +2,9 @@
 
 Writes docs/bench_stiffness.md.  Run:  PYTHONPATH=. python bench/bench_stiffness.py [--repeats N] [--quick]
 
-BLAS threads are pinned to 1 before numpy loads: the ZOH matrices are 5×5–8×8 matrix exponentials, and a
-multithreaded OpenBLAS on a shared 2-core machine made each one ~15 ms instead of ~30 µs (measured here).
+BLAS is single-threaded (models/__init__ limits it; the variables below make sure even before numpy loads):
+the ZOH matrices are 5×5–8×8 matrix exponentials, and a multithreaded OpenBLAS on a shared 2-core machine
+made each one ~15 ms instead of ~30 µs (measured here).
 """
 
 from __future__ import annotations
@@ -49,16 +50,9 @@ def _pct(values: list[float], q: float) -> float:
 def run(repeats: int, quick: bool) -> list[dict]:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        from fastapi import FastAPI
         from fastapi.testclient import TestClient
-    try:
-        from service.app import create_app
-        app = create_app()
-    except ImportError:
-        from service.routes.design_stiffness import router
-        app = FastAPI()
-        app.include_router(router)
-    client = TestClient(app)
+    from service.app import create_app
+    client = TestClient(create_app())
     req = StiffnessRequirements()
     rows = []
     for name, kind, spec in cases(quick):
