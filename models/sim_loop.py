@@ -25,7 +25,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import butter
+from scipy.signal import butter, zpk2ss
 
 from .sim_plant import SampledPlant
 
@@ -73,7 +73,7 @@ def feedforward_filter(cutoff_hz: float | None, order: int, sample_time: float):
     if not cutoff_hz < fs / 2:
         raise ValueError(f"scene.effects.force_feedforward.cutoff_hz: must be below the Nyquist frequency "
                          f"{fs / 2:g} Hz")
-    a, b, c, d = butter(order, cutoff_hz, btype="low", output="ss", fs=fs)
+    a, b, c, d = zpk2ss(*butter(order, cutoff_hz, btype="low", output="zpk", fs=fs))
     return a, b[:, 0], c[0], float(d[0, 0])
 
 
