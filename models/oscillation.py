@@ -68,7 +68,7 @@ def analyse_oscillation(xr: np.ndarray, sample_time: float, linear: bool, diverg
     n = len(xr) - 1
     if diverged:
         return Verdict("unstable", None, float(np.max(np.abs(xr))), None,
-                       "the motion grew past 1e6 times its initial scale; the run stopped there")
+                       "the motion grew past 1e6 times the largest free motion of the run; the run stopped there")
     if n < 8:
         return Verdict("stable" if linear else "limit_cycle", None, 0.0, None, "run too short to judge")
     window = xr[n // 2:]
