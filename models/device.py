@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import copy
 import math
+from decimal import Decimal
 from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
@@ -117,6 +118,11 @@ def _merge(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
+def _decimal_sum(a: Any, b: Any) -> float:
+    """a + b as the user wrote them (0.3 + 5.1 is 5.4, not 5.3999999999999995)."""
+    return float(Decimal(repr(float(a))) + Decimal(repr(float(b))))
+
+
 def _close(a: float, b: float) -> bool:
     return abs(a - b) <= 1e-9 * max(abs(a), abs(b), 1e-300)
 
@@ -155,15 +161,15 @@ class Device(BaseModel):
             base = PRESETS[name]
             if "cable" in data and data["cable"] is None and "mass" not in data and isinstance(base.get("cable"), dict):
                 c = base["cable"]
-                data.setdefault("mass", c["motor_mass"] + c["body_mass"])
-                data.setdefault("damping", c["motor_damping"] + c["body_damping"])
+                data.setdefault("mass", _decimal_sum(c["motor_mass"], c["body_mass"]))
+                data.setdefault("damping", _decimal_sum(c["motor_damping"], c["body_damping"]))
             data = _merge(base, data)
         cable = data.get("cable")
         if isinstance(cable, dict):
             try:
-                m = float(cable["motor_mass"]) + float(cable["body_mass"])
-                b = float(cable["motor_damping"]) + float(cable["body_damping"])
-            except (KeyError, TypeError, ValueError):
+                m = _decimal_sum(cable["motor_mass"], cable["body_mass"])
+                b = _decimal_sum(cable["motor_damping"], cable["body_damping"])
+            except (KeyError, TypeError, ValueError, ArithmeticError):
                 return data  # the Cable model reports the missing or bad field
             for key, total, rule in (("mass", m, "motor_mass + body_mass"),
                                      ("damping", b, "motor_damping + body_damping")):

@@ -1,0 +1,191 @@
+"""Stability analysis of a wall on a device, on any rung of the accuracy ladder.
+
+Rungs (ARCHITECTURE.md): ``linear`` (chapter eq. 9/10), ``grid`` (fixed frequency
+grid), ``exact`` (every crossover bracketed and refined, optim.margins),
+``reference`` (40-digit mpmath, optim.reference).  Every answer says which rung
+produced it, what it cost and how far it may be off.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+from models.device import Device
+from models.plants import Q_criterion
+
+from .margins import Crossover, critical_stiffness, gain_margin_db, linear_estimate, loop_plant, max_stable_damping
+from .passivity import passivity_margin
+from .reference import reference_critical_stiffness
+
+__all__ = ["Method", "METHODS", "StabilityAnalysis", "analyse_stability", "linear_error_estimate",
+           "grid_critical_stiffness", "DEFAULT_GRID_POINTS", "MAX_GRID_POINTS"]
+
+Method = Literal["linear", "grid", "exact", "reference"]
+METHODS: tuple[str, ...] = ("linear", "grid", "exact", "reference")
+DEFAULT_GRID_POINTS = 1000
+#: Cost limit of the grid rung.
+MAX_GRID_POINTS = 1_000_000
+
+_EXACT_REL_ERROR = 1e-12
+
+
+@dataclass(frozen=True)
+class StabilityAnalysis:
+    critical_stiffness: float | None
+    """K_cr(B) [N/m]; 0 when no K > 0 is stable; None when every K > 0 is."""
+    crossover_frequency: float | None
+    """ω [rad/s] of the crossover that sets K_cr."""
+    crossovers: tuple[Crossover, ...]
+    damping: float
+    """B [N·s/m] of the analysed wall."""
+    stiffness: float | None
+    """K [N/m] of the analysed wall, when given."""
+    gain_margin_db: float | None
+    """20·log10(K_cr/K) [dB] when a stiffness is given (eq. 13/21)."""
+    stable: bool | None
+    passive: bool | None
+    passivity_required_damping: float | None
+    """max over θ of the delayed Colgate–Schenkel bound [N·s/m]; passive when b exceeds it."""
+    passivity_conservative: bool
+    linear_estimate: float
+    """(b + B)/(T/2 + t_d) [N/m], chapter eq. 10."""
+    linear_error: float | None
+    """|linear/K_cr − 1| against this answer's K_cr."""
+    max_stable_damping: float | None
+    q_criterion: float | None
+    """Q ≈ m_r z_n ω_n [N/m], eq. 22 (cable devices)."""
+    mode_matters: bool | None
+    """Cable devices: True when the exact cable K_cr differs from the rigid model's by more than 5 %."""
+    rigid_critical_stiffness: float | None
+    method: str
+    elapsed_ms: float
+    error_estimate: float
+    """Relative error bound or estimate of critical_stiffness."""
+    error_source: str
+    reason: str | None
+
+
+def linear_error_estimate(device: Device, damping: float) -> float:
+    """Relative error of eq. 10 against the exact K_cr, as an honest estimate.
+
+    First order in (δ + β) with the delay's weight (the chapter's linearisation
+    drops O((1+d)(δ+β)) terms), plus the second-order term that dominates in the
+    curved part of the boundary (Fig. 9).  Its constants were fitted on rigid
+    devices and are checked by tests/optim/test_analysis.py and the accuracy
+    benchmark: the true error stays within 2× of it.
+    """
+    delta = device.delta
+    beta = damping / device.damping_scale
+    d = device.delay_samples
+    x = beta * (1 + 2 * d)
+    return delta * (1 + d) / 6 + beta * (1 + (1 + 2 * d) / 6) + x * x / 12
+
+
+def grid_critical_stiffness(device: Device, damping: float, points: int) -> tuple[float, float | None, tuple[Crossover, ...], float]:
+    """K_cr on a fixed log grid of ω from 1e-3/T to π/T (no refinement), as a naive tool would.
+
+    Returns (K_cr, ω, crossovers, error estimate).  Linear interpolation of Im H
+    between samples; its error is estimated from the change of Re H across the bracket.
+    """
+    plant = loop_plant(device)
+    beta = damping / device.damping_scale
+    theta = np.geomspace(1e-3, math.pi, points)
+    h = -plant.inverse_response(theta) + beta * np.expm1(-1j * theta)
+    im, re = h.imag, h.real
+    idx = np.nonzero((np.sign(im[:-1]) * np.sign(im[1:]) < 0))[0]
+    found = []
+    errs = []
+    for i in idx:
+        w = im[i] / (im[i] - im[i + 1])
+        k = re[i] + w * (re[i + 1] - re[i])
+        if k > 0:
+            found.append(Crossover(frequency=(theta[i] + w * (theta[i + 1] - theta[i])) / device.sample_time,
+                                   stiffness=k * device.stiffness_scale))
+            errs.append(abs(re[i + 1] - re[i]) / (2 * abs(k)))
+    if re[-1] > 0:
+        found.append(Crossover(frequency=math.pi / device.sample_time, stiffness=float(re[-1]) * device.stiffness_scale))
+        errs.append(0.0)
+    if not found:
+        return math.inf, None, (), math.inf
+    j = int(np.argmin([c.stiffness for c in found]))
+    return found[j].stiffness, found[j].frequency, tuple(found), errs[j]
+
+
+def _finite(x: float | None) -> float | None:
+    return None if x is None or not math.isfinite(x) else x
+
+
+def analyse_stability(device: Device, stiffness: float | None = None, damping: float = 0.0,
+                      method: str = "exact", grid_points: int = DEFAULT_GRID_POINTS) -> StabilityAnalysis:
+    """K_cr(B) of the device on the chosen rung, and the margin, stability and passivity of (K, B)."""
+    if method not in METHODS:
+        raise ValueError(f"method: must be one of {', '.join(METHODS)}")
+    if stiffness is not None and not (math.isfinite(stiffness) and stiffness > 0):
+        raise ValueError("stiffness: must be finite and > 0")
+    if not (math.isfinite(damping) and damping >= 0):
+        raise ValueError("damping: must be finite and ≥ 0")
+    t0 = time.perf_counter()
+    lin = linear_estimate(device, damping)
+    reason = None
+    b_max = None
+    if method == "linear":
+        kcr = lin
+        w = math.sqrt(lin / device.mass) if lin > 0 else None
+        crossovers = (Crossover(frequency=w, stiffness=lin),) if w else ()
+        err = linear_error_estimate(device, damping)
+        source = "first- and second-order terms in (1+d)(δ+β) dropped by the linearisation (eq. 9/10), fitted on the test suite"
+    elif method == "grid":
+        if not (10 <= grid_points <= MAX_GRID_POINTS):
+            raise ValueError(f"grid_points: must be between 10 and {MAX_GRID_POINTS}")
+        kcr, w, crossovers, err = grid_critical_stiffness(device, damping, grid_points)
+        source = f"half the change of K across the bracketing grid interval ({grid_points} log-spaced ω from 1e-3/T to π/T)"
+    elif method == "exact":
+        res = critical_stiffness(device, damping)
+        kcr, w, crossovers, reason, b_max = res.critical_stiffness, res.crossover_frequency, res.crossovers, res.reason, res.max_stable_damping
+        err = _EXACT_REL_ERROR
+        source = "every crossover bracketed and refined to 4 ulp in ω; agrees with the 40-digit reference to 1e-12 on the test suite"
+    else:
+        res = reference_critical_stiffness(device, damping)
+        kcr, w = res.critical_stiffness, res.crossover_frequency
+        crossovers = tuple(Crossover(frequency=a, stiffness=b) for a, b in res.crossovers)
+        err = 10.0 ** (-(res.digits - 5))
+        source = f"{res.digits}-digit mpmath discretisation and bisection"
+        if kcr == 0.0:
+            reason = "virtual damping at or above the largest stable virtual damping: no positive stiffness is stable"
+    gm = stable = None
+    if stiffness is not None:
+        stable = bool(kcr is not None and stiffness < kcr)
+        gm = gain_margin_db(kcr, stiffness) if kcr and math.isfinite(kcr) else (None if kcr else None)
+        if kcr == 0:
+            gm = None
+            stable = False
+    passive = required = None
+    conservative = False
+    if stiffness is not None:
+        pm = passivity_margin(device, stiffness, damping)
+        passive, required, conservative = pm.passive, pm.required_damping, pm.conservative
+    q = mode = rigid_k = None
+    if device.cable is not None:
+        q = Q_criterion(device)
+        if method in ("exact", "reference"):
+            rigid_k = critical_stiffness(device.rigid(), damping).critical_stiffness
+            if kcr is not None and math.isfinite(kcr) and rigid_k and math.isfinite(rigid_k):
+                mode = abs(kcr / rigid_k - 1) > 0.05
+    if damping > 0 and b_max is None and method == "exact":
+        b_max = max_stable_damping(device)
+    kcr_out = _finite(kcr)
+    lin_err = abs(lin / kcr - 1) if kcr and math.isfinite(kcr) else None
+    if kcr is not None and math.isinf(kcr) and reason is None:
+        reason = "no phase crossover: every positive stiffness is stable"
+    return StabilityAnalysis(
+        critical_stiffness=kcr_out, crossover_frequency=w, crossovers=tuple(crossovers), damping=damping,
+        stiffness=stiffness, gain_margin_db=gm, stable=stable, passive=passive,
+        passivity_required_damping=required, passivity_conservative=conservative,
+        linear_estimate=lin, linear_error=lin_err, max_stable_damping=_finite(b_max), q_criterion=q,
+        mode_matters=mode, rigid_critical_stiffness=_finite(rigid_k), method=method,
+        elapsed_ms=(time.perf_counter() - t0) * 1e3, error_estimate=err, error_source=source, reason=reason)
