@@ -160,6 +160,11 @@ class _Loop:
             self._memo[theta_c] = self._exact(theta_c)
         return self._memo[theta_c]
 
+    def structure(self, theta_c: float) -> tuple[int, ...]:
+        """How many crossovers each grasp's loop has at this cutoff."""
+        found = self.exact(theta_c)[3]
+        return tuple(sum(1 for j, _ in found if j == i) for i in range(len(self.plants)))
+
     def _exact(self, theta_c: float) -> tuple[float, float | None, int, list[tuple[int, float]]]:
         best, where, who, found = math.inf, None, 0, []
         for j, plant in enumerate(self.plants):
@@ -278,10 +283,24 @@ def _design(device: Device, req: InertiaRequirements, humans: list[Human], human
     t = cutoffs * t_of
 
     if objective == "min_apparent_mass":
-        bounds = (t[max(j_best - 1, 0)], t[min(j_best + 1, len(t) - 1)])
-        theta = _refine(loop, modal, log_rho, t[j_best], bounds, "max_gain", 0.0, info)
-        if theta is None:
-            return _failed(info, common, "Ipopt did not converge on the crossover conditions")
+        # The NLP tracks crossover branches; it may only move where the branches are the
+        # same as at its start (a pair of crossovers can merge and vanish, making K_f,cr
+        # jump: no local condition describes that, so the bracket stops there).
+        lo_j, hi_j = max(j_best - 1, 0), min(j_best + 1, len(t) - 1)
+        here = loop.structure(t[j_best])
+        if loop.structure(t[lo_j]) != here:
+            lo_j = j_best
+            info["crossover_structure_changes_hz"] = [float(cutoffs[j_best - 1]), float(cutoffs[j_best])]
+        if loop.structure(t[hi_j]) != here:
+            hi_j = j_best
+            info["crossover_structure_changes_hz"] = [float(cutoffs[j_best]), float(cutoffs[j_best + 1])]
+        theta = t[j_best]
+        if lo_j < hi_j:
+            theta = _refine(loop, modal, log_rho, t[j_best], (t[lo_j], t[hi_j]), "max_gain", 0.0, info)
+            if theta is None:
+                return _failed(info, common, "Ipopt did not converge on the crossover conditions")
+        else:
+            info.update(return_status="scan point kept: crossover branches change on both sides", exchange_rounds=0)
         if loop.exact(theta)[0] < kcrs[j_best]:       # never worse than the exact scan's best point
             theta = t[j_best]
         return answer("optimal", loop.exact(theta)[0] / rho, theta / t_of)
@@ -305,11 +324,29 @@ def _design(device: Device, req: InertiaRequirements, humans: list[Human], human
     if j_hi == len(t) - 1:
         info.update(return_status="upper cutoff bound feasible (exact)", exchange_rounds=0)
         return answer("optimal", kf, hi_hz)
+    feasible_at = lambda th: loop.exact(th)[0] >= rho * kf  # noqa: E731
+    if loop.structure(t[j_hi]) != loop.structure(t[j_hi + 1]):
+        # A crossover branch is born or dies in the bracket: the boundary may be a jump of
+        # K_f,cr, which no crossover condition describes; bisect the exact verdict instead.
+        theta = _bisect(feasible_at, t[j_hi], t[j_hi + 1])
+        info.update(return_status="exact bisection (crossover branches change in the bracket)", exchange_rounds=0)
+        return answer("optimal", kf, theta / t_of)
     theta = _refine(loop, modal, log_rho, t[j_hi], (t[j_hi], t[j_hi + 1]), "max_cutoff", math.log(kf), info)
     if theta is None:
         return _failed(info, common, "Ipopt did not converge on the crossover conditions")
     theta = _exact_boundary(lambda th: math.log(loop.exact(th)[0] / (rho * kf)), t[j_hi], theta, info)
     return answer("optimal", kf, theta / t_of)
+
+
+def _bisect(feasible_at, good: float, bad: float) -> float:
+    """The last feasible θ before ``bad`` to a few ulp (the exact verdict decides each step)."""
+    while bad - good > 8 * np.finfo(float).eps * bad:
+        mid = 0.5 * (good + bad)
+        if feasible_at(mid):
+            good = mid
+        else:
+            bad = mid
+    return good
 
 
 def _exact_boundary(margin, feasible: float, theta: float, info: dict) -> float:

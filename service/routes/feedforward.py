@@ -71,6 +71,10 @@ def inertia(req: InertiaRequest) -> InertiaResponse:
     except ValueError as exc:
         raise _field_error(exc) from exc
     notes = _human_notes(d.human_source)
+    jump = d.solver.get("crossover_structure_changes_hz")
+    if jump:
+        notes.append(f"K_f,cr jumps between {jump[0]:.4g} and {jump[1]:.4g} Hz, where two phase crossovers merge and "
+                     "vanish; a design next to that jump is sensitive to model error (the lower crossover can return)")
     rigid = None
     if d.rigid_model is not None:
         rm = d.rigid_model
