@@ -71,6 +71,8 @@ class MassRange(BaseModel):
 
 class InertiaRequirementsIn(BaseModel):
     model_config = STRICT
+    objective: Literal["min_apparent_mass", "target_apparent_mass"] | None = Field(
+        default=None, description="default: target_apparent_mass when a target is given, else min_apparent_mass")
     min_gain_margin_db: float = Field(default=6.0, ge=0, le=120, description="required gain margin [dB]")
     cutoff_min_hz: float = Field(default=10.0, gt=0, le=1e9, description="lowest cutoff [Hz] (human force bandwidth)")
     cutoff_max_hz: float | None = Field(default=None, gt=0, le=1e9,
@@ -87,6 +89,10 @@ class InertiaRequirementsIn(BaseModel):
     def _one_human_spec(self) -> "InertiaRequirementsIn":
         if self.humans is not None and self.human_mass_range is not None:
             raise ValueError("give either humans or human_mass_range, not both")
+        if self.objective == "target_apparent_mass" and self.target_apparent_mass is None:
+            raise ValueError("objective target_apparent_mass needs target_apparent_mass")
+        if self.objective == "min_apparent_mass" and self.target_apparent_mass is not None:
+            raise ValueError("objective min_apparent_mass takes no target_apparent_mass")
         return self
 
 
