@@ -107,8 +107,11 @@ def _residue_g1(device: Device, human: Human, theta: float, d: int, f: float) ->
 
     Z[H·G·e^{-(d+f)Ts}] = z^{-d}(1 - z⁻¹) z⁻¹ Σ_p Res[G(s)/s · e^{msT} z/(z - e^{sT})], m = 1 - f.
     """
-    mp = mpmath.mp
-    mp.dps = 40
+    with mpmath.workdps(40):         # never leave mpmath's global precision changed
+        return _residue_g1_40(device, human, theta, d, f)
+
+
+def _residue_g1_40(device: Device, human: Human, theta: float, d: int, f: float) -> complex:
     T = mpmath.mpf(device.sample_time)
     zh = [mpmath.mpf(human.mass), mpmath.mpf(human.damping), mpmath.mpf(human.stiffness)]
     tf_ = mpmath.mpf(device.force_sensor.time_constant)
