@@ -9,7 +9,7 @@ from fastapi import APIRouter
 
 from models.filters import ButterworthLowPass
 from optim.feedforward import apparent_mass, critical_force_gain
-from optim.inertia import InertiaRequirements, design_inertia
+from optim.inertia import RIGID_OPTIMISM_FLAG, InertiaRequirements, design_inertia
 
 from ..errors import NumericInputError
 from ..schemas.feedforward import (ForceFeedforwardRequest, ForceFeedforwardResponse, InertiaRequest,
@@ -46,16 +46,22 @@ def force_feedforward(req: ForceFeedforwardRequest) -> ForceFeedforwardResponse:
     except ValueError as exc:
         raise _field_error(exc, "filter.") from exc
     kcr = _finite(res.critical_force_gain)
+    notes = _human_notes(res.human_source)
+    optimistic = None
+    if rigid is not None:
+        optimistic = rigid > res.critical_force_gain * (1 + RIGID_OPTIMISM_FLAG)
+        if optimistic:
+            notes.append(f"the rigid model is optimistic: it claims K_f,cr = {rigid:.4g}, "
+                         f"{100 * (rigid / res.critical_force_gain - 1):.0f} % above the cable model's {kcr:.4g}")
     return ForceFeedforwardResponse(
         critical_force_gain=kcr, crossover_frequency=res.crossover_frequency,
         crossovers=[{"frequency": c.frequency, "force_gain": c.force_gain} for c in res.crossovers],
         worst_case_force_gain=res.worst_case_force_gain,
         apparent_mass_at_critical=apparent_mass(dev, kcr) if kcr is not None else None,
-        model="cable" if dev.cable else "rigid", rigid_critical_force_gain=_finite(rigid),
+        model="cable" if dev.cable else "rigid", rigid_critical_force_gain=_finite(rigid), rigid_optimistic=optimistic,
         human=res.human.model_dump(), human_source=res.human_source,
         force_sensor_time_constant=dev.force_sensor.time_constant if dev.force_sensor else 0.0,
-        method="exact", elapsed_ms=(time.perf_counter() - start) * 1e3, reason=res.reason,
-        notes=_human_notes(res.human_source))
+        method="exact", elapsed_ms=(time.perf_counter() - start) * 1e3, reason=res.reason, notes=notes)
 
 
 @router.post("/v1/design/inertia", response_model=InertiaResponse)

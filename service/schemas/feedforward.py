@@ -48,6 +48,7 @@ class ForceFeedforwardResponse(BaseModel):
     apparent_mass_at_critical: float | None = Field(description="m/(1 + K_f,cr) [kg], the limit, not a design")
     model: Literal["rigid", "cable"]
     rigid_critical_force_gain: float | None = Field(description="what the rigid model claims (cable devices)")
+    rigid_optimistic: bool | None = Field(description="the rigid model's K_f,cr exceeds the cable model's by > 20 %")
     human: HumanOut
     human_source: str = Field(description="request device, or the chapter's eq. 30 grasp when absent")
     force_sensor_time_constant: float = Field(description="T_f [s] used (0: no sensor filter)")

@@ -51,6 +51,17 @@ def test_force_feedforward_cable_with_filter_reports_rigid_claim(client):
     assert r.status_code == 200 and d["model"] == "cable"
     assert d["rigid_critical_force_gain"] > d["critical_force_gain"] > 0
     assert d["apparent_mass_at_critical"] == pytest.approx(5.4 / (1 + d["critical_force_gain"]), rel=1e-15)
+    # 30 Hz filter: rigid 14.48 vs cable 10.54 (+37 %), flagged
+    assert d["rigid_optimistic"] is True and any("optimistic" in n for n in d["notes"])
+
+
+def test_force_feedforward_cable_without_filter_the_mode_sets_the_limit(client):
+    """Without a filter the cable mode (user on the body mass, motor on the motor mass: non-collocated)
+    puts the crossover near the resonance (~531 rad/s) with K_f,cr ≈ 1.09, far below the rigid
+    model's 37.1 at Nyquist — the chapter's warning after eq. 32 that unmodelled modes matter there."""
+    d = strict_json(client.post("/v1/analysis/force-feedforward", json={"device": {"preset": "lhifam"}}).text)
+    assert d["critical_force_gain"] < 1.2 and 400 < d["crossover_frequency"] < 700
+    assert d["rigid_critical_force_gain"] == pytest.approx(37.12, rel=1e-3) and d["rigid_optimistic"] is True
 
 
 @pytest.mark.parametrize("body, loc", [
