@@ -258,3 +258,22 @@ def test_no_warnings_on_hard_cases(recwarn):
         critical_stiffness(Device(mass=1.0, damping=delta / 1e-3, delay=0.2))
     assert not [w for w in recwarn if issubclass(w.category, RuntimeWarning)]
     assert mp.mp.dps == 15  # the reference rung restores mpmath's precision
+
+
+@pytest.mark.parametrize("delay", [3.1305e-5, 3.132e-5, 3.2e-5])
+def test_near_tangent_pair_of_crossovers_is_found(delay):
+    """The reduced-pretension LHifAM's phase comes within 0.1° of −180° near 49 rad/s; a delay of 0.031 samples
+    makes it cross twice, 0.16 rad/s apart at the first delay: far inside one scan interval.  Checked against a
+    brute-force scan of 2 million samples (an independent bracket search)."""
+    from models.plants import stiffness_loop_plant
+
+    dev = Device(preset="lhifam-reduced-pretension", delay=delay)
+    res = critical_stiffness(dev)
+    plant = stiffness_loop_plant(dev)
+    th = np.linspace(0.02, 0.1, 2_000_001)
+    h = -plant.inverse_response(th)
+    idx = np.nonzero((np.sign(h.imag[:-1]) * np.sign(h.imag[1:]) < 0) & (h.real[:-1] > 0))[0]
+    brute = th[idx] / dev.sample_time
+    low = [c.frequency for c in res.crossovers if c.frequency < 100]
+    assert len(brute) == 2 and len(low) == 2
+    np.testing.assert_allclose(low, brute, atol=0.08 / 1e3 / dev.sample_time)   # brute grid step is 4e-8 rad
