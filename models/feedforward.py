@@ -85,17 +85,23 @@ def _rigid(delta: float, mu_h: float, dl_h: float, ka_h: float):
 
 
 def _cable(mu_r, mu_d, dl_r, dl_d, ka_c, dl_c, mu_h, dl_h, ka_h):
-    # States [x_r, x_d, v_r, v_d]; the user (and the hand's mass) on the body mass.
-    #   μ_r v̇_r = u - δ_r v_r - κ_c (x_r - x_d) - δ_c (v_r - v_d)
-    #   (μ_d + μ_h) v̇_d = -(δ_d + δ_h) v_d - κ_h x_d + κ_c (x_r - x_d) + δ_c (v_r - v_d)
+    # States [x_d, e = x_r - x_d, v_r, v_d]; the user (and the hand's mass) on the body mass.
+    #   μ_r v̇_r = u - δ_r v_r - κ_c e - δ_c (v_r - v_d)
+    #   (μ_d + μ_h) v̇_d = -(δ_d + δ_h) v_d - κ_h x_d + κ_c e + δ_c (v_r - v_d)
     #   -F_u = μ_h v̇_d + δ_h v_d + κ_h x_d
+    # The cable stretch e is a state of its own so that, without a grasp stiffness, the
+    # common position x_d (unobservable then) can be left out: the realisation stays
+    # minimal and no eigenvalue sits at rounding level near 0 (z = 1).
     md = mu_d + mu_h
     a = np.zeros((4, 4))
-    a[0, 2] = a[1, 3] = 1.0
-    a[2] = [-ka_c / mu_r, ka_c / mu_r, -(dl_r + dl_c) / mu_r, dl_c / mu_r]
-    a[3] = [ka_c / md, -(ka_c + ka_h) / md, dl_c / md, -(dl_d + dl_h + dl_c) / md]
+    a[0, 3] = 1.0
+    a[1, 2], a[1, 3] = 1.0, -1.0
+    a[2] = [0.0, -ka_c / mu_r, -(dl_r + dl_c) / mu_r, dl_c / mu_r]
+    a[3] = [-ka_h / md, ka_c / md, dl_c / md, -(dl_d + dl_h + dl_c) / md]
     b = np.array([0.0, 0.0, 1.0 / mu_r, 0.0])
-    c = mu_h * a[3] + np.array([0.0, ka_h, 0.0, dl_h])
+    c = mu_h * a[3] + np.array([ka_h, 0.0, 0.0, dl_h])
+    if ka_h == 0.0:
+        return a[1:, 1:], b[1:], c[1:], 0.0
     return a, b, c, 0.0
 
 
@@ -142,7 +148,7 @@ def feedforward_plant(device: Device, human: Human) -> FeedforwardPlant:
     zeros = np.roots([human.mass / m, human.damping * t / m, human.stiffness * t * t / m])
     zoh = StateSpaceZOH(a=a, b=b, c=c, d=d, f=f, zeros_hint=tuple(float(abs(z.imag)) for z in zeros))
     lam = np.linalg.eigvals(a)
-    rates = [abs(v) for v in lam if abs(v) > 0] + [abs(z) for z in zeros if abs(z) > 0]
+    rates = [abs(v) for v in lam if abs(v) > 1e-12 * np.max(np.abs(lam))] + [abs(z) for z in zeros if abs(z) > 0]
     rates.append(1.0 / (d + f + 1.0))
     theta_min = min(1e-2, max(1e-9, 1e-2 * min(rates)))
     # Dense scans only around lightly damped poles and zeros (ζ < 0.2, e.g. the cable

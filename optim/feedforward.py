@@ -83,9 +83,27 @@ def force_gain_margin_db(critical: float, force_gain: float) -> float:
     return 20.0 * math.log10(critical / force_gain)
 
 
-def _grid(plant: FeedforwardPlant) -> np.ndarray:
-    # The Butterworth is not resonant: its cutoff needs no dense cluster.
-    return scan_grid(plant.theta_min, plant.d + plant.f, plant.hints, width_hint=plant.width_hint)
+_PER_DECADE = 40   # log samples per decade below the linear part of scan_grid
+
+
+def _grid(plant: FeedforwardPlant, cutoff_angle: float | None) -> np.ndarray:
+    """scan_grid plus log samples where G_1 and D have structure far below its linear part.
+
+    scan_grid's log part spans only one decade above θ_min and its linear step is 0.02 rad:
+    the grasp's poles and zeros (~1e-3 rad/sample at 1 kHz) and a low filter cutoff (whose
+    phase turns by n·90° over about a decade) would sit inside one linear interval, where a
+    full phase turn can hide a crossover.  The Butterworth is not resonant, so its cutoff
+    gets a log band, not a dense cluster.
+    """
+    theta_min = plant.theta_min if cutoff_angle is None else min(plant.theta_min, 1e-2 * cutoff_angle)
+    parts = [scan_grid(theta_min, plant.d + plant.f, plant.hints, width_hint=plant.width_hint)]
+    top = 0.05
+    if theta_min < top:
+        parts.append(np.geomspace(theta_min, top, int(_PER_DECADE * math.log10(top / theta_min)) + 2))
+    if cutoff_angle is not None:
+        lo, hi = 1e-2 * cutoff_angle, min(math.pi, 1e2 * cutoff_angle)
+        parts.append(np.geomspace(lo, hi, int(_PER_DECADE * math.log10(hi / lo)) + 2))
+    return np.unique(np.concatenate(parts))
 
 
 def critical_force_gain_of_plant(plant: FeedforwardPlant, cutoff_angle: float | None,
@@ -108,7 +126,7 @@ def critical_force_gain_of_plant(plant: FeedforwardPlant, cutoff_angle: float | 
             # h = h̃ / (cosⁿφ·|G_1|²): the positive factor h̃ carries (models/filters.py)
             cn = butterworth_denominator(theta, cutoff_angle, order)[0]
             return value / (cn * np.abs(plant.response(theta)) ** 2)
-    found = positive_real_crossings(h_tilde, _grid(plant))
+    found = positive_real_crossings(h_tilde, _grid(plant, cutoff_angle))
     if cutoff_angle is not None:
         # D(-1) = 0: no finite gain puts a pole at z = -1 through a bilinear filter.
         found = [c for c in found if c.angle < math.pi]

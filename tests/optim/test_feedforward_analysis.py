@@ -183,3 +183,13 @@ def test_invariant_under_the_dimensionless_scalings(scale_m, scale_t):
 def test_filter_sample_time_must_match():
     with pytest.raises(ValueError, match="filter"):
         critical_force_gain(RIGID, ButterworthLowPass(2, 30.0, 2e-3))
+
+
+@pytest.mark.parametrize("device", [RIGID, CABLE], ids=["rigid", "cable"])
+def test_very_low_cutoff_fourth_order_limit(device):
+    """Closed-form limit: a 4th-order Butterworth has phase -180° and gain 1/√2 exactly at its
+    cutoff; with a cutoff far below every plant feature (0.001 Hz) G_1 ≈ G_1(1) = 1 there, so
+    K_f,cr → √2.  The residual is the grasp's phase/gain at 0.006 rad/s (measured 1.2e-3)."""
+    r = critical_force_gain(device, ButterworthLowPass(4, 0.001, device.sample_time))
+    assert r.critical_force_gain == pytest.approx(math.sqrt(2), rel=5e-3)
+    assert r.crossover_frequency == pytest.approx(2 * math.pi * 0.001, rel=5e-3)
