@@ -108,7 +108,8 @@ def _table(rows: list[dict], repeats: int, comparator_repeats: int) -> str:
         "Pareto curve included in every design; rigid-model comparison included for cable devices.",
         "",
         f"Machine: {platform.machine()}, {os.cpu_count()} cores shared with other jobs; Python {platform.python_version()};"
-        f" OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS')}.",
+        f" OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS')};"
+        f" load average at the end {os.getloadavg()[0]:.2f}.",
         "",
         "| case | status | K_f | cutoff [Hz] | margin [dB] | p50 [ms] | p95 [ms] | first call [ms] "
         "| dense scan p50 [ms] | p95 [ms] | time ratio (dense/design) | dense K_f | K_f design/dense − 1 "

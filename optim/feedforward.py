@@ -83,7 +83,8 @@ def force_gain_margin_db(critical: float, force_gain: float) -> float:
     return 20.0 * math.log10(critical / force_gain)
 
 
-_PER_DECADE = 40   # log samples per decade below the linear part of scan_grid
+_PER_DECADE = 12   # log samples per decade: < 2π of phase per step even for a 4th-order cutoff;
+                  # the arg-turn refinement of optim/crossovers.py bisects the rest
 
 
 def _grid(plant: FeedforwardPlant, cutoff_angle: float | None) -> np.ndarray:
