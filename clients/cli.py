@@ -39,14 +39,15 @@ def presets(local: Local = False, url: Url = DEFAULT_URL, token: Token = None, a
 
     def human() -> None:
         t = Table(title="presets (SI units; phantom-1.0 is rotary: kg·m², N·m·s/rad, N·m/rad)", title_justify="left")
-        for col in ("preset", "mass", "damping", "T [s]", "delay [s]", "cable k_c", "ω_n cable [rad/s]", "human",
-                    "sensor T_f [s]"):
-            t.add_column(col, justify="left" if col in ("preset", "human") else "right")
+        t.add_column("preset", no_wrap=True)
+        for col in ("mass", "damping", "T [s]", "delay [s]", "cable k_c", "ω_n [rad/s]", "human m_h/b_h/k_h",
+                    "T_f [s]"):
+            t.add_column(col, justify="left" if col.startswith("human") else "right")
         for name, d in devices.items():
             t.add_row(name, c.fmt(d.mass), c.fmt(d.damping), c.fmt(d.sample_time), c.fmt(d.delay),
                       c.fmt(d.cable.stiffness if d.cable else None),
                       c.fmt(d.cable.natural_frequency if d.cable else None, 5),
-                      f"{d.human.mass:g} s² + {d.human.damping:g} s + {d.human.stiffness:g}" if d.human else "—",
+                      f"{d.human.mass:g}/{d.human.damping:g}/{d.human.stiffness:g}" if d.human else "—",
                       c.fmt(d.force_sensor.time_constant if d.force_sensor else None))
         out.print(t)
     emit(devices, as_json, human)
@@ -120,9 +121,9 @@ def analyze(preset: Annotated[str | None, typer.Argument(help="preset name, or '
             out.print(c.table(f"stability of {preset or 'the device'}", _stability_rows(r)))
             return
         t = Table(title="stability of every preset", title_justify="left")
-        for col in ("preset", "K_cr [N/m]", "ω_cr [rad/s]", "rigid K_cr [N/m]", "eq. 10 [N/m]", "margin [dB]",
-                    "stable"):
-            t.add_column(col, justify="left" if col == "preset" else "right")
+        t.add_column("preset", no_wrap=True)
+        for col in ("K_cr [N/m]", "ω_cr [rad/s]", "rigid K_cr [N/m]", "eq. 10 [N/m]", "margin [dB]", "stable"):
+            t.add_column(col, justify="right")
         for name, r in results.items():
             t.add_row(name, c.fmt(r.critical_stiffness), c.fmt(r.crossover_frequency, 5),
                       c.fmt(r.rigid_critical_stiffness), c.fmt(r.linear_estimate), c.fmt(r.gain_margin_db, 4),

@@ -40,8 +40,9 @@ EXIT_OK, EXIT_NO, EXIT_USAGE, EXIT_SERVICE = 0, 1, 2, 3
 EXIT_CODES_HELP = ("Exit codes: 0 ok; 1 the answer is no (design infeasible or failed, wall unstable, simulation "
                    "diverged); 2 usage or validation error (422 names the field); 3 service or transport error.")
 
-out = Console(highlight=False, soft_wrap=True)
-err = Console(stderr=True, highlight=False, soft_wrap=True)
+# A pipe or a log file gets 132 columns rather than rich's 80, so that tables are not truncated.
+out = Console(highlight=False, soft_wrap=True, width=None if sys.stdout.isatty() else 132)
+err = Console(stderr=True, highlight=False, soft_wrap=True, width=None if sys.stderr.isatty() else 132)
 
 # ------------------------------------------------------------------------------------------------ options
 Local = Annotated[bool, typer.Option("--local", help="compute in this process with the service's own code "
