@@ -15,6 +15,7 @@ from typing import Annotated
 import typer
 from rich.progress import Progress
 from rich.table import Table
+from rich.text import Text
 
 from . import cli_common as c
 from .cli_common import (DEFAULT_URL, AsJson, Connection, DeviceFile, Local, Preset, SceneFile, Sets, Token, Url,
@@ -42,7 +43,7 @@ def presets(local: Local = False, url: Url = DEFAULT_URL, token: Token = None, a
         t.add_column("preset", no_wrap=True)
         for col in ("mass", "damping", "T [s]", "delay [s]", "cable k_c", "ω_n [rad/s]", "human m_h/b_h/k_h",
                     "T_f [s]"):
-            t.add_column(col, justify="left" if col.startswith("human") else "right")
+            t.add_column(Text(col), justify="left" if col.startswith("human") else "right")
         for name, d in devices.items():
             t.add_row(name, c.fmt(d.mass), c.fmt(d.damping), c.fmt(d.sample_time), c.fmt(d.delay),
                       c.fmt(d.cable.stiffness if d.cable else None),
@@ -123,7 +124,7 @@ def analyze(preset: Annotated[str | None, typer.Argument(help="preset name, or '
         t = Table(title="stability of every preset", title_justify="left")
         t.add_column("preset", no_wrap=True)
         for col in ("K_cr [N/m]", "ω_cr [rad/s]", "rigid K_cr [N/m]", "eq. 10 [N/m]", "margin [dB]", "stable"):
-            t.add_column(col, justify="right")
+            t.add_column(Text(col), justify="right")
         for name, r in results.items():
             t.add_row(name, c.fmt(r.critical_stiffness), c.fmt(r.crossover_frequency, 5),
                       c.fmt(r.rigid_critical_stiffness), c.fmt(r.linear_estimate), c.fmt(r.gain_margin_db, 4),

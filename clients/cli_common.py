@@ -26,6 +26,7 @@ from typing import Annotated, Any, TypeVar
 import typer
 from pydantic import BaseModel
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
 from rich.text import Text
 
@@ -91,7 +92,7 @@ def open_client(conn: Connection) -> Iterator[ZwidthClient]:
 
 # ------------------------------------------------------------------------------------------------ errors
 def usage_error(message: str) -> typer.Exit:
-    err.print(f"[bold red]error:[/] {message}")
+    err.print(f"[bold red]error:[/] {escape(message)}")
     return typer.Exit(EXIT_USAGE)
 
 
@@ -109,13 +110,13 @@ def handle_errors(fn: F) -> F:
             err.print("[bold red]invalid request[/] (422):")
             for e in exc.errors or [{"loc": ["body"], "msg": str(exc.detail)}]:
                 name = ".".join(str(p) for p in e.get("loc", ())[1:]) or "body"
-                err.print(f"  {name}: {e.get('msg')}")
+                err.print(escape(f"  {name}: {e.get('msg')}"))
             raise typer.Exit(EXIT_USAGE) from None
         except TransportError as exc:
-            err.print(f"[bold red]no answer from the service:[/] {exc}")
+            err.print(f"[bold red]no answer from the service:[/] {escape(str(exc))}")
             raise typer.Exit(EXIT_SERVICE) from None
         except (APIError, ProtocolError, ZwidthError) as exc:
-            err.print(f"[bold red]service error:[/] {exc}")
+            err.print(f"[bold red]service error:[/] {escape(str(exc))}")
             raise typer.Exit(EXIT_SERVICE) from None
 
     return wrapper  # type: ignore[return-value]
@@ -240,7 +241,7 @@ def table(title: str, rows: Sequence[tuple[str, Any]], unit_col: bool = True) ->
         name, value, *unit = row
         # numbers line up on the right, sentences read from the left
         cell = Text(fmt(value), justify="left" if isinstance(value, str) else "right")
-        t.add_row(name, cell, *(unit[:1] if unit_col else []))
+        t.add_row(Text(name), cell, *([Text(str(u)) for u in unit[:1]] if unit_col else []))
     return t
 
 

@@ -26,7 +26,7 @@ def _format(path: Path) -> str:
 
 def _save(plot, path: Path) -> None:
     plot.save(str(path))
-    out.print(f"wrote {path} ({plot.media_type}, {len(plot.content):,} bytes)")
+    out.print(f"wrote {path} ({plot.media_type}, {len(plot.content):,} bytes)", markup=False)
 
 
 @app.command("boundary")
