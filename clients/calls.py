@@ -29,14 +29,15 @@ from .models import Health
 
 if TYPE_CHECKING:  # modules of endpoints that may not be in every build (imported when called)
     from service.schemas.feedforward import ForceFeedforwardResponse, InertiaResponse
+    from service.schemas.studies import StudyCreated, StudyResults, StudyStatus
 
 __all__ = ["Call", "Kind", "Plot", "health", "presets", "stability", "boundary", "force_feedforward",
            "design_stiffness", "design_inertia", "simulate", "plot_simulation", "plot_boundary", "plot_bode",
-           "device_json"]
+           "submit_study", "study", "study_results", "plot_study", "device_json"]
 
 R = TypeVar("R")
 #: Kinds of call, each with its own timeout (see :class:`clients.client.Timeouts`).
-Kind = Literal["health", "read", "analysis", "design", "simulate", "plot"]
+Kind = Literal["health", "read", "analysis", "design", "simulate", "plot", "submit", "results"]
 ImageFormat = Literal["png", "svg"]
 DeviceLike = Device | Mapping[str, Any]
 PartLike = BaseModel | Mapping[str, Any]
@@ -51,7 +52,7 @@ class Call(Generic[R]):
     kind: Kind
     parse: Callable[[httpx.Response], R]
     json: dict[str, Any] | None = None
-    params: dict[str, str] | None = None
+    params: dict[str, Any] | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -189,3 +190,39 @@ def plot_bode(device: DeviceLike, controller: PartLike | None = None, *, points:
     """``POST /v1/plots/bode``: Bode diagram of the sampled loop with the crossovers of K_cr(B) marked."""
     return Call("POST", "/v1/plots/bode", "plot", _image,
                 json=_body(device=device, controller=controller, points=points, format=format))
+
+
+def submit_study(request: PartLike) -> Call[StudyCreated]:
+    """``POST /v1/studies``: queue a design-space study (problem, base device, sweep); answers its id."""
+    from service.schemas.studies import StudyCreated
+
+    return Call("POST", "/v1/studies", "submit", _model(StudyCreated), json=_part(request))
+
+
+def study(study_id: str) -> Call[StudyStatus]:
+    """``GET /v1/studies/{id}``: status, progress and rate of a study."""
+    from service.schemas.studies import StudyStatus
+
+    return Call("GET", f"/v1/studies/{_id(study_id)}", "read", _model(StudyStatus))
+
+
+def study_results(study_id: str, *, offset: int | None = None, limit: int | None = None) -> Call[StudyResults]:
+    """``GET /v1/studies/{id}/results``: one page of result rows (``next_offset`` gives the next)."""
+    from service.schemas.studies import StudyResults
+
+    params = {k: v for k, v in (("offset", offset), ("limit", limit)) if v is not None}
+    return Call("GET", f"/v1/studies/{_id(study_id)}/results", "results", _model(StudyResults), params=params)
+
+
+def plot_study(study_id: str, y: str, x: str, *, x2: str | None = None,
+               format: ImageFormat = "png") -> Call[Plot]:  # noqa: A002
+    """``GET /v1/studies/{id}/plot``: result ``y`` against swept path ``x`` (line) or ``x`` and ``x2`` (map)."""
+    params = {"y": y, "x": x, "format": format, **({"x2": x2} if x2 is not None else {})}
+    return Call("GET", f"/v1/studies/{_id(study_id)}/plot", "plot", _image, params=params)
+
+
+def _id(study_id: str) -> str:
+    # An id is a path segment: refuse anything that would change the path.
+    if not study_id or any(ch in study_id for ch in "/?#%") or study_id in (".", ".."):
+        raise ValueError(f"study_id: {study_id!r} is not a study id")
+    return study_id

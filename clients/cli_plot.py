@@ -84,3 +84,18 @@ def simulation(preset: Preset = None, sets: Sets = None, device_file: DeviceFile
     with open_client(Connection(local, url, token)) as zw, c.progress_status("simulating and drawing…", False):
         plot = zw.plot_simulation(body["device"], body["scene"], format=fmt)
     _save(plot, out_file)
+
+
+@app.command("study")
+@c.handle_errors
+def study(study_id: Annotated[str, typer.Argument(help="study id (from `zwidth study run`)")],
+          y: Annotated[str, typer.Option(help="result column to draw, e.g. stiffness or critical_stiffness")],
+          x: Annotated[str, typer.Option(help="swept path on the x axis, e.g. device.delay")],
+          x2: Annotated[str | None, typer.Option(help="second swept path: draws a map")] = None,
+          out_file: Annotated[Path, typer.Option("--out", "-o", help=".png or .svg")] = Path("study.png"),
+          url: Url = DEFAULT_URL, token: Token = None) -> None:
+    """A study's result against its swept parameters (GET /v1/studies/{id}/plot)."""
+    fmt = _format(out_file)
+    with open_client(Connection(False, url, token)) as zw, c.progress_status("drawing the study…", False):
+        plot = zw.plot_study(study_id, y, x, x2=x2, format=fmt)
+    _save(plot, out_file)

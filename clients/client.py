@@ -57,6 +57,8 @@ class Timeouts:
     design: float = 180.0    # CasADi designs with exact re-checks
     simulate: float = 120.0
     plot: float = 120.0      # the analysis plus rendering
+    submit: float = 30.0     # a study submission is stored and queued, not computed
+    results: float = 120.0   # a page of study results
 
     def for_kind(self, kind: str) -> httpx.Timeout:
         return httpx.Timeout(getattr(self, kind), connect=self.connect)
@@ -183,6 +185,10 @@ class ZwidthClient(_Core):
     plot_simulation = _sync(calls.plot_simulation)
     plot_boundary = _sync(calls.plot_boundary)
     plot_bode = _sync(calls.plot_bode)
+    submit_study = _sync(calls.submit_study)
+    study = _sync(calls.study)
+    study_results = _sync(calls.study_results)
+    plot_study = _sync(calls.plot_study)
 
 
 class AsyncZwidthClient(_Core):
@@ -231,3 +237,7 @@ class AsyncZwidthClient(_Core):
     plot_simulation = _async(calls.plot_simulation)
     plot_boundary = _async(calls.plot_boundary)
     plot_bode = _async(calls.plot_bode)
+    submit_study = _async(calls.submit_study)
+    study = _async(calls.study)
+    study_results = _async(calls.study_results)
+    plot_study = _async(calls.plot_study)

@@ -196,3 +196,25 @@ def test_bench_commands_pass_their_options(monkeypatch, tmp_path):
     run("bench", "core", "--repeats", "3", "--out", str(tmp_path / "c.md"))
     assert seen == {"accuracy": ["--quick", "--repeats", "2", "--out", str(tmp_path / "a.md")],
                     "core": ["--repeats", "3", "--out", str(tmp_path / "c.md")]}
+
+
+@pytest.mark.skipif(not has_route("/v1/studies"), reason="POST /v1/studies is not in this build yet (branch studies)")
+def test_plot_study(server, tmp_path):
+    import time
+
+    from clients import ZwidthClient
+
+    with ZwidthClient(server.url) as zw:
+        created = zw.submit_study({"problem": "stability", "base": {"device": {"mass": 5.4, "damping": 3.5}},
+                                   "sweep": {"device.delay": [0.0, 0.001, 0.002]}})
+        deadline = time.monotonic() + 60
+        while (st := zw.study(created.id)).status in ("queued", "running") and time.monotonic() < deadline:
+            time.sleep(0.2)
+        assert st.status == "done" and st.done == 3
+        rows = zw.study_results(created.id).rows
+    assert len(rows) == 3
+    out = tmp_path / "study.svg"
+    run("plot", "study", created.id, "--y", "critical_stiffness", "--x", "device.delay", "-o", str(out))
+    assert b"<svg" in out.read_bytes()[:500]
+    r = run("plot", "study", created.id, "--y", "nonsense", "--x", "device.delay", "-o", str(out), code=2)
+    assert "y" in r.stderr

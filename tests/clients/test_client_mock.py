@@ -209,3 +209,15 @@ def test_from_env(monkeypatch):
     monkeypatch.setenv("ZWIDTH_API_TOKEN", "abc")
     with ZwidthClient.from_env() as zw:
         assert zw.url == "http://lab:9000" and zw._headers["Authorization"] == "Bearer abc"
+
+
+def test_study_calls():
+    zw, rec = client(lambda r: httpx.Response(200, content=b"<svg/>", headers={"content-type": "image/svg+xml"}))
+    plot = zw.plot_study("abc123", "critical_stiffness", "device.delay", format="svg")
+    req = rec.requests[0]
+    assert req.method == "GET" and req.url.path == "/v1/studies/abc123/plot"
+    assert dict(req.url.params) == {"y": "critical_stiffness", "x": "device.delay", "format": "svg"}
+    assert plot.media_type == "image/svg+xml"
+    for bad in ("", "..", "a/b", "a?b"):
+        with pytest.raises(ValueError, match="study_id"):
+            calls.plot_study(bad, "y", "x")
