@@ -100,6 +100,8 @@ def flatten_result(result: Any) -> dict[str, Any]:
         elif isinstance(value, (list, tuple)):
             if all(isinstance(v, str) for v in value):
                 out[key] = ";".join(value)
+            elif 0 < len(value) <= 4 and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value):
+                out.update({f"{key}.{i}": _clean(v) for i, v in enumerate(value)})  # a band, a pair
             else:
                 out[f"n_{key}"] = len(value)
         elif value is None or isinstance(value, (bool, int, float, str, np.generic)):

@@ -1,11 +1,18 @@
 """The study benchmark runs and renders (a tiny local-only version, so the script cannot rot)."""
 
 from bench import bench_studies
+from optim.studies import ProblemUnavailable, get_problem
 
 
 def test_bench_studies_tiny():
     rows = bench_studies.measure(points=8, repeats=1, workers=(1,), dask=False, chunk_size=4)
-    assert [r.executor for r in rows][:2] == ["single point, in-process (baseline)", "local pool, 1 worker"]
-    assert all(r.points == 8 and r.failed == 0 and r.rate > 0 for r in rows)
+    stability = [r for r in rows if r.problem == "stability"]
+    assert [r.executor for r in stability] == ["single point, in-process (baseline)", "local pool, 1 worker"]
+    assert all(r.points == 8 and r.failed == 0 and r.rate > 0 for r in stability)
+    try:
+        get_problem("stiffness")
+        assert [r.points for r in rows if r.problem == "stiffness"] == [2, 2]
+    except ProblemUnavailable:
+        assert len(rows) == 2
     text = bench_studies.render(rows)
     assert text.startswith("# Study throughput") and "| stability | local pool, 1 worker | 8 |" in text

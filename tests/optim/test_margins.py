@@ -277,3 +277,19 @@ def test_near_tangent_pair_of_crossovers_is_found(delay):
     low = [c.frequency for c in res.crossovers if c.frequency < 100]
     assert len(brute) == 2 and len(low) == 2
     np.testing.assert_allclose(low, brute, atol=0.08 / 1e3 / dev.sample_time)   # brute grid step is 4e-8 rad
+
+
+@pytest.mark.parametrize("d", [0, 2, 4.5])
+def test_no_physical_damping_with_virtual_damping(d):
+    """b = 0: only B damps the wall; K_cr > 0 below B_max, checked against the closed-loop eigenvalues."""
+    dev = Device(mass=1.0, damping=0.0, delay=d * 1e-3)
+    b_max = max_stable_damping(dev)
+    assert math.isfinite(b_max) and b_max > 0
+    b = 0.3 * b_max
+    res = critical_stiffness(dev, b)
+    alpha, beta = res.critical_stiffness / dev.stiffness_scale, b / dev.damping_scale
+    assert eigen_critical_alpha(dev, beta, alpha, res.crossover_frequency * dev.sample_time) == pytest.approx(alpha, rel=1e-9)
+    assert spectral_radius(dev, alpha * (1 - 1e-6), beta) < 1.0
+    # the linear limit with δ = 0: α < 2β/(1+2d) for small β
+    small = critical_stiffness(dev, 1e-4 * dev.damping_scale).critical_stiffness / dev.stiffness_scale
+    assert small == pytest.approx(2e-4 / (1 + 2 * d), rel=(1 + d) * 1e-3)

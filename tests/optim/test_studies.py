@@ -118,10 +118,11 @@ def test_flatten_drops_timings_and_non_finite():
         k: float = math.inf
         ok: bool = True
         names: tuple = ("a", "b")
-        items: tuple = (1, 2, 3)
+        items: tuple = (1, 2, 3, 4, 5)
+        band: tuple = (10.0, 80.0)
         solver: dict = field(default_factory=lambda: {"return_status": "Solve_Succeeded", "t_wall_total": 0.1})
         elapsed_ms: float = 3.0
-    assert flatten_result(R()) == {"k": None, "ok": True, "names": "a;b", "n_items": 3,
+    assert flatten_result(R()) == {"k": None, "ok": True, "names": "a;b", "n_items": 5, "band.0": 10.0, "band.1": 80.0,
                                    "solver.return_status": "Solve_Succeeded"}
 
 
