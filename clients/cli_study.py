@@ -1,4 +1,8 @@
-"""``zwidth study run|status|results|cancel``: batch studies on a zwidth server, with a progress bar."""
+"""``zwidth study run|status|results|cancel``: batch studies on a zwidth server, with a progress bar.
+
+Exit codes as every ``zwidth`` command (clients/cli_common.py): 0 ok, 1 the study did not finish
+``done``, 2 a 422 (the message names the field) or bad usage, 3 the service could not answer.
+"""
 
 from __future__ import annotations
 
@@ -13,19 +17,31 @@ import typer
 
 app = typer.Typer(help="Batch design-space studies on a zwidth server (POST /v1/studies).", no_args_is_help=True)
 
-_SERVER = typer.Option(os.environ.get("ZWIDTH_URL", "http://127.0.0.1:8000"), "--server", help="server URL [env ZWIDTH_URL]")
+_SERVER = typer.Option("http://127.0.0.1:8000", "--url", "--server", envvar="ZWIDTH_URL", help="service URL")
 _ACTIVE = ("queued", "running")
+
+
+class _Service(httpx.Client):
+    """httpx.Client whose transport failures end the command with exit code 3."""
+
+    def send(self, *args, **kw):
+        try:
+            return super().send(*args, **kw)
+        except httpx.TransportError as exc:
+            typer.echo(f"error: the service at {self.base_url} did not answer ({type(exc).__name__}: {exc})", err=True)
+            raise typer.Exit(3) from None
 
 
 def _client(server: str) -> httpx.Client:
     token = os.environ.get("ZWIDTH_API_TOKEN")
     headers = {"Authorization": f"Bearer {token}"} if token else {}
     # Per kind of call: submissions and exports may take a while, status polls should not.
-    return httpx.Client(base_url=server, headers=headers, timeout=httpx.Timeout(10.0, read=300.0))
+    return _Service(base_url=server, headers=headers, timeout=httpx.Timeout(10.0, read=300.0))
 
 
 def _check(r: httpx.Response) -> dict:
     if r.status_code >= 400:
+        code = 2 if r.status_code == 422 else 3
         try:
             detail = r.json().get("detail")
         except ValueError:
@@ -33,7 +49,7 @@ def _check(r: httpx.Response) -> dict:
         if isinstance(detail, list):
             detail = "; ".join(f"{'.'.join(map(str, e.get('loc', ())))}: {e.get('msg')}" for e in detail)
         typer.echo(f"error {r.status_code}: {detail}", err=True)
-        raise typer.Exit(1)
+        raise typer.Exit(code)
     return r.json() if r.headers.get("content-type", "").startswith("application/json") else {}
 
 

@@ -49,4 +49,15 @@ def test_run_reports_422_with_the_field(zwidth, tmp_path):
     req = tmp_path / "bad.json"
     req.write_text(json.dumps({**small_study(), "sweep": {"device.wheels": [1]}}))
     r = zwidth("run", str(req))
-    assert r.exit_code == 1 and "sweep.device.wheels" in r.output
+    assert r.exit_code == 2 and "sweep.device.wheels" in r.output
+
+
+def test_no_service_is_exit_code_3(tmp_path):
+    req = tmp_path / "study.json"
+    req.write_text(json.dumps(small_study(3)))
+    import socket
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]  # nothing listens here once closed
+    r = CliRunner().invoke(cli, ["study", "run", str(req), "--url", f"http://127.0.0.1:{port}"])
+    assert r.exit_code == 3 and "did not answer" in r.output
