@@ -107,7 +107,7 @@ def measure(points: int = 400, repeats: int = 3, workers: tuple[int, ...] = (1, 
     studies = [stability_study(points)]
     try:
         get_problem("stiffness")
-        studies.append(stiffness_study(max(2, points // 4)))
+        studies.append(stiffness_study(max(2, points // 10)))
     except ProblemUnavailable:
         pass
     rows: list[Row] = []
@@ -131,9 +131,11 @@ def measure(points: int = 400, repeats: int = 3, workers: tuple[int, ...] = (1, 
     return rows
 
 
-def render(rows: list[Row], note: str = "") -> str:
+def render(rows: list[Row], note: str = "", load: tuple[float, float] | None = None) -> str:
     import os
 
+    load_text = (f" Load average (1 min) {load[0]:.1f} before and {load[1]:.1f} after: other work shared the cores, "
+                 "so the pool and Dask rows are lower bounds of what two free cores give." if load else "")
     lines = [
         "# Study throughput: points per second",
         "",
@@ -142,7 +144,7 @@ def render(rows: list[Row], note: str = "") -> str:
         "A *study* row is a whole study run by the service's runner: planning, content hashes, chunks on the "
         "executor, results written to a fresh SQLite (WAL) store. The *baseline* evaluates the same points one "
         "by one in this process without a store. Wall time per run (median / p95 over the repeats); the ratio is "
-        "points/s against the baseline of the same problem, measured in the same run.",
+        "points/s against the baseline of the same problem, measured in the same run." + load_text,
         "",
         "| problem | executor | points | median [s] | p95 [s] | points/s | ratio vs baseline | failed points |",
         "|---|---|---|---|---|---|---|---|",
@@ -166,8 +168,11 @@ def main() -> None:
     ap.add_argument("--no-dask", action="store_true")
     ap.add_argument("--out", default=str(ROOT / "docs" / "bench_studies.md"))
     args = ap.parse_args()
+    import os
+
+    before = os.getloadavg()[0]
     rows = measure(args.points, args.repeats, dask=not args.no_dask)
-    text = render(rows)
+    text = render(rows, load=(before, os.getloadavg()[0]))
     Path(args.out).write_text(text)
     print(text)
 
