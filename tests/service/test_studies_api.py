@@ -194,3 +194,27 @@ def test_plots(client, finished):
 def test_unknown_study_is_404(client):
     assert client.get("/v1/studies/nope").status_code == 404
     assert client.get("/v1/studies/nope/results").status_code == 404
+
+
+def test_stiffness_study_calls_the_design(client):
+    """Each point is optim.stiffness.design_stiffness at that point; the margin holds on the exact K_cr."""
+    stiffness = pytest.importorskip("optim.stiffness")
+    req = {"problem": "stiffness", "base": {"device": LHIFAM_RIGID},
+           "sweep": {"device.delay": [0.0, 0.002], "requirements.min_gain_margin_db": [6.0, 12.0]}}
+    r = client.post("/v1/studies", json=req)
+    assert r.status_code == 202, r.text
+    sid = r.json()["id"]
+    assert wait_finished(_get(client), sid, timeout=120)["status"] == "done"
+    rows = _all_json(client, sid, 100)
+    from models.device import Device
+    from optim.margins import critical_stiffness
+    for row in rows:
+        dev = Device(**LHIFAM_RIGID, delay=row["device.delay"])
+        direct = stiffness.design_stiffness(dev, stiffness.StiffnessRequirements(
+            min_gain_margin_db=row["requirements.min_gain_margin_db"]))
+        assert row["status"] == direct.status == "optimal"
+        assert (row["stiffness"], row["damping"]) == (direct.stiffness, direct.damping)
+        # independent of the design: the exact K_cr at its B, and the margin it leaves
+        kcr = critical_stiffness(dev, row["damping"]).critical_stiffness
+        # the optimum sits on the margin: equality up to the design's own solver tolerance (1e-9 relative)
+        assert row["stiffness"] <= kcr * 10 ** (-row["requirements.min_gain_margin_db"] / 20) * (1 + 1e-9)
