@@ -11,8 +11,11 @@ completed with made-up points.
 from __future__ import annotations
 
 import logging
+import os
+import socket
 import threading
 import time
+import uuid
 from concurrent.futures import CancelledError
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any, Callable, Iterator
@@ -52,6 +55,8 @@ class StudyRunner:
         self._cancelled: set[str] = set()
         self._thread: threading.Thread | None = None
         self.current: str | None = None
+        # host:pid:nonce — another process on this host can tell a crashed owner from a live one.
+        self.owner = f"{socket.gethostname()}:{os.getpid()}:{uuid.uuid4().hex[:8]}"
 
     # -- control --------------------------------------------------------------------------------
     def start(self) -> None:
@@ -79,7 +84,7 @@ class StudyRunner:
         """Run every active study in the calling thread (tests, CLI local runs, benchmarks)."""
         deadline = time.monotonic() + timeout
         while not self._stop.is_set() and time.monotonic() < deadline:
-            ids = self.store.active_ids()
+            ids = self.store.active_ids(self.owner)
             if not ids:
                 return
             self._run(ids[0])
@@ -88,7 +93,7 @@ class StudyRunner:
     def _loop(self) -> None:
         while not self._stop.is_set():
             try:
-                ids = self.store.active_ids()
+                ids = self.store.active_ids(self.owner)
                 if ids:
                     self._run(ids[0])
                     continue
@@ -122,8 +127,8 @@ class StudyRunner:
         return self._stop.is_set() or study_id in self._cancelled
 
     def _run(self, study_id: str) -> None:
-        row = self.store.begin_run(study_id)
-        if row is None:
+        row = self.store.begin_run(study_id, self.owner)
+        if row is None:  # cancelled meanwhile, or another live coordinator holds it
             return
         self.current = study_id
         try:
@@ -174,8 +179,8 @@ class StudyRunner:
                     pending[executor.submit(evaluate_chunk, *args, rows)] = (rows, attempt + 1)
                     continue
                 self.store.write_chunk(study_id, out)
-            if time.monotonic() - last_check > 1.0:  # a cancel from another process
+            if time.monotonic() - last_check > 1.0:  # a cancel from another process; keep the lease
                 last_check = time.monotonic()
-                if self.store.status(study_id) != "running":
+                if self.store.status(study_id) != "running" or not self.store.renew(study_id, self.owner):
                     self._cancelled.add(study_id)
         self.store.finish(study_id, "done")

@@ -21,6 +21,9 @@ from sqlalchemy.engine import Engine
 __all__ = ["StudyStore", "ACTIVE", "FINISHED"]
 
 ACTIVE = ("queued", "running")
+#: A coordinator renews its lease on the study it runs well within this time [s]; a study whose
+#: lease ran out (its process is gone) may be taken over by another service process.
+LEASE_SECONDS = 30.0
 FINISHED = ("done", "cancelled", "failed")
 
 metadata = sa.MetaData()
@@ -38,6 +41,8 @@ studies = sa.Table(
     sa.Column("run_start_done", sa.Integer, nullable=False),
     sa.Column("finished_at", sa.Float),
     sa.Column("error", sa.Text),
+    sa.Column("owner", sa.String(128)),
+    sa.Column("lease_until", sa.Float),
     sa.Index("ix_studies_status_created", "status", "created_at"),
 )
 results = sa.Table(
@@ -72,6 +77,35 @@ def make_engine(url: str) -> Engine:
         event.listen(engine, "connect", _sqlite_pragmas)
         return engine
     return sa.create_engine(url, pool_pre_ping=True)
+
+
+def _same(column, value):
+    return column.is_(None) if value is None else column == value
+
+
+def _alive_here(owner: str) -> bool | None:
+    """Whether the process named by an owner id "host:pid:…" on this host is alive (None: another host)."""
+    import os
+    import socket
+
+    host, _, rest = owner.partition(":")
+    pid = rest.partition(":")[0]
+    if host != socket.gethostname() or not pid.isdigit():
+        return None
+    try:
+        os.kill(int(pid), 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def _claimable(current: str | None, lease_until: float | None, owner: str, now: float) -> bool:
+    """Free, ours, expired, or held by a process of this host that is gone (a restart after a crash)."""
+    if current is None or current == owner or lease_until is None or lease_until < now:
+        return True
+    return _alive_here(current) is False
 
 
 class StudyStore:
@@ -113,7 +147,7 @@ class StudyStore:
     def create(self, study_id: str, problem: str, request: dict, total: int) -> dict:
         row = dict(id=study_id, problem=problem, request=request, status="queued", total=total, done=0,
                    failed=0, created_at=time.time(), run_started_at=None, run_start_done=0, finished_at=None,
-                   error=None)
+                   error=None, owner=None, lease_until=None)
         with self.engine.begin() as conn:
             conn.execute(studies.insert().values(**row))
         return row
@@ -130,27 +164,53 @@ class StudyStore:
         with self.engine.connect() as conn:
             return [dict(r) for r in conn.execute(q).mappings()]
 
-    def active_ids(self) -> list[str]:
-        """Studies to run or to resume, oldest first."""
-        q = sa.select(studies.c.id).where(studies.c.status.in_(ACTIVE)).order_by(studies.c.created_at, studies.c.id)
+    def active_ids(self, owner: str | None = None) -> list[str]:
+        """Studies to run or to resume, oldest first (with ``owner``: those it may claim)."""
+        q = sa.select(studies.c.id, studies.c.owner, studies.c.lease_until).where(studies.c.status.in_(ACTIVE)) \
+            .order_by(studies.c.created_at, studies.c.id)
         with self.engine.connect() as conn:
-            return [r[0] for r in conn.execute(q)]
+            rows = conn.execute(q).all()
+        if owner is None:
+            return [r[0] for r in rows]
+        now = time.time()
+        return [r[0] for r in rows if _claimable(r[1], r[2], owner, now)]
+
+    def renew(self, study_id: str, owner: str) -> bool:
+        """Extend ``owner``'s lease; False when the study is no longer its own (or no longer active)."""
+        with self.engine.begin() as conn:
+            res = conn.execute(studies.update().where(studies.c.id == study_id, studies.c.owner == owner,
+                                                      studies.c.status.in_(ACTIVE))
+                               .values(lease_until=time.time() + LEASE_SECONDS))
+        return bool(res.rowcount)
 
     def status(self, study_id: str) -> str | None:
         with self.engine.connect() as conn:
             return conn.execute(sa.select(studies.c.status).where(studies.c.id == study_id)).scalar()
 
-    def begin_run(self, study_id: str) -> dict | None:
-        """Count what is stored, mark the study running; None when it was cancelled meanwhile."""
+    def begin_run(self, study_id: str, owner: str = "") -> dict | None:
+        """Claim the study for ``owner``, count what is stored, mark it running.
+
+        None when it is no longer active, or another live coordinator holds it.
+        """
+        now = time.time()
         with self.engine.begin() as conn:
+            cur = conn.execute(sa.select(studies.c.owner, studies.c.lease_until)
+                               .where(studies.c.id == study_id, studies.c.status.in_(ACTIVE))).first()
+            if cur is None or not _claimable(cur[0], cur[1], owner, now):
+                return None
+            # Compare-and-set on the owner seen above: two coordinators cannot both win.
+            claim = conn.execute(studies.update().where(studies.c.id == study_id, studies.c.status.in_(ACTIVE),
+                                                        _same(studies.c.owner, cur[0]))
+                                 .values(owner=owner, lease_until=now + LEASE_SECONDS))
+            if not claim.rowcount:
+                return None
             done = conn.execute(sa.select(sa.func.count()).select_from(results)
                                 .where(results.c.study_id == study_id)).scalar_one()
             failed = conn.execute(sa.select(sa.func.count()).select_from(results)
                                   .where(results.c.study_id == study_id, results.c.error.is_not(None))).scalar_one()
-            res = conn.execute(studies.update().where(studies.c.id == study_id, studies.c.status.in_(ACTIVE))
-                               .values(status="running", done=done, failed=failed, run_started_at=time.time(),
-                                       run_start_done=done))
-        return self.get(study_id) if res.rowcount else None
+            conn.execute(studies.update().where(studies.c.id == study_id)
+                         .values(status="running", done=done, failed=failed, run_started_at=now, run_start_done=done))
+        return self.get(study_id)
 
     def stored_hashes(self, study_id: str) -> set[str]:
         with self.engine.connect() as conn:
@@ -177,7 +237,7 @@ class StudyStore:
         """Close a running study (a cancel that came first wins)."""
         with self.engine.begin() as conn:
             conn.execute(studies.update().where(studies.c.id == study_id, studies.c.status == "running")
-                         .values(status=status, finished_at=time.time(), error=error))
+                         .values(status=status, finished_at=time.time(), error=error, owner=None, lease_until=None))
 
     def cancel(self, study_id: str) -> bool:
         with self.engine.begin() as conn:

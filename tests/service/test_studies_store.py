@@ -22,7 +22,7 @@ def test_migrations_give_the_schema_the_code_uses(tmp_path):
         diff = compare_metadata(MigrationContext.configure(conn), metadata)
         assert diff == []
         assert conn.execute(sa.text("PRAGMA journal_mode")).scalar() == "wal"
-        assert conn.execute(sa.text("SELECT version_num FROM alembic_version")).scalar() == "0001"
+        assert conn.execute(sa.text("SELECT version_num FROM alembic_version")).scalar() == "0002"
 
 
 def test_chunks_are_written_once(tmp_path):
@@ -48,3 +48,38 @@ def test_cancel_wins_over_finish(tmp_path):
     assert store.get("s2")["status"] == "cancelled"
     assert store.begin_run("s2") is None  # a cancelled study is not resumed
     assert store.delete("s2") and store.get("s2") is None
+
+
+def test_one_coordinator_per_study(tmp_path, monkeypatch):
+    """A live coordinator's lease keeps others off; a crashed one's (dead pid here, or expired) does not."""
+    import os
+    import socket
+    import subprocess
+    import sys
+
+    from service.studies import store as store_mod
+
+    store = _store(tmp_path)
+    store.create("s3", "stability", {}, total=1)
+    host = socket.gethostname()
+    me = f"{host}:{os.getpid()}:a"
+    assert store.begin_run("s3", me) is not None
+    other = f"{host}:{os.getpid()}:b"  # another runner of a live process
+    assert store.active_ids(other) == [] and store.begin_run("s3", other) is None
+    assert store.active_ids(me) == ["s3"] and store.renew("s3", me) and not store.renew("s3", other)
+
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    ghost = f"{host}:{int(dead.stdout)}:c"  # a process of this host that is gone: a crash, taken over at once
+    with store.engine.begin() as conn:
+        conn.execute(store_mod.studies.update().values(owner=ghost, lease_until=1e18))
+    assert store.begin_run("s3", other) is not None and store.get("s3")["owner"] == other
+
+    far = "elsewhere.example:1:d"  # another host: only an expired lease is taken over
+    with store.engine.begin() as conn:
+        conn.execute(store_mod.studies.update().values(owner=far, lease_until=1e18))
+    assert store.begin_run("s3", me) is None
+    with store.engine.begin() as conn:
+        conn.execute(store_mod.studies.update().values(lease_until=0.0))
+    assert store.begin_run("s3", me) is not None
+    store.finish("s3", "done")
+    assert store.get("s3")["owner"] is None
