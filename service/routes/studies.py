@@ -164,5 +164,7 @@ def study_plot(study_id: str, request: Request, y: str, x: str, x2: str | None =
     if rows and not any(y in r for r in rows):
         known = [c for c in columns(paths, rows) if c not in ("index", "error", *paths)]
         raise _invalid(["query", "y"], f"{y!r} is not a result of this study; results: {', '.join(known)}")
-    image = plot_rows(rows, y, x, x2, format, f"{row['problem']} study {study_id[:8]}: {y}")
+    sweep = row["request"].get("sweep", {})
+    log_paths = {p: spec.get("scale") == "log" for p, spec in sweep.items() if isinstance(spec, dict)}
+    image = plot_rows(rows, y, x, x2, format, f"{row['problem']} study {study_id[:8]}: {y}", log_paths)
     return Response(image, media_type="image/png" if format == "png" else "image/svg+xml")

@@ -13,12 +13,16 @@ def _finite(v: Any) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
 
-def _log_ok(values: Sequence[float]) -> bool:
-    """Log axis when the values are positive and span more than a decade."""
-    return bool(values) and min(values) > 0 and max(values) / min(values) > 10
+def _log_ok(values: Sequence[float], log: bool | None = None) -> bool:
+    """Log axis when the sweep says so (a log range), else when positive values span more than a decade."""
+    if not values or min(values) <= 0:
+        return False
+    return log if log is not None else max(values) / min(values) > 10
 
 
-def plot_rows(rows: Sequence[dict[str, Any]], y: str, x: str, x2: str | None, fmt: str, title: str) -> bytes:
+def plot_rows(rows: Sequence[dict[str, Any]], y: str, x: str, x2: str | None, fmt: str, title: str,
+              log_paths: dict[str, bool] | None = None) -> bytes:
+    """``log_paths``: swept path -> True for a log range, False for a linear one (value lists: by span)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -33,11 +37,15 @@ def plot_rows(rows: Sequence[dict[str, Any]], y: str, x: str, x2: str | None, fm
         unique = len(set(xs)) == len(xs)
         ax.plot(xs, ys, "-o" if unique else "o", ms=3)
         ax.set_ylabel(y)
-        if _log_ok(xs):
+        if _log_ok(xs, (log_paths or {}).get(x)):
             ax.set_xscale("log")
     else:
         xs, ys, zs = zip(*[(a, b, c) for a, b, c in pts if _finite(c)]) if any(_finite(c) for *_, c in pts) else ((), (), ())
         ux, uy = sorted(set(xs)), sorted(set(ys))
+        from matplotlib.colors import LogNorm
+
+        # a result spanning orders of magnitude (K_cr over delay) reads on a log colour scale
+        norm = LogNorm() if zs and min(zs) > 0 and max(zs) / min(zs) > 100 else None
         if len(ux) * len(uy) == len(xs) and len(ux) > 1 and len(uy) > 1:  # a full grid: a heatmap
             import numpy as np
 
@@ -45,14 +53,14 @@ def plot_rows(rows: Sequence[dict[str, Any]], y: str, x: str, x2: str | None, fm
             ix, iy = {v: i for i, v in enumerate(ux)}, {v: i for i, v in enumerate(uy)}
             for a, b, c in zip(xs, ys, zs):
                 grid[iy[b], ix[a]] = c
-            mesh = ax.pcolormesh(ux, uy, grid, shading="nearest")
+            mesh = ax.pcolormesh(ux, uy, grid, shading="nearest", norm=norm)
         else:  # scattered samples (a Latin hypercube, or other swept parameters)
-            mesh = ax.scatter(xs, ys, c=zs, s=12)
+            mesh = ax.scatter(xs, ys, c=zs, s=12, norm=norm)
         fig.colorbar(mesh, ax=ax, label=y)
         ax.set_ylabel(x2)
-        if _log_ok(list(xs)):
+        if _log_ok(list(xs), (log_paths or {}).get(x)):
             ax.set_xscale("log")
-        if _log_ok(list(ys)):
+        if _log_ok(list(ys), (log_paths or {}).get(x2)):
             ax.set_yscale("log")
     ax.set_xlabel(x)
     ax.set_title(title, fontsize=10)
