@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import multiprocessing
+from concurrent.futures.process import BrokenProcessPool
 import os
 from typing import Any, Callable, Protocol
 
@@ -47,7 +48,11 @@ class LocalExecutor:
         return self._pool
 
     def submit(self, fn: Callable, *args: Any) -> cf.Future:
-        return self._get().submit(fn, *args)
+        try:
+            return self._get().submit(fn, *args)
+        except BrokenProcessPool:  # a worker died before the coordinator saw one of its futures fail
+            self.reset()
+            return self._get().submit(fn, *args)
 
     def wait(self, futures: set, timeout: float) -> tuple[set, set]:
         done, pending = cf.wait(futures, timeout=timeout, return_when=cf.FIRST_COMPLETED)
