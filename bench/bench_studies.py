@@ -53,6 +53,8 @@ class Row:
     times: tuple[float, ...]
     """wall time of each repeat [s]."""
     failed: int
+    cpu: float | None = None
+    """CPU time of the processes that evaluated the points, median over the repeats [s]."""
 
     @property
     def median(self) -> float:
@@ -66,22 +68,43 @@ class Row:
     def rate(self) -> float:
         return self.points / self.median
 
+    @property
+    def cpu_rate(self) -> float | None:
+        """Points per CPU-second of the evaluating processes: what a free core gives, whatever else runs."""
+        return self.points / self.cpu if self.cpu else None
+
+
+def _worker_cpu(executor) -> float | None:
+    """Total CPU seconds used so far by the executor's worker processes."""
+    import psutil
+
+    if isinstance(executor, LocalExecutor):
+        pool = executor._pool
+        if pool is None:
+            return None
+        return sum(sum(psutil.Process(p).cpu_times()[:2]) for p in list(pool._processes))
+    if isinstance(executor, DaskExecutor):
+        return sum(executor.client.run(time.process_time).values())
+    return None
+
 
 def _baseline(study: dict, repeats: int) -> Row:
     plan = plan_from_request(study)
     inputs = [plan.inputs(v) for v in plan.values(0, plan.total).tolist()]
     evaluate_point(plan.problem, *inputs[0])  # imports and caches outside the timing
-    times, failed = [], 0
+    times, cpus, failed = [], [], 0
     for _ in range(repeats):
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         failed = sum(evaluate_point(plan.problem, dev, req)[1] is not None for dev, req in inputs)
         times.append(time.perf_counter() - t0)
-    return Row(plan.problem, "single point, in-process (baseline)", plan.total, tuple(times), failed)
+        cpus.append(time.process_time() - c0)
+    return Row(plan.problem, "single point, in-process (baseline)", plan.total, tuple(times), failed,
+               statistics.median(cpus))
 
 
 def _study(study: dict, executor, label: str, repeats: int, chunk_size: int) -> Row:
     plan = plan_from_request(study)
-    times, failed = [], 0
+    times, cpus, failed = [], [], 0
     with tempfile.TemporaryDirectory() as tmp:
         for r in range(repeats + 1):  # the first run warms the workers (imports, solver caches)
             store = StudyStore(f"sqlite:///{tmp}/bench{r}.db")
@@ -89,9 +112,11 @@ def _study(study: dict, executor, label: str, repeats: int, chunk_size: int) -> 
             sid = str(uuid.uuid4())
             store.create(sid, plan.problem, study, plan.total)
             runner = StudyRunner(store, lambda: executor, chunk_size=chunk_size)
+            c0 = _worker_cpu(executor)
             t0 = time.perf_counter()
             runner.run_until_idle()
             elapsed = time.perf_counter() - t0
+            c1 = _worker_cpu(executor)
             row = store.get(sid)
             store.dispose()
             if row["status"] != "done":
@@ -99,7 +124,9 @@ def _study(study: dict, executor, label: str, repeats: int, chunk_size: int) -> 
             if r:
                 times.append(elapsed)
                 failed = row["failed"]
-    return Row(plan.problem, label, plan.total, tuple(times), failed)
+                if c0 is not None and c1 is not None:
+                    cpus.append(c1 - c0)
+    return Row(plan.problem, label, plan.total, tuple(times), failed, statistics.median(cpus) if cpus else None)
 
 
 def measure(points: int = 400, repeats: int = 3, workers: tuple[int, ...] = (1, 2), dask: bool = True,
@@ -144,15 +171,19 @@ def render(rows: list[Row], note: str = "", load: tuple[float, float] | None = N
         "A *study* row is a whole study run by the service's runner: planning, content hashes, chunks on the "
         "executor, results written to a fresh SQLite (WAL) store. The *baseline* evaluates the same points one "
         "by one in this process without a store. Wall time per run (median / p95 over the repeats); the ratio is "
-        "points/s against the baseline of the same problem, measured in the same run." + load_text,
+        "points/s against the baseline of the same problem, measured in the same run. *Points per CPU-s* divides "
+        "by the CPU time of the processes that evaluated the points (this process, the pool's workers via psutil, "
+        "the Dask workers via `client.run`): what one free core gives, whatever else shares the machine; "
+        "n free cores give about n times that." + load_text,
         "",
-        "| problem | executor | points | median [s] | p95 [s] | points/s | ratio vs baseline | failed points |",
-        "|---|---|---|---|---|---|---|---|",
+        "| problem | executor | points | median [s] | p95 [s] | points/s | ratio vs baseline | points per CPU-s | failed points |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     base = {r.problem: r.rate for r in rows if "baseline" in r.executor}
     for r in rows:
+        cpu = f"{r.cpu_rate:.0f}" if r.cpu_rate else "—"
         lines.append(f"| {r.problem} | {r.executor} | {r.points} | {r.median:.3f} | {r.p95:.3f} | {r.rate:.0f} | "
-                     f"{r.rate / base[r.problem]:.2f} | {r.failed} |")
+                     f"{r.rate / base[r.problem]:.2f} | {cpu} | {r.failed} |")
     if not any(r.problem == "stiffness" for r in rows):
         lines += ["", "Stiffness designs: `optim.stiffness` is not in this build, so the stiffness problem answers "
                   "422 and is not measured here."]
