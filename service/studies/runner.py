@@ -133,6 +133,10 @@ class StudyRunner:
         self.current = study_id
         try:
             self._run_plan(study_id, row)
+        except Exception as exc:
+            # e.g. the Dask scheduler is unreachable: the study stays active and says why; the loop retries
+            self.store.set_error(study_id, f"retrying after {type(exc).__name__}: {exc}")
+            raise
         finally:
             self.current = None
             self._cancelled.discard(study_id)

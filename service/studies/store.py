@@ -209,7 +209,8 @@ class StudyStore:
             failed = conn.execute(sa.select(sa.func.count()).select_from(results)
                                   .where(results.c.study_id == study_id, results.c.error.is_not(None))).scalar_one()
             conn.execute(studies.update().where(studies.c.id == study_id)
-                         .values(status="running", done=done, failed=failed, run_started_at=now, run_start_done=done))
+                         .values(status="running", done=done, failed=failed, run_started_at=now, run_start_done=done,
+                                 error=None))
         return self.get(study_id)
 
     def stored_hashes(self, study_id: str) -> set[str]:
@@ -232,6 +233,11 @@ class StudyStore:
                 conn.execute(studies.update().where(studies.c.id == study_id)
                              .values(done=studies.c.done + new_ok + new_bad, failed=studies.c.failed + new_bad))
         return new_ok + new_bad
+
+    def set_error(self, study_id: str, error: str) -> None:
+        """Say why an active study is not progressing (cleared when a run starts)."""
+        with self.engine.begin() as conn:
+            conn.execute(studies.update().where(studies.c.id == study_id).values(error=error))
 
     def finish(self, study_id: str, status: str, error: str | None = None) -> None:
         """Close a running study (a cancel that came first wins)."""

@@ -89,3 +89,21 @@ def test_a_chunk_that_keeps_failing_fails_the_study(tmp_path):
     row = store.get(sid)
     assert row["status"] == "failed" and "worker lost" in row["error"] and row["done"] == 0
     assert executor.calls >= 3  # retried before giving up
+
+
+def test_an_unreachable_executor_leaves_the_study_active_with_the_reason(tmp_path):
+    store, sid = _store_with(tmp_path, small_study(2))
+
+    def no_cluster():
+        raise OSError("Timed out trying to connect to tcp://10.0.0.1:8786")
+    runner = StudyRunner(store, no_cluster, chunk_size=4, poll=0.05)
+    runner.start()
+    try:
+        deadline = time.monotonic() + 10
+        while time.monotonic() < deadline and not store.get(sid)["error"]:
+            time.sleep(0.05)
+    finally:
+        runner.stop()
+    row = store.get(sid)
+    assert row["status"] == "running" and "Timed out trying to connect" in row["error"]
+    assert row["done"] == 0
