@@ -188,8 +188,7 @@ def _split_turning(h: _Loop, rows, lo, hi, vlo, vhi):
         rows = np.concatenate([rows, rows])
         lo, hi = np.concatenate([lo, mid]), np.concatenate([mid, hi])
         vlo, vhi = np.concatenate([vlo, vmid]), np.concatenate([vmid, vhi])
-    if rows.size:
-        leaves.append((rows, lo, hi, vlo, vhi))
+    leaves.append((rows, lo, hi, vlo, vhi))
     return tuple(np.concatenate([leaf[k] for leaf in leaves]) for k in range(5))
 
 
