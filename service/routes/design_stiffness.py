@@ -8,7 +8,10 @@ import time
 
 from fastapi import APIRouter
 
+from optim.robust.box import UncertaintyBox
+from optim.robust.stiffness import robust_design_stiffness
 from optim.stiffness import StiffnessRequirements, design_stiffness
+from service.errors import NumericInputError
 from service.schemas.design_stiffness import StiffnessDesignRequest, StiffnessDesignResponse
 
 router = APIRouter()
@@ -29,7 +32,10 @@ def _finite(value):
 def design_stiffness_route(request: StiffnessDesignRequest) -> StiffnessDesignResponse:
     # a plain def: FastAPI runs it in the threadpool, and the CasADi solver cache is per thread
     t0 = time.perf_counter()
-    req = StiffnessRequirements(**request.requirements.model_dump())
+    fields = request.requirements.model_dump(exclude={"uncertainty"})
+    req = StiffnessRequirements(**fields)
+    if request.requirements.uncertainty is not None:
+        return _robust(request, req, t0)
     try:
         design = design_stiffness(request.device, req)
     except (RuntimeError, ArithmeticError, ValueError) as exc:   # CasADi raises RuntimeError on solver trouble
@@ -37,3 +43,25 @@ def design_stiffness_route(request: StiffnessDesignRequest) -> StiffnessDesignRe
                                        elapsed_ms=(time.perf_counter() - t0) * 1e3)
     data = _finite(dataclasses.asdict(design))
     return StiffnessDesignResponse(**data)
+
+
+def _robust(request: StiffnessDesignRequest, req: StiffnessRequirements, t0: float) -> StiffnessDesignResponse:
+    ranges = {k: (v.min, v.max) for k, v in request.requirements.uncertainty.items()}
+    try:
+        box = UncertaintyBox.from_ranges(request.device, ranges)
+    except ValueError as exc:
+        field, _, msg = str(exc).partition(": ")
+        raise NumericInputError(field, msg) from None
+    try:
+        d = robust_design_stiffness(request.device, req, box)
+    except ValueError as exc:
+        field, _, msg = str(exc).partition(": ")
+        raise NumericInputError(field, msg) from None
+    except (RuntimeError, ArithmeticError) as exc:
+        return StiffnessDesignResponse(status="failed", reason=f"solver trouble: {exc}", robust=True,
+                                       elapsed_ms=(time.perf_counter() - t0) * 1e3)
+    data = _finite(dataclasses.asdict(d))
+    data.pop("nominal_critical_stiffness", None)
+    data["critical_stiffness"] = data["worst_case"]["critical_stiffness"] if data.get("worst_case") else None
+    data["active_constraints"] = list(data["active_constraints"])
+    return StiffnessDesignResponse(robust=True, **data)
