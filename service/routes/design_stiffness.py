@@ -7,6 +7,7 @@ import math
 import time
 
 from fastapi import APIRouter
+from fastapi.exceptions import RequestValidationError
 
 from optim.robust.box import UncertaintyBox
 from optim.robust.stiffness import robust_design_stiffness
@@ -45,23 +46,30 @@ def design_stiffness_route(request: StiffnessDesignRequest) -> StiffnessDesignRe
     return StiffnessDesignResponse(**data)
 
 
+def input_error(exc: ValueError) -> Exception:
+    """A numerics ValueError ("field: rule") as a 422; an uncertainty path stays one element of loc."""
+    field, _, msg = str(exc).partition(": ")
+    prefix = "requirements.uncertainty."
+    if field.startswith(prefix):
+        loc = ("body", "requirements", "uncertainty", field[len(prefix):])
+        return RequestValidationError([{"type": "value_error", "loc": loc, "msg": msg, "input": None}])
+    return NumericInputError(field, msg)
+
+
 def _robust(request: StiffnessDesignRequest, req: StiffnessRequirements, t0: float) -> StiffnessDesignResponse:
     ranges = {k: (v.min, v.max) for k, v in request.requirements.uncertainty.items()}
     try:
         box = UncertaintyBox.from_ranges(request.device, ranges)
-    except ValueError as exc:
-        field, _, msg = str(exc).partition(": ")
-        raise NumericInputError(field, msg) from None
-    try:
         d = robust_design_stiffness(request.device, req, box)
     except ValueError as exc:
-        field, _, msg = str(exc).partition(": ")
-        raise NumericInputError(field, msg) from None
+        raise input_error(exc) from None
     except (RuntimeError, ArithmeticError) as exc:
         return StiffnessDesignResponse(status="failed", reason=f"solver trouble: {exc}", robust=True,
                                        elapsed_ms=(time.perf_counter() - t0) * 1e3)
     data = _finite(dataclasses.asdict(d))
     data.pop("nominal_critical_stiffness", None)
-    data["critical_stiffness"] = data["worst_case"]["critical_stiffness"] if data.get("worst_case") else None
+    worst = data.get("worst_case") or {}
+    data["critical_stiffness"] = worst.get("critical_stiffness")
+    data["crossover_frequency"] = worst.get("crossover_frequency")
     data["active_constraints"] = list(data["active_constraints"])
     return StiffnessDesignResponse(robust=True, **data)
