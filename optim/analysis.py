@@ -127,7 +127,20 @@ def _finite(x: float | None) -> float | None:
 
 def analyse_stability(device: Device, stiffness: float | None = None, damping: float = 0.0,
                       method: str = "exact", grid_points: int = DEFAULT_GRID_POINTS) -> StabilityAnalysis:
-    """K_cr(B) of the device on the chosen rung, and the margin, stability and passivity of (K, B)."""
+    """K_cr(B) of the device on the chosen rung, and the margin, stability and passivity of (K, B).
+
+    Raises ValueError (naming the field) for inputs the numerics cannot represent: an
+    overflow or an invalid operation is never turned into a NaN answer.
+    """
+    try:
+        with np.errstate(over="raise", invalid="raise"):
+            return _analyse(device, stiffness, damping, method, grid_points)
+    except (FloatingPointError, OverflowError, ZeroDivisionError) as exc:
+        raise ValueError(f"device: the parameters are outside the numerically representable range ({exc})") from exc
+
+
+def _analyse(device: Device, stiffness: float | None, damping: float, method: str,
+             grid_points: int) -> StabilityAnalysis:
     if method not in METHODS:
         raise ValueError(f"method: must be one of {', '.join(METHODS)}")
     if stiffness is not None and not (math.isfinite(stiffness) and stiffness > 0):

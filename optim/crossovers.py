@@ -37,7 +37,9 @@ class Crossing:
 
 def scan_grid(theta_min: float, delay_samples: float, hints: Sequence[float], width_hint: float = 0.0) -> np.ndarray:
     """Initial samples on [theta_min, π]."""
-    theta_lin = min(0.05, max(theta_min * 10, 1e-6))
+    # 60 samples per decade all the way up to 0.05 rad, then a linear grid that the delay's
+    # phase (d·θ) cannot turn a full circle within.
+    theta_lin = max(0.05, theta_min * 10)
     parts = [np.geomspace(theta_min, theta_lin, max(40, int(60 * math.log10(theta_lin / theta_min)) + 2))]
     step = min(0.02, math.pi / (16.0 * (delay_samples + 1.0)))
     parts.append(np.linspace(theta_lin, math.pi, int(math.ceil((math.pi - theta_lin) / step)) + 1))
