@@ -128,7 +128,7 @@ def _grids(devices: Sequence[Device], plants, betas: np.ndarray) -> np.ndarray:
     # θ_min of optim.margins with β = 0 (the damper-only loop's scan, the lower of the two)
     damp = np.maximum(delta, 0.0)
     theta_min = np.where(damp > 0, 1e-4 * np.minimum(np.minimum(1.0, np.sqrt(damp * scale)), 10 * damp), 1e-4 * scale)
-    theta_lin = np.minimum(0.05, np.maximum(theta_min * 10, 1e-6))
+    theta_lin = np.maximum(0.05, theta_min * 10)          # as scan_grid: 60 log samples a decade up to 0.05 rad
     n_log = int(max(40, np.max(60 * np.log10(theta_lin / theta_min)) + 2))
     step = np.minimum(0.02, math.pi / (16.0 * (ds + 1.0)))
     n_lin = int(np.max(np.ceil((math.pi - theta_lin) / step))) + 1
