@@ -29,7 +29,7 @@ from models.device import Device
 from .batch import batch_critical_stiffness
 from .box import STIFFNESS_PATHS, UncertaintyBox
 
-__all__ = ["WorstCase", "worst_case_stiffness", "box_critical_stiffness"]
+__all__ = ["WorstCase", "worst_case_stiffness", "box_critical_stiffness", "minimise_over_box"]
 
 _FIRST_STEP = 0.125
 _LAST_STEP = 1e-9
@@ -78,53 +78,64 @@ def _start_points(box: UncertaintyBox, active: np.ndarray, samples: int, seed: i
     return np.concatenate(pts)
 
 
+def minimise_over_box(box: UncertaintyBox, active: np.ndarray, evaluate, *, samples: int = 128, starts: int = 3,
+                      seed: int = 0) -> tuple[np.ndarray, float, float, int]:
+    """Global minimum of a box function given in batches: (unit point, value, its aux value, evaluations).
+
+    ``evaluate(unit_points) -> (values, aux)`` (arrays, one entry per row); a value ≤ 0 stops the search.
+    """
+    unit = _start_points(box, active, samples, seed)
+    vals, aux = evaluate(unit)
+    evals = unit.shape[0]
+    i0 = int(np.argmin(vals))
+    best_u, best_v, best_a = unit[i0], float(vals[i0]), float(aux[i0])
+    if not (active.any() and best_v > 0):
+        return best_u, best_v, best_a, evals
+    chosen: list[int] = []
+    for i in np.argsort(vals):
+        if len(chosen) == starts:
+            break
+        if all(np.max(np.abs(unit[i] - unit[j])) > 0.05 for j in chosen):
+            chosen.append(int(i))
+    x, fx, xa = unit[chosen], vals[chosen].copy(), aux[chosen].copy()
+    # each poll tries every direction at several scales at once: one batch call instead of many
+    unit_dirs = np.concatenate([np.eye(box.dim)[active], -np.eye(box.dim)[active]])
+    scales = _SCALE ** -np.arange(_SCALES)
+    dirs = (scales[:, None, None] * unit_dirs[None]).reshape(-1, box.dim)
+    dir_scale = np.repeat(scales, unit_dirs.shape[0])
+    step = np.full(len(chosen), _FIRST_STEP)
+    for _ in range(_MAX_POLLS):
+        live = step >= _LAST_STEP
+        if not live.any():
+            break
+        idx = np.nonzero(live)[0]
+        polls = np.clip(x[idx, None, :] + step[idx, None, None] * dirs[None], 0.0, 1.0)
+        k_p, a_p = evaluate(polls.reshape(-1, box.dim))
+        evals += k_p.size
+        k_p, a_p = k_p.reshape(idx.size, -1), a_p.reshape(idx.size, -1)
+        j = np.argmin(k_p, axis=1)
+        better = k_p[np.arange(idx.size), j] < fx[idx]
+        moved = idx[better]
+        x[moved] = polls[better, j[better]]
+        fx[moved] = k_p[better, j[better]]
+        xa[moved] = a_p[better, j[better]]
+        # a move keeps the scale that won (room to grow by one scale); no move shrinks below every scale tried
+        step[moved] = np.minimum(_FIRST_STEP, step[moved] * dir_scale[j[better]] * _SCALE)
+        step[idx[~better]] *= _SCALE ** -_SCALES
+        if (fx <= 0).any():
+            break
+    i = int(np.argmin(fx))
+    if fx[i] < best_v:
+        best_u, best_v, best_a = x[i], float(fx[i]), float(xa[i])
+    return best_u, best_v, best_a, evals
+
+
 def worst_case_stiffness(box: UncertaintyBox, stiffness: float, damping: float, *, samples: int = 128,
                          starts: int = 3, seed: int = 0) -> WorstCase:
     """The device of the box with the smallest K_cr(B) (hence the smallest margin of (K, B))."""
     active = box.relevant(STIFFNESS_PATHS)
-    unit = _start_points(box, active, samples, seed)
-    kcr, ang = box_critical_stiffness(box, unit, damping)
-    evals = unit.shape[0]
-    best_u, best_k, best_a = unit[int(np.argmin(kcr))], float(np.min(kcr)), float(ang[int(np.argmin(kcr))])
-    if active.any() and best_k > 0:
-        order = np.argsort(kcr)
-        chosen: list[int] = []
-        for i in order:
-            if len(chosen) == starts:
-                break
-            if all(np.max(np.abs(unit[i] - unit[j])) > 0.05 for j in chosen):
-                chosen.append(int(i))
-        x, fx = unit[chosen], kcr[chosen]
-        xa = ang[chosen]
-        # each poll tries every direction at several scales at once: one batch call instead of many
-        unit_dirs = np.concatenate([np.eye(box.dim)[active], -np.eye(box.dim)[active]])
-        scales = _SCALE ** -np.arange(_SCALES)
-        dirs = (scales[:, None, None] * unit_dirs[None]).reshape(-1, box.dim)
-        dir_scale = np.repeat(scales, unit_dirs.shape[0])
-        step = np.full(len(chosen), _FIRST_STEP)
-        for _ in range(_MAX_POLLS):
-            live = step >= _LAST_STEP
-            if not live.any():
-                break
-            idx = np.nonzero(live)[0]
-            polls = np.clip(x[idx, None, :] + step[idx, None, None] * dirs[None], 0.0, 1.0)
-            k_p, a_p = box_critical_stiffness(box, polls.reshape(-1, box.dim), damping)
-            evals += k_p.size
-            k_p, a_p = k_p.reshape(idx.size, -1), a_p.reshape(idx.size, -1)
-            j = np.argmin(k_p, axis=1)
-            better = k_p[np.arange(idx.size), j] < fx[idx]
-            moved = idx[better]
-            x[moved] = polls[better, j[better]]
-            fx[moved] = k_p[better, j[better]]
-            xa[moved] = a_p[better, j[better]]
-            # a move keeps the scale that won (room to grow by one scale); no move shrinks below every scale tried
-            step[moved] = np.minimum(_FIRST_STEP, step[moved] * dir_scale[j[better]] * _SCALE)
-            step[idx[~better]] *= _SCALE ** -_SCALES
-            if (fx <= 0).any():
-                break
-        i = int(np.argmin(fx))
-        if fx[i] < best_k:
-            best_u, best_k, best_a = x[i], float(fx[i]), float(xa[i])
+    best_u, best_k, best_a, evals = minimise_over_box(
+        box, active, lambda u: box_critical_stiffness(box, u, damping), samples=samples, starts=starts, seed=seed)
     point = box.to_box(best_u)
     dev = box.device_at(point)
     freq = best_a / dev.sample_time if math.isfinite(best_a) else None
