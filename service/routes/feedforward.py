@@ -8,7 +8,7 @@ import time
 from fastapi import APIRouter
 
 from models.filters import ButterworthLowPass
-from optim.feedforward import apparent_mass, critical_force_gain
+from optim.feedforward import apparent_mass, critical_force_gain, resolve_human
 from optim.inertia import RIGID_OPTIMISM_FLAG, InertiaRequirements, design_inertia
 
 from ..errors import NumericInputError
@@ -72,6 +72,8 @@ def inertia(req: InertiaRequest) -> InertiaResponse:
         filter_order=r.filter_order, target_apparent_mass=r.target_apparent_mass,
         human_mass_range=(r.human_mass_range.min, r.human_mass_range.max) if r.human_mass_range else None,
         humans=tuple(r.humans) if r.humans else None, pareto_points=r.pareto_points)
+    if r.uncertainty is not None:
+        return _robust_inertia(req, spec)
     try:
         d = design_inertia(req.device, spec)
     except ValueError as exc:
@@ -101,3 +103,30 @@ def inertia(req: InertiaRequest) -> InertiaResponse:
         worst_human=d.worst_human.model_dump() if d.worst_human else None, human_source=d.human_source,
         rigid_model=rigid, solver={k: v for k, v in d.solver.items()}, reason=d.reason, notes=notes,
         elapsed_ms=d.elapsed_ms)
+
+
+def _robust_inertia(req: InertiaRequest, spec: InertiaRequirements) -> InertiaResponse:
+    from optim.robust.box import UncertaintyBox
+    from optim.robust.inertia import robust_design_inertia
+
+    from .design_stiffness import input_error
+
+    try:
+        box = UncertaintyBox.from_ranges(req.device, {k: (v.min, v.max) for k, v in req.requirements.uncertainty.items()})
+        d = robust_design_inertia(req.device, spec, box)
+    except ValueError as exc:
+        raise input_error(exc) from None
+    human, source = resolve_human(req.device)
+    return InertiaResponse(
+        status=d.status, objective=d.objective, force_gain=_finite(d.force_gain), filter_cutoff_hz=d.filter_cutoff_hz,
+        filter_order=d.filter_order, apparent_mass=_finite(d.apparent_mass),
+        critical_force_gain=_finite(d.critical_force_gain), gain_margin_db=_finite(d.gain_margin_db),
+        crossover_frequency=(d.worst_case or {}).get("crossover_frequency"),
+        cutoff_band_hz=d.cutoff_band_hz or (spec.cutoff_min_hz, spec.cutoff_min_hz),
+        cutoff_max_source="requirements" if spec.cutoff_max_hz is not None else
+        "lowest first cable mode (eq. 24) or 0.4 × Nyquist over the box's corners",
+        pareto=[], humans=[human.model_dump()], worst_human=None, human_source=source, rigid_model=None,
+        solver=dict(d.solver), reason=d.reason, notes=_human_notes(source), elapsed_ms=d.elapsed_ms, robust=True,
+        worst_case=d.worst_case, nominal_gain_margin_db=_finite(d.nominal_gain_margin_db),
+        apparent_mass_range=d.apparent_mass_range, scenarios=list(d.scenarios), iterations=d.iterations,
+        evaluations=d.evaluations)

@@ -10,6 +10,7 @@ from models.device import Human
 from models.filters import MAX_FILTER_ORDER
 
 from .common import STRICT, Device
+from .design_stiffness import RangeIn
 
 _LHIFAM_FF = {"mass": 5.4, "damping": 3.5, "sample_time": 0.001,
               "human": {"mass": 2, "damping": 2, "stiffness": 10}, "force_sensor": {"time_constant": 0.005}}
@@ -85,6 +86,10 @@ class InertiaRequirementsIn(BaseModel):
     humans: list[Human] | None = Field(default=None, min_length=1, max_length=16,
                                        description="explicit grasps (finger, hand, arm); worst case")
     pareto_points: int = Field(default=17, ge=2, le=201, description="cutoffs of the exact Pareto scan")
+    uncertainty: dict[str, RangeIn] | None = Field(
+        default=None, description="robust design: dotted device paths (device.mass, device.delay, "
+                                  "device.cable.stiffness, device.human.mass, …) mapped to {min, max}; K_f and the "
+                                  "cutoff then hold for every device of the box (not device.sample_time)")
 
     @model_validator(mode="after")
     def _one_human_spec(self) -> "InertiaRequirementsIn":
@@ -141,3 +146,12 @@ class InertiaResponse(BaseModel):
     reason: str | None
     notes: list[str]
     elapsed_ms: float
+    robust: bool = Field(default=False, description="true when requirements.uncertainty was given")
+    worst_case: dict[str, Any] | None = Field(default=None, description="robust: the worst device of the box "
+                                              "(device values, critical_force_gain, crossover_frequency, margin)")
+    nominal_gain_margin_db: float | None = Field(default=None, description="robust: margin of the nominal device")
+    apparent_mass_range: tuple[float, float] | None = Field(default=None, description="robust: m/(1 + K_f) over "
+                                                            "the box's masses [kg]")
+    scenarios: list[dict[str, float]] | None = Field(default=None, description="robust: box points used")
+    iterations: int | None = Field(default=None, description="robust: scenario-exchange rounds")
+    evaluations: int | None = Field(default=None, description="robust: exact analyses of the worst-case searches")

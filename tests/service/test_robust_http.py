@@ -97,3 +97,21 @@ def test_robust_plot_bad_axis(client):
     r = client.post("/v1/plots/robust", json={"device": LH_RIGID, "requirements": {"uncertainty": UNC},
                                               "x": "device.damping", "points": 9})
     assert r.status_code == 422 and r.json()["detail"][0]["loc"][-1] == "x"
+
+
+def test_robust_inertia(client):
+    r = client.post("/v1/design/inertia", json={"device": {"preset": "lhifam"}, "requirements": {
+        "uncertainty": {"device.human.mass": {"min": 0.5, "max": 4}}}})
+    assert r.status_code == 200
+    body = r.json()
+    assert body["robust"] is True and body["status"] == "optimal"
+    assert body["gain_margin_db"] == pytest.approx(6.0, abs=1e-6)
+    assert body["worst_case"]["device"] == {"device.human.mass": 4.0}
+    assert body["critical_force_gain"] / body["force_gain"] == pytest.approx(10 ** (6 / 20), rel=1e-9)
+
+
+def test_robust_inertia_refuses_sample_time(client):
+    r = client.post("/v1/design/inertia", json={"device": {"preset": "lhifam"}, "requirements": {
+        "uncertainty": {"device.sample_time": {"min": 0.0005, "max": 0.001}}}})
+    assert r.status_code == 422
+    assert r.json()["detail"][0]["loc"][-1] == "device.sample_time"
