@@ -80,6 +80,7 @@ class _Scenario:
     curve: BoundaryCurve | None = None
     crossings: list = field(default_factory=list)     # [(θ, (lo, hi))]
     nyquist: bool = False
+    beta_hi: float | None = None                      # the β range the curve was sampled for
 
 
 def _done(t0: float, **kw) -> RobustStiffnessDesign:
@@ -170,9 +171,9 @@ def _solve_scenarios(scenarios: list[_Scenario], g: float, upper_b: float, k_cap
     """The NLP over the current scenarios with its inner crossover exchange: (solution, K, B) or a reason."""
     for sc in scenarios:
         beta_hi = upper_b / sc.device.damping_scale
-        if sc.curve is None or sc.curve.beta.size == 0 or getattr(sc, "_beta_hi", None) != beta_hi:
+        if sc.curve is None or sc.beta_hi != beta_hi:
             sc.curve = boundary_curve(sc.device, beta_hi)
-            sc._beta_hi = beta_hi
+            sc.beta_hi = beta_hi
     # coarse robust profile: min over scenarios of g·K_cr(B), on one physical B grid
     bgrid = np.unique(np.concatenate([np.linspace(0.0, upper_b, 241)[:-1],
                                       upper_b * (1 - np.geomspace(1e-6, 1e-2, 5)),

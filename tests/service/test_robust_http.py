@@ -115,3 +115,9 @@ def test_robust_inertia_refuses_sample_time(client):
         "uncertainty": {"device.sample_time": {"min": 0.0005, "max": 0.001}}}})
     assert r.status_code == 422
     assert r.json()["detail"][0]["loc"][-1] == "device.sample_time"
+
+
+def test_robust_with_passivity_is_422(client):
+    r = client.post("/v1/design/stiffness", json={"device": LH_RIGID, "requirements": {
+        "passivity": True, "uncertainty": {"device.delay": {"min": 0, "max": 0.001}}}})
+    assert r.status_code == 422 and r.json()["detail"][0]["loc"][-1] == "passivity"
