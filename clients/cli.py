@@ -1,46 +1,231 @@
-"""The ``zwidth`` command line."""
+"""The ``zwidth`` command line: the service's answers as tables, JSON for scripts, meaningful exit codes.
+
+Every computing command talks to a server (``--url``, env ZWIDTH_URL, token
+``--token``/ZWIDTH_API_TOKEN) or, with ``--local``, runs the service's own code in
+this process (:mod:`clients.local`).  Devices come from a preset name, a
+``--device-file`` (JSON or YAML) and ``--set device.delay=3e-3`` overrides.
+Exit codes are in :mod:`clients.cli_common`.
+"""
 
 from __future__ import annotations
 
-import json
-import math
+from pathlib import Path
+from typing import Annotated
 
 import typer
+from rich.progress import Progress
+from rich.table import Table
+from rich.text import Text
 
-app = typer.Typer(help="zwidth: the stiffest wall, the lightest feel and the filter that are still safe to render.",
-                  no_args_is_help=True)
+from . import cli_common as c
+from .cli_common import (DEFAULT_URL, AsJson, Connection, DeviceFile, Local, Preset, SceneFile, Sets, Token, Url,
+                         emit, handle_errors, open_client, out, scene_root)
+from .cli_design import app as design_app
+from .cli_plot import app as plot_app
+
+app = typer.Typer(help="zwidth: the stiffest wall, the lightest feel and the filter that are still safe to render.\n\n"
+                       + c.EXIT_CODES_HELP, no_args_is_help=True)
+app.add_typer(design_app, name="design")
+app.add_typer(plot_app, name="plot")
+# Studies: clients/cli_study.py (branch `studies`) adds `zwidth study run|status|results` with one line here.
+
+
+# ------------------------------------------------------------------------------------------------ presets
+@app.command()
+@handle_errors
+def presets(local: Local = False, url: Url = DEFAULT_URL, token: Token = None, as_json: AsJson = False) -> None:
+    """The chapter's devices (Table 2, §4.3) as the service knows them."""
+    with open_client(Connection(local, url, token)) as zw:
+        devices = zw.presets()
+
+    def human() -> None:
+        t = Table(title="presets (SI units; phantom-1.0 is rotary: kg·m², N·m·s/rad, N·m/rad)", title_justify="left")
+        t.add_column("preset", no_wrap=True)
+        for col in ("mass", "damping", "T [s]", "delay [s]", "cable k_c", "ω_n [rad/s]", "human m_h/b_h/k_h",
+                    "T_f [s]"):
+            t.add_column(Text(col), justify="left" if col.startswith("human") else "right")
+        for name, d in devices.items():
+            t.add_row(name, c.fmt(d.mass), c.fmt(d.damping), c.fmt(d.sample_time), c.fmt(d.delay),
+                      c.fmt(d.cable.stiffness if d.cable else None),
+                      c.fmt(d.cable.natural_frequency if d.cable else None, 5),
+                      f"{d.human.mass:g}/{d.human.damping:g}/{d.human.stiffness:g}" if d.human else "—",
+                      c.fmt(d.force_sensor.time_constant if d.force_sensor else None))
+        out.print(t)
+    emit(devices, as_json, human)
+
+
+# ------------------------------------------------------------------------------------------------ analyze
+def _stability_rows(r) -> list[tuple]:
+    rows = [("critical stiffness K_cr", r.critical_stiffness, "N/m"),
+            ("crossover frequency", r.crossover_frequency, "rad/s"),
+            ("virtual damping B", r.damping, "N·s/m"),
+            ("gain margin", r.gain_margin_db, "dB"),
+            ("stable", r.stable, ""), ("passive", r.passive, ""),
+            ("linear estimate (eq. 10)", r.linear_estimate, "N/m"),
+            ("linear estimate error", r.linear_error, ""),
+            ("rigid-model K_cr", r.rigid_critical_stiffness, "N/m"),
+            ("cable mode matters", r.mode_matters, ""),
+            ("B_max", r.max_stable_damping, "N·s/m"),
+            ("crossovers", len(r.crossovers), ""),
+            ("method", r.method, ""), ("error estimate", r.error_estimate, "relative"),
+            ("elapsed", r.elapsed_ms, "ms")]
+    if r.reason:
+        rows.append(("reason", r.reason, ""))
+    return rows
+
+
+def _says_no(r) -> bool:
+    """The wall is unstable, or no positive stiffness is stable at this damping."""
+    return r.stable is False or r.critical_stiffness == 0.0
 
 
 @app.command()
-def analyze(preset: str = typer.Argument("lhifam", help="preset name, or 'all'"),
-            local: bool = typer.Option(True, help="compute in-process (no server)"),
-            as_json: bool = typer.Option(False, "--json", help="machine-readable output")) -> None:
-    """Exact critical stiffness of a preset (rigid and cable models) beside the linear estimate (eq. 10)."""
-    from models.device import PRESETS, Device
-    from optim.margins import critical_stiffness, linear_estimate
+@handle_errors
+def analyze(preset: Annotated[str | None, typer.Argument(help="preset name, or 'all' for every preset",
+                                                         show_default=False)] = None,
+            sets: Sets = None, device_file: DeviceFile = None,
+            stiffness: Annotated[float | None, typer.Option(help="K of the wall to check [N/m]")] = None,
+            damping: Annotated[float | None, typer.Option(help="B of the wall [N·s/m] (K_cr is for this B)")] = None,
+            method: Annotated[str | None, typer.Option(help="linear | grid | exact | reference")] = None,
+            grid_points: Annotated[int | None, typer.Option(help="frequencies for method=grid")] = None,
+            local: Local = False, url: Url = DEFAULT_URL, token: Token = None, as_json: AsJson = False) -> None:
+    """Critical stiffness K_cr(B), every crossover, margin and passivity (POST /v1/analysis/stability).
 
-    names = sorted(PRESETS) if preset == "all" else [preset]
-    rows = []
-    for name in names:
-        if name not in PRESETS:
-            typer.echo(f"unknown preset {name!r}; known: {', '.join(sorted(PRESETS))}", err=True)
-            raise typer.Exit(2)
-        full = Device(preset=name)
-        for label, dev in (("cable", full), ("rigid", full.rigid())):
-            if label == "cable" and dev.cable is None:
-                continue
-            r = critical_stiffness(dev)
-            rows.append({"preset": name, "model": label, "critical_stiffness": r.critical_stiffness,
-                         "gain_db": 20 * math.log10(r.critical_stiffness),
-                         "crossover_frequency": r.crossover_frequency,
-                         "linear_estimate": linear_estimate(dev)})
-    if as_json:
-        typer.echo(json.dumps(rows, indent=2))
-        return
-    typer.echo(f"{'preset':28} {'model':6} {'K_cr exact':>14} {'dB':>8} {'w_cr rad/s':>11} {'K linear eq.10':>15}")
-    for r in rows:
-        typer.echo(f"{r['preset']:28} {r['model']:6} {r['critical_stiffness']:14.6g} {r['gain_db']:8.3f} "
-                   f"{r['crossover_frequency']:11.5g} {r['linear_estimate']:15.6g}")
+    Exit 1 when the given wall is unstable or no K > 0 is stable.
+    """
+    controller = None
+    if stiffness is not None or damping is not None:
+        if stiffness is None:
+            raise c.usage_error("--damping needs --stiffness (the wall is K + B(1 − z⁻¹)/T); without a wall, "
+                                "K_cr is reported at B = 0")
+        controller = {"stiffness": stiffness, **({"damping": damping} if damping is not None else {})}
+    with open_client(Connection(local, url, token)) as zw:
+        if preset == "all":
+            names = list(zw.presets())
+            results = {}
+            with Progress(console=c.err, transient=True, disable=as_json) as bar:
+                task = bar.add_task("analysing presets", total=len(names))
+                for name in names:
+                    body = c.assemble({"device": {"preset": name}, "controller": controller}, sets)
+                    results[name] = zw.stability(body["device"], body.get("controller"), method=method,
+                                                 grid_points=grid_points)
+                    bar.advance(task)
+        else:
+            body = c.assemble({"device": c.device_root(preset, device_file, sets), "controller": controller}, sets)
+            with c.progress_status("analysing…", as_json):
+                result = zw.stability(body["device"], body.get("controller"), method=method, grid_points=grid_points)
+            results = {preset or "device": result}
+
+    def human() -> None:
+        if len(results) == 1 and preset != "all":
+            r = next(iter(results.values()))
+            out.print(c.table(f"stability of {preset or 'the device'}", _stability_rows(r)))
+            return
+        t = Table(title="stability of every preset", title_justify="left")
+        t.add_column("preset", no_wrap=True)
+        for col in ("K_cr [N/m]", "ω_cr [rad/s]", "rigid K_cr [N/m]", "eq. 10 [N/m]", "margin [dB]", "stable"):
+            t.add_column(Text(col), justify="right")
+        for name, r in results.items():
+            t.add_row(name, c.fmt(r.critical_stiffness), c.fmt(r.crossover_frequency, 5),
+                      c.fmt(r.rigid_critical_stiffness), c.fmt(r.linear_estimate), c.fmt(r.gain_margin_db, 4),
+                      c.fmt(r.stable))
+        out.print(t)
+
+    emit(results if preset == "all" else next(iter(results.values())), as_json, human)
+    if any(_says_no(r) for r in results.values()):
+        raise typer.Exit(c.EXIT_NO)
+
+
+# ------------------------------------------------------------------------------------------------ feedforward
+@app.command()
+@handle_errors
+def feedforward(preset: Preset = None, sets: Sets = None, device_file: DeviceFile = None,
+                cutoff_hz: Annotated[float | None, typer.Option(help="Butterworth D(z) cutoff [Hz]")] = None,
+                order: Annotated[int | None, typer.Option(help="Butterworth order")] = None,
+                local: Local = False, url: Url = DEFAULT_URL, token: Token = None, as_json: AsJson = False) -> None:
+    """Critical force-feedforward gain K_f,cr (chapter §5; POST /v1/analysis/force-feedforward)."""
+    filt = None
+    if cutoff_hz is not None:
+        filt = {"cutoff_hz": cutoff_hz, **({"order": order} if order is not None else {})}
+    elif order is not None:
+        raise c.usage_error("--order needs --cutoff-hz")
+    body = c.assemble({"device": c.device_root(preset, device_file, sets), "filter": filt}, sets)
+    with c.client_with_status(Connection(local, url, token), "analysing the force feedforward…", as_json) as zw:
+        r = zw.force_feedforward(body["device"], body.get("filter"))
+
+    def human() -> None:
+        rows = [("critical force gain K_f,cr", r.critical_force_gain, ""),
+                ("crossover frequency", r.crossover_frequency, "rad/s"),
+                ("worst-case force gain (eq. 33)", r.worst_case_force_gain, ""),
+                ("apparent mass at K_f,cr", r.apparent_mass_at_critical, "kg"), ("model", r.model, ""),
+                ("rigid-model K_f,cr", r.rigid_critical_force_gain, ""), ("grasp", r.human_source, ""),
+                ("method", r.method, ""), ("elapsed", r.elapsed_ms, "ms")]
+        rows += [("reason", r.reason, "")] if r.reason else []
+        rows += [("note", n, "") for n in r.notes]
+        out.print(c.table("force feedforward", rows))
+    emit(r, as_json, human)
+
+
+# ------------------------------------------------------------------------------------------------ simulate
+Experiment = Annotated[str | None, typer.Option(help="release | push | relay")]
+Duration = Annotated[float | None, typer.Option(help="simulated time [s]")]
+WallK = Annotated[float | None, typer.Option("--stiffness", help="wall K [N/m]")]
+WallB = Annotated[float | None, typer.Option("--damping", help="wall B [N·s/m]")]
+Position = Annotated[float | None, typer.Option(help="initial position [m] (penetration, positive inwards)")]
+Velocity = Annotated[float | None, typer.Option(help="initial velocity [m/s]")]
+RelayAmp = Annotated[float | None, typer.Option(help="relay force amplitude [N] (experiment relay)")]
+Effect = Annotated[list[str] | None, typer.Option(
+    "--effect", help="an effect taken from the device: delay, cable_mode, human, force_sensor_filter "
+                     "(others with --set scene.effects.quantization.resolution=1e-5 …)")]
+
+
+@app.command()
+@handle_errors
+def simulate(preset: Preset = None, sets: Sets = None, device_file: DeviceFile = None, scene_file: SceneFile = None,
+             experiment: Experiment = None, duration: Duration = None, stiffness: WallK = None, damping: WallB = None,
+             position: Position = None, velocity: Velocity = None, relay_amplitude: RelayAmp = None,
+             effect: Effect = None, local: Local = False, url: Url = DEFAULT_URL, token: Token = None,
+             as_json: AsJson = False) -> None:
+    """Simulate a scene on the device (POST /v1/simulate) and give its verdict.
+
+    Exit 1 when the run is unstable (diverged or growing).
+    """
+    body = c.assemble({"device": c.device_root(preset, device_file, sets),
+                       "scene": scene_root(experiment, duration, stiffness, damping, position, velocity,
+                                           relay_amplitude, effect)},
+                      sets, files={"scene": scene_file})
+    with open_client(Connection(local, url, token)) as zw, c.progress_status("simulating…", as_json):
+        r = zw.simulate(body["device"], body["scene"])
+
+    def human() -> None:
+        v = r.verdict
+        rows = [("verdict", v.state, ""), ("why", v.reason, ""), ("oscillation frequency", v.frequency, "rad/s"),
+                ("amplitude at the end", v.amplitude, "m"), ("growth rate", v.growth_rate, "1/s"),
+                ("diverged at", r.diverged_at, "s"), ("energy generated", r.energy_generated, "J"),
+                ("effects simulated", ", ".join(r.effects_simulated), ""),
+                ("left out", ", ".join(r.not_simulated) or "—", ""), ("method", r.method, ""),
+                ("samples run", r.samples_run, ""), ("elapsed", r.elapsed_ms, "ms")]
+        if r.relay is not None:
+            s = r.relay.settled
+            rows += [("relay K_u", s.ultimate_gain if s else None, "N/m"),
+                     ("relay ω", s.frequency if s else None, "rad/s"),
+                     ("exact K_cr of the loop", r.relay.critical_stiffness, "N/m"),
+                     ("K_u error vs K_cr", r.relay.ultimate_gain_error, "")]
+        out.print(c.table("simulation", rows))
+
+    emit(r, as_json, human)
+    if r.verdict.state == "unstable":
+        raise typer.Exit(c.EXIT_NO)
+
+
+# ------------------------------------------------------------------------------------------------ serve, bench
+@app.command()
+def serve(host: str = typer.Option("127.0.0.1"), port: int = typer.Option(8000),
+          workers: int = typer.Option(1)) -> None:
+    """Serve the HTTP API with uvicorn."""
+    import uvicorn
+
+    uvicorn.run("service.app:app", host=host, port=port, workers=workers)
 
 
 bench_app = typer.Typer(help="Benchmarks that write their tables into docs/.", no_args_is_help=True)
@@ -63,15 +248,6 @@ def bench_core(repeats: int = typer.Option(30, min=1), out: str = typer.Option("
     from bench import bench_core as core
 
     core.main(["--repeats", str(repeats), "--out", out])
-
-
-@app.command()
-def serve(host: str = typer.Option("127.0.0.1"), port: int = typer.Option(8000),
-          workers: int = typer.Option(1)) -> None:
-    """Serve the HTTP API with uvicorn."""
-    import uvicorn
-
-    uvicorn.run("service.app:app", host=host, port=port, workers=workers)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -1,0 +1,228 @@
+"""One builder per endpoint: what to send and how to read the answer, shared by the sync and async clients.
+
+A builder is a pure function of the caller's arguments that returns a :class:`Call`
+(method, path, JSON body, the kind of call that picks its timeout, and the parser
+of a successful answer).  The clients only send calls; nothing here touches the
+network, so the request a method sends can be inspected (``calls.stability(...)``)
+and tested without a server.
+
+Answers are read into the service's own response models (``service/schemas``),
+so a field renamed on one side fails loudly on the other.  Arguments that are left
+``None`` are not sent: the server's defaults apply, as they do for ``curl``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable, Mapping
+from typing import TYPE_CHECKING, Any, Generic, Literal, TypeVar
+
+import httpx
+from pydantic import BaseModel, TypeAdapter
+
+from models.device import Device
+from service.schemas.analysis import BoundaryResponse, StabilityResponse
+from service.schemas.design_stiffness import StiffnessDesignResponse
+from service.schemas.simulate import SimulateResponse
+
+from .models import Health
+
+if TYPE_CHECKING:  # modules of endpoints that may not be in every build (imported when called)
+    from service.schemas.feedforward import ForceFeedforwardResponse, InertiaResponse
+    from service.schemas.studies import StudyCreated, StudyResults, StudyStatus
+
+__all__ = ["Call", "Kind", "Plot", "health", "presets", "stability", "boundary", "force_feedforward",
+           "design_stiffness", "design_inertia", "simulate", "plot_simulation", "plot_boundary", "plot_bode",
+           "submit_study", "study", "study_results", "plot_study", "device_json"]
+
+R = TypeVar("R")
+#: Kinds of call, each with its own timeout (see :class:`clients.client.Timeouts`).
+Kind = Literal["health", "read", "analysis", "design", "simulate", "plot", "submit", "results"]
+ImageFormat = Literal["png", "svg"]
+DeviceLike = Device | Mapping[str, Any]
+PartLike = BaseModel | Mapping[str, Any]
+
+
+@dataclasses.dataclass(frozen=True)
+class Call(Generic[R]):
+    """One HTTP request of the contract and the parser of its 2xx answer."""
+
+    method: Literal["GET", "POST"]
+    path: str
+    kind: Kind
+    parse: Callable[[httpx.Response], R]
+    json: dict[str, Any] | None = None
+    params: dict[str, Any] | None = None
+
+
+@dataclasses.dataclass(frozen=True)
+class Plot:
+    """A figure the service drew: its bytes and media type (``image/png`` or ``image/svg+xml``)."""
+
+    content: bytes
+    media_type: str
+
+    def save(self, path: str) -> None:
+        with open(path, "wb") as fh:
+            fh.write(self.content)
+
+
+def device_json(device: DeviceLike) -> dict[str, Any]:
+    """The device object to send.
+
+    A :class:`~models.device.Device` is sent fully resolved without its ``preset``
+    name (its preset was applied when it was built; sending the name again would
+    re-apply the preset's blocks that the model deliberately removed, e.g. a
+    ``cable=None`` rigid variant).  A mapping is sent as given and validated by
+    the server.
+    """
+    if isinstance(device, BaseModel):
+        return device.model_dump(mode="json", exclude={"preset"})
+    return dict(device)
+
+
+def _part(value: PartLike) -> dict[str, Any]:
+    if isinstance(value, BaseModel):
+        return value.model_dump(mode="json", exclude_unset=True)
+    return dict(value)
+
+
+def _body(**fields: Any) -> dict[str, Any]:
+    """A request body without the arguments left ``None`` (the server's defaults apply)."""
+    out: dict[str, Any] = {}
+    for key, value in fields.items():
+        if value is None:
+            continue
+        out[key] = device_json(value) if key == "device" else (
+            _part(value) if isinstance(value, (BaseModel, Mapping)) else value)
+    return out
+
+
+def _model(model: type[BaseModel]) -> Callable[[httpx.Response], Any]:
+    def parse(response: httpx.Response) -> Any:
+        return model.model_validate_json(response.content)
+    parse.__qualname__ = f"parse {model.__name__}"
+    return parse
+
+
+def _image(response: httpx.Response) -> Plot:
+    return Plot(content=response.content, media_type=response.headers.get("content-type", "").split(";")[0])
+
+
+_PRESETS = TypeAdapter(dict[str, Device])
+
+
+def health() -> Call[Health]:
+    """``GET /healthz``: liveness and the service's version (open even when /v1 needs a token)."""
+    return Call("GET", "/healthz", "health", _model(Health))
+
+
+def presets() -> Call[dict[str, Device]]:
+    """``GET /v1/presets``: the chapter's devices (Table 2, §4.3) as validated :class:`Device` objects."""
+    return Call("GET", "/v1/presets", "read", lambda r: _PRESETS.validate_json(r.content))
+
+
+def stability(device: DeviceLike, controller: PartLike | None = None, *,
+              method: Literal["linear", "grid", "exact", "reference"] | None = None,
+              grid_points: int | None = None) -> Call[StabilityResponse]:
+    """``POST /v1/analysis/stability``: K_cr(B) [N/m], every crossover, margin and passivity of a wall.
+
+    ``controller`` is ``{"stiffness": K [N/m], "damping": B [N·s/m]}``; without it
+    the analysis is at B = 0 and has no margin.  ``method`` is the rung of the
+    accuracy ladder (server default ``exact``).
+    """
+    return Call("POST", "/v1/analysis/stability", "analysis", _model(StabilityResponse),
+                json=_body(device=device, controller=controller, method=method, grid_points=grid_points))
+
+
+def boundary(device: DeviceLike, *, damping_max: float | None = None,
+             points: int | None = None) -> Call[BoundaryResponse]:
+    """``POST /v1/analysis/boundary``: K_cr(B) [N/m] from B = 0 to ``damping_max`` [N·s/m] and its optimum."""
+    return Call("POST", "/v1/analysis/boundary", "analysis", _model(BoundaryResponse),
+                json=_body(device=device, damping_max=damping_max, points=points))
+
+
+def force_feedforward(device: DeviceLike, filter: PartLike | None = None) -> Call[ForceFeedforwardResponse]:  # noqa: A002
+    """``POST /v1/analysis/force-feedforward``: critical force gain K_f,cr (chapter §5, eq. 32-34).
+
+    ``filter`` is the Butterworth D(z), ``{"cutoff_hz": f_c [Hz], "order": n}``.
+    """
+    from service.schemas.feedforward import ForceFeedforwardResponse
+
+    return Call("POST", "/v1/analysis/force-feedforward", "analysis", _model(ForceFeedforwardResponse),
+                json=_body(device=device, filter=filter))
+
+
+def design_stiffness(device: DeviceLike, requirements: PartLike | None = None) -> Call[StiffnessDesignResponse]:
+    """``POST /v1/design/stiffness``: the stiffest safe wall K [N/m] with its damping B [N·s/m]."""
+    return Call("POST", "/v1/design/stiffness", "design", _model(StiffnessDesignResponse),
+                json=_body(device=device, requirements=requirements))
+
+
+def design_inertia(device: DeviceLike, requirements: PartLike | None = None) -> Call[InertiaResponse]:
+    """``POST /v1/design/inertia``: force-feedforward gain K_f, filter cutoff [Hz] and apparent mass [kg]."""
+    from service.schemas.feedforward import InertiaResponse
+
+    return Call("POST", "/v1/design/inertia", "design", _model(InertiaResponse),
+                json=_body(device=device, requirements=requirements))
+
+
+def simulate(device: DeviceLike, scene: PartLike) -> Call[SimulateResponse]:
+    """``POST /v1/simulate``: run a scene (release, push or relay) and read its verdict."""
+    return Call("POST", "/v1/simulate", "simulate", _model(SimulateResponse), json=_body(device=device, scene=scene))
+
+
+def plot_simulation(device: DeviceLike, scene: PartLike, *, format: ImageFormat = "png") -> Call[Plot]:  # noqa: A002
+    """``POST /v1/plots/simulation?format=``: the scene drawn as position, force and energy."""
+    return Call("POST", "/v1/plots/simulation", "plot", _image, json=_body(device=device, scene=scene),
+                params={"format": format})
+
+
+def plot_boundary(device: DeviceLike, *, damping_max: float | None = None, points: int | None = None,
+                  format: ImageFormat = "png") -> Call[Plot]:  # noqa: A002
+    """``POST /v1/plots/boundary``: the stability boundary K_cr(B) with its optimum."""
+    return Call("POST", "/v1/plots/boundary", "plot", _image,
+                json=_body(device=device, damping_max=damping_max, points=points, format=format))
+
+
+def plot_bode(device: DeviceLike, controller: PartLike | None = None, *, points: int | None = None,
+              format: ImageFormat = "png") -> Call[Plot]:  # noqa: A002
+    """``POST /v1/plots/bode``: Bode diagram of the sampled loop with the crossovers of K_cr(B) marked."""
+    return Call("POST", "/v1/plots/bode", "plot", _image,
+                json=_body(device=device, controller=controller, points=points, format=format))
+
+
+def submit_study(request: PartLike) -> Call[StudyCreated]:
+    """``POST /v1/studies``: queue a design-space study (problem, base device, sweep); answers its id."""
+    from service.schemas.studies import StudyCreated
+
+    return Call("POST", "/v1/studies", "submit", _model(StudyCreated), json=_part(request))
+
+
+def study(study_id: str) -> Call[StudyStatus]:
+    """``GET /v1/studies/{id}``: status, progress and rate of a study."""
+    from service.schemas.studies import StudyStatus
+
+    return Call("GET", f"/v1/studies/{_id(study_id)}", "read", _model(StudyStatus))
+
+
+def study_results(study_id: str, *, offset: int | None = None, limit: int | None = None) -> Call[StudyResults]:
+    """``GET /v1/studies/{id}/results``: one page of result rows (``next_offset`` gives the next)."""
+    from service.schemas.studies import StudyResults
+
+    params = {k: v for k, v in (("offset", offset), ("limit", limit)) if v is not None}
+    return Call("GET", f"/v1/studies/{_id(study_id)}/results", "results", _model(StudyResults), params=params)
+
+
+def plot_study(study_id: str, y: str, x: str, *, x2: str | None = None,
+               format: ImageFormat = "png") -> Call[Plot]:  # noqa: A002
+    """``GET /v1/studies/{id}/plot``: result ``y`` against swept path ``x`` (line) or ``x`` and ``x2`` (map)."""
+    params = {"y": y, "x": x, "format": format, **({"x2": x2} if x2 is not None else {})}
+    return Call("GET", f"/v1/studies/{_id(study_id)}/plot", "plot", _image, params=params)
+
+
+def _id(study_id: str) -> str:
+    # An id is a path segment: refuse anything that would change the path.
+    if not study_id or any(ch in study_id for ch in "/?#%") or study_id in (".", ".."):
+        raise ValueError(f"study_id: {study_id!r} is not a study id")
+    return study_id

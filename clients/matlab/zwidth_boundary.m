@@ -1,0 +1,21 @@
+function r = zwidth_boundary(device, opts)
+%ZWIDTH_BOUNDARY  The stability boundary K_cr(B) from B = 0 to B_max and the B allowing the stiffest wall.
+%
+%   r = zwidth_boundary(struct('preset', 'lhifam'))
+%   r = zwidth_boundary(device, struct('points', 80, 'damping_max', 150))
+%
+%   OPTS takes points (values of B on the curve, default 50), damping_max
+%   [N*s/m] (default B_max) and the connection options of ZWIDTH_REQUEST.
+%
+%   r.points is a struct array with fields damping [N*s/m], critical_stiffness
+%   [N/m], crossover_frequency [rad/s] and linear_estimate [N/m]; r.optimum is
+%   the point of largest K_cr; r.max_stable_damping is B_max [N*s/m].
+%
+%   See also ZWIDTH_ANALYZE, ZWIDTH_DESIGN_STIFFNESS, ZWIDTH_REQUEST.
+
+  if nargin < 2, opts = struct(); end
+  body = struct('device', device);
+  if isfield(opts, 'points'), body.points = opts.points; end
+  if isfield(opts, 'damping_max'), body.damping_max = opts.damping_max; end
+  r = zwidth_request('POST', '/v1/analysis/boundary', body, opts);
+end

@@ -1,0 +1,220 @@
+"""Every ``zwidth`` command against the real server process (CliRunner, --url at it), and --local beside it.
+
+Exit codes under test: 0 ok, 1 the answer is no, 2 usage/validation, 3 service/transport.
+"""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from typer.testing import CliRunner
+
+from clients.cli import app
+
+from .conftest import has_route, without_timings
+
+runner = CliRunner()
+
+
+@pytest.fixture(autouse=True)
+def _env(server, monkeypatch):
+    monkeypatch.setenv("ZWIDTH_URL", server.url)
+    monkeypatch.delenv("ZWIDTH_API_TOKEN", raising=False)
+
+
+def run(*args: str, code: int = 0):
+    result = runner.invoke(app, list(args))
+    assert result.exit_code == code, (result.exit_code, result.stdout, result.stderr, result.exception)
+    return result
+
+
+def run_json(*args: str, code: int = 0):
+    return json.loads(run(*args, "--json", code=code).stdout)
+
+
+def local_equals_remote(*args: str, code: int = 0) -> dict:
+    """The same command --local and against the server: identical JSON, number for number (timings aside)."""
+    remote = run_json(*args, code=code)
+    local = run_json(*args, "--local", code=code)
+    assert without_timings(local) == without_timings(remote)
+    return remote
+
+
+# ------------------------------------------------------------------------------------------------ presets
+def test_presets():
+    data = run_json("presets")
+    assert data["lhifam"]["cable"]["stiffness"] == 79500.0 and data["phantom-1.0"]["human"] is None
+    assert "lhifam-reduced-pretension" in run("presets").stdout
+
+
+# ------------------------------------------------------------------------------------------------ analyze
+def test_analyze_local_and_remote_are_identical():
+    r = local_equals_remote("analyze", "lhifam", "--set", "device.delay=1e-3", "--stiffness", "3500", "--damping", "5")
+    assert r["stable"] is True and r["damping"] == 5.0
+
+
+def test_analyze_table_and_the_rigid_preset_values():
+    """Chapter Table 3: rigid LHifAM K_cr = 7000.756 N/m (76.90 dB), cable 8848.7 N/m (78.94 dB)."""
+    r = run_json("analyze", "lhifam")
+    assert r["critical_stiffness"] == pytest.approx(8848.7, rel=1e-5)
+    assert r["rigid_critical_stiffness"] == pytest.approx(7000.756, rel=1e-6)
+    text = run("analyze", "lhifam").stdout
+    assert "critical stiffness K_cr" in text and "8848.71" in text
+
+
+def test_analyze_all_presets():
+    data = run_json("analyze", "all")
+    assert set(data) == {"lhifam", "lhifam-reduced-pretension", "phantom-1.0"}
+    assert "stability of every preset" in run("analyze", "all").stdout
+
+
+def test_analyze_an_unstable_wall_exits_1():
+    r = run_json("analyze", "lhifam", "--set", "device.cable=null", "--stiffness", "8000", code=1)
+    assert r["stable"] is False and r["gain_margin_db"] < 0
+
+
+def test_device_file_json_and_yaml(tmp_path):
+    (tmp_path / "dev.json").write_text(json.dumps({"mass": 5.4, "damping": 3.5, "delay": 0.001}))
+    (tmp_path / "dev.yaml").write_text("mass: 5.4\ndamping: 3.5\ndelay: 0.0005\n")
+    a = run_json("analyze", "--device-file", str(tmp_path / "dev.json"))
+    b = run_json("analyze", "--device-file", str(tmp_path / "dev.yaml"), "--set", "device.delay=0.001")
+    assert without_timings(a) == without_timings(b)
+
+
+def test_usage_errors_exit_2():
+    r = run("analyze", "lhifam", "--set", "delay=1e-3", code=2)
+    assert "device." in r.stderr
+    run("analyze", "lhifam", "--set", "device.delay", code=2)
+    run("analyze", code=2)                                         # no device at all
+    run("analyze", "lhifam", "--damping", "5", code=2)             # B without K
+    run("analyze", "lhifam", "--nonsense", code=2)                 # typer's own usage error
+
+
+def test_a_422_exits_2_naming_the_field():
+    r = run("analyze", "lhifam", "--set", "device.delay=-1", code=2)
+    assert "device.delay" in r.stderr and "greater than or equal to 0" in r.stderr
+    r = run("analyze", "no-such-preset", code=2)
+    assert "preset" in r.stderr
+
+
+def test_no_server_exits_3(dead_url):
+    r = run("analyze", "lhifam", "--url", dead_url, code=3)
+    assert "no answer from the service" in r.stderr and "3 attempts" in r.stderr
+
+
+# ------------------------------------------------------------------------------------------------ design
+def test_design_stiffness_local_and_remote_are_identical():
+    r = local_equals_remote("design", "stiffness", "lhifam", "--set", "device.delay=1e-3", "--margin", "6")
+    assert r["status"] == "optimal" and r["gain_margin_db"] == pytest.approx(6.0, abs=1e-9)
+    assert "stiffness design" in run("design", "stiffness", "lhifam", "--set", "device.delay=1e-3").stdout
+
+
+def test_design_stiffness_requirements_by_set_and_infeasible_exits_1():
+    r = run_json("design", "stiffness", "--set", "device.mass=2", "--set", "device.damping=0",
+                 "--set", "requirements.passivity=true", code=1)
+    assert r["status"] == "infeasible" and r["reason"]
+
+
+@pytest.mark.skipif(not has_route("/v1/design/inertia"),
+                    reason="POST /v1/design/inertia is not in this build yet (branch inertia)")
+def test_design_inertia_local_and_remote_are_identical():
+    r = local_equals_remote("design", "inertia", "lhifam", "--set", "device.cable=null",
+                            "--set", "requirements.pareto_points=3", "--margin", "6")
+    assert r["status"] == "optimal" and r["apparent_mass"] < 5.4
+    assert "inertia design" in run("design", "inertia", "lhifam", "--set", "device.cable=null",
+                                   "--set", "requirements.pareto_points=3").stdout
+
+
+@pytest.mark.skipif(not has_route("/v1/analysis/force-feedforward"),
+                    reason="POST /v1/analysis/force-feedforward is not in this build yet (branch inertia)")
+def test_feedforward_local_and_remote_are_identical():
+    r = local_equals_remote("feedforward", "lhifam", "--set", "device.cable=null", "--cutoff-hz", "30")
+    assert r["critical_force_gain"] > 0 and r["model"] == "rigid"
+    assert "force feedforward" in run("feedforward", "lhifam").stdout
+
+
+# ------------------------------------------------------------------------------------------------ simulate
+SCENE = ("--experiment", "release", "--duration", "0.5", "--position", "1e-3")
+
+
+def test_simulate_local_and_remote_are_identical():
+    r = local_equals_remote("simulate", "lhifam", "--set", "device.cable=null", *SCENE, "--stiffness", "3000")
+    assert r["verdict"]["state"] == "stable"
+    assert "verdict" in run("simulate", "lhifam", "--set", "device.cable=null", *SCENE, "--stiffness", "3000").stdout
+
+
+def test_simulate_above_the_critical_stiffness_exits_1(tmp_path):
+    """Rigid LHifAM K_cr = 7000.756 N/m: a wall at 9000 N/m grows (scene given as a YAML file)."""
+    (tmp_path / "scene.yaml").write_text("experiment: release\nduration: 2.0\ncontroller: {stiffness: 9000}\n"
+                                         "initial: {position: 0.001}\n")
+    r = run_json("simulate", "lhifam", "--set", "device.cable=null", "--scene-file", str(tmp_path / "scene.yaml"),
+                 code=1)
+    assert r["verdict"]["state"] == "unstable"
+
+
+# ------------------------------------------------------------------------------------------------ plot
+def test_plot_simulation(tmp_path):
+    out = tmp_path / "sim.svg"
+    run("plot", "simulation", "lhifam", "--set", "device.cable=null", *SCENE, "--stiffness", "3000", "-o", str(out))
+    assert b"<svg" in out.read_bytes()[:500]
+    run("plot", "simulation", "lhifam", *SCENE, "-o", str(tmp_path / "x.gif"), code=2)
+
+
+@pytest.mark.skipif(not has_route("/v1/plots/boundary"),
+                    reason="POST /v1/plots/boundary is not in this build yet (branch service)")
+def test_plot_boundary(tmp_path):
+    out = tmp_path / "b.png"
+    r = run("plot", "boundary", "lhifam", "--points", "10", "-o", str(out))
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and str(out) in r.stdout
+
+
+@pytest.mark.skipif(not has_route("/v1/plots/bode"),
+                    reason="POST /v1/plots/bode is not in this build yet (branch service)")
+def test_plot_bode(tmp_path):
+    out = tmp_path / "bode.svg"
+    run("plot", "bode", "lhifam", "--stiffness", "3500", "--damping", "5", "--points", "50", "-o", str(out))
+    assert b"<svg" in out.read_bytes()[:500]
+
+
+# ------------------------------------------------------------------------------------------------ serve, bench
+def test_serve_is_the_session_server(server):
+    """The session server was started with `python -m clients.cli serve --host … --port …` (conftest)."""
+    assert server.process.args[1:4] == ["-m", "clients.cli", "serve"]
+    assert json.loads(run("presets", "--json", "--url", server.url).stdout)
+
+
+def test_bench_commands_pass_their_options(monkeypatch, tmp_path):
+    """Wiring only: the benchmarks themselves are run (tiny versions) by tests/bench."""
+    import bench.accuracy_vs_time
+    import bench.bench_core
+
+    seen = {}
+    monkeypatch.setattr(bench.accuracy_vs_time, "main", lambda argv: seen.setdefault("accuracy", argv))
+    monkeypatch.setattr(bench.bench_core, "main", lambda argv: seen.setdefault("core", argv))
+    run("bench", "accuracy", "--quick", "--repeats", "2", "--out", str(tmp_path / "a.md"))
+    run("bench", "core", "--repeats", "3", "--out", str(tmp_path / "c.md"))
+    assert seen == {"accuracy": ["--quick", "--repeats", "2", "--out", str(tmp_path / "a.md")],
+                    "core": ["--repeats", "3", "--out", str(tmp_path / "c.md")]}
+
+
+@pytest.mark.skipif(not has_route("/v1/studies"), reason="POST /v1/studies is not in this build yet (branch studies)")
+def test_plot_study(server, tmp_path):
+    import time
+
+    from clients import ZwidthClient
+
+    with ZwidthClient(server.url) as zw:
+        created = zw.submit_study({"problem": "stability", "base": {"device": {"mass": 5.4, "damping": 3.5}},
+                                   "sweep": {"device.delay": [0.0, 0.001, 0.002]}})
+        deadline = time.monotonic() + 60
+        while (st := zw.study(created.id)).status in ("queued", "running") and time.monotonic() < deadline:
+            time.sleep(0.2)
+        assert st.status == "done" and st.done == 3
+        rows = zw.study_results(created.id).rows
+    assert len(rows) == 3
+    out = tmp_path / "study.svg"
+    run("plot", "study", created.id, "--y", "critical_stiffness", "--x", "device.delay", "-o", str(out))
+    assert b"<svg" in out.read_bytes()[:500]
+    r = run("plot", "study", created.id, "--y", "nonsense", "--x", "device.delay", "-o", str(out), code=2)
+    assert "y" in r.stderr
