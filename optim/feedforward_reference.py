@@ -203,7 +203,7 @@ def reference_critical_force_gain(device: Device, human: Human, filter_order: in
                                   digits: int = REFERENCE_DIGITS) -> FeedforwardReference:
     """K_f,cr of 1 + K_f·D(z)·G_1(z) at ``digits`` digits (see module doc); no filter when cutoff_hz is None."""
     if device.delay_samples > MAX_REFERENCE_DELAY_SAMPLES:
-        raise ValueError(f"delay: the reference rung is capped at {MAX_REFERENCE_DELAY_SAMPLES} samples of delay "
+        raise ValueError(f"device.delay: the reference rung is capped at {MAX_REFERENCE_DELAY_SAMPLES} samples of delay "
                          "(its cost grows linearly with the delay)")
     with mp.workdps(digits + _GUARD):
         g1 = _G1(device, human)

@@ -8,8 +8,10 @@ import time
 
 from fastapi import APIRouter
 
-from optim.stiffness import StiffnessRequirements, design_stiffness
+from optim.design_ladder import design_stiffness_on_rung
+from optim.stiffness import StiffnessRequirements
 from service.schemas.design_stiffness import StiffnessDesignRequest, StiffnessDesignResponse
+from service.schemas.ladder import rung_fields
 
 router = APIRouter()
 
@@ -31,9 +33,9 @@ def design_stiffness_route(request: StiffnessDesignRequest) -> StiffnessDesignRe
     t0 = time.perf_counter()
     req = StiffnessRequirements(**request.requirements.model_dump())
     try:
-        design = design_stiffness(request.device, req)
+        design, rung = design_stiffness_on_rung(request.device, req, request.method, request.grid_points)
     except (RuntimeError, ArithmeticError, ValueError) as exc:   # CasADi raises RuntimeError on solver trouble
         return StiffnessDesignResponse(status="failed", reason=f"solver trouble: {exc}",
                                        elapsed_ms=(time.perf_counter() - t0) * 1e3)
     data = _finite(dataclasses.asdict(design))
-    return StiffnessDesignResponse(**data)
+    return StiffnessDesignResponse(**data, **rung_fields(rung))

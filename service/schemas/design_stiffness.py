@@ -8,6 +8,8 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from models.device import Device
 
+from .ladder import ExactCheckOut, GridPointsField, Method, MethodField
+
 __all__ = ["StiffnessRequirementsIn", "StiffnessDesignRequest", "SensitivityOut", "StiffnessDesignResponse"]
 
 _STRICT = ConfigDict(extra="forbid", allow_inf_nan=False)
@@ -49,6 +51,8 @@ class StiffnessDesignRequest(BaseModel):
 
     device: Device
     requirements: StiffnessRequirementsIn = Field(default_factory=StiffnessRequirementsIn)
+    method: Method = MethodField()
+    grid_points: int = GridPointsField()
 
 
 class SensitivityOut(BaseModel):
@@ -80,3 +84,7 @@ class StiffnessDesignResponse(BaseModel):
     elapsed_ms: float
     setup_ms: float | None = Field(None, description="boundary sampling and seeding [ms]")
     solve_ms: float | None = Field(None, description="NLP solves, exact re-checks and sensitivities [ms]")
+    method: Method = "exact"
+    error_estimate: float | None = Field(None, description="relative error bound/estimate of critical_stiffness")
+    error_source: str | None = None
+    exact_check: ExactCheckOut | None = Field(None, description="exact margin of a linear or grid design")
