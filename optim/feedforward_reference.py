@@ -112,10 +112,10 @@ class _G1:
             self.direct = num[0] / den[0]
             num = _trim(_padd(num, [-self.direct * x for x in den]))
         den_s = den + [mp.mpf(0)]                                  # G(s)/s
-        self.poles = mp.polyroots(den_s, maxsteps=800, extraprec=400)
+        self.poles = mp.polyroots(den_s[::-1], maxsteps=800, extraprec=400, asc=True)
         dden = [x * (len(den_s) - 1 - i) for i, x in enumerate(den_s[:-1])]
-        self.residues = [mp.polyval(num, p) / mp.polyval(dden, p) for p in self.poles]
-        self.zeros = mp.polyroots(num, maxsteps=800, extraprec=400) if len(num) > 1 else []
+        self.residues = [mp.polyval(num[::-1], p, asc=True) / mp.polyval(dden[::-1], p, asc=True) for p in self.poles]
+        self.zeros = mp.polyroots(num[::-1], maxsteps=800, extraprec=400, asc=True) if len(num) > 1 else []
         delay = mp.mpf(device.delay) / self.t
         self.d = int(mp.floor(delay + mp.mpf(10) ** (-30)))
         frac = delay - self.d
