@@ -23,8 +23,9 @@ order of size on the chapter's devices:
 
 The estimate evaluates a *plateau model* in which (1) is kept exactly — ρ_h times
 the ZOH-sampled first-order sensor lag with the whole and fractional delay
-(closed form) times D(z) — and finds its crossing on 96 angles plus secant steps
-(~0.1 ms); (2) and (3) are bounded by the continuous ratio R(jω) = G_1,c(jω)/ρ_h of
+(closed form) times D(z) — and finds its first crossing by marching in steps the
+delay's and the filter's phase cannot outrun, then bisecting (scalar arithmetic,
+~0.05-0.2 ms); (2) and (3) are bounded by the continuous ratio R(jω) = G_1,c(jω)/ρ_h of
 the full and the plateau model at that crossing and at the cable mode's peak.
 The estimate is |K_lin/K_a − 1| + 2·|R(jω_x) − 1| with K_a the lower of the plateau
 crossing and the peak bound; the benchmark (bench/accuracy_vs_time.py) and
@@ -42,7 +43,7 @@ import numpy as np
 
 from models.device import Device, Human
 from models.feedforward import feedforward_plant
-from models.filters import ButterworthLowPass, butterworth_polynomial, butterworth_response
+from models.filters import ButterworthLowPass, butterworth_polynomial
 
 from .analysis import METHODS, DEFAULT_GRID_POINTS, MAX_GRID_POINTS
 from .feedforward import (ForceCrossover, critical_force_gain, resolve_human, worst_case_force_gain)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from models.device import Device, Human
+from models.device import Device
 from models.feedforward import CHAPTER_HUMAN, feedforward_plant
 from models.filters import ButterworthLowPass
 from optim.feedforward import apparent_mass, critical_force_gain, worst_case_force_gain
