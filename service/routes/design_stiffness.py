@@ -9,11 +9,13 @@ import time
 from fastapi import APIRouter
 from fastapi.exceptions import RequestValidationError
 
+from optim.design_ladder import design_stiffness_on_rung
 from optim.robust.box import UncertaintyBox
 from optim.robust.stiffness import robust_design_stiffness
-from optim.stiffness import StiffnessRequirements, design_stiffness
+from optim.stiffness import StiffnessRequirements
 from service.errors import NumericInputError
 from service.schemas.design_stiffness import StiffnessDesignRequest, StiffnessDesignResponse
+from service.schemas.ladder import rung_fields
 
 router = APIRouter()
 
@@ -36,14 +38,16 @@ def design_stiffness_route(request: StiffnessDesignRequest) -> StiffnessDesignRe
     fields = request.requirements.model_dump(exclude={"uncertainty"})
     req = StiffnessRequirements(**fields)
     if request.requirements.uncertainty is not None:
+        if request.method != "exact":
+            raise NumericInputError("method", "robust designs (requirements.uncertainty) are computed on the exact rung only")
         return _robust(request, req, t0)
     try:
-        design = design_stiffness(request.device, req)
+        design, rung = design_stiffness_on_rung(request.device, req, request.method, request.grid_points)
     except (RuntimeError, ArithmeticError, ValueError) as exc:   # CasADi raises RuntimeError on solver trouble
         return StiffnessDesignResponse(status="failed", reason=f"solver trouble: {exc}",
                                        elapsed_ms=(time.perf_counter() - t0) * 1e3)
     data = _finite(dataclasses.asdict(design))
-    return StiffnessDesignResponse(**data)
+    return StiffnessDesignResponse(**data, **rung_fields(rung))
 
 
 def input_error(exc: ValueError) -> Exception:

@@ -8,6 +8,8 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from models.device import Device
 
+from .ladder import ExactCheckOut, GridPointsField, Method, MethodField
+
 __all__ = ["StiffnessRequirementsIn", "StiffnessDesignRequest", "SensitivityOut", "StiffnessDesignResponse",
            "RangeIn", "WorstCaseOut"]
 
@@ -61,6 +63,8 @@ class StiffnessDesignRequest(BaseModel):
 
     device: Device
     requirements: StiffnessRequirementsIn = Field(default_factory=StiffnessRequirementsIn)
+    method: Method = MethodField()
+    grid_points: int = GridPointsField()
 
 
 class SensitivityOut(BaseModel):
@@ -107,3 +111,7 @@ class StiffnessDesignResponse(BaseModel):
     evaluations: int | None = Field(None, description="robust design: exact analyses of the worst-case searches")
     ignored_paths: list[str] | None = Field(None, description="uncertain paths that do not enter the stiffness loop "
                                                              "(the user's grasp, the force sensor)")
+    method: Method = "exact"
+    error_estimate: float | None = Field(None, description="relative error bound/estimate of critical_stiffness")
+    error_source: str | None = None
+    exact_check: ExactCheckOut | None = Field(None, description="exact margin of a linear or grid design")

@@ -8,9 +8,11 @@ from pydantic import BaseModel, Field, model_validator
 
 from models.device import Human
 from models.filters import MAX_FILTER_ORDER
+from optim.analysis import DEFAULT_GRID_POINTS, MAX_GRID_POINTS
 
 from .common import STRICT, Device
 from .design_stiffness import RangeIn
+from .ladder import ExactCheckOut, GridPointsField, Method, MethodField
 
 _LHIFAM_FF = {"mass": 5.4, "damping": 3.5, "sample_time": 0.001,
               "human": {"mass": 2, "damping": 2, "stiffness": 10}, "force_sensor": {"time_constant": 0.005}}
@@ -28,6 +30,11 @@ class ForceFeedforwardRequest(BaseModel):
         {"device": {"preset": "lhifam"}, "filter": {"cutoff_hz": 30, "order": 2}}]}}
     device: Device = Field(description="needs a human block (else the chapter's eq. 30 grasp is used, and said)")
     filter: FilterIn | None = Field(default=None, description="Butterworth D(z), prewarped bilinear; none by default")
+    method: Literal["linear", "grid", "exact", "reference"] = Field(
+        default="exact", description="rung of the accuracy ladder: linear = eq. 33 (1 + m/m_h, large delays), "
+                                     "grid = fixed log grid, exact, reference = 40-digit mpmath (slow)")
+    grid_points: int = Field(default=DEFAULT_GRID_POINTS, ge=10, le=MAX_GRID_POINTS,
+                             description="frequency samples for method=grid")
 
 
 class ForceCrossoverOut(BaseModel):
@@ -55,6 +62,9 @@ class ForceFeedforwardResponse(BaseModel):
     force_sensor_time_constant: float = Field(description="T_f [s] used (0: no sensor filter)")
     method: str
     elapsed_ms: float
+    error_estimate: float | None = Field(default=None, description="relative error bound/estimate of "
+                                         "critical_force_gain (null when not finite)")
+    error_source: str | None = None
     reason: str | None
     notes: list[str]
 
@@ -109,6 +119,8 @@ class InertiaRequest(BaseModel):
         {"device": {"preset": "lhifam"}, "requirements": {"human_mass_range": {"min": 0.05, "max": 4}}}]}}
     device: Device
     requirements: InertiaRequirementsIn = Field(default_factory=InertiaRequirementsIn)
+    method: Method = MethodField()
+    grid_points: int = GridPointsField()
 
 
 class ParetoPointOut(BaseModel):
@@ -155,3 +167,7 @@ class InertiaResponse(BaseModel):
     scenarios: list[dict[str, float]] | None = Field(default=None, description="robust: box points used")
     iterations: int | None = Field(default=None, description="robust: scenario-exchange rounds")
     evaluations: int | None = Field(default=None, description="robust: exact analyses of the worst-case searches")
+    method: Method = "exact"
+    error_estimate: float | None = Field(None, description="relative error bound/estimate of critical_force_gain")
+    error_source: str | None = None
+    exact_check: ExactCheckOut | None = Field(None, description="exact margin of a linear or grid design")
