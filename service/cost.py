@@ -15,7 +15,7 @@ from models.device import Device
 
 from .errors import NumericInputError
 
-__all__ = ["MAX_REFERENCE_DELAY_SAMPLES", "check_reference_cost", "stability_cost_ms", "boundary_cost_ms"]
+__all__ = ["MAX_REFERENCE_DELAY_SAMPLES", "check_reference_cost", "stability_cost_ms", "boundary_cost_ms", "bode_cost_ms"]
 
 #: Cost limit of the ``reference`` rung: the loop delay it accepts, in sample periods.
 #: At this limit one reference analysis costs ≈ 2.5 s (rigid) to ≈ 25 s (cable).
@@ -54,3 +54,9 @@ def stability_cost_ms(device: Device, method: str, damping: float, grid_points: 
 def boundary_cost_ms(device: Device, points: int) -> float:
     """Estimated cost [ms] of one ``stability_boundary`` call (B_max, the points, the refined optimum)."""
     return (points + 25) * _exact_ms(device, 1.0)
+
+
+def bode_cost_ms(device: Device, damping: float, points: int) -> float:
+    """Estimated cost [ms] of one ``loop_frequency_response`` call (one exact K_cr plus the grid)."""
+    per_point = 0.02 if device.cable is not None else 0.001
+    return _exact_ms(device, damping) + per_point * points

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import logging
 import math
+import re
 from typing import Any
 
 from fastapi import FastAPI, Request
@@ -57,10 +58,28 @@ def json_safe(value: Any) -> Any:
     return value
 
 
+# A model validator's message "field: rule" (models.device, optim) names the field it is about.
+_FIELD_RULE = re.compile(r"(?:Value error, )?([a-z_][a-z0-9_]*(?:\.[a-z_][a-z0-9_]*)*): (.+)", re.DOTALL)
+
+
+def _name_the_field(e: dict[str, Any]) -> dict[str, Any]:
+    """loc ["body", "device"] + msg "Value error, mass: …" → loc ["body", "device", "mass"], msg "…"."""
+    if e.get("type") != "value_error":
+        return e
+    m = _FIELD_RULE.fullmatch(str(e.get("msg", "")))
+    if m is None:
+        return e
+    loc = list(e.get("loc", ()))
+    field = m.group(1).split(".")
+    if loc[-len(field):] != field:
+        loc += field
+    return {**e, "loc": loc, "msg": m.group(2)}
+
+
 def _errors_body(errors: list[dict[str, Any]]) -> dict[str, Any]:
     clean = []
     for e in errors:
-        e = dict(e)
+        e = _name_the_field(dict(e))
         e.pop("url", None)
         ctx = e.get("ctx")
         if isinstance(ctx, dict):
