@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import importlib
 import pkgutil
+import threading
 from contextlib import asynccontextmanager
 from typing import AsyncIterator
 
@@ -57,6 +58,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     @asynccontextmanager
     async def lifespan(_: FastAPI) -> AsyncIterator[None]:
+        if settings.prestart_workers:
+            # In the background: the server answers /healthz while the workers start.
+            threading.Thread(target=executor.warm_up, name="zwidth-warm-up", daemon=True).start()
         yield
         executor.shutdown()
 

@@ -26,8 +26,9 @@ def bearer_auth(token: str) -> Callable[..., None]:
         if credentials is None:
             raise HTTPException(status_code=401, detail="missing bearer token: send 'Authorization: Bearer <token>'",
                                 headers={"WWW-Authenticate": 'Bearer realm="zwidth"'})
-        # Constant-time comparison: the time taken must not tell how much of a guess was right.
-        if not hmac.compare_digest(credentials.credentials.encode("utf-8"), expected):
+        # Constant-time comparison: the time taken must not tell how much of a guess was right.  Starlette
+        # decodes header bytes as latin-1; encoding back gives the bytes sent (a UTF-8 token compares as UTF-8).
+        if not hmac.compare_digest(credentials.credentials.encode("latin-1"), expected):
             raise HTTPException(status_code=401, detail="invalid bearer token",
                                 headers={"WWW-Authenticate": 'Bearer realm="zwidth", error="invalid_token"'})
 

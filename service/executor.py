@@ -42,6 +42,8 @@ __all__ = ["ComputeTimeout", "ComputeUnavailable", "BoundedExecutor", "Compute",
 T = TypeVar("T")
 _log = logging.getLogger("zwidth.executor")
 
+#: Longest wait for a new worker to start (the forkserver's first start imports numpy, scipy and the numerics).
+STARTUP_TIMEOUT = 60.0
 #: Modules the forkserver imports once, so that every worker starts warm.
 PRELOAD = ("numpy", "scipy.optimize", "service.executor", "service._warm")
 
@@ -62,7 +64,8 @@ class ComputeUnavailable(Exception):
 
 
 def _serve(conn: Connection) -> None:
-    """Worker loop: receive (fn, args, kwargs), send back ("ok", value) or ("err", exception)."""
+    """Worker loop: say "ready", then receive (fn, args, kwargs), send back ("ok", value) or ("err", exception)."""
+    conn.send(("ready", None))
     while True:
         try:
             fn, args, kwargs = conn.recv()
@@ -85,6 +88,17 @@ class _Worker:
         self.process.start()
         child.close()
         self.conn: Connection = parent
+        self.ready = False
+
+    def wait_ready(self, timeout: float) -> None:
+        """Wait for the worker's greeting: its start-up (a fork, or the forkserver's first start with
+        imports) is not the caller's computation and does not count against the request budget."""
+        if self.ready:
+            return
+        if not self.conn.poll(timeout):
+            raise TimeoutError
+        self.conn.recv()
+        self.ready = True
 
     def call(self, fn: Callable[..., T], args: tuple, kwargs: dict, timeout: float) -> tuple[bool, Any]:
         """(True, value) or (False, exception raised by fn); TimeoutError past ``timeout``, EOFError if it died."""
@@ -162,11 +176,18 @@ class BoundedExecutor:
         if cost_ms is not None and cost_ms < self.inline_cost_ms:
             return fn(*args, **kwargs)
         budget = self.timeout if timeout is None else timeout
-        deadline = time.monotonic() + budget
+        t0 = time.monotonic()
         if not self._slots.acquire(timeout=budget):
             raise ComputeTimeout(budget, waiting=True)
+        queued = time.monotonic() - t0  # waiting for a free worker counts against the budget
         try:
             worker = self._take()
+            try:
+                worker.wait_ready(STARTUP_TIMEOUT)
+            except (TimeoutError, EOFError, OSError):
+                self._replace(worker)
+                raise ComputeUnavailable("a compute worker failed to start; it was replaced") from None
+            deadline = time.monotonic() + budget - queued
             try:
                 ok, value = worker.call(fn, args, kwargs, deadline - time.monotonic())
             except TimeoutError:
@@ -195,9 +216,13 @@ class BoundedExecutor:
         for _ in range(self.workers):
             if self._slots.acquire(blocking=False):
                 started.append(self._take())
-        for w in started:
-            self._give(w)
-            self._slots.release()
+        try:
+            for w in started:
+                w.wait_ready(STARTUP_TIMEOUT)
+        finally:
+            for w in started:
+                self._give(w)
+                self._slots.release()
 
     def shutdown(self) -> None:
         with self._lock:

@@ -27,6 +27,8 @@ class Settings(BaseSettings):
                                    description="compute budget of one request [s]; a bounded call past it answers 503")
     compute_workers: int = Field(default=2, ge=1, le=64,
                                  description="worker processes for expensive (bounded) numerics calls")
+    prestart_workers: bool = Field(default=True,
+                                   description="start the compute workers when the app starts (else on first use)")
     cors_origins: Annotated[list[str], NoDecode] = Field(
         default_factory=list, description="allowed CORS origins, comma-separated (none by default: CORS off)")
     database_url: str = Field(default="sqlite:///zwidth.db", description="study store (SQLAlchemy URL)")

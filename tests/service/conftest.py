@@ -25,6 +25,7 @@ LHIFAM_RIGID = {"mass": 5.4, "damping": 3.5, "sample_time": 0.001}
 
 def make_client(**settings) -> TestClient:
     """A TestClient on a fresh app; ``settings`` override the defaults (no environment read for them)."""
+    settings.setdefault("prestart_workers", False)  # most tests never need a worker process
     return TestClient(create_app(Settings(**settings)), raise_server_exceptions=False)
 
 
