@@ -16,6 +16,8 @@ from typing import Literal
 import matplotlib
 
 matplotlib.use("Agg")  # headless: no display, no GUI toolkit
+# SVG element ids are random unless salted: a fixed salt makes equal requests give equal files.
+matplotlib.rcParams["svg.hashsalt"] = "zwidth"
 
 import numpy as np  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
