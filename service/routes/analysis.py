@@ -55,7 +55,7 @@ def stability(req: Annotated[StabilityRequest, Body(openapi_examples=_STABILITY_
 
 @router.post("/boundary", response_model=BoundaryResponse, operation_id="stability_boundary",
              summary="The stability boundary K_cr(B) from B = 0 to B_max and the B allowing the stiffest wall")
-def boundary(req: Annotated[BoundaryRequest, Body(openapi_examples=device_examples(points=40))],
+def boundary(req: Annotated[BoundaryRequest, Body(openapi_examples=device_examples(points=20))],
              compute: Compute) -> BoundaryResponse:
     try:
         res = compute.run(stability_boundary, req.device, req.damping_max, req.points,

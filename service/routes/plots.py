@@ -26,7 +26,7 @@ _IMAGE = {200: {"description": "the figure", "content": {
 
 @router.post("/boundary", response_class=Response, responses=_IMAGE, operation_id="plot_boundary",
              summary="Figure of the stability boundary K_cr(B) with its optimum (PNG or SVG)")
-def plot_boundary(req: Annotated[BoundaryPlotRequest, Body(openapi_examples=device_examples(points=40, format="svg"))],
+def plot_boundary(req: Annotated[BoundaryPlotRequest, Body(openapi_examples=device_examples(points=20, format="svg"))],
                   compute: Compute) -> Response:
     try:
         res = compute.run(stability_boundary, req.device, req.damping_max, req.points,
