@@ -58,6 +58,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     @asynccontextmanager
     async def lifespan(_: FastAPI) -> AsyncIterator[None]:
+        executor.open()
         if settings.prestart_workers:
             # In the background: the server answers /healthz while the workers start.
             threading.Thread(target=executor.warm_up, name="zwidth-warm-up", daemon=True).start()

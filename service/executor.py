@@ -224,7 +224,13 @@ class BoundedExecutor:
                 self._give(w)
                 self._slots.release()
 
+    def open(self) -> None:
+        """Accept work again after :meth:`shutdown` (an app's lifespan may run more than once, e.g. in tests)."""
+        with self._lock:
+            self._closed = False
+
     def shutdown(self) -> None:
+        """Kill the idle workers; calls in flight finish, then their workers are killed too."""
         with self._lock:
             self._closed = True
             idle, self._idle = self._idle, []

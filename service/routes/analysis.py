@@ -10,6 +10,7 @@ from fastapi import APIRouter, Body
 
 from optim.analysis import analyse_stability
 from optim.boundary import stability_boundary
+from optim.domain import check_damping_domain
 
 from ..cost import boundary_cost_ms, check_reference_cost, stability_cost_ms
 from ..errors import NumericInputError
@@ -20,12 +21,25 @@ from ..schemas.common import device_examples
 router = APIRouter(prefix="/v1/analysis", tags=["analysis"])
 
 
-def field_error(exc: ValueError) -> NumericInputError:
-    """A numerics ValueError ("field: rule") as a 422 naming the field."""
+def field_error(exc: ValueError, prefix: str = "") -> NumericInputError:
+    """A numerics ValueError ("field: rule") as a 422 naming the field (under ``prefix``, e.g. "device.")."""
     text = str(exc)
     field, _, msg = text.partition(": ")
     ok = msg and field.replace(".", "").replace("_", "").isalnum()
-    return NumericInputError(field if ok else "device", msg if ok else text)
+    return NumericInputError(prefix + field if ok else "device", msg if ok else text)
+
+
+def require_damping_domain(device, damping: float, field: str) -> None:
+    """422 at ``field`` where the numerics cannot yet serve this B on this device (optim.domain)."""
+    try:
+        check_damping_domain(device, damping)
+    except ValueError as exc:
+        raise NumericInputError(field, str(exc).partition(": ")[2]) from exc
+
+
+def _finite_or_null(answer: dict) -> dict:
+    """Top-level non-finite floats become null (JSON has no inf/NaN); each such field says so in the schema."""
+    return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in answer.items()}
 
 
 _STABILITY_EXAMPLES = {
@@ -45,18 +59,21 @@ def stability(req: Annotated[StabilityRequest, Body(openapi_examples=_STABILITY_
     k = req.controller.stiffness if req.controller else None
     b = req.controller.damping if req.controller else 0.0
     check_reference_cost(req.device, req.method)
+    if req.method != "linear":  # eq. 10 is closed form: any b
+        require_damping_domain(req.device, b, "controller.damping")
     try:
         res = compute.run(analyse_stability, req.device, k, b, req.method, req.grid_points,
                           cost_ms=stability_cost_ms(req.device, req.method, b, req.grid_points))
     except ValueError as exc:
         raise field_error(exc) from exc
-    return StabilityResponse(**asdict(res))
+    return StabilityResponse(**_finite_or_null(asdict(res)))
 
 
 @router.post("/boundary", response_model=BoundaryResponse, operation_id="stability_boundary",
              summary="The stability boundary K_cr(B) from B = 0 to B_max and the B allowing the stiffest wall")
 def boundary(req: Annotated[BoundaryRequest, Body(openapi_examples=device_examples(points=20))],
              compute: Compute) -> BoundaryResponse:
+    require_damping_domain(req.device, math.inf, "device.damping")  # the boundary spans every B up to B_max
     try:
         res = compute.run(stability_boundary, req.device, req.damping_max, req.points,
                           cost_ms=boundary_cost_ms(req.device, req.points))

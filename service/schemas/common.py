@@ -2,11 +2,23 @@
 
 from __future__ import annotations
 
-from pydantic import BaseModel, ConfigDict, Field
+from typing import Annotated
 
-from models.device import Device
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field
+
+from models.device import Device as CoreDevice
+from optim.domain import check_device_domain
 
 STRICT = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+
+def _in_domain(device: CoreDevice) -> CoreDevice:
+    check_device_domain(device)  # ValueError("field: rule") → 422 at body.device.<field>
+    return device
+
+
+#: The device of every request: models.device.Device, inside the numerics' validated domain (optim.domain).
+Device = Annotated[CoreDevice, AfterValidator(_in_domain)]
 
 LHIFAM_RIGID = {"mass": 5.4, "damping": 3.5, "sample_time": 0.001}
 
