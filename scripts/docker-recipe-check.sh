@@ -15,6 +15,8 @@ SERVER_PID=""
 cleanup() {
     if [ -n "$SERVER_PID" ] && kill -0 "$SERVER_PID" 2>/dev/null; then
         kill "$SERVER_PID" 2>/dev/null || true
+        for _ in $(seq 1 100); do kill -0 "$SERVER_PID" 2>/dev/null || break; sleep 0.1; done
+        kill -9 "$SERVER_PID" 2>/dev/null || true
         wait "$SERVER_PID" 2>/dev/null || true
     fi
     rm -rf "$WORK"
@@ -80,7 +82,8 @@ print("\n".join(a.replace(":8000", ":" + sys.argv[2]) for a in json.load(open(sy
     "$WORK/recipe.json" "$PORT")
 
 echo "docker-recipe-check: ${ENTRY[*]}" >&2
-(cd "$WORK/run" && env -u PYTHONPATH PATH="$WORK/venv/bin:$PATH" ZWIDTH_PRESTART_WORKERS=false \
+# exec: the background job's PID is the server's own, so the EXIT trap stops the server itself.
+(cd "$WORK/run" && exec env -u PYTHONPATH PATH="$WORK/venv/bin:$PATH" ZWIDTH_PRESTART_WORKERS=false \
     "${ENTRY[@]}" >"$WORK/server.log" 2>&1) &
 SERVER_PID=$!
 for _ in $(seq 1 300); do
