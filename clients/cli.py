@@ -43,6 +43,28 @@ def analyze(preset: str = typer.Argument("lhifam", help="preset name, or 'all'")
                    f"{r['crossover_frequency']:11.5g} {r['linear_estimate']:15.6g}")
 
 
+bench_app = typer.Typer(help="Benchmarks that write their tables into docs/.", no_args_is_help=True)
+app.add_typer(bench_app, name="bench")
+
+
+@bench_app.command("accuracy")
+def bench_accuracy(quick: bool = typer.Option(False, help="the 5-case version"),
+                   repeats: int = typer.Option(7, min=1),
+                   out: str = typer.Option("docs/accuracy.md")) -> None:
+    """What accuracy costs in time: the ladder and python-control on one suite (docs/accuracy.md, .png)."""
+    from bench import accuracy_vs_time
+
+    accuracy_vs_time.main((["--quick"] if quick else []) + ["--repeats", str(repeats), "--out", out])
+
+
+@bench_app.command("core")
+def bench_core(repeats: int = typer.Option(30, min=1), out: str = typer.Option("docs/bench_core.md")) -> None:
+    """Exact K_cr against python-control's stability_margins (docs/bench_core.md)."""
+    from bench import bench_core as core
+
+    core.main(["--repeats", str(repeats), "--out", out])
+
+
 @app.command()
 def serve(host: str = typer.Option("127.0.0.1", help="interface to bind (0.0.0.0 in a container)"),
           port: int = typer.Option(8000, min=1, max=65535, help="TCP port"),

@@ -244,17 +244,44 @@ class StateSpaceZOH:
     def inverse_response(self, theta: np.ndarray) -> np.ndarray:
         return 1.0 / self.response(theta)
 
+    def _modal(self):
+        """Split off an exact integrator (E's first column is exactly 0) and diagonalise the rest.
+
+        With E = [[0, e₁₂ᵀ], [0, E₂₂]] the resolvent is solved as x₂ = ((z-1)I - E₂₂)⁻¹Γ₂
+        (E₂₂ = V Λ V⁻¹, O(n) per frequency) and x₁ = (Γ₁ + e₁₂ᵀx₂)/(z - 1), so the integrator
+        never meets the slow pole in one sum (their modal terms would cancel by ~θ/δ).
+        Used only when V is well conditioned (error ≈ cond(V)·ε ≤ 1e-12); else None.
+        """
+        if "modal" not in self._cache:
+            _, emat, g0, g1 = self._mats()
+            modal = None
+            if emat.shape[0] > 1 and np.all(emat[:, 0] == 0.0):
+                lam, v = np.linalg.eig(emat[1:, 1:])
+                if np.linalg.cond(v) < 1e4:
+                    vinv = np.linalg.inv(v)
+                    e12v = emat[0, 1:] @ v
+                    modal = (lam, self.c[0], self.c[1:] @ v, e12v, vinv @ g0[1:], vinv @ g1[1:], g0[0], g1[0])
+            self._cache["modal"] = modal
+        return self._cache["modal"]
+
     def response(self, theta: np.ndarray) -> np.ndarray:
-        """G_n(e^{jθ})."""
+        """G_n(e^{jθ}) = C ((z-1)I - E)⁻¹ (Γ0 + Γ1 z⁻¹) z^{-d} (both paths exact)."""
         theta = np.atleast_1d(np.asarray(theta, dtype=float))
-        _, emat, g0, g1 = self._mats()
-        n = emat.shape[0]
         zm1 = np.expm1(1j * theta)
         zinv = np.exp(-1j * theta)
+        delay = np.exp(-1j * self.d * theta)
+        modal = self._modal()
+        if modal is not None:
+            lam, c1, c2v, e12v, r0, r1, g0_1, g1_1 = modal
+            y = (r0[None, :] + zinv[:, None] * r1[None, :]) / (zm1[:, None] - lam[None, :])   # V⁻¹x₂
+            x1 = (g0_1 + zinv * g1_1 + y @ e12v) / zm1
+            return (c1 * x1 + y @ c2v) * delay
+        _, emat, g0, g1 = self._mats()
+        n = emat.shape[0]
         mats = zm1[:, None, None] * np.eye(n)[None] - emat[None]
         rhs = g0[None, :] + zinv[:, None] * g1[None, :]
         x = np.linalg.solve(mats, rhs[..., None])[..., 0]
-        return (x @ self.c) * np.exp(-1j * self.d * theta)
+        return (x @ self.c) * delay
 
     def pole_angles(self) -> tuple[float, ...]:
         lam = np.linalg.eigvals(self.a)

@@ -83,7 +83,12 @@ def linear_error_estimate(device: Device, damping: float) -> float:
     beta = damping / device.damping_scale
     d = device.delay_samples
     x = beta * (1 + 2 * d)
-    return delta * (1 + d) / 6 + beta * (1 + (1 + 2 * d) / 6) + x * x / 12
+    rigid = delta * (1 + d) / 6 + beta * (1 + (1 + 2 * d) / 6) + x * x / 12
+    if device.cable is None:
+        return rigid
+    # eq. 10 ignores the cable mode; the chapter's own test (eq. 22-24) compares Q with K_lin:
+    # the resonant peak can move K_cr by about K_lin/Q.
+    return rigid + linear_estimate(device, damping) / Q_criterion(device)
 
 
 def grid_critical_stiffness(device: Device, damping: float, points: int) -> tuple[float, float | None, tuple[Crossover, ...], float]:
@@ -122,7 +127,20 @@ def _finite(x: float | None) -> float | None:
 
 def analyse_stability(device: Device, stiffness: float | None = None, damping: float = 0.0,
                       method: str = "exact", grid_points: int = DEFAULT_GRID_POINTS) -> StabilityAnalysis:
-    """K_cr(B) of the device on the chosen rung, and the margin, stability and passivity of (K, B)."""
+    """K_cr(B) of the device on the chosen rung, and the margin, stability and passivity of (K, B).
+
+    Raises ValueError (naming the field) for inputs the numerics cannot represent: an
+    overflow or an invalid operation is never turned into a NaN answer.
+    """
+    try:
+        with np.errstate(over="raise", invalid="raise"):
+            return _analyse(device, stiffness, damping, method, grid_points)
+    except (FloatingPointError, OverflowError, ZeroDivisionError) as exc:
+        raise ValueError(f"device: the parameters are outside the numerically representable range ({exc})") from exc
+
+
+def _analyse(device: Device, stiffness: float | None, damping: float, method: str,
+             grid_points: int) -> StabilityAnalysis:
     if method not in METHODS:
         raise ValueError(f"method: must be one of {', '.join(METHODS)}")
     if stiffness is not None and not (math.isfinite(stiffness) and stiffness > 0):

@@ -48,7 +48,18 @@ def _point(device: Device, b: float) -> BoundaryPoint:
 
 
 def stability_boundary(device: Device, damping_max: float | None = None, points: int = 50) -> Boundary:
-    """K_cr(B) on ``points`` values of B from 0 to ``damping_max`` (default: B_max)."""
+    """K_cr(B) on ``points`` values of B from 0 to ``damping_max`` (default: B_max).
+
+    Raises ValueError (naming the field) for bad arguments or unrepresentable devices.
+    """
+    try:
+        with np.errstate(over="raise", invalid="raise"):
+            return _boundary(device, damping_max, points)
+    except (FloatingPointError, OverflowError, ZeroDivisionError) as exc:
+        raise ValueError(f"device: the parameters are outside the numerically representable range ({exc})") from exc
+
+
+def _boundary(device: Device, damping_max: float | None, points: int) -> Boundary:
     if not (2 <= points <= MAX_BOUNDARY_POINTS):
         raise ValueError(f"points: must be between 2 and {MAX_BOUNDARY_POINTS}")
     if damping_max is not None and not (math.isfinite(damping_max) and damping_max > 0):

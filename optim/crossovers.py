@@ -19,6 +19,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import minimize_scalar
 
 __all__ = ["Crossing", "positive_real_crossings", "scan_grid"]
 
@@ -36,7 +37,9 @@ class Crossing:
 
 def scan_grid(theta_min: float, delay_samples: float, hints: Sequence[float], width_hint: float = 0.0) -> np.ndarray:
     """Initial samples on [theta_min, π]."""
-    theta_lin = min(0.05, max(theta_min * 10, 1e-6))
+    # 60 samples per decade all the way up to 0.05 rad, then a linear grid that the delay's
+    # phase (d·θ) cannot turn a full circle within.
+    theta_lin = max(0.05, theta_min * 10)
     parts = [np.geomspace(theta_min, theta_lin, max(40, int(60 * math.log10(theta_lin / theta_min)) + 2))]
     step = min(0.02, math.pi / (16.0 * (delay_samples + 1.0)))
     parts.append(np.linspace(theta_lin, math.pi, int(math.ceil((math.pi - theta_lin) / step)) + 1))
@@ -106,6 +109,36 @@ def _solve_brackets(f: Callable[[np.ndarray], np.ndarray], a: np.ndarray, b: np.
     return np.where(np.abs(fa) <= np.abs(fb), a, b)
 
 
+def _tangential_pairs(h: Callable[[np.ndarray], np.ndarray], grid: np.ndarray, values: np.ndarray) -> list[Crossing]:
+    """Two crossings between samples that share the sign of Im H (a near-tangency).
+
+    Where arg H comes within 0.05 rad of 0 at a local minimum of |arg H| without
+    changing sign, minimise the signed arg between the neighbouring samples; if it
+    changes sign there, both crossings are bracketed and refined.
+    """
+    arg = np.angle(values)
+    mag = np.abs(arg)
+    cand = np.nonzero((mag[1:-1] <= mag[:-2]) & (mag[1:-1] <= mag[2:]) & (mag[1:-1] < 0.05)
+                      & (values.real[1:-1] > 0) & (np.sign(arg[:-2]) == np.sign(arg[2:]))
+                      & (np.sign(arg[1:-1]) == np.sign(arg[2:])))[0] + 1
+    out: list[Crossing] = []
+    for i in cand:
+        sign = float(np.sign(arg[i]))
+        lo, hi = float(grid[i - 1]), float(grid[i + 1])
+        res = minimize_scalar(lambda t: sign * float(np.angle(h(np.array([t]))[0])), bounds=(lo, hi),
+                              method="bounded", options={"xatol": 1e-15 * hi})
+        if res.fun >= 0:
+            continue
+        tm = float(res.x)
+        a = np.array([lo, tm])
+        b = np.array([tm, hi])
+        fa, fb = h(a).imag, h(b).imag
+        roots = _solve_brackets(lambda t: h(t).imag, a, b, fa, fb)
+        vals = h(roots).real
+        out += [Crossing(angle=float(t), value=float(v)) for t, v in zip(roots, vals) if v > 0]
+    return out
+
+
 def positive_real_crossings(h: Callable[[np.ndarray], np.ndarray], grid: np.ndarray) -> list[Crossing]:
     """All θ in the grid's span where h(θ) is real and positive, refined.
 
@@ -120,6 +153,7 @@ def positive_real_crossings(h: Callable[[np.ndarray], np.ndarray], grid: np.ndar
         roots = _solve_brackets(lambda t: h(t).imag, grid[idx], grid[idx + 1], im[idx], im[idx + 1])
         vals = h(roots).real
         found += [Crossing(angle=float(t), value=float(v)) for t, v in zip(roots, vals) if v > 0]
+    found += _tangential_pairs(h, grid, values)
     for i in np.nonzero(im[1:-1] == 0.0)[0] + 1:          # an exact zero on a sample
         if re[i] > 0:
             found.append(Crossing(angle=float(grid[i]), value=float(re[i])))

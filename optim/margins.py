@@ -72,13 +72,21 @@ def gain_margin_db(critical: float, stiffness: float) -> float:
 
 
 def _theta_min(device: Device, beta: float) -> float:
+    """Far below the lowest crossover ≈ sqrt((δ+β)/(d+½)) of the K loop.
+
+    The damper-only loop (β = 0 here) has its crossovers at O(1/(1+d)); with no physical
+    damping (δ = 0) that is the only scale.
+    """
     damp = device.delta + beta
-    return 1e-4 * min(1.0, math.sqrt(damp / (1.0 + 2.0 * device.delay_samples)), 10 * damp)
+    scale = 1.0 / (1.0 + 2.0 * device.delay_samples)
+    if damp <= 0.0:
+        return 1e-4 * scale
+    return 1e-4 * min(1.0, math.sqrt(damp * scale), 10 * damp)
 
 
 def _grid(device: Device, plant, beta: float) -> np.ndarray:
     hints = tuple(plant.pole_angles()) + tuple(plant.zero_angles())
-    return scan_grid(_theta_min(device, beta), device.delay_samples, hints, width_hint=device.delta)
+    return scan_grid(_theta_min(device, beta), device.delay_samples, hints, width_hint=max(device.delta, 1e-6))
 
 
 def _damper_crossings(device: Device, plant) -> list[Crossing]:

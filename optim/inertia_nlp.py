@@ -1,0 +1,182 @@
+"""CasADi model of the force-feedforward crossover conditions (the local problem of optim/inertia.py).
+
+Decision variables: y = log K_f, the filter cutoff t = θ_c [rad/sample] and one
+angle θ_i per tracked phase crossover.  For each crossover i (of the plant of
+grasp h(i)), with h̃ = -conj(G_1)·Q and D = cosⁿφ/Q (models/filters.py):
+
+    Im h̃(θ_i; t)/|h̃| = 0                    θ_i is a phase crossover at this cutoff
+    Re h̃(θ_i; t)/|h̃| ≥ 1/2                  ... of the kind that can destabilise (h > 0)
+    y + log ρ + log|D(θ_i; t)| + log|G_1(θ_i)| ≤ 0    margin ρ = 10^{GM/20} at that crossover
+
+This is the local reduction of the semi-infinite constraint "ρ·K_f ≤ h(θ) at
+every crossover"; optim/inertia.py adds crossovers the exact analysis finds
+(exchange method) and re-verifies the answer.  G_1 enters in modal form
+G_1(z) = z^{-d}·Σ_i (r0_i + r1_i z⁻¹)/(z - λ_i) + D_dir·z^{-d-1}, exact for the
+diagonalisable Φ of a damped device (checked against the exact response).
+
+Solvers are built once per structure (modes, filter order, crossovers, objective)
+and per thread (CasADi/Ipopt objects are not thread-safe); numbers go in as p.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from models.feedforward import FeedforwardPlant
+from models.filters import butterworth_polynomial
+
+__all__ = ["ModalPlant", "modal_plant", "CrossoverNLP", "solve_crossover_nlp"]
+
+_IPOPT = {"ipopt.print_level": 0, "print_time": 0, "ipopt.sb": "yes", "ipopt.tol": 1e-12,
+          "ipopt.bound_relax_factor": 0.0, "ipopt.constr_viol_tol": 1e-10,
+          "ipopt.max_iter": 200}
+_local = threading.local()
+
+
+@dataclass(frozen=True)
+class ModalPlant:
+    """G_1 in modal form: poles λ_i of Φ and residues of the two input matrices."""
+
+    poles: np.ndarray
+    r0: np.ndarray
+    r1: np.ndarray
+    direct: float
+    d: int
+
+    def params(self) -> np.ndarray:
+        return np.concatenate([self.poles.real, self.poles.imag, self.r0.real, self.r0.imag,
+                               self.r1.real, self.r1.imag, [self.direct, float(self.d)]])
+
+    def response(self, theta: np.ndarray) -> np.ndarray:
+        z = np.exp(1j * np.atleast_1d(theta))[:, None]
+        g = ((self.r0 + self.r1 / z) / (z - self.poles)).sum(axis=1) + self.direct / z[:, 0]
+        return g * np.exp(-1j * self.d * np.atleast_1d(theta))
+
+
+def modal_plant(plant: FeedforwardPlant) -> tuple[ModalPlant, float]:
+    """The modal form and its largest relative error against the exact response on a test grid."""
+    phi, g0, g1, c = plant.matrices()
+    lam, v = np.linalg.eig(phi)
+    cv = c @ v
+    modal = ModalPlant(poles=lam, r0=cv * np.linalg.solve(v, g0), r1=cv * np.linalg.solve(v, g1),
+                       direct=plant.direct, d=plant.d)
+    theta = np.geomspace(max(plant.theta_min, 1e-6), math.pi, 64)
+    exact = plant.response(theta)
+    err = float(np.max(np.abs(modal.response(theta) - exact) / np.abs(exact)))
+    return modal, err
+
+
+def _cmul(a, b):
+    return (a[0] * b[0] - a[1] * b[1], a[0] * b[1] + a[1] * b[0])
+
+
+def _g1_expr(theta, p, n_modes: int):
+    """Re, Im of G_1(e^{jθ}) from the parameter block p of one ModalPlant."""
+    k = n_modes
+    lr, li, r0r, r0i, r1r, r1i = (p[j * k:(j + 1) * k] for j in range(6))
+    direct, d = p[6 * k], p[6 * k + 1]
+    zr, zi = ca.cos(theta), ca.sin(theta)
+    zinv = (zr, -zi)
+    acc = (0, 0)
+    for i in range(k):
+        wr, wi = zr - lr[i], zi - li[i]
+        den = wr * wr + wi * wi
+        inv = (wr / den, -wi / den)
+        num = (r0r[i] + r1r[i] * zinv[0] - r1i[i] * zinv[1], r0i[i] + r1r[i] * zinv[1] + r1i[i] * zinv[0])
+        t = _cmul(num, inv)
+        acc = (acc[0] + t[0], acc[1] + t[1])
+    acc = (acc[0] + direct * zinv[0], acc[1] + direct * zinv[1])
+    return _cmul(acc, (ca.cos(d * theta), -ca.sin(d * theta)))
+
+
+def _filter_expr(theta, t, order: int):
+    """(log cosⁿφ, Re Q, Im Q) with φ = atan2(sin(θ/2), tan(t/2)cos(θ/2))."""
+    phi = ca.atan2(ca.sin(theta / 2), ca.tan(t / 2) * ca.cos(theta / 2))
+    s, c = ca.sin(phi), ca.cos(phi)
+    qr, qi = 0, 0
+    for k, a in enumerate(butterworth_polynomial(order)):      # a (j s)^(n-k) c^k
+        m = order - k
+        term = a * s**m * c**k
+        if m % 4 == 0:
+            qr += term
+        elif m % 4 == 1:
+            qi += term
+        elif m % 4 == 2:
+            qr -= term
+        else:
+            qi -= term
+    return order * ca.log(c), qr, qi
+
+
+@dataclass(frozen=True)
+class CrossoverNLP:
+    solver: ca.Function
+    n_cross: int
+
+
+def _build(n_modes: int, order: int, n_cross: int, objective: str) -> CrossoverNLP:
+    y, t = ca.SX.sym("y"), ca.SX.sym("t")
+    th = ca.SX.sym("th", n_cross)
+    n_p = 6 * n_modes + 2
+    p = ca.SX.sym("p", 1 + n_cross * n_p)          # [log ρ], then one plant block per crossover
+    log_rho = p[0]
+    g = []
+    for i in range(n_cross):
+        blk = p[1 + i * n_p: 1 + (i + 1) * n_p]
+        gr, gi = _g1_expr(th[i], blk, n_modes)
+        log_cn, qr, qi = _filter_expr(th[i], t, order)
+        hr, hi = -(gr * qr + gi * qi), -(gr * qi - gi * qr)          # -conj(G)·Q
+        ah = ca.sqrt(hr * hr + hi * hi)
+        g += [hi / ah, hr / ah,
+              y + log_rho + log_cn - 0.5 * ca.log(qr * qr + qi * qi) + 0.5 * ca.log(gr * gr + gi * gi)]
+    x = ca.vertcat(y, t, th)
+    f = -y if objective == "max_gain" else -t
+    nlp = {"x": x, "p": p, "f": f, "g": ca.vertcat(*g)}
+    return CrossoverNLP(solver=ca.nlpsol("ff", "ipopt", nlp, _IPOPT), n_cross=n_cross)
+
+
+def _solver(n_modes: int, order: int, n_cross: int, objective: str) -> CrossoverNLP:
+    cache = getattr(_local, "cache", None)
+    if cache is None:
+        cache = _local.cache = {}
+    key = (n_modes, order, n_cross, objective)
+    if key not in cache:
+        cache[key] = _build(*key)
+    return cache[key]
+
+
+@dataclass(frozen=True)
+class NLPResult:
+    log_gain: float
+    cutoff_angle: float
+    angles: tuple[float, ...]
+    success: bool
+    return_status: str
+
+
+def solve_crossover_nlp(plants: list[ModalPlant], crossings: list[tuple[int, float]], order: int,
+                        log_rho: float, t0: float, t_bounds: tuple[float, float], y0: float,
+                        objective: str, y_fixed: float = 0.0) -> NLPResult:
+    """One local solve; ``crossings`` are (plant index, θ_i0) pairs tracked from the exact analysis."""
+    n_modes = max(len(pl.poles) for pl in plants)
+    if any(len(pl.poles) != n_modes for pl in plants):
+        raise ValueError("all grasps must give plants of the same order")  # same device, same structure
+    nlp = _solver(n_modes, order, len(crossings), objective)
+    p = [log_rho] + [v for j, _ in crossings for v in plants[j].params()]
+    # target mode: K_f is given, so y is fixed by its bounds (Ipopt makes it a parameter)
+    y_lo, y_hi = (-50.0, 50.0) if objective == "max_gain" else (y_fixed, y_fixed)
+    lbx = [y_lo, t_bounds[0]] + [a / 1.5 for _, a in crossings]
+    ubx = [y_hi, t_bounds[1]] + [min(math.pi * (1 - 1e-12), 1.5 * a) for _, a in crossings]
+    x0 = [y0 if objective == "max_gain" else y_fixed, t0] + [a for _, a in crossings]
+    lbg = [0.0, 0.5, -ca.inf] * len(crossings)
+    ubg = [0.0, ca.inf, 0.0] * len(crossings)
+    sol = nlp.solver(x0=x0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+    stats = nlp.solver.stats()
+    x = np.asarray(sol["x"]).ravel()
+    return NLPResult(log_gain=float(x[0]), cutoff_angle=float(x[1]), angles=tuple(float(v) for v in x[2:]),
+                     success=bool(stats["success"]), return_status=str(stats["return_status"]))

@@ -1,0 +1,309 @@
+"""The stiffest safe wall: maximise K over (K, B) on the exact sampled-data boundary.
+
+Steps (each a function below):
+1. the boundary curve θ ↦ (β_c, α_c) is sampled and cut where crossovers are born
+   or die (profile.py); a coarse profile of the objective on β picks the interval
+   and seeds every crossover angle;
+2. the CasADi NLP (problem.py) maximises α on that interval with the tracked
+   crossovers, the Nyquist crossover, the limits and passivity cuts;
+3. the answer is re-checked by the exact analysis (optim.margins.critical_stiffness
+   at the chosen B, and the passivity scan): a crossover or passivity angle the NLP
+   did not know about is added and the NLP solved again (an exchange method);
+4. the optimum's sensitivities to the device come from Ipopt's multipliers
+   (lam_p = ∂L/∂p, the envelope theorem) chained with ∂p/∂(device) (sensitivity.py).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from models.device import Device
+from optim.margins import critical_stiffness, gain_margin_db, linear_estimate, max_stable_damping
+from optim.passivity import (kernel, largest_passive_stiffness, passive_alpha_on_grid, passivity_margin,
+                             passivity_samples)
+
+from .loop import loop_matrices
+from .problem import N_CUTS, ProblemKey, ProblemSolution, solve_problem
+from .profile import BoundaryCurve, boundary_curve, coarse_critical, crossings_at
+from .requirements import StiffnessRequirements
+
+__all__ = ["StiffnessDesign", "Sensitivity", "design_stiffness"]
+
+_MAX_EXCHANGES = 16
+_PASSIVITY_RTOL = 1e-7   # cutting planes converge linearly at a smooth passivity optimum: stop here, then clip
+_VERIFY_RTOL = 1e-8          # an NLP optimum may exceed the exact bound by this much before we re-solve
+_ACTIVE_RTOL = 1e-6
+
+
+@dataclass(frozen=True)
+class Sensitivity:
+    """dK*/d(parameter) of the optimal design, re-optimised (B moves too)."""
+
+    parameter: str
+    derivative: float
+    """dK*/dq [N/m per SI unit of q]."""
+    step: float
+    """a designer's step of q [SI unit]."""
+    step_label: str
+    change: float
+    """derivative · step [N/m]."""
+    statement: str
+
+
+@dataclass(frozen=True)
+class StiffnessDesign:
+    status: str
+    """optimal | infeasible | failed."""
+    stiffness: float | None = None
+    """K [N/m]."""
+    damping: float | None = None
+    """B [N·s/m]."""
+    critical_stiffness: float | None = None
+    """exact K_cr(B) at the chosen B [N/m]."""
+    gain_margin_db: float | None = None
+    """exact 20·log10(K_cr(B)/K) [dB]."""
+    crossover_frequency: float | None = None
+    """ω [rad/s] of the crossover that sets K_cr(B)."""
+    linear_estimate: float | None = None
+    """eq. 10 at the chosen B: (b + B)/(T/2 + t_d) [N/m]."""
+    linear_estimate_error: float | None = None
+    """(linear − exact)/exact K_cr at the chosen B."""
+    max_stable_damping: float | None = None
+    """B_max [N·s/m]."""
+    active_constraints: tuple[str, ...] = ()
+    sensitivities: tuple[Sensitivity, ...] = ()
+    sensitivity_note: str | None = None
+    passivity_delay_samples: int | None = None
+    passivity_note: str | None = None
+    reason: str | None = None
+    solver: dict = field(default_factory=dict)
+    elapsed_ms: float = 0.0
+    setup_ms: float = 0.0
+    solve_ms: float = 0.0
+
+
+@dataclass
+class _Context:
+    device: Device
+    req: StiffnessRequirements
+    curve: BoundaryCurve
+    beta_hi: float
+    alpha_cap: float
+    beta_cap: float
+    d_pass: int
+    loop_flat: np.ndarray
+    n_states: int
+
+
+def _infeasible(reason: str, t0: float, **kw) -> StiffnessDesign:
+    return StiffnessDesign(status="infeasible", reason=reason, elapsed_ms=(time.perf_counter() - t0) * 1e3, **kw)
+
+
+def design_stiffness(device: Device, requirements: StiffnessRequirements | None = None) -> StiffnessDesign:
+    """The largest K (and its B) with the required gain margin and limits, on the exact boundary."""
+    t0 = time.perf_counter()
+    req = requirements or StiffnessRequirements()
+    ks, bs = device.stiffness_scale, device.damping_scale
+    k_caps, b_caps = req.stiffness_caps(), req.damping_caps(device.sample_time)
+    b_cap = min(b_caps.values(), default=math.inf)
+    k_cap = min(k_caps.values(), default=math.inf)
+    d_pass, conservative = passivity_samples(device)
+    pass_note = None
+    if req.passivity:
+        pass_note = (f"passivity tested with {d_pass} whole samples of delay"
+                     + (" (the fractional delay rounded up: conservative)" if conservative else ""))
+        if device.damping <= 0.0:
+            return _infeasible("passivity required but the device has no physical damping: no stiffness is passive "
+                               "(b must exceed P(θ) ≥ 0 at some θ)", t0, passivity_delay_samples=d_pass, passivity_note=pass_note)
+    if device.damping <= 0.0:
+        # optim.margins scans from θ_min ∝ δ, which is 0 here (a ZeroDivisionError there): rather than return a
+        # design the exact analysis cannot re-check, say so.
+        return StiffnessDesign(status="failed", reason="the exact analysis (optim.margins) does not yet handle a "
+                               "device with zero physical damping, so no design can be verified",
+                               elapsed_ms=(time.perf_counter() - t0) * 1e3)
+    b_max = max_stable_damping(device)
+    if not b_max > 0.0:
+        return _infeasible("no positive stiffness is stable for any virtual damping on this device", t0,
+                           max_stable_damping=_fin(b_max))
+    upper_b = min(b_max, b_cap)
+    if not math.isfinite(upper_b):
+        return _infeasible("the damper-only loop is stable for every B and no max_damping was given: "
+                           "the design is unbounded in B", t0)
+    beta_hi = upper_b / bs
+    curve = boundary_curve(device, beta_hi)
+    matrices = loop_matrices(device)
+    ctx = _Context(device, req, curve, beta_hi, k_cap / ks if math.isfinite(k_cap) else 1e30,
+                   b_cap / bs if math.isfinite(b_cap) else 1e30, d_pass, matrices.flat(), matrices.n)
+    betas, objective, pass_theta = _coarse_profile(ctx)
+    i = int(np.argmax(objective))
+    if not objective[i] > 0.0:
+        why = ("passivity and the gain margin leave no positive stiffness for any B in [0, "
+               f"{upper_b:.6g}] N·s/m" if req.passivity else
+               f"no positive stiffness meets the gain margin for any B in [0, {upper_b:.6g}] N·s/m")
+        return _infeasible(why, t0, max_stable_damping=_fin(b_max), passivity_delay_samples=d_pass if req.passivity
+                           else None, passivity_note=pass_note)
+    if not objective[i] < 1e29:
+        return _infeasible("every positive stiffness is stable at this damping and no stiffness limit was given: "
+                           "the design is unbounded", t0)
+    setup_ms = (time.perf_counter() - t0) * 1e3
+    best = _solve_from(ctx, float(betas[i]), float(objective[i]), pass_theta[i])
+    solve_ms = (time.perf_counter() - t0) * 1e3 - setup_ms
+    return _finish(ctx, best, b_max, k_caps, b_caps, pass_note, t0, setup_ms, solve_ms)
+
+
+def _fin(x: float | None) -> float | None:
+    return x if x is not None and math.isfinite(x) else None
+
+
+def _coarse_profile(ctx: _Context) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Objective min(g·K_cr, passive K, caps)/(m/T²) on a β grid that includes the curve's vertices."""
+    hi = ctx.beta_hi
+    inside = ctx.curve.beta[(ctx.curve.beta > 0) & (ctx.curve.beta < hi)]
+    betas = np.unique(np.concatenate([np.linspace(0.0, hi, 161)[:-1], hi * (1 - np.geomspace(1e-6, 1e-2, 5)),
+                                      inside[:: max(1, inside.size // 300)], np.array(ctx.curve.breakpoints)]))
+    betas = betas[(betas >= 0) & (betas <= hi * (1 - 1e-9))]
+    obj = ctx.req.gain_factor * coarse_critical(ctx.curve, betas)
+    obj = np.minimum(obj, ctx.alpha_cap)
+    theta = np.zeros_like(betas)
+    if ctx.req.passivity:
+        pa, theta = passive_alpha_on_grid(ctx.device.delta, ctx.d_pass, betas)
+        obj = np.minimum(obj, pa)
+    return betas, obj, theta
+
+
+def _interval(ctx: _Context, beta: float) -> tuple[float, float]:
+    pts = [0.0] + [b for b in ctx.curve.breakpoints] + [ctx.beta_hi]
+    lo = max(p for p in pts if p <= beta)
+    hi = min(p for p in pts if p > beta) if any(p > beta for p in pts) else ctx.beta_hi
+    width = hi - lo
+    # stay a hair inside a fold: exactly at it the vanishing pair of crossovers still counts
+    lo2 = lo + 1e-9 * width if lo > 0.0 else 0.0
+    hi2 = hi - 1e-9 * width
+    return lo2, hi2
+
+
+@dataclass
+class _Attempt:
+    sol: ProblemSolution
+    key: ProblemKey
+    params: np.ndarray
+    alpha_ref: float
+    beta_ref: float
+    interval: tuple[float, float]
+    stiffness: float
+    damping: float
+    exact: object
+    passive_k: float | None
+    converged: bool
+
+
+def _params(ctx: _Context, flat: np.ndarray, delta: float, alpha_cap: float, beta_cap: float,
+            alpha_ref: float, beta_ref: float, cuts: list[float]) -> np.ndarray:
+    s = np.zeros(N_CUTS if ctx.req.passivity else 0)
+    c = np.zeros_like(s)
+    if cuts:
+        ss, cc = kernel(np.array(cuts[-N_CUTS:]), ctx.d_pass)
+        s[:ss.size], c[:cc.size] = ss, cc
+    return np.concatenate([flat, [ctx.req.gain_factor, alpha_ref, beta_ref, alpha_cap, beta_cap, delta], s, c])
+
+
+def _piece_bounds(ctx: _Context, theta: float) -> tuple[float, float]:
+    for p in ctx.curve.pieces:
+        lo, hi = min(p.theta_lo, p.theta_hi), max(p.theta_lo, p.theta_hi)
+        if lo <= theta <= hi:
+            return lo, hi
+    return max(theta * 0.5, 1e-9), min(math.pi, theta * 1.5)
+
+
+def _solve_from(ctx: _Context, beta0: float, alpha0: float, pass_theta0: float) -> _Attempt:
+    interval = _interval(ctx, beta0)
+    beta_ref = max(beta0, 1e-2 * ctx.beta_hi)
+    alpha_ref = alpha0
+    # crossovers far above the objective cannot bind nearby; the exact re-check adds any that do
+    far = 50.0 * alpha0 / ctx.req.gain_factor
+    crossings = [(t, _piece_bounds(ctx, t)) for t, a in crossings_at(ctx.curve, beta0, with_alpha=True) if a <= far]
+    # passivity cuts: the binding angle of the coarse profile, the kernel's zeros (they bound B alone) and π
+    cuts = [2 * math.pi * k / (2 * ctx.d_pass + 1) for k in range(1, min(ctx.d_pass, N_CUTS - 2) + 1)]
+    cuts = [math.pi] + cuts + [float(pass_theta0)] if ctx.req.passivity else []
+    dev, ks, bs = ctx.device, ctx.device.stiffness_scale, ctx.device.damping_scale
+    x_start = [alpha0 / alpha_ref, beta0 / beta_ref]
+    attempt = None
+    for _ in range(_MAX_EXCHANGES):
+        nyquist = bool(ctx.curve.nyquist_alpha(np.array([beta0]))[0] > 0)
+        key = ProblemKey(ctx.n_states, len(crossings), nyquist, N_CUTS if ctx.req.passivity else 0)
+        params = _params(ctx, ctx.loop_flat, dev.delta, ctx.alpha_cap, ctx.beta_cap, alpha_ref, beta_ref, cuts)
+        x0 = np.array(x_start + [t for t, _ in crossings])
+        sol = solve_problem(key, params, x0, (interval[0] / beta_ref, interval[1] / beta_ref), [b for _, b in crossings])
+        k, b = sol.a * alpha_ref * ks, max(sol.b * beta_ref * bs, 0.0)   # Ipopt may relax a bound by ~1e-8
+        exact = critical_stiffness(dev, b)
+        pk = largest_passive_stiffness(dev, b) if ctx.req.passivity else None
+        attempt = _Attempt(sol, key, params, alpha_ref, beta_ref, interval, k, b, exact, pk.stiffness if pk else None,
+                           False)
+        if not sol.success:
+            return attempt
+        changed = False
+        g_k = ctx.req.gain_factor * exact.critical_stiffness
+        if k > g_k * (1 + _VERIFY_RTOL) and exact.crossover_frequency is not None:
+            th = exact.crossover_frequency * dev.sample_time
+            if th < math.pi * (1 - 1e-9) and all(abs(th - t) > 1e-7 * th for t, _ in crossings):
+                crossings = [(t, bb) for t, bb in crossings] + [(th, _piece_bounds(ctx, th))]
+                changed = True
+        if pk is not None and k > pk.stiffness * (1 + _PASSIVITY_RTOL):
+            # the semi-infinite constraint's most violated angle at the NLP point becomes a new cut
+            check = passivity_margin(dev, k, b)
+            if check.worst_angle is not None and all(abs(check.worst_angle - c) > 1e-12 for c in cuts):
+                cuts.append(float(check.worst_angle))
+                changed = True
+        if not changed:
+            attempt.converged = True
+            return attempt
+        x_start = [sol.a, sol.b]
+        crossings = [(t if i >= len(sol.thetas) else sol.thetas[i], bb) for i, (t, bb) in enumerate(crossings)]
+    return attempt
+
+
+def at_reason(at: _Attempt) -> str | None:
+    return getattr(at.exact, "reason", None)
+
+
+def _finish(ctx: _Context, at: _Attempt, b_max: float, k_caps: dict, b_caps: dict, pass_note: str | None,
+            t0: float, setup_ms: float, solve_ms: float) -> StiffnessDesign:
+    from .sensitivity import sensitivities
+
+    dev, req = ctx.device, ctx.req
+    solver = {"name": "ipopt", "return_status": at.sol.return_status, "iterations": at.sol.iterations,
+              "structure": {"states": at.key.n_states, "crossovers": at.key.n_crossovers,
+                            "nyquist": at.key.nyquist, "passivity_cuts": at.key.cuts}}
+    common = dict(max_stable_damping=_fin(b_max), passivity_delay_samples=ctx.d_pass if req.passivity else None,
+                  passivity_note=pass_note, solver=solver, setup_ms=setup_ms, solve_ms=solve_ms)
+    if not at.sol.success or not at.converged:
+        why = (f"Ipopt did not converge: {at.sol.return_status}" if not at.sol.success else
+               "the exchange of crossovers and passivity angles did not settle")
+        return StiffnessDesign(status="failed", reason=why, elapsed_ms=(time.perf_counter() - t0) * 1e3, **common)
+    kcr = at.exact.critical_stiffness
+    limits = [at.stiffness, req.gain_factor * kcr, *k_caps.values()]
+    if at.passive_k is not None:
+        limits.append(at.passive_k)
+    k = min(limits)
+    if not k > 0:
+        why = (at_reason(at) or "no positive stiffness satisfies the requirements")
+        return StiffnessDesign(status="infeasible", reason=why,
+                               elapsed_ms=(time.perf_counter() - t0) * 1e3, **common)
+    active = []
+    if k >= req.gain_factor * kcr * (1 - _ACTIVE_RTOL):
+        active.append("min_gain_margin_db")
+    if at.passive_k is not None and k >= at.passive_k * (1 - _ACTIVE_RTOL):
+        active.append("passivity")
+    active += [name for name, cap in k_caps.items() if k >= cap * (1 - _ACTIVE_RTOL)]
+    active += [name for name, cap in b_caps.items() if at.damping >= cap * (1 - _ACTIVE_RTOL)]
+    sens, note = sensitivities(ctx, at)
+    lin = linear_estimate(dev, at.damping)
+    return StiffnessDesign(
+        status="optimal", stiffness=k, damping=at.damping, critical_stiffness=kcr,
+        gain_margin_db=gain_margin_db(kcr, k), crossover_frequency=at.exact.crossover_frequency,
+        linear_estimate=lin, linear_estimate_error=(lin - kcr) / kcr, active_constraints=tuple(active),
+        sensitivities=sens, sensitivity_note=note, elapsed_ms=(time.perf_counter() - t0) * 1e3, **common)

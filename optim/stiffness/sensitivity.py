@@ -1,0 +1,126 @@
+"""Sensitivities of the optimal stiffness to the device (physical damping, delay, sample time, mass).
+
+At a regular optimum the envelope theorem gives d(objective*)/dp = ∂L/∂p, which
+Ipopt returns as lam_p with CasADi's sign convention (checked against
+finite differences of re-solved designs in tests): dα*/dp = α_ref·lam_p.
+The NLP's parameters p (the ZOH matrices E, Γ0, Γ1, δ, the limits in
+dimensionless form) depend on the device smoothly; ∂p/∂q comes from
+differencing that map (matrix exponentials, no optimisation involved), and
+K* = α*·m/T² adds its own scale's derivative.
+
+A cable device's damping and mass are scaled proportionally (b_r : b_d and
+m_r : m_d kept); the cable link itself is unchanged.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from models.device import Device
+from models.discretize import split_delay
+
+from .loop import loop_matrices
+
+__all__ = ["perturbed_device", "sensitivities", "PARAMETERS"]
+
+# parameter, designer's step, label of the step, verb
+PARAMETERS = (("damping", 1.0, "+1 N·s/m of physical damping"),
+              ("delay", 1e-3, "+1 ms of loop delay"),
+              ("sample_time", 1e-4, "+0.1 ms of sample time"),
+              ("mass", 1.0, "+1 kg of moving mass"))
+
+
+def perturbed_device(device: Device, parameter: str, value: float) -> Device:
+    """The device with one parameter set to ``value`` (cable: proportional split)."""
+    data = device.model_dump()
+    data["preset"] = None
+    cable = data.get("cable")
+    if parameter in ("delay", "sample_time"):
+        data[parameter] = value
+    elif parameter == "damping":
+        data["damping"] = value
+        if cable is not None:
+            b = cable["motor_damping"] + cable["body_damping"]
+            if b > 0:
+                cable["motor_damping"] *= value / b
+                cable["body_damping"] = value - cable["motor_damping"]
+            else:
+                share = cable["motor_mass"] / (cable["motor_mass"] + cable["body_mass"])
+                cable["motor_damping"], cable["body_damping"] = value * share, value * (1 - share)
+    elif parameter == "mass":
+        data["mass"] = value
+        if cable is not None:
+            m = cable["motor_mass"] + cable["body_mass"]
+            cable["motor_mass"] *= value / m
+            cable["body_mass"] = value - cable["motor_mass"]
+    else:
+        raise ValueError(f"parameter: unknown device parameter {parameter!r}")
+    return Device.model_validate(data)
+
+
+def _device_params(ctx, device: Device, like: np.ndarray, at) -> np.ndarray:
+    """The NLP parameter vector for another device, same structure and scalings."""
+    from .design import _params
+
+    ks, bs = device.stiffness_scale, device.damping_scale
+    k_cap = min(ctx.req.stiffness_caps().values(), default=math.inf)
+    b_cap = min(ctx.req.damping_caps(device.sample_time).values(), default=math.inf)
+    p = _params(ctx, loop_matrices(device).flat(), device.delta, k_cap / ks if math.isfinite(k_cap) else 1e30,
+                b_cap / bs if math.isfinite(b_cap) else 1e30, at.alpha_ref, at.beta_ref, [])
+    p[len(p) - 2 * at.key.cuts:] = like[len(like) - 2 * at.key.cuts:]     # passivity cut angles: integers of delay
+    return p
+
+
+def _step(device: Device, parameter: str) -> float:
+    """A signed one-sided difference step that keeps the whole samples of delay fixed.
+
+    One-sided (error ~1e-7 relative) halves the matrix exponentials a central
+    difference would need; the map device → ZOH matrices is smooth.
+    """
+    value = getattr(device, parameter)
+    h = 1e-7 * max(abs(value), {"damping": 1e-2 * device.damping_scale, "delay": device.sample_time,
+                                "sample_time": device.sample_time, "mass": device.mass}[parameter])
+    if parameter in ("delay", "sample_time") and device.delay > 0:
+        _, f = split_delay(device.delay_samples)
+        if f == 0.0 and parameter == "sample_time":
+            return -h          # on a whole sample the delay may only grow: T down
+    return h
+
+
+def sensitivities(ctx, at) -> tuple[tuple, str | None]:
+    from .design import Sensitivity
+
+    lo, hi = at.interval
+    b = at.sol.b * at.beta_ref
+    if lo > 0 and abs(b - lo) <= 1e-7 * max(hi - lo, 1e-300) or abs(b - hi) <= 1e-7 * max(hi - lo, 1e-300) \
+            and hi < ctx.beta_hi * (1 - 1e-6):
+        return (), ("the optimum sits where a phase crossover appears or vanishes (a fold of the boundary): "
+                    "K* is not differentiable there")
+    device = ctx.device
+    alpha = at.sol.a * at.alpha_ref
+    out = []
+    note = None
+    skip: tuple[str, ...] = ()
+    if ctx.req.passivity and at.passive_k is not None and at.stiffness >= at.passive_k * (1 - 1e-6):
+        _, f = split_delay(device.delay_samples)
+        if f == 0.0:
+            skip = ("delay", "sample_time")
+            note = ("passivity is active and counts whole samples of delay (a fraction rounds up): at this "
+                    "whole-sample delay K* jumps with the delay, so no delay or sample-time sensitivity is given")
+    for name, step, label in PARAMETERS:
+        if name in skip:
+            continue
+        value = getattr(device, name)
+        h = _step(device, name)
+        dp = (_device_params(ctx, perturbed_device(device, name, value + h), at.params, at) - at.params) / h
+        dalpha = at.alpha_ref * float(at.sol.lam_p @ dp)
+        scale = device.stiffness_scale
+        dscale = {"mass": scale / device.mass, "sample_time": -2 * scale / device.sample_time}.get(name, 0.0)
+        dk = scale * dalpha + alpha * dscale
+        change = dk * step
+        verb = "buys" if change >= 0 else "costs"
+        out.append(Sensitivity(name, dk, step, label, change,
+                               f"{label} {verb} {abs(change):.4g} N/m of stiffness"))
+    return tuple(out), note

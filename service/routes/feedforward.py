@@ -1,0 +1,103 @@
+"""POST /v1/analysis/force-feedforward and /v1/design/inertia: thin calls into optim (chapter §5)."""
+
+from __future__ import annotations
+
+import math
+import time
+
+from fastapi import APIRouter
+
+from models.filters import ButterworthLowPass
+from optim.feedforward import apparent_mass, critical_force_gain
+from optim.inertia import RIGID_OPTIMISM_FLAG, InertiaRequirements, design_inertia
+
+from ..errors import NumericInputError
+from ..schemas.feedforward import (ForceFeedforwardRequest, ForceFeedforwardResponse, InertiaRequest,
+                                   InertiaResponse)
+
+router = APIRouter(tags=["transparency"])
+
+
+def _finite(x: float | None) -> float | None:
+    return x if x is not None and math.isfinite(x) else None
+
+
+def _field_error(exc: ValueError, prefix: str = "") -> NumericInputError:
+    field, _, msg = str(exc).partition(": ")
+    if not msg:
+        return NumericInputError("device", str(exc))
+    return NumericInputError(field if field.startswith(("device", "requirements")) else prefix + field, msg)
+
+
+def _human_notes(source: str) -> list[str]:
+    if "eq. 30" in source:
+        return ["the device has no human block: the chapter's eq. 30 grasp Z_h = 2 s² + 2 s + 10 was used"]
+    return []
+
+
+@router.post("/v1/analysis/force-feedforward", response_model=ForceFeedforwardResponse)
+def force_feedforward(req: ForceFeedforwardRequest) -> ForceFeedforwardResponse:
+    start = time.perf_counter()
+    dev = req.device
+    try:
+        filt = ButterworthLowPass(req.filter.order, req.filter.cutoff_hz, dev.sample_time) if req.filter else None
+        res = critical_force_gain(dev, filt)
+        rigid = critical_force_gain(dev.rigid(), filt, res.human).critical_force_gain if dev.cable else None
+    except ValueError as exc:
+        raise _field_error(exc, "filter.") from exc
+    kcr = _finite(res.critical_force_gain)
+    notes = _human_notes(res.human_source)
+    optimistic = None
+    if rigid is not None:
+        optimistic = rigid > res.critical_force_gain * (1 + RIGID_OPTIMISM_FLAG)
+        if optimistic:
+            notes.append(f"the rigid model is optimistic: it claims K_f,cr = {rigid:.4g}, "
+                         f"{100 * (rigid / res.critical_force_gain - 1):.0f} % above the cable model's {kcr:.4g}")
+    return ForceFeedforwardResponse(
+        critical_force_gain=kcr, crossover_frequency=res.crossover_frequency,
+        crossovers=[{"frequency": c.frequency, "force_gain": c.force_gain} for c in res.crossovers],
+        worst_case_force_gain=res.worst_case_force_gain,
+        apparent_mass_at_critical=apparent_mass(dev, kcr) if kcr is not None else None,
+        model="cable" if dev.cable else "rigid", rigid_critical_force_gain=_finite(rigid), rigid_optimistic=optimistic,
+        human=res.human.model_dump(), human_source=res.human_source,
+        force_sensor_time_constant=dev.force_sensor.time_constant if dev.force_sensor else 0.0,
+        method="exact", elapsed_ms=(time.perf_counter() - start) * 1e3, reason=res.reason, notes=notes)
+
+
+@router.post("/v1/design/inertia", response_model=InertiaResponse)
+def inertia(req: InertiaRequest) -> InertiaResponse:
+    r = req.requirements
+    spec = InertiaRequirements(
+        min_gain_margin_db=r.min_gain_margin_db, cutoff_min_hz=r.cutoff_min_hz, cutoff_max_hz=r.cutoff_max_hz,
+        filter_order=r.filter_order, target_apparent_mass=r.target_apparent_mass,
+        human_mass_range=(r.human_mass_range.min, r.human_mass_range.max) if r.human_mass_range else None,
+        humans=tuple(r.humans) if r.humans else None, pareto_points=r.pareto_points)
+    try:
+        d = design_inertia(req.device, spec)
+    except ValueError as exc:
+        raise _field_error(exc) from exc
+    notes = _human_notes(d.human_source)
+    jump = d.solver.get("crossover_structure_changes_hz")
+    if jump:
+        notes.append(f"K_f,cr jumps between {jump[0]:.4g} and {jump[1]:.4g} Hz, where two phase crossovers merge and "
+                     "vanish; a design next to that jump is sensitive to model error (the lower crossover can return)")
+    rigid = None
+    if d.rigid_model is not None:
+        rm = d.rigid_model
+        rigid = {"critical_force_gain": _finite(rm.critical_force_gain), "force_gain": _finite(rm.force_gain),
+                 "optimism": _finite(rm.optimism), "optimistic": rm.optimistic}
+        if rm.optimistic:
+            notes.append(f"the rigid model is optimistic: it claims K_f,cr = {rm.critical_force_gain:.4g} at this "
+                         f"cutoff, {100 * rm.optimism:.0f} % above the cable model's {d.critical_force_gain:.4g}")
+    return InertiaResponse(
+        status=d.status, objective=d.objective, force_gain=_finite(d.force_gain),
+        filter_cutoff_hz=d.filter_cutoff_hz, filter_order=d.filter_order, apparent_mass=_finite(d.apparent_mass),
+        critical_force_gain=_finite(d.critical_force_gain), gain_margin_db=_finite(d.gain_margin_db),
+        crossover_frequency=d.crossover_frequency, cutoff_band_hz=d.cutoff_band_hz,
+        cutoff_max_source=d.cutoff_max_source,
+        pareto=[{"filter_cutoff_hz": p.filter_cutoff_hz, "critical_force_gain": _finite(p.critical_force_gain),
+                 "force_gain": _finite(p.force_gain), "apparent_mass": _finite(p.apparent_mass)} for p in d.pareto],
+        humans=[h.model_dump() for h in d.humans],
+        worst_human=d.worst_human.model_dump() if d.worst_human else None, human_source=d.human_source,
+        rigid_model=rigid, solver={k: v for k, v in d.solver.items()}, reason=d.reason, notes=notes,
+        elapsed_ms=d.elapsed_ms)

@@ -1,0 +1,95 @@
+"""POST /v1/simulate: run a scene (models.simulate) and, for a relay, read it like a lab (optim.relay)."""
+
+from __future__ import annotations
+
+import math
+import time
+
+from fastapi import APIRouter
+
+from models.device import Device
+from models.scene import Scene
+from models.simulate import SimulationResult, check_cost, simulate
+from optim.relay import RelayReport, relay_experiment
+
+from ..errors import NumericInputError
+from ..schemas.simulate import SimulateRequest, SimulateResponse
+
+router = APIRouter(tags=["simulation"])
+
+
+def _finite(x: float | None) -> float | None:
+    return None if x is None or not math.isfinite(x) else float(x)
+
+
+def _field_error(exc: ValueError) -> NumericInputError:
+    field, _, msg = str(exc).partition(": ")
+    return NumericInputError(field if msg else "scene", msg or str(exc))
+
+
+def run_scene(device: Device, scene: Scene) -> tuple[SimulationResult, RelayReport | None]:
+    """Validate the cost, simulate, analyse a relay; ValueErrors name the field."""
+    try:
+        check_cost(device, scene)
+        result = simulate(device, scene)
+    except ValueError as exc:
+        raise _field_error(exc) from exc
+    relay = relay_experiment(device, scene, result) if scene.experiment == "relay" else None
+    return result, relay
+
+
+def _cycle(c) -> dict:
+    return {"pattern": list(c.pattern), "period_samples": c.period_samples, "frequency": c.frequency,
+            "force_amplitude": c.force_amplitude, "position_amplitude": c.position_amplitude,
+            "ultimate_gain": _finite(c.ultimate_gain), "admissible": c.admissible, "sign_margin": c.sign_margin}
+
+
+def _runs(ns: list[int]) -> list[list[int]]:
+    out: list[list[int]] = []
+    for n in ns:
+        if out and out[-1][1] == n - 1:
+            out[-1][1] = n
+        else:
+            out.append([n, n])
+    return out
+
+
+def _relay_out(rep: RelayReport) -> dict:
+    s = rep.settled
+    settled = None
+    if s is not None:
+        settled = {k: getattr(s, k) for k in (
+            "repeats", "symmetric", "half_period_min", "half_period_max", "frequency", "force_amplitude",
+            "position_amplitude", "ultimate_gain", "ultimate_gain_min", "ultimate_gain_max", "mean_position",
+            "force_amplitude_error", "position_amplitude_error", "frequency_error")}
+        settled |= {"pattern": list(s.pattern) if s.pattern else None, "half_periods": list(s.half_periods),
+                    "exact": _cycle(s.exact) if s.exact else None}
+    crit = rep.critical_stiffness
+    co = lambda c: {"frequency": c.frequency, "stiffness": c.stiffness}  # noqa: E731
+    return {"amplitude": rep.amplitude, "start_position": rep.start_position, "start_velocity": rep.start_velocity,
+            "settled": settled, "reason": rep.reason, "critical_stiffness": _finite(crit.critical_stiffness),
+            "crossovers": [co(c) for c in crit.crossovers],
+            "nearest_crossover": co(rep.nearest_crossover) if rep.nearest_crossover else None,
+            "ultimate_gain_error": rep.ultimate_gain_error, "cycles": [_cycle(c) for c in rep.cycles],
+            "admissible_half_periods": _runs([c.pattern[0] for c in rep.cycles if c.admissible]),
+            "searched_half_periods": rep.searched_half_periods,
+            "admissible_gain_range": list(rep.admissible_gain_range) if rep.admissible_gain_range else None,
+            "notes": list(rep.notes)}
+
+
+@router.post("/v1/simulate", response_model=SimulateResponse)
+def simulate_scene(req: SimulateRequest) -> SimulateResponse:
+    start = time.perf_counter()
+    res, relay = run_scene(req.device, req.scene)
+    tr, v = res.trajectory, res.verdict
+    return SimulateResponse(
+        effects_simulated=list(res.effects_simulated), not_simulated=list(res.not_simulated), method=res.method,
+        sample_time=res.sample_time, samples=res.samples, samples_run=res.samples_run, diverged_at=res.diverged_at,
+        trajectory={"time": tr.time.tolist(), "motor_position": tr.motor_position.tolist(),
+                    "body_position": tr.body_position.tolist(), "force": tr.force.tolist(),
+                    "energy_generated": tr.energy_generated.tolist()},
+        verdict={"state": v.state, "frequency": _finite(v.frequency), "amplitude": float(v.amplitude),
+                 "growth_rate": _finite(v.growth_rate), "reason": v.reason},
+        energy_generated=res.energy_generated, energy_generated_max=res.energy_generated_max,
+        energy_generated_second_half=res.energy_generated_second_half,
+        relay=_relay_out(relay) if relay else None, elapsed_ms=1e3 * (time.perf_counter() - start))

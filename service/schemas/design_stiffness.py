@@ -1,0 +1,82 @@
+"""Request and response of POST /v1/design/stiffness."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from models.device import Device
+
+__all__ = ["StiffnessRequirementsIn", "StiffnessDesignRequest", "SensitivityOut", "StiffnessDesignResponse"]
+
+_STRICT = ConfigDict(extra="forbid", allow_inf_nan=False)
+_BIG = 1e12
+
+
+def _limit(description: str):
+    return Field(default=None, gt=0, le=_BIG, description=description)
+
+
+class StiffnessRequirementsIn(BaseModel):
+    """Every limit but the gain margin is optional and acts only when given."""
+
+    model_config = _STRICT
+
+    min_gain_margin_db: float = Field(6.0, ge=0, le=120, description="gain margin on stiffness [dB], 20·log10(K_cr/K)")
+    passivity: bool = Field(False, description="require passivity (delayed Colgate–Schenkel form; a fractional "
+                                               "delay is rounded up to the next whole sample)")
+    max_damping: float | None = _limit("B ≤ max_damping [N·s/m]")
+    max_stiffness: float | None = _limit("K ≤ max_stiffness [N/m]")
+    max_force: float | None = _limit("actuator saturation F [N]; needs max_penetration (K·x ≤ F)")
+    max_penetration: float | None = _limit("penetration x [m] at which the force must not saturate; needs max_force")
+    quantization: float | None = _limit("encoder quantisation q [m]; needs max_force_noise (B·q/T ≤ F_noise)")
+    max_force_noise: float | None = _limit("largest damper force step F_noise [N]; needs quantization")
+
+    @model_validator(mode="after")
+    def _pairs(self) -> "StiffnessRequirementsIn":
+        for a, b, rule in (("max_force", "max_penetration", "K·x ≤ F"),
+                           ("quantization", "max_force_noise", "B·q/T ≤ F_noise")):
+            if (getattr(self, a) is None) != (getattr(self, b) is None):
+                missing = b if getattr(self, b) is None else a
+                other = a if missing == b else b
+                raise ValueError(f"{missing}: required when {other} is given ({rule})")
+        return self
+
+
+class StiffnessDesignRequest(BaseModel):
+    model_config = _STRICT
+
+    device: Device
+    requirements: StiffnessRequirementsIn = Field(default_factory=StiffnessRequirementsIn)
+
+
+class SensitivityOut(BaseModel):
+    parameter: Literal["damping", "delay", "sample_time", "mass"]
+    derivative: float = Field(description="dK*/dq, re-optimised [N/m per SI unit of q]")
+    step: float = Field(description="a designer's step of q [SI unit of q]")
+    step_label: str
+    change: float = Field(description="derivative·step [N/m]")
+    statement: str
+
+
+class StiffnessDesignResponse(BaseModel):
+    status: Literal["optimal", "infeasible", "failed"]
+    stiffness: float | None = Field(None, description="K [N/m]")
+    damping: float | None = Field(None, description="B [N·s/m]")
+    critical_stiffness: float | None = Field(None, description="exact K_cr at the chosen B [N/m]")
+    gain_margin_db: float | None = Field(None, description="exact 20·log10(K_cr/K) [dB]")
+    crossover_frequency: float | None = Field(None, description="ω of the crossover that sets K_cr [rad/s]")
+    linear_estimate: float | None = Field(None, description="eq. 10 at the chosen B, (b + B)/(T/2 + t_d) [N/m]")
+    linear_estimate_error: float | None = Field(None, description="(linear − exact)/exact K_cr at the chosen B")
+    max_stable_damping: float | None = Field(None, description="B_max: no K > 0 is stable above it [N·s/m]")
+    active_constraints: list[str] = Field(default_factory=list)
+    sensitivities: list[SensitivityOut] = Field(default_factory=list)
+    sensitivity_note: str | None = None
+    passivity_delay_samples: int | None = Field(None, description="whole samples of delay used by the passivity test")
+    passivity_note: str | None = None
+    reason: str | None = None
+    solver: dict = Field(default_factory=dict)
+    elapsed_ms: float
+    setup_ms: float | None = Field(None, description="boundary sampling and seeding [ms]")
+    solve_ms: float | None = Field(None, description="NLP solves, exact re-checks and sensitivities [ms]")

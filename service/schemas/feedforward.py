@@ -1,0 +1,143 @@
+"""Schemas of /v1/analysis/force-feedforward and /v1/design/inertia (chapter §5)."""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+from pydantic import BaseModel, Field, model_validator
+
+from models.device import Human
+from models.filters import MAX_FILTER_ORDER
+
+from .common import STRICT, Device
+
+_LHIFAM_FF = {"mass": 5.4, "damping": 3.5, "sample_time": 0.001,
+              "human": {"mass": 2, "damping": 2, "stiffness": 10}, "force_sensor": {"time_constant": 0.005}}
+
+
+class FilterIn(BaseModel):
+    model_config = STRICT
+    cutoff_hz: float = Field(gt=0, le=1e9, description="f_c [Hz], below the Nyquist frequency 1/(2T)")
+    order: int = Field(default=2, ge=1, le=MAX_FILTER_ORDER, description="Butterworth order")
+
+
+class ForceFeedforwardRequest(BaseModel):
+    model_config = {**STRICT, "json_schema_extra": {"examples": [
+        {"device": _LHIFAM_FF},
+        {"device": {"preset": "lhifam"}, "filter": {"cutoff_hz": 30, "order": 2}}]}}
+    device: Device = Field(description="needs a human block (else the chapter's eq. 30 grasp is used, and said)")
+    filter: FilterIn | None = Field(default=None, description="Butterworth D(z), prewarped bilinear; none by default")
+
+
+class ForceCrossoverOut(BaseModel):
+    frequency: float = Field(description="ω [rad/s]")
+    force_gain: float = Field(description="K_f putting a closed-loop pole at e^{jωT}")
+
+
+class HumanOut(BaseModel):
+    mass: float = Field(description="m_h [kg]")
+    damping: float = Field(description="b_h [N·s/m]")
+    stiffness: float = Field(description="k_h [N/m]")
+
+
+class ForceFeedforwardResponse(BaseModel):
+    critical_force_gain: float | None = Field(description="K_f,cr (eq. 32/34); null when no K_f > 0 is unstable")
+    crossover_frequency: float | None = Field(description="ω [rad/s] of the crossover setting K_f,cr; π/T is Nyquist")
+    crossovers: list[ForceCrossoverOut] = Field(description="every phase crossover with K_f > 0")
+    worst_case_force_gain: float = Field(description="1 + m/m_h, eq. 33")
+    apparent_mass_at_critical: float | None = Field(description="m/(1 + K_f,cr) [kg], the limit, not a design")
+    model: Literal["rigid", "cable"]
+    rigid_critical_force_gain: float | None = Field(description="what the rigid model claims (cable devices)")
+    rigid_optimistic: bool | None = Field(description="the rigid model's K_f,cr exceeds the cable model's by > 20 %")
+    human: HumanOut
+    human_source: str = Field(description="request device, or the chapter's eq. 30 grasp when absent")
+    force_sensor_time_constant: float = Field(description="T_f [s] used (0: no sensor filter)")
+    method: str
+    elapsed_ms: float
+    reason: str | None
+    notes: list[str]
+
+
+class MassRange(BaseModel):
+    model_config = STRICT
+    min: float = Field(gt=0, le=1e6, description="[kg]")
+    max: float = Field(gt=0, le=1e6, description="[kg]")
+
+    @model_validator(mode="after")
+    def _ordered(self) -> "MassRange":
+        if self.max < self.min:
+            raise ValueError("max must be ≥ min")
+        return self
+
+
+class InertiaRequirementsIn(BaseModel):
+    model_config = STRICT
+    objective: Literal["min_apparent_mass", "target_apparent_mass"] | None = Field(
+        default=None, description="default: target_apparent_mass when a target is given, else min_apparent_mass")
+    min_gain_margin_db: float = Field(default=6.0, ge=0, le=120, description="required gain margin [dB]")
+    cutoff_min_hz: float = Field(default=10.0, gt=0, le=1e9, description="lowest cutoff [Hz] (human force bandwidth)")
+    cutoff_max_hz: float | None = Field(default=None, gt=0, le=1e9,
+                                        description="highest cutoff [Hz]; default first cable mode, else 0.4 × Nyquist")
+    filter_order: int = Field(default=2, ge=1, le=MAX_FILTER_ORDER)
+    target_apparent_mass: float | None = Field(default=None, gt=0, le=1e12,
+                                               description="reach this apparent mass [kg] with the highest cutoff")
+    human_mass_range: MassRange | None = Field(default=None, description="grasp masses [kg] to hold for (worst case)")
+    humans: list[Human] | None = Field(default=None, min_length=1, max_length=16,
+                                       description="explicit grasps (finger, hand, arm); worst case")
+    pareto_points: int = Field(default=17, ge=2, le=201, description="cutoffs of the exact Pareto scan")
+
+    @model_validator(mode="after")
+    def _one_human_spec(self) -> "InertiaRequirementsIn":
+        if self.humans is not None and self.human_mass_range is not None:
+            raise ValueError("give either humans or human_mass_range, not both")
+        if self.objective == "target_apparent_mass" and self.target_apparent_mass is None:
+            raise ValueError("objective target_apparent_mass needs target_apparent_mass")
+        if self.objective == "min_apparent_mass" and self.target_apparent_mass is not None:
+            raise ValueError("objective min_apparent_mass takes no target_apparent_mass")
+        return self
+
+
+class InertiaRequest(BaseModel):
+    model_config = {**STRICT, "json_schema_extra": {"examples": [
+        {"device": _LHIFAM_FF, "requirements": {"min_gain_margin_db": 6}},
+        {"device": {"preset": "lhifam"}, "requirements": {"target_apparent_mass": 0.9}},
+        {"device": {"preset": "lhifam"}, "requirements": {"human_mass_range": {"min": 0.05, "max": 4}}}]}}
+    device: Device
+    requirements: InertiaRequirementsIn = Field(default_factory=InertiaRequirementsIn)
+
+
+class ParetoPointOut(BaseModel):
+    filter_cutoff_hz: float
+    critical_force_gain: float | None
+    force_gain: float | None = Field(description="best K_f with the required margin at this cutoff")
+    apparent_mass: float | None = Field(description="m/(1 + force_gain) [kg]")
+
+
+class RigidComparisonOut(BaseModel):
+    critical_force_gain: float | None = Field(description="the rigid model's K_f,cr at the design's cutoff")
+    force_gain: float | None = Field(description="the K_f the rigid model would have allowed")
+    optimism: float | None = Field(description="K_f,cr(rigid)/K_f,cr(cable) − 1")
+    optimistic: bool = Field(description="rigid model optimistic by more than 20 %")
+
+
+class InertiaResponse(BaseModel):
+    status: Literal["optimal", "infeasible", "failed"]
+    objective: Literal["min_apparent_mass", "target_apparent_mass"]
+    force_gain: float | None = Field(description="K_f")
+    filter_cutoff_hz: float | None
+    filter_order: int
+    apparent_mass: float | None = Field(description="m/(1 + K_f) [kg]")
+    critical_force_gain: float | None = Field(description="exact K_f,cr at the design's cutoff (worst grasp)")
+    gain_margin_db: float | None = Field(description="20·log10(K_f,cr/K_f) [dB]")
+    crossover_frequency: float | None = Field(description="ω [rad/s] of the crossover setting K_f,cr")
+    cutoff_band_hz: tuple[float, float]
+    cutoff_max_source: str
+    pareto: list[ParetoPointOut] = Field(description="best K_f for each cutoff over the band (exact)")
+    humans: list[HumanOut] = Field(description="grasps the design holds for")
+    worst_human: HumanOut | None
+    human_source: str
+    rigid_model: RigidComparisonOut | None
+    solver: dict[str, Any]
+    reason: str | None
+    notes: list[str]
+    elapsed_ms: float

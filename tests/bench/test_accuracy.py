@@ -1,0 +1,21 @@
+"""The accuracy benchmark's 5-case version runs, renders and keeps its promises."""
+
+import math
+
+from bench import accuracy_vs_time as acc
+
+
+def test_accuracy_quick_suite(tmp_path):
+    results, details = acc.measure(acc.QUICK, repeats=1)
+    assert len(details) == 5
+    # exact within 1e-9 of the 40-digit reference on every case
+    assert max(results["exact"].errors) <= 1e-9
+    # the linear rung's estimate is honest: the true error never exceeds it by more than 2x
+    lin = results["linear"]
+    assert all(e <= 2 * est for e, est in zip(lin.errors, lin.estimates) if math.isfinite(e))
+    # the grid rung becomes wrong where FIELD-NOTES says it must (tiny damping, long delay)
+    assert "rigid δ=1e-09 d=200" in [c for c, e in zip(results["grid"].cases, results["grid"].errors) if e > 0.01]
+    text = acc.render(results, details)
+    assert "| exact |" in text and "first wrong case" in text
+    acc.plot(results, tmp_path / "a.png")
+    assert (tmp_path / "a.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -1,0 +1,41 @@
+"""Independent comparator for the stiffness design: a dense scan of B with the exact K_cr, then refinement.
+
+It shares nothing with optim.stiffness except the exact analysis it is meant to agree with
+(optim.margins.critical_stiffness) and the passivity module (itself checked against a dense θ scan).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+
+from models.device import Device
+from optim.margins import critical_stiffness, max_stable_damping
+from optim.passivity import max_passive_stiffness
+
+
+def objective(device: Device, req, b: float) -> float:
+    k = req.gain_factor * critical_stiffness(device, b).critical_stiffness
+    if req.passivity:
+        k = min(k, max_passive_stiffness(device, b))
+    for cap in req.stiffness_caps().values():
+        k = min(k, cap)
+    return k
+
+
+def scan_best(device: Device, req, points: int = 121) -> tuple[float, float]:
+    """(best K, its B) by a dense B scan (exact K_cr at every point) and bounded refinement of the 3 best."""
+    upper = min([max_stable_damping(device), *req.damping_caps(device.sample_time).values()])
+    grid = np.concatenate([np.linspace(0.0, upper, points), upper * np.geomspace(1e-4, 3e-2, 12)])
+    grid = np.unique(grid[grid <= upper])
+    vals = np.array([objective(device, req, b) for b in grid])
+    best_k, best_b = float(vals.max()), float(grid[int(vals.argmax())])
+    for i in np.argsort(vals)[::-1][:3]:
+        lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
+        res = minimize_scalar(lambda b: -objective(device, req, b), bounds=(lo, hi), method="bounded",
+                              options={"xatol": 1e-10 * max(upper, 1e-300)})
+        if -res.fun > best_k:
+            best_k, best_b = float(-res.fun), float(res.x)
+    return best_k, best_b
