@@ -12,17 +12,16 @@ Each check raises ValueError("field: rule"), which the service answers as a
 (δ ≈ 6.5e-4 for the LHifAM) and inside the range swept by
 tests/optim/test_domain.py, where every analysis returns finite numbers.
 
-Also here, until it is fixed in optim.margins: a device with no physical
-damping at all (b = 0) cannot yet be analysed with virtual damping B > 0 —
-the B_max scan starts at a lowest frequency proportional to δ + β with β = 0,
-i.e. at 0, and divides by zero.  The check turns that into a clear 422.
+optim.analysis and optim.boundary also turn any floating-point overflow into a
+ValueError naming the device; this check comes first and names the field and
+the rule.
 """
 
 from __future__ import annotations
 
 from models.device import Device
 
-__all__ = ["DELTA_MIN", "DELTA_MAX", "SCALE_MIN", "SCALE_MAX", "check_device_domain", "check_damping_domain"]
+__all__ = ["DELTA_MIN", "DELTA_MAX", "SCALE_MIN", "SCALE_MAX", "RATIO_MIN", "RATIO_MAX", "check_device_domain"]
 
 #: Smallest non-zero δ = bT/m (below it the scan's lowest frequency ~1e-4·√δ underflows).
 DELTA_MIN = 1e-30
@@ -32,6 +31,20 @@ DELTA_MAX = 1e9
 #: normal doubles with room for the K and B they multiply.
 SCALE_MIN = 1e-250
 SCALE_MAX = 1e250
+#: Range of every other non-zero dimensionless parameter (masses over m, stiffnesses over m/T², time
+#: constants over T, dampings of the blocks over m/T): a cable, grasp or sensor 1e30 times smaller or
+#: larger than the device is not a model double precision can carry next to it.
+RATIO_MIN = 1e-30
+RATIO_MAX = 1e30
+
+
+def _ratio(field: str, value: float, scale: float, what: str, zero_ok: bool) -> None:
+    if value == 0.0 and zero_ok:
+        return
+    r = value / scale
+    if not (RATIO_MIN <= r <= RATIO_MAX):
+        raise ValueError(f"{field}: {what} = {r:.3g} must be {'0 or ' if zero_ok else ''}within "
+                         f"[{RATIO_MIN:g}, {RATIO_MAX:g}] for double-precision analysis")
 
 
 def check_device_domain(device: Device) -> None:
@@ -47,10 +60,20 @@ def check_device_domain(device: Device) -> None:
     if device.damping != 0.0 and not (DELTA_MIN <= delta <= DELTA_MAX):
         raise ValueError(f"damping: the dimensionless damping δ = damping·sample_time/mass = {delta:.3g} must be 0 or "
                          f"within [{DELTA_MIN:g}, {DELTA_MAX:g}] (chapter Table 1)")
-
-
-def check_damping_domain(device: Device, damping: float) -> None:
-    """Virtual damping B [N·s/m] on this device (B = inf: a whole boundary): unsupported when b = 0."""
-    if damping > 0.0 and device.damping == 0.0:
-        raise ValueError("damping: a device with no physical damping (b = 0) cannot yet be analysed with "
-                         "virtual damping B > 0 (the B_max scan is undefined at δ = 0); give the device b > 0")
+    m, t = device.mass, device.sample_time
+    k_scale, b_scale = m / t / t, m / t
+    if device.cable is not None:
+        c = device.cable
+        _ratio("cable.motor_mass", c.motor_mass, m, "motor_mass/mass", zero_ok=False)
+        _ratio("cable.body_mass", c.body_mass, m, "body_mass/mass", zero_ok=False)
+        _ratio("cable.stiffness", c.stiffness, k_scale, "stiffness·sample_time²/mass", zero_ok=False)
+        for name in ("motor_damping", "body_damping", "damping"):
+            _ratio(f"cable.{name}", getattr(c, name), b_scale, f"{name}·sample_time/mass", zero_ok=True)
+    if device.human is not None:
+        h = device.human
+        _ratio("human.mass", h.mass, m, "human mass/mass", zero_ok=False)
+        _ratio("human.damping", h.damping, b_scale, "human damping·sample_time/mass", zero_ok=True)
+        _ratio("human.stiffness", h.stiffness, k_scale, "human stiffness·sample_time²/mass", zero_ok=True)
+    if device.force_sensor is not None:
+        _ratio("force_sensor.time_constant", device.force_sensor.time_constant, t, "time_constant/sample_time",
+               zero_ok=True)

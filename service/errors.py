@@ -142,6 +142,18 @@ def install_error_handlers(app: FastAPI) -> None:
         return JSONResponse(status_code=422, content={"detail": [
             {"type": "value_error", "loc": ["body", *exc.field.split(".")], "msg": exc.msg}]})
 
+    @app.exception_handler(ValueError)
+    async def _value(request: Request, exc: ValueError) -> JSONResponse:
+        # The numerics' convention (ARCHITECTURE.md): ValueError("field: rule") means the input broke a rule
+        # only they know.  A route that forgot to map one still answers 422 naming the field; any other
+        # ValueError (pydantic's own, a bug) is an internal error.
+        m = _FIELD_RULE.fullmatch(str(exc)) if type(exc) is ValueError else None
+        if m is None:
+            return await _unexpected(request, exc)
+        _log.info("numerics refused the input", extra={"field": m.group(1)})
+        return JSONResponse(status_code=422, content={"detail": [
+            {"type": "value_error", "loc": ["body", *m.group(1).split(".")], "msg": m.group(2)}]})
+
     @app.exception_handler(Exception)
     async def _unexpected(_: Request, exc: Exception) -> JSONResponse:  # pragma: no cover - last resort
         # Never leak a stack trace or an internal path: the traceback goes to the log only.

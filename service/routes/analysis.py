@@ -10,7 +10,6 @@ from fastapi import APIRouter, Body
 
 from optim.analysis import analyse_stability
 from optim.boundary import stability_boundary
-from optim.domain import check_damping_domain
 
 from ..cost import boundary_cost_ms, check_reference_cost, stability_cost_ms
 from ..errors import NumericInputError
@@ -27,14 +26,6 @@ def field_error(exc: ValueError, prefix: str = "") -> NumericInputError:
     field, _, msg = text.partition(": ")
     ok = msg and field.replace(".", "").replace("_", "").isalnum()
     return NumericInputError(prefix + field if ok else "device", msg if ok else text)
-
-
-def require_damping_domain(device, damping: float, field: str) -> None:
-    """422 at ``field`` where the numerics cannot yet serve this B on this device (optim.domain)."""
-    try:
-        check_damping_domain(device, damping)
-    except ValueError as exc:
-        raise NumericInputError(field, str(exc).partition(": ")[2]) from exc
 
 
 def _finite_or_null(answer: dict) -> dict:
@@ -59,8 +50,6 @@ def stability(req: Annotated[StabilityRequest, Body(openapi_examples=_STABILITY_
     k = req.controller.stiffness if req.controller else None
     b = req.controller.damping if req.controller else 0.0
     check_reference_cost(req.device, req.method)
-    if req.method != "linear":  # eq. 10 is closed form: any b
-        require_damping_domain(req.device, b, "controller.damping")
     try:
         res = compute.run(analyse_stability, req.device, k, b, req.method, req.grid_points,
                           cost_ms=stability_cost_ms(req.device, req.method, b, req.grid_points))
@@ -73,7 +62,6 @@ def stability(req: Annotated[StabilityRequest, Body(openapi_examples=_STABILITY_
              summary="The stability boundary K_cr(B) from B = 0 to B_max and the B allowing the stiffest wall")
 def boundary(req: Annotated[BoundaryRequest, Body(openapi_examples=device_examples(points=20))],
              compute: Compute) -> BoundaryResponse:
-    require_damping_domain(req.device, math.inf, "device.damping")  # the boundary spans every B up to B_max
     try:
         res = compute.run(stability_boundary, req.device, req.damping_max, req.points,
                           cost_ms=boundary_cost_ms(req.device, req.points))

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from typing import Annotated
 
 from fastapi import APIRouter, Body
@@ -16,7 +15,7 @@ from ..executor import Compute
 from ..plots import MEDIA_TYPES, bode_figure, boundary_figure, render
 from ..schemas.common import device_examples
 from ..schemas.plots import BodePlotRequest, BoundaryPlotRequest
-from .analysis import field_error, require_damping_domain
+from .analysis import field_error
 
 router = APIRouter(prefix="/v1/plots", tags=["plots"])
 
@@ -29,7 +28,6 @@ _IMAGE = {200: {"description": "the figure", "content": {
              summary="Figure of the stability boundary K_cr(B) with its optimum (PNG or SVG)")
 def plot_boundary(req: Annotated[BoundaryPlotRequest, Body(openapi_examples=device_examples(points=20, format="svg"))],
                   compute: Compute) -> Response:
-    require_damping_domain(req.device, math.inf, "device.damping")
     try:
         res = compute.run(stability_boundary, req.device, req.damping_max, req.points,
                           cost_ms=boundary_cost_ms(req.device, req.points))
@@ -44,7 +42,6 @@ def plot_bode(req: Annotated[BodePlotRequest, Body(openapi_examples=device_examp
               compute: Compute) -> Response:
     b = req.controller.damping if req.controller else 0.0
     k = req.controller.stiffness if req.controller else None
-    require_damping_domain(req.device, b, "controller.damping")
     try:
         res = compute.run(loop_frequency_response, req.device, b, req.points,
                           cost_ms=bode_cost_ms(req.device, b, req.points))

@@ -53,6 +53,7 @@ CASES = [
     (LHIFAM_RIGID, None, 0.0),
     ({**LHIFAM_RIGID, "delay": 0.00137}, 2500.0, 4.0),  # fractional delay
     ({"preset": "lhifam", "delay": 0.003}, 500.0, 10.0),
+    ({"mass": 1.0, "damping": 0.0}, 100.0, 5.0),  # no physical damping, virtual damping only
 ]
 
 
