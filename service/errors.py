@@ -154,8 +154,8 @@ def install_error_handlers(app: FastAPI) -> None:
         return JSONResponse(status_code=422, content={"detail": [
             {"type": "value_error", "loc": ["body", *m.group(1).split(".")], "msg": m.group(2)}]})
 
-    @app.exception_handler(Exception)
-    async def _unexpected(_: Request, exc: Exception) -> JSONResponse:  # pragma: no cover - last resort
-        # Never leak a stack trace or an internal path: the traceback goes to the log only.
+    async def _unexpected(_: Request, exc: Exception) -> JSONResponse:
+        # Never leak a stack trace or an internal path: the traceback goes to the log only.  (Other
+        # exceptions are answered the same way by service.middleware.RequestContextMiddleware.)
         _log.error("unhandled error", exc_info=exc)
         return JSONResponse(status_code=500, content={"detail": "internal error"})

@@ -27,6 +27,7 @@ REQUEST_ID_HEADER = "x-request-id"
 # An incoming id is echoed only if it is short and plain: it ends up in logs and headers.
 _SAFE_ID = re.compile(r"[A-Za-z0-9._:\-]{1,128}")
 _access = logging.getLogger("zwidth.access")
+_errors = logging.getLogger("zwidth.errors")
 
 
 def _header(scope: Scope, name: bytes) -> bytes | None:
@@ -51,18 +52,29 @@ class RequestContextMiddleware:
         incoming = raw.decode("latin-1") if raw else ""
         rid = incoming if _SAFE_ID.fullmatch(incoming) else uuid.uuid4().hex
         token = request_id_var.set(rid)
-        status = 500  # if the app raises before answering, the server error handler answers 500
+        status = 500
+        started = False
         t0 = time.perf_counter()
 
         async def send_with_id(message: Message) -> None:
-            nonlocal status
+            nonlocal status, started
             if message["type"] == "http.response.start":
-                status = message["status"]
+                status, started = message["status"], True
                 message = {**message, "headers": [*message.get("headers", ()), (b"x-request-id", rid.encode())]}
             await send(message)
 
         try:
             await self.app(scope, receive, send_with_id)
+        except Exception:
+            # Answer the 500 here, with the request id, and without a trace or path; the outer server-error
+            # layer sees a started response and only re-raises, so the server logs the traceback.
+            _errors.exception("unhandled error")
+            if not started:
+                body = b'{"detail":"internal error"}'
+                await send_with_id({"type": "http.response.start", "status": 500, "headers": [
+                    (b"content-type", b"application/json"), (b"content-length", str(len(body)).encode())]})
+                await send_with_id({"type": "http.response.body", "body": body})
+            raise
         finally:
             if self.access_log:
                 _access.info("request", extra={

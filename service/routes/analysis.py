@@ -7,6 +7,7 @@ from dataclasses import asdict
 from typing import Annotated
 
 from fastapi import APIRouter, Body
+from pydantic import ValidationError
 
 from optim.analysis import analyse_stability
 from optim.boundary import stability_boundary
@@ -21,7 +22,13 @@ router = APIRouter(prefix="/v1/analysis", tags=["analysis"])
 
 
 def field_error(exc: ValueError, prefix: str = "") -> NumericInputError:
-    """A numerics ValueError ("field: rule") as a 422 naming the field (under ``prefix``, e.g. "device.")."""
+    """A numerics ValueError ("field: rule") as a 422 naming the field (under ``prefix``, e.g. "device.").
+
+    A pydantic ValidationError is a ValueError too, but one raised inside the numerics means an internal
+    model was misused: a bug, re-raised so that it answers 500 without its text.
+    """
+    if isinstance(exc, ValidationError):
+        raise exc
     text = str(exc)
     field, _, msg = text.partition(": ")
     ok = msg and field.replace(".", "").replace("_", "").isalnum()

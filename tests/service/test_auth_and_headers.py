@@ -161,7 +161,23 @@ def test_unexpected_errors_leak_no_trace_or_path(client, monkeypatch):
         raise KeyError("/work/secret/path.py line 12")
 
     monkeypatch.setattr(routes, "analyse_stability", broken)
-    r = client.post(STABILITY, json={"device": LHIFAM_RIGID})
+    r = client.post(STABILITY, json={"device": LHIFAM_RIGID}, headers={"x-request-id": "oops-1"})
     assert r.status_code == 500
     assert r.json() == {"detail": "internal error"}
     assert "secret" not in r.text and "Traceback" not in r.text
+    assert r.headers["x-request-id"] == "oops-1"  # the operator can find the traceback in the log by it
+
+
+def test_unexpected_value_error_without_a_field_is_500_without_leaks(client, monkeypatch):
+    import service.routes.analysis as routes
+    from pydantic import BaseModel
+
+    class Inner(BaseModel):
+        x: int
+
+    def broken(*args, **kwargs):
+        Inner(x="not a number at /work/secret")  # a pydantic ValidationError: a ValueError, but a bug here
+
+    monkeypatch.setattr(routes, "analyse_stability", broken)
+    r = client.post(STABILITY, json={"device": LHIFAM_RIGID})
+    assert r.status_code == 500 and r.json() == {"detail": "internal error"}
