@@ -6,7 +6,7 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from models.device import Device
+from .common import Device  # the numerics' validated domain (optim.domain) applies
 
 from .ladder import ExactCheckOut, GridPointsField, Method, MethodField
 
@@ -59,7 +59,10 @@ class StiffnessRequirementsIn(BaseModel):
 
 
 class StiffnessDesignRequest(BaseModel):
-    model_config = _STRICT
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, json_schema_extra={"examples": [
+        {"device": {"mass": 5.4, "damping": 3.5, "sample_time": 0.001}, "requirements": {"min_gain_margin_db": 6}},
+        {"device": {"preset": "lhifam"}, "requirements": {"min_gain_margin_db": 6}},
+        {"device": {"preset": "phantom-1.0"}}]})
 
     device: Device
     requirements: StiffnessRequirementsIn = Field(default_factory=StiffnessRequirementsIn)
