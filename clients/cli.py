@@ -23,11 +23,13 @@ from .cli_common import (DEFAULT_URL, AsJson, Connection, DeviceFile, Local, Pre
 from .cli_design import app as design_app
 from .cli_plot import app as plot_app
 from .cli_study import app as study_app
+from .robust_cli import robust_app
 
 app = typer.Typer(help="zwidth: the stiffest wall, the lightest feel and the filter that are still safe to render.\n\n"
                        + c.EXIT_CODES_HELP, no_args_is_help=True)
 app.add_typer(design_app, name="design")
 app.add_typer(plot_app, name="plot")
+app.add_typer(robust_app, name="robust")
 app.add_typer(study_app, name="study")
 
 
@@ -221,12 +223,17 @@ def simulate(preset: Preset = None, sets: Sets = None, device_file: DeviceFile =
 
 # ------------------------------------------------------------------------------------------------ serve, bench
 @app.command()
-def serve(host: str = typer.Option("127.0.0.1"), port: int = typer.Option(8000),
-          workers: int = typer.Option(1)) -> None:
-    """Serve the HTTP API with uvicorn."""
+def serve(host: str = typer.Option("127.0.0.1", help="interface to bind (0.0.0.0 in a container)"),
+          port: int = typer.Option(8000, min=1, max=65535, help="TCP port"),
+          workers: int = typer.Option(1, min=1, help="uvicorn worker processes (each with its own compute pool)"),
+          log_level: str = typer.Option("info", help="log level (logs are JSON lines on stderr)")) -> None:
+    """Serve the HTTP API with uvicorn (settings from ZWIDTH_* environment variables)."""
     import uvicorn
 
-    uvicorn.run("service.app:app", host=host, port=port, workers=workers)
+    from service.logs import uvicorn_log_config
+
+    uvicorn.run("service.app:app", host=host, port=port, workers=workers, log_level=log_level,
+                log_config=uvicorn_log_config(log_level), access_log=False, proxy_headers=False)
 
 
 bench_app = typer.Typer(help="Benchmarks that write their tables into docs/.", no_args_is_help=True)

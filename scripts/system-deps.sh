@@ -2,12 +2,14 @@
 # System packages the test suite needs beyond Python, installed with apt-get when missing (a no-op otherwise).
 # Called by scripts/test.sh.  Fails loudly if a package cannot be installed: the tests that need it must not be
 # skipped silently in CI.
+#   chromium: the offline-docs end-to-end test (tests/service/test_docs_offline.py).
 #   octave-cli (package octave), curl, gnuplot-nox, fonts-freefont-otf: the MATLAB/Octave client's tests
 #     (tests/clients/test_matlab.py).  Octave's webwrite cannot send a JSON body, so the client uses curl under
 #     Octave; gnuplot-nox and the font let the example script draw its figure headless.
 set -euo pipefail
 # "binary-or-file:package" pairs.
 NEEDS=(
+    "/usr/bin/chromium:chromium"
     "/usr/bin/octave-cli:octave"
     "/usr/bin/curl:curl"
     "/usr/bin/gnuplot:gnuplot-nox"

@@ -1,19 +1,42 @@
-"""The zwidth HTTP service: ``service.app:app``, built by :func:`create_app`."""
+"""The zwidth HTTP service: ``service.app:app``, built by :func:`create_app`.
+
+Layers, outermost first: request id + JSON access log, body-size limit (413),
+CORS (only when ZWIDTH_CORS_ORIGINS is set), then the routers found in
+service/routes (every module with a ``router``), the /v1 ones behind the bearer
+token when ZWIDTH_API_TOKEN is set.  /healthz, /docs, /redoc and /openapi.json
+stay open.
+"""
 
 from __future__ import annotations
 
 import importlib
 import pkgutil
+import threading
+from contextlib import asynccontextmanager
+from typing import AsyncIterator
 
-from fastapi import FastAPI
+from fastapi import Depends, FastAPI
+from fastapi.middleware.cors import CORSMiddleware
 
 from . import routes
-from .errors import install_error_handlers
+from .auth import UNAUTHORIZED, bearer_auth
+from .docs import install_docs
+from .errors import ERROR_RESPONSES, install_error_handlers
+from .executor import BoundedExecutor
+from .logs import configure_logging
+from .middleware import BodyLimitMiddleware, RequestContextMiddleware
 from .settings import Settings
 
 __all__ = ["create_app", "app", "VERSION"]
 
 VERSION = "0.1.0"
+
+_DESCRIPTION = """Controller design for haptic interfaces (Díaz, Gil & Hulin, "Stability Boundary and
+Transparency for Haptic Rendering"). SI units throughout; every analysis says which rung of the accuracy
+ladder produced it (`method`) and what it cost (`elapsed_ms`).
+
+Invalid input answers 422 naming the field and the rule; bodies above the size limit 413; a computation
+past the request time budget 503. Limits: see docs/limits.md."""
 
 
 def _routers():
@@ -24,14 +47,48 @@ def _routers():
             yield router
 
 
+def _is_v1(router) -> bool:
+    return any(getattr(r, "path", "").startswith("/v1/") or getattr(r, "path", "") == "/v1" for r in router.routes)
+
+
 def create_app(settings: Settings | None = None) -> FastAPI:
     settings = settings or Settings()
-    application = FastAPI(title="zwidth", version=VERSION,
-                          description="Controller design for haptic interfaces (Díaz, Gil & Hulin).")
+    configure_logging(settings.log_level)
+    executor = BoundedExecutor(workers=settings.compute_workers, timeout=settings.request_timeout)
+
+    @asynccontextmanager
+    async def lifespan(_: FastAPI) -> AsyncIterator[None]:
+        executor.open()
+        if settings.prestart_workers:
+            # In the background: the server answers /healthz while the workers start.
+            threading.Thread(target=executor.warm_up, name="zwidth-warm-up", daemon=True).start()
+        yield
+        executor.shutdown()
+
+    application = FastAPI(title="zwidth", version=VERSION, description=_DESCRIPTION,
+                          docs_url=None, redoc_url=None, lifespan=lifespan)
     application.state.settings = settings
+    application.state.executor = executor
     install_error_handlers(application)
+    install_docs(application)
+
+    token = settings.token
+    guard = [Depends(bearer_auth(token))] if token else []
+    v1_responses = {**ERROR_RESPONSES, **({401: UNAUTHORIZED} if token else {})}
     for router in _routers():
-        application.include_router(router)
+        if _is_v1(router):
+            application.include_router(router, dependencies=guard, responses=v1_responses)
+        else:
+            application.include_router(router)
+
+    # add_middleware wraps: the last added is the outermost.
+    if settings.cors_origins:
+        application.add_middleware(CORSMiddleware, allow_origins=settings.cors_origins,
+                                   allow_methods=["GET", "POST", "OPTIONS"],
+                                   allow_headers=["Authorization", "Content-Type", "X-Request-ID"],
+                                   expose_headers=["X-Request-ID"])
+    application.add_middleware(BodyLimitMiddleware, max_body_bytes=settings.max_body_bytes)
+    application.add_middleware(RequestContextMiddleware, access_log=settings.access_log)
     return application
 
 

@@ -4,41 +4,76 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict
+from typing import Annotated
 
-from fastapi import APIRouter
+from fastapi import APIRouter, Body
+from pydantic import ValidationError
 
 from optim.analysis import analyse_stability
 from optim.boundary import stability_boundary
 
+from ..cost import boundary_cost_ms, check_reference_cost, stability_cost_ms
 from ..errors import NumericInputError
+from ..executor import Compute
 from ..schemas.analysis import BoundaryRequest, BoundaryResponse, StabilityRequest, StabilityResponse
+from ..schemas.common import device_examples
 
 router = APIRouter(prefix="/v1/analysis", tags=["analysis"])
 
 
-def _field_error(exc: ValueError) -> NumericInputError:
+def field_error(exc: ValueError, prefix: str = "") -> NumericInputError:
+    """A numerics ValueError ("field: rule") as a 422 naming the field (under ``prefix``, e.g. "device.").
+
+    A pydantic ValidationError is a ValueError too, but one raised inside the numerics means an internal
+    model was misused: a bug, re-raised so that it answers 500 without its text.
+    """
+    if isinstance(exc, ValidationError):
+        raise exc
     text = str(exc)
     field, _, msg = text.partition(": ")
-    return NumericInputError(field if msg else "device", msg or text)
+    ok = msg and field.replace(".", "").replace("_", "").isalnum()
+    return NumericInputError(prefix + field if ok else "device", msg if ok else text)
 
 
-@router.post("/stability", response_model=StabilityResponse)
-def stability(req: StabilityRequest) -> StabilityResponse:
+def _finite_or_null(answer: dict) -> dict:
+    """Top-level non-finite floats become null (JSON has no inf/NaN); each such field says so in the schema."""
+    return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in answer.items()}
+
+
+_STABILITY_EXAMPLES = {
+    **device_examples(),
+    "margin-of-a-wall": {"summary": "gain margin and passivity of K = 3500 N/m, B = 5 N·s/m with 1 ms delay",
+                         "value": {"device": {"preset": "lhifam", "delay": 0.001},
+                                   "controller": {"stiffness": 3500, "damping": 5}}},
+    "linear-rung": {"summary": "closed-form estimate (eq. 10)", "value": {"device": {"mass": 5.4, "damping": 3.5},
+                                                                         "method": "linear"}},
+}
+
+
+@router.post("/stability", response_model=StabilityResponse, operation_id="analyse_stability",
+             summary="Critical stiffness K_cr(B), every crossover, margin and passivity of a wall")
+def stability(req: Annotated[StabilityRequest, Body(openapi_examples=_STABILITY_EXAMPLES)],
+              compute: Compute) -> StabilityResponse:
     k = req.controller.stiffness if req.controller else None
     b = req.controller.damping if req.controller else 0.0
+    check_reference_cost(req.device, req.method)
     try:
-        res = analyse_stability(req.device, k, b, req.method, req.grid_points)
+        res = compute.run(analyse_stability, req.device, k, b, req.method, req.grid_points,
+                          cost_ms=stability_cost_ms(req.device, req.method, b, req.grid_points))
     except ValueError as exc:
-        raise _field_error(exc) from exc
-    return StabilityResponse(**asdict(res))
+        raise field_error(exc) from exc
+    return StabilityResponse(**_finite_or_null(asdict(res)))
 
 
-@router.post("/boundary", response_model=BoundaryResponse)
-def boundary(req: BoundaryRequest) -> BoundaryResponse:
+@router.post("/boundary", response_model=BoundaryResponse, operation_id="stability_boundary",
+             summary="The stability boundary K_cr(B) from B = 0 to B_max and the B allowing the stiffest wall")
+def boundary(req: Annotated[BoundaryRequest, Body(openapi_examples=device_examples(points=20))],
+             compute: Compute) -> BoundaryResponse:
     try:
-        res = stability_boundary(req.device, req.damping_max, req.points)
+        res = compute.run(stability_boundary, req.device, req.damping_max, req.points,
+                          cost_ms=boundary_cost_ms(req.device, req.points))
     except ValueError as exc:
-        raise _field_error(exc) from exc
+        raise field_error(exc) from exc
 
     def clean(p):
         d = asdict(p)

@@ -7,9 +7,15 @@ import math
 import time
 
 from fastapi import APIRouter
+from fastapi.exceptions import RequestValidationError
 
-from optim.stiffness import StiffnessRequirements, design_stiffness
+from optim.design_ladder import design_stiffness_on_rung
+from optim.robust.box import UncertaintyBox
+from optim.robust.stiffness import robust_design_stiffness
+from optim.stiffness import StiffnessRequirements
+from service.errors import NumericInputError
 from service.schemas.design_stiffness import StiffnessDesignRequest, StiffnessDesignResponse
+from service.schemas.ladder import rung_fields
 
 router = APIRouter()
 
@@ -29,11 +35,45 @@ def _finite(value):
 def design_stiffness_route(request: StiffnessDesignRequest) -> StiffnessDesignResponse:
     # a plain def: FastAPI runs it in the threadpool, and the CasADi solver cache is per thread
     t0 = time.perf_counter()
-    req = StiffnessRequirements(**request.requirements.model_dump())
+    fields = request.requirements.model_dump(exclude={"uncertainty"})
+    req = StiffnessRequirements(**fields)
+    if request.requirements.uncertainty is not None:
+        if request.method != "exact":
+            raise NumericInputError("method", "robust designs (requirements.uncertainty) are computed on the exact rung only")
+        return _robust(request, req, t0)
     try:
-        design = design_stiffness(request.device, req)
+        design, rung = design_stiffness_on_rung(request.device, req, request.method, request.grid_points)
     except (RuntimeError, ArithmeticError, ValueError) as exc:   # CasADi raises RuntimeError on solver trouble
         return StiffnessDesignResponse(status="failed", reason=f"solver trouble: {exc}",
                                        elapsed_ms=(time.perf_counter() - t0) * 1e3)
     data = _finite(dataclasses.asdict(design))
-    return StiffnessDesignResponse(**data)
+    return StiffnessDesignResponse(**data, **rung_fields(rung))
+
+
+def input_error(exc: ValueError) -> Exception:
+    """A numerics ValueError ("field: rule") as a 422; an uncertainty path stays one element of loc."""
+    field, _, msg = str(exc).partition(": ")
+    prefix = "requirements.uncertainty."
+    if field.startswith(prefix):
+        loc = ("body", "requirements", "uncertainty", field[len(prefix):])
+        return RequestValidationError([{"type": "value_error", "loc": loc, "msg": msg, "input": None}])
+    return NumericInputError(field, msg)
+
+
+def _robust(request: StiffnessDesignRequest, req: StiffnessRequirements, t0: float) -> StiffnessDesignResponse:
+    ranges = {k: (v.min, v.max) for k, v in request.requirements.uncertainty.items()}
+    try:
+        box = UncertaintyBox.from_ranges(request.device, ranges)
+        d = robust_design_stiffness(request.device, req, box)
+    except ValueError as exc:
+        raise input_error(exc) from None
+    except (RuntimeError, ArithmeticError) as exc:
+        return StiffnessDesignResponse(status="failed", reason=f"solver trouble: {exc}", robust=True,
+                                       elapsed_ms=(time.perf_counter() - t0) * 1e3)
+    data = _finite(dataclasses.asdict(d))
+    data.pop("nominal_critical_stiffness", None)
+    worst = data.get("worst_case") or {}
+    data["critical_stiffness"] = worst.get("critical_stiffness")
+    data["crossover_frequency"] = worst.get("crossover_frequency")
+    data["active_constraints"] = list(data["active_constraints"])
+    return StiffnessDesignResponse(robust=True, **data)

@@ -8,10 +8,13 @@ import time
 from fastapi import APIRouter
 
 from models.filters import ButterworthLowPass
-from optim.feedforward import apparent_mass, critical_force_gain
-from optim.inertia import RIGID_OPTIMISM_FLAG, InertiaRequirements, design_inertia
+from optim.design_ladder import design_inertia_on_rung
+from optim.feedforward import apparent_mass, critical_force_gain, resolve_human
+from optim.feedforward_ladder import analyse_force_feedforward
+from optim.inertia import RIGID_OPTIMISM_FLAG, InertiaRequirements
 
 from ..errors import NumericInputError
+from ..schemas.ladder import rung_fields
 from ..schemas.feedforward import (ForceFeedforwardRequest, ForceFeedforwardResponse, InertiaRequest,
                                    InertiaResponse)
 
@@ -41,8 +44,9 @@ def force_feedforward(req: ForceFeedforwardRequest) -> ForceFeedforwardResponse:
     dev = req.device
     try:
         filt = ButterworthLowPass(req.filter.order, req.filter.cutoff_hz, dev.sample_time) if req.filter else None
-        res = critical_force_gain(dev, filt)
-        rigid = critical_force_gain(dev.rigid(), filt, res.human).critical_force_gain if dev.cable else None
+        res = analyse_force_feedforward(dev, filt, method=req.method, grid_points=req.grid_points)
+        rigid = (critical_force_gain(dev.rigid(), filt, res.human).critical_force_gain
+                 if dev.cable and req.method in ("exact", "reference") else None)   # the rung's cost stays its own
     except ValueError as exc:
         raise _field_error(exc, "filter.") from exc
     kcr = _finite(res.critical_force_gain)
@@ -61,7 +65,8 @@ def force_feedforward(req: ForceFeedforwardRequest) -> ForceFeedforwardResponse:
         model="cable" if dev.cable else "rigid", rigid_critical_force_gain=_finite(rigid), rigid_optimistic=optimistic,
         human=res.human.model_dump(), human_source=res.human_source,
         force_sensor_time_constant=dev.force_sensor.time_constant if dev.force_sensor else 0.0,
-        method="exact", elapsed_ms=(time.perf_counter() - start) * 1e3, reason=res.reason, notes=notes)
+        method=res.method, elapsed_ms=(time.perf_counter() - start) * 1e3, error_estimate=_finite(res.error_estimate),
+        error_source=res.error_source, reason=res.reason, notes=notes)
 
 
 @router.post("/v1/design/inertia", response_model=InertiaResponse)
@@ -72,8 +77,12 @@ def inertia(req: InertiaRequest) -> InertiaResponse:
         filter_order=r.filter_order, target_apparent_mass=r.target_apparent_mass,
         human_mass_range=(r.human_mass_range.min, r.human_mass_range.max) if r.human_mass_range else None,
         humans=tuple(r.humans) if r.humans else None, pareto_points=r.pareto_points)
+    if r.uncertainty is not None:
+        if req.method != "exact":
+            raise NumericInputError("method", "robust designs (requirements.uncertainty) are computed on the exact rung only")
+        return _robust_inertia(req, spec)
     try:
-        d = design_inertia(req.device, spec)
+        d, rung = design_inertia_on_rung(req.device, spec, req.method, req.grid_points)
     except ValueError as exc:
         raise _field_error(exc) from exc
     notes = _human_notes(d.human_source)
@@ -100,4 +109,31 @@ def inertia(req: InertiaRequest) -> InertiaResponse:
         humans=[h.model_dump() for h in d.humans],
         worst_human=d.worst_human.model_dump() if d.worst_human else None, human_source=d.human_source,
         rigid_model=rigid, solver={k: v for k, v in d.solver.items()}, reason=d.reason, notes=notes,
-        elapsed_ms=d.elapsed_ms)
+        elapsed_ms=d.elapsed_ms, **rung_fields(rung))
+
+
+def _robust_inertia(req: InertiaRequest, spec: InertiaRequirements) -> InertiaResponse:
+    from optim.robust.box import UncertaintyBox
+    from optim.robust.inertia import robust_design_inertia
+
+    from .design_stiffness import input_error
+
+    try:
+        box = UncertaintyBox.from_ranges(req.device, {k: (v.min, v.max) for k, v in req.requirements.uncertainty.items()})
+        d = robust_design_inertia(req.device, spec, box)
+    except ValueError as exc:
+        raise input_error(exc) from None
+    human, source = resolve_human(req.device)
+    return InertiaResponse(
+        status=d.status, objective=d.objective, force_gain=_finite(d.force_gain), filter_cutoff_hz=d.filter_cutoff_hz,
+        filter_order=d.filter_order, apparent_mass=_finite(d.apparent_mass),
+        critical_force_gain=_finite(d.critical_force_gain), gain_margin_db=_finite(d.gain_margin_db),
+        crossover_frequency=(d.worst_case or {}).get("crossover_frequency"),
+        cutoff_band_hz=d.cutoff_band_hz or (spec.cutoff_min_hz, spec.cutoff_min_hz),
+        cutoff_max_source="requirements" if spec.cutoff_max_hz is not None else
+        "lowest first cable mode (eq. 24) or 0.4 × Nyquist over the box's corners",
+        pareto=[], humans=[human.model_dump()], worst_human=None, human_source=source, rigid_model=None,
+        solver=dict(d.solver), reason=d.reason, notes=_human_notes(source), elapsed_ms=d.elapsed_ms, robust=True,
+        worst_case=d.worst_case, nominal_gain_margin_db=_finite(d.nominal_gain_margin_db),
+        apparent_mass_range=d.apparent_mass_range, scenarios=list(d.scenarios), iterations=d.iterations,
+        evaluations=d.evaluations)

@@ -43,7 +43,9 @@ class StabilityResponse(BaseModel):
     damping: float = Field(description="B [N·s/m] analysed")
     method: str
     elapsed_ms: float
-    error_estimate: float = Field(description="relative error bound/estimate of critical_stiffness")
+    error_estimate: float | None = Field(
+        description="relative error bound/estimate of critical_stiffness; null when unbounded (no crossover found "
+                    "on the grid rung's grid)")
     error_source: str
     reason: str | None
 

@@ -6,9 +6,12 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from models.device import Device
+from .common import Device  # the numerics' validated domain (optim.domain) applies
 
-__all__ = ["StiffnessRequirementsIn", "StiffnessDesignRequest", "SensitivityOut", "StiffnessDesignResponse"]
+from .ladder import ExactCheckOut, GridPointsField, Method, MethodField
+
+__all__ = ["StiffnessRequirementsIn", "StiffnessDesignRequest", "SensitivityOut", "StiffnessDesignResponse",
+           "RangeIn", "WorstCaseOut"]
 
 _STRICT = ConfigDict(extra="forbid", allow_inf_nan=False)
 _BIG = 1e12
@@ -16,6 +19,14 @@ _BIG = 1e12
 
 def _limit(description: str):
     return Field(default=None, gt=0, le=_BIG, description=description)
+
+
+class RangeIn(BaseModel):
+    """A closed range of one uncertain device parameter (SI unit of that parameter)."""
+
+    model_config = _STRICT
+    min: float
+    max: float
 
 
 class StiffnessRequirementsIn(BaseModel):
@@ -32,6 +43,9 @@ class StiffnessRequirementsIn(BaseModel):
     max_penetration: float | None = _limit("penetration x [m] at which the force must not saturate; needs max_force")
     quantization: float | None = _limit("encoder quantisation q [m]; needs max_force_noise (B·q/T ≤ F_noise)")
     max_force_noise: float | None = _limit("largest damper force step F_noise [N]; needs quantization")
+    uncertainty: dict[str, RangeIn] | None = Field(
+        None, description="robust design: dotted device paths (device.mass, device.delay, device.cable.stiffness, "
+                          "…) mapped to {min, max}; the design then holds for every device of the box")
 
     @model_validator(mode="after")
     def _pairs(self) -> "StiffnessRequirementsIn":
@@ -45,10 +59,15 @@ class StiffnessRequirementsIn(BaseModel):
 
 
 class StiffnessDesignRequest(BaseModel):
-    model_config = _STRICT
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, json_schema_extra={"examples": [
+        {"device": {"mass": 5.4, "damping": 3.5, "sample_time": 0.001}, "requirements": {"min_gain_margin_db": 6}},
+        {"device": {"preset": "lhifam"}, "requirements": {"min_gain_margin_db": 6}},
+        {"device": {"preset": "phantom-1.0"}}]})
 
     device: Device
     requirements: StiffnessRequirementsIn = Field(default_factory=StiffnessRequirementsIn)
+    method: Method = MethodField()
+    grid_points: int = GridPointsField()
 
 
 class SensitivityOut(BaseModel):
@@ -58,6 +77,13 @@ class SensitivityOut(BaseModel):
     step_label: str
     change: float = Field(description="derivative·step [N/m]")
     statement: str
+
+
+class WorstCaseOut(BaseModel):
+    device: dict[str, float] = Field(description="the worst device's values of the uncertain paths (SI)")
+    critical_stiffness: float = Field(description="exact K_cr(B) of the worst device [N/m]")
+    crossover_frequency: float | None = Field(None, description="ω of its critical crossover [rad/s]")
+    gain_margin_db: float | None = Field(None, description="20·log10(K_cr/K) of the worst device [dB]")
 
 
 class StiffnessDesignResponse(BaseModel):
@@ -80,3 +106,15 @@ class StiffnessDesignResponse(BaseModel):
     elapsed_ms: float
     setup_ms: float | None = Field(None, description="boundary sampling and seeding [ms]")
     solve_ms: float | None = Field(None, description="NLP solves, exact re-checks and sensitivities [ms]")
+    robust: bool = Field(False, description="true when requirements.uncertainty was given")
+    worst_case: WorstCaseOut | None = Field(None, description="robust design: the worst device of the box")
+    nominal_gain_margin_db: float | None = Field(None, description="robust design: margin of the nominal device [dB]")
+    scenarios: list[dict[str, float]] | None = Field(None, description="robust design: box points the NLP used")
+    iterations: int | None = Field(None, description="robust design: scenario-exchange rounds")
+    evaluations: int | None = Field(None, description="robust design: exact analyses of the worst-case searches")
+    ignored_paths: list[str] | None = Field(None, description="uncertain paths that do not enter the stiffness loop "
+                                                             "(the user's grasp, the force sensor)")
+    method: Method = "exact"
+    error_estimate: float | None = Field(None, description="relative error bound/estimate of critical_stiffness")
+    error_source: str | None = None
+    exact_check: ExactCheckOut | None = Field(None, description="exact margin of a linear or grid design")

@@ -8,8 +8,11 @@ from pydantic import BaseModel, Field, model_validator
 
 from models.device import Human
 from models.filters import MAX_FILTER_ORDER
+from optim.analysis import DEFAULT_GRID_POINTS, MAX_GRID_POINTS
 
 from .common import STRICT, Device
+from .design_stiffness import RangeIn
+from .ladder import ExactCheckOut, GridPointsField, Method, MethodField
 
 _LHIFAM_FF = {"mass": 5.4, "damping": 3.5, "sample_time": 0.001,
               "human": {"mass": 2, "damping": 2, "stiffness": 10}, "force_sensor": {"time_constant": 0.005}}
@@ -27,6 +30,11 @@ class ForceFeedforwardRequest(BaseModel):
         {"device": {"preset": "lhifam"}, "filter": {"cutoff_hz": 30, "order": 2}}]}}
     device: Device = Field(description="needs a human block (else the chapter's eq. 30 grasp is used, and said)")
     filter: FilterIn | None = Field(default=None, description="Butterworth D(z), prewarped bilinear; none by default")
+    method: Literal["linear", "grid", "exact", "reference"] = Field(
+        default="exact", description="rung of the accuracy ladder: linear = eq. 33 (1 + m/m_h, large delays), "
+                                     "grid = fixed log grid, exact, reference = 40-digit mpmath (slow)")
+    grid_points: int = Field(default=DEFAULT_GRID_POINTS, ge=10, le=MAX_GRID_POINTS,
+                             description="frequency samples for method=grid")
 
 
 class ForceCrossoverOut(BaseModel):
@@ -54,6 +62,9 @@ class ForceFeedforwardResponse(BaseModel):
     force_sensor_time_constant: float = Field(description="T_f [s] used (0: no sensor filter)")
     method: str
     elapsed_ms: float
+    error_estimate: float | None = Field(default=None, description="relative error bound/estimate of "
+                                         "critical_force_gain (null when not finite)")
+    error_source: str | None = None
     reason: str | None
     notes: list[str]
 
@@ -85,6 +96,10 @@ class InertiaRequirementsIn(BaseModel):
     humans: list[Human] | None = Field(default=None, min_length=1, max_length=16,
                                        description="explicit grasps (finger, hand, arm); worst case")
     pareto_points: int = Field(default=17, ge=2, le=201, description="cutoffs of the exact Pareto scan")
+    uncertainty: dict[str, RangeIn] | None = Field(
+        default=None, description="robust design: dotted device paths (device.mass, device.delay, "
+                                  "device.cable.stiffness, device.human.mass, …) mapped to {min, max}; K_f and the "
+                                  "cutoff then hold for every device of the box (not device.sample_time)")
 
     @model_validator(mode="after")
     def _one_human_spec(self) -> "InertiaRequirementsIn":
@@ -104,6 +119,8 @@ class InertiaRequest(BaseModel):
         {"device": {"preset": "lhifam"}, "requirements": {"human_mass_range": {"min": 0.05, "max": 4}}}]}}
     device: Device
     requirements: InertiaRequirementsIn = Field(default_factory=InertiaRequirementsIn)
+    method: Method = MethodField()
+    grid_points: int = GridPointsField()
 
 
 class ParetoPointOut(BaseModel):
@@ -141,3 +158,16 @@ class InertiaResponse(BaseModel):
     reason: str | None
     notes: list[str]
     elapsed_ms: float
+    robust: bool = Field(default=False, description="true when requirements.uncertainty was given")
+    worst_case: dict[str, Any] | None = Field(default=None, description="robust: the worst device of the box "
+                                              "(device values, critical_force_gain, crossover_frequency, margin)")
+    nominal_gain_margin_db: float | None = Field(default=None, description="robust: margin of the nominal device")
+    apparent_mass_range: tuple[float, float] | None = Field(default=None, description="robust: m/(1 + K_f) over "
+                                                            "the box's masses [kg]")
+    scenarios: list[dict[str, float]] | None = Field(default=None, description="robust: box points used")
+    iterations: int | None = Field(default=None, description="robust: scenario-exchange rounds")
+    evaluations: int | None = Field(default=None, description="robust: exact analyses of the worst-case searches")
+    method: Method = "exact"
+    error_estimate: float | None = Field(None, description="relative error bound/estimate of critical_force_gain")
+    error_source: str | None = None
+    exact_check: ExactCheckOut | None = Field(None, description="exact margin of a linear or grid design")

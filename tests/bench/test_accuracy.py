@@ -1,4 +1,4 @@
-"""The accuracy benchmark's 5-case version runs, renders and keeps its promises."""
+"""The accuracy benchmark's 5-case version (plus two feedforward cases) runs, renders and keeps its promises."""
 
 import math
 
@@ -19,3 +19,16 @@ def test_accuracy_quick_suite(tmp_path):
     assert "| exact |" in text and "first wrong case" in text
     acc.plot(results, tmp_path / "a.png")
     assert (tmp_path / "a.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_accuracy_quick_feedforward():
+    results, details = acc.measure_feedforward(acc.QUICK_FF, repeats=1)
+    assert len(details) == 2
+    # exact K_f,cr within 1e-9 of the independent 40-digit residue reference
+    assert max(results["exact"].errors) <= 1e-9
+    lin = results["linear"]
+    # eq. 33 is far off at no delay (37.1 vs 3.7): the estimate must say so, and stay honest
+    assert max(lin.errors) > 0.5
+    assert all(e <= 2 * est for e, est in zip(lin.errors, lin.estimates))
+    text = acc.render_feedforward(results, details)
+    assert "## Force feedforward" in text and "| reference |" in text

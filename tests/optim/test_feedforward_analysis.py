@@ -4,15 +4,15 @@ from __future__ import annotations
 
 import math
 
-import mpmath
 import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from models.device import Device, Human
+from models.device import Device
 from models.feedforward import CHAPTER_HUMAN, feedforward_plant
 from models.filters import ButterworthLowPass
 from optim.feedforward import apparent_mass, critical_force_gain, worst_case_force_gain
+from optim.feedforward_reference import reference_g1
 from tests.feedforward_reference import (EQ32_CRITICAL_FORCE_GAIN, EQ32_RTOL, EQ33_WORST_CASE, HUMAN_EQ30,
                                          LHIFAM_CABLE, LHIFAM_RIGID, SEC52_APPARENT_MASS, SEC52_FORCE_GAIN,
                                          SENSOR_EQ31)
@@ -102,56 +102,6 @@ def test_no_sensor_filter_is_the_limit_of_a_fast_one():
     assert k1 == pytest.approx(k0, rel=1e-5)  # O(T_f/T) = 1e-6 difference expected
 
 
-def _residue_g1(device: Device, human: Human, theta: float, d: int, f: float) -> complex:
-    """G_1(e^{jθ}) from the continuous transfer by residues at 40 digits (mpmath).
-
-    Z[H·G·e^{-(d+f)Ts}] = z^{-d}(1 - z⁻¹) z⁻¹ Σ_p Res[G(s)/s · e^{msT} z/(z - e^{sT})], m = 1 - f.
-    """
-    with mpmath.workdps(40):         # never leave mpmath's global precision changed
-        return _residue_g1_40(device, human, theta, d, f)
-
-
-def _residue_g1_40(device: Device, human: Human, theta: float, d: int, f: float) -> complex:
-    T = mpmath.mpf(device.sample_time)
-    zh = [mpmath.mpf(human.mass), mpmath.mpf(human.damping), mpmath.mpf(human.stiffness)]
-    tf_ = mpmath.mpf(device.force_sensor.time_constant)
-
-    def pmul(a, b):
-        out = [mpmath.mpf(0)] * (len(a) + len(b) - 1)
-        for i, x in enumerate(a):
-            for j, y in enumerate(b):
-                out[i + j] += x * y
-        return out
-
-    def padd(a, b):
-        n = max(len(a), len(b))
-        a, b = [0] * (n - len(a)) + list(a), [0] * (n - len(b)) + list(b)
-        return [x + y for x, y in zip(a, b)]
-
-    if device.cable is None:
-        # Z_h/(m s² + b s + Z_h)
-        num, den = zh, padd([mpmath.mpf(device.mass), mpmath.mpf(device.damping), 0], zh)
-    else:
-        c = device.cable
-        p_r = [mpmath.mpf(c.motor_mass), mpmath.mpf(c.motor_damping + c.damping), mpmath.mpf(c.stiffness)]
-        p_d = [mpmath.mpf(c.body_mass), mpmath.mpf(c.body_damping + c.damping), mpmath.mpf(c.stiffness)]
-        link = [mpmath.mpf(c.damping), mpmath.mpf(c.stiffness)]
-        p = padd(pmul(p_r, p_d), [-x for x in pmul(link, link)])
-        num, den = pmul(zh, link), padd(p, pmul(zh, p_r))       # Z_h G_c/(1 + Z_h G_d)
-    den = pmul(den, [tf_, 1])
-    den_s = den + [0]                                             # G(s)/s
-    poles = mpmath.polyroots(den_s[::-1], maxsteps=500, extraprec=200, asc=True)
-    dden = [x * (len(den_s) - 1 - i) for i, x in enumerate(den_s[:-1])]
-    z = mpmath.exp(1j * mpmath.mpf(theta))
-    m = 1 - mpmath.mpf(f)
-    acc = mpmath.mpc(0)
-    for pole in poles:
-        res = mpmath.polyval(num[::-1], pole, asc=True) / mpmath.polyval(dden[::-1], pole, asc=True)
-        acc += res * mpmath.exp(m * pole * T) * z / (z - mpmath.exp(pole * T))
-    g = z ** (-d) * (1 - 1 / z) / z * acc
-    return complex(g)
-
-
 @pytest.mark.parametrize("device", [RIGID, CABLE], ids=["rigid", "cable"])
 @pytest.mark.parametrize("delay", [0.0, 0.00137])
 def test_discretisation_matches_residues_in_extended_precision(device, delay):
@@ -160,7 +110,7 @@ def test_discretisation_matches_residues_in_extended_precision(device, delay):
     thetas = [1e-3, 0.02, 0.3, 0.52, 1.7, 3.0, math.pi]
     ours = plant.response(np.array(thetas))
     for th, g in zip(thetas, ours):
-        ref = _residue_g1(dev, dev.human, th, plant.d, plant.f)
+        ref = reference_g1(dev, dev.human, th)     # 40-digit residues, optim/feedforward_reference.py
         # expm-based Φ, Γ carry ~1e-13 relative error; 1e-9 leaves room for the resolvent's conditioning
         assert abs(g - ref) <= 1e-9 * abs(ref), (th, g, ref)
 

@@ -1,0 +1,79 @@
+"""Where the exact numerics are valid: checks of a device (and a virtual damping) before analysing it.
+
+models.device.Device bounds each SI field on its own; the numerics depend on
+the dimensionless combinations of chapter Table 1 (δ = bT/m, β = BT/m and the
+scales m/T², m/T), and those can leave double precision even when every field
+is in range: a subnormal mass makes δ infinite, a subnormal damping makes the
+crossover scan's lowest frequency underflow (its grid size becomes infinite).
+Found by fuzzing the HTTP API (tests/service/test_fuzz_api.py).
+
+Each check raises ValueError("field: rule"), which the service answers as a
+422 naming the field.  The limits are far outside any haptic device
+(δ ≈ 6.5e-4 for the LHifAM) and inside the range swept by
+tests/optim/test_domain.py, where every analysis returns finite numbers.
+
+optim.analysis and optim.boundary also turn any floating-point overflow into a
+ValueError naming the device; this check comes first and names the field and
+the rule.
+"""
+
+from __future__ import annotations
+
+from models.device import Device
+
+__all__ = ["DELTA_MIN", "DELTA_MAX", "SCALE_MIN", "SCALE_MAX", "RATIO_MIN", "RATIO_MAX", "check_device_domain"]
+
+#: Smallest non-zero δ = bT/m (below it the scan's lowest frequency ~1e-4·√δ underflows).
+DELTA_MIN = 1e-30
+#: Largest δ = bT/m (the ZOH pole e^{−δ} is 0 to double precision long before).
+DELTA_MAX = 1e9
+#: Range of the scales m/T² [N/m] and m/T [N·s/m] that turn dimensionless answers into SI ones:
+#: normal doubles with room for the K and B they multiply.
+SCALE_MIN = 1e-250
+SCALE_MAX = 1e250
+#: Range of every other non-zero dimensionless parameter (masses over m, stiffnesses over m/T², time
+#: constants over T, dampings of the blocks over m/T): a cable, grasp or sensor 1e30 times smaller or
+#: larger than the device is not a model double precision can carry next to it.
+RATIO_MIN = 1e-30
+RATIO_MAX = 1e30
+
+
+def _ratio(field: str, value: float, scale: float, what: str, zero_ok: bool) -> None:
+    if value == 0.0 and zero_ok:
+        return
+    r = value / scale
+    if not (RATIO_MIN <= r <= RATIO_MAX):
+        raise ValueError(f"{field}: {what} = {r:.3g} must be {'0 or ' if zero_ok else ''}within "
+                         f"[{RATIO_MIN:g}, {RATIO_MAX:g}] for double-precision analysis")
+
+
+def check_device_domain(device: Device) -> None:
+    """Raise ValueError("field: rule") if the device's dimensionless numbers leave the validated domain."""
+    # m/T/T, not m/T**2: T² of a subnormal T underflows to 0 (a ZeroDivisionError); the quotient overflows to inf.
+    scales = (device.mass / device.sample_time / device.sample_time, device.mass / device.sample_time)
+    if not all(SCALE_MIN <= s <= SCALE_MAX for s in scales):
+        raise ValueError(f"mass: mass/sample_time² and mass/sample_time must lie within [{SCALE_MIN:g}, "
+                         f"{SCALE_MAX:g}] for double-precision analysis (mass {device.mass:g}, "
+                         f"sample_time {device.sample_time:g})")
+    delta = device.delta
+    # b > 0 with δ underflowing to 0 counts as out of range: the numerics would treat it as undamped.
+    if device.damping != 0.0 and not (DELTA_MIN <= delta <= DELTA_MAX):
+        raise ValueError(f"damping: the dimensionless damping δ = damping·sample_time/mass = {delta:.3g} must be 0 or "
+                         f"within [{DELTA_MIN:g}, {DELTA_MAX:g}] (chapter Table 1)")
+    m, t = device.mass, device.sample_time
+    k_scale, b_scale = m / t / t, m / t
+    if device.cable is not None:
+        c = device.cable
+        _ratio("cable.motor_mass", c.motor_mass, m, "motor_mass/mass", zero_ok=False)
+        _ratio("cable.body_mass", c.body_mass, m, "body_mass/mass", zero_ok=False)
+        _ratio("cable.stiffness", c.stiffness, k_scale, "stiffness·sample_time²/mass", zero_ok=False)
+        for name in ("motor_damping", "body_damping", "damping"):
+            _ratio(f"cable.{name}", getattr(c, name), b_scale, f"{name}·sample_time/mass", zero_ok=True)
+    if device.human is not None:
+        h = device.human
+        _ratio("human.mass", h.mass, m, "human mass/mass", zero_ok=False)
+        _ratio("human.damping", h.damping, b_scale, "human damping·sample_time/mass", zero_ok=True)
+        _ratio("human.stiffness", h.stiffness, k_scale, "human stiffness·sample_time²/mass", zero_ok=True)
+    if device.force_sensor is not None:
+        _ratio("force_sensor.time_constant", device.force_sensor.time_constant, t, "time_constant/sample_time",
+               zero_ok=True)

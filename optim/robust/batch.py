@@ -1,0 +1,335 @@
+"""Exact K_cr(B) of many devices at once: the analysis of optim.margins, vectorised across devices.
+
+Same mathematics as optim.margins.critical_stiffness (every phase crossover of
+H(θ) = −1/G_n(e^{jθ}) + β(e^{−jθ} − 1) bracketed and refined to full double
+precision, the Nyquist point counted, K_cr = 0 at or above B_max), but every
+device of a batch is scanned at once in numpy arrays, because the worst-case
+search and the verification of a robust design need thousands of devices and
+numpy's per-call overhead dominates one device at a time (FIELD-NOTES.md).
+
+How it stays exact:
+* each device gets its own grid, built like optim.crossovers.scan_grid (a log part
+  from far below the lowest crossover, a linear part fine enough for the delay's
+  phase, dense clusters at its resonances and anti-resonances), all rows of equal
+  length so the batch is one 2-D array;
+* every grid interval where arg H turns by more than a quarter radian is bisected
+  (recursively, in flat arrays) so consecutive samples cannot hide a crossing;
+* a near-tangent pair of crossings between two samples (a fold of the boundary) is
+  found by minimising the signed arg over each interval where |arg H| dips below 0.05;
+* each bracket is refined by the vectorised Illinois solver of optim.crossovers.
+
+It is checked against optim.margins.critical_stiffness device by device
+(tests/optim/robust/test_batch.py).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from models.device import Device
+from models.discretize import RigidZOH, StateSpaceZOH
+from models.plants import stiffness_loop_plant
+from optim.crossovers import _solve_brackets
+
+__all__ = ["BatchCritical", "batch_critical_stiffness"]
+
+_MAX_ARG_STEP = 0.25          # as optim.crossovers: largest turn of arg H between samples [rad]
+_TANGENT_ARG = 0.05           # as optim.crossovers: |arg H| below which a near-tangency is looked for
+_MAX_SPLITS = 60
+_GOLDEN_STEPS = 48            # golden-section steps: 0.618^48 ≈ 1e-10 of the interval (the dip only needs detecting)
+
+
+@dataclass(frozen=True)
+class BatchCritical:
+    """K_cr(B) of each device of a batch (arrays, one entry per device)."""
+
+    critical_stiffness: np.ndarray
+    """K_cr [N/m]; 0 when no K > 0 is stable (B ≥ B_max, or no damping at all), inf when every K > 0 is."""
+    crossover_angle: np.ndarray
+    """θ = ωT [rad per sample] of the crossover that sets K_cr (nan when K_cr is 0 or inf)."""
+    max_stable_damping: np.ndarray
+    """B_max [N·s/m] (inf when the damper-only loop has no crossover)."""
+
+
+class _Evaluator:
+    """1/G_n(e^{jθ}) for rows of devices that share one plant structure (θ: (N, M) array)."""
+
+    def __init__(self, plants: Sequence[RigidZOH | StateSpaceZOH]):
+        self.rigid = isinstance(plants[0], RigidZOH)
+        self.d = np.array([p.d for p in plants], float)
+        if self.rigid:
+            coef = np.array([p._coefficients() for p in plants])          # (1−p, Φ12, g0p, g0v, g1p, g1v, 1−f)
+            self.coef = [coef[:, k] for k in range(coef.shape[1])]
+            c0 = np.array([p._c0 for p in plants])                          # (φ₂(δ), c(δ)) of the f = 0 form
+            self.a0, self.c0 = c0[:, 0], c0[:, 1]
+            self.whole = np.array([p.f == 0.0 for p in plants])
+            return
+        modal = [p._modal() for p in plants]
+        self.modal_ok = np.array([m is not None for m in modal])
+        ref = next((m for m in modal if m is not None), None)
+        if ref is not None:
+            filled = [m if m is not None else tuple(np.zeros_like(np.asarray(v)) for v in ref) for m in modal]
+            self.lam, self.c1, self.c2v, self.e12v, self.r0, self.r1, self.g01, self.g11 = (
+                np.array([np.asarray(m[k]) for m in filled]) for k in range(8))
+        mats = [p._mats() for p in plants]
+        self.emat = np.array([m[1] for m in mats])
+        self.g0 = np.array([m[2] for m in mats])
+        self.g1 = np.array([m[3] for m in mats])
+        self.c = np.array([p.c for p in plants], float)
+
+    def inverse(self, theta: np.ndarray, rows: np.ndarray | None = None) -> np.ndarray:
+        """1/G_n at θ; ``rows`` gives the device of each θ (default: θ is (N, M) and row i is device i)."""
+        if rows is None:
+            shape = theta.shape
+            rows = np.repeat(np.arange(shape[0]), shape[1])
+            return self._inverse_flat(theta.ravel(), rows).reshape(shape)
+        return self._inverse_flat(theta, rows)
+
+    def _inverse_flat(self, theta: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        z = np.exp(1j * theta)
+        zm1 = np.expm1(1j * theta)
+        zinv = 1.0 / z
+        delay = np.exp(1j * self.d[rows] * theta)
+        if self.rigid:
+            omp, phi12, g0p, g0v, g1p, g1v, _ = (c[rows] for c in self.coef)
+            frac = (g0p + g1p * zinv) * (zm1 + omp) + phi12 * (g0v + g1v * zinv)
+            num = np.where(self.whole[rows], self.a0[rows] * (z + 1.0) + self.c0[rows], frac)
+            return zm1 * (zm1 + omp) * delay / num
+        return delay / self._response(zm1, zinv, rows)
+
+    def _response(self, zm1, zinv, rows) -> np.ndarray:
+        """G_n without the delay: StateSpaceZOH.response's modal form where it is well conditioned, else a solve."""
+        out = np.empty(zm1.shape, complex)
+        ok = self.modal_ok[rows]
+        if ok.any():
+            r, zm, zi = rows[ok], zm1[ok], zinv[ok]
+            y = (self.r0[r] + zi[:, None] * self.r1[r]) / (zm[:, None] - self.lam[r])      # V⁻¹x₂
+            x1 = (self.g01[r] + zi * self.g11[r] + np.einsum("pk,pk->p", y, self.e12v[r])) / zm
+            out[ok] = self.c1[r] * x1 + np.einsum("pk,pk->p", y, self.c2v[r])
+        if (~ok).any():
+            r, zm, zi = rows[~ok], zm1[~ok], zinv[~ok]
+            n = self.emat.shape[1]
+            mats = zm[:, None, None] * np.eye(n) - self.emat[r]
+            rhs = self.g0[r] + zi[:, None] * self.g1[r]
+            x = np.linalg.solve(mats, rhs[..., None])[..., 0]
+            out[~ok] = np.einsum("pk,pk->p", x, self.c[r])
+        return out
+
+
+def _grids(devices: Sequence[Device], plants, betas: np.ndarray) -> np.ndarray:
+    """One sorted grid per device (rows of equal length), as optim.crossovers.scan_grid builds it."""
+    delta = np.array([d.delta for d in devices])
+    ds = np.array([d.delay_samples for d in devices])
+    scale = 1.0 / (1.0 + 2.0 * ds)
+    # θ_min of optim.margins with β = 0 (the damper-only loop's scan, the lower of the two)
+    damp = np.maximum(delta, 0.0)
+    theta_min = np.where(damp > 0, 1e-4 * np.minimum(np.minimum(1.0, np.sqrt(damp * scale)), 10 * damp), 1e-4 * scale)
+    theta_lin = np.maximum(0.05, theta_min * 10)          # as scan_grid: 60 log samples a decade up to 0.05 rad
+    n_log = int(max(40, np.max(60 * np.log10(theta_lin / theta_min)) + 2))
+    step = np.minimum(0.02, math.pi / (16.0 * (ds + 1.0)))
+    n_lin = int(np.max(np.ceil((math.pi - theta_lin) / step))) + 1
+    u = np.linspace(0.0, 1.0, n_log)
+    log_part = theta_min[:, None] * (theta_lin / theta_min)[:, None] ** u[None, :]
+    lin_part = theta_lin[:, None] + (math.pi - theta_lin)[:, None] * np.linspace(0.0, 1.0, n_lin)[None, :]
+    parts = [log_part, lin_part]
+    # a conjugate pair gives the same angle twice: one cluster is enough
+    hints = [tuple(sorted({h for h in tuple(p.pole_angles()) + tuple(p.zero_angles()) if 0.0 < h <= math.pi}))
+             for p in plants]
+    n_h = max((len(h) for h in hints), default=0)
+    if n_h:
+        # rows with fewer resonances repeat their last one (or π/2): equal lengths, duplicates are harmless
+        hm = np.array([list(h) + [h[-1] if h else math.pi / 2] * (n_h - len(h)) for h in hints])
+        w = np.maximum(delta, 1e-6)[:, None] * 50
+        lo, hi = np.maximum(theta_min[:, None], hm - w), np.minimum(math.pi, hm + w)
+        lin = np.linspace(0.0, 1.0, 201)
+        parts.append((lo[..., None] + (hi - lo)[..., None] * lin).reshape(len(devices), -1))
+        g = np.geomspace(1e-9, 0.2, 60)
+        parts.append((hm[..., None] * (1.0 + g)).reshape(len(devices), -1))
+        parts.append((hm[..., None] * (1.0 - g)).reshape(len(devices), -1))
+    grid = np.concatenate(parts, axis=1)
+    grid = np.clip(grid, theta_min[:, None], math.pi)
+    grid.sort(axis=1)
+    return grid
+
+
+class _Loop:
+    """H(θ) of one loop of a batch: K loop (−1/G_n + β(e^{−jθ} − 1)) or damper loop (−1/G_n / (1 − e^{−jθ}))."""
+
+    def __init__(self, ev: _Evaluator, betas: np.ndarray | None):
+        self.ev, self.betas = ev, betas
+
+    def __call__(self, theta: np.ndarray, rows: np.ndarray | None = None) -> np.ndarray:
+        inv = self.ev.inverse(theta, rows)
+        e = np.expm1(-1j * theta)
+        if self.betas is None:
+            return -inv / (-e)
+        b = self.betas[:, None] if rows is None else self.betas[rows]
+        return -inv + b * e
+
+
+def _split_turning(h: _Loop, rows, lo, hi, vlo, vhi):
+    """Bisect intervals where arg H turns by more than _MAX_ARG_STEP; return the final leaves (flat arrays)."""
+    leaves = []
+    for _ in range(_MAX_SPLITS):
+        if rows.size == 0:
+            break
+        turn = np.abs(np.angle(vhi / vlo))
+        bad = (turn > _MAX_ARG_STEP) & ((hi - lo) > 1e-14 * hi)
+        leaves.append((rows[~bad], lo[~bad], hi[~bad], vlo[~bad], vhi[~bad]))
+        rows, lo, hi, vlo, vhi = rows[bad], lo[bad], hi[bad], vlo[bad], vhi[bad]
+        if rows.size == 0:
+            break
+        mid = 0.5 * (lo + hi)
+        vmid = h(mid, rows)
+        rows = np.concatenate([rows, rows])
+        lo, hi = np.concatenate([lo, mid]), np.concatenate([mid, hi])
+        vlo, vhi = np.concatenate([vlo, vmid]), np.concatenate([vmid, vhi])
+    leaves.append((rows, lo, hi, vlo, vhi))
+    return tuple(np.concatenate([leaf[k] for leaf in leaves]) for k in range(5))
+
+
+def _golden_dip(h: _Loop, r, a, b, sign):
+    """min over [a, b] of sign·arg H (vectorised golden section): (argmin, min)."""
+    g = (math.sqrt(5.0) - 1.0) / 2.0
+
+    def f(t):
+        return sign * np.angle(h(t, r))
+
+    x1, x2 = b - g * (b - a), a + g * (b - a)
+    f1, f2 = f(x1), f(x2)
+    for _ in range(_GOLDEN_STEPS):
+        left = f1 < f2                       # the minimum is in [a, x2]
+        a, b = np.where(left, a, x1), np.where(left, x2, b)
+        n1 = np.where(left, b - g * (b - a), x2)
+        n2 = np.where(left, x1, a + g * (b - a))
+        fn = f(np.where(left, n1, n2))
+        f1, f2 = np.where(left, fn, f2), np.where(left, f1, fn)
+        x1, x2 = n1, n2
+    return np.where(f1 < f2, x1, x2), np.minimum(f1, f2)
+
+
+def _dip_brackets(h: _Loop, r, lo, hi, vlo, vhi, sign):
+    """Where sign·arg H dips below 0 inside [lo, hi] (both ends the same sign): brackets [lo, t*], [t*, hi]."""
+    if r.size == 0:
+        return (np.empty(0, int),) + (np.empty(0),) * 4
+    tm, fm = _golden_dip(h, r, lo.copy(), hi.copy(), sign)
+    dip = fm < 0
+    r, tm = r[dip], tm[dip]
+    vm = h(tm, r)
+    return (np.concatenate([r, r]), np.concatenate([lo[dip], tm]), np.concatenate([tm, hi[dip]]),
+            np.concatenate([vlo[dip], vm]), np.concatenate([vm, vhi[dip]]))
+
+
+def _tangent_candidates_grid(grid, values, bad):
+    """As optim.crossovers._tangential_pairs on the base grid: a local minimum of |arg H| below 0.05 at sample i
+    with the same sign at i − 1, i, i + 1 (intervals that were bisected are searched leaf by leaf instead)."""
+    arg = np.angle(values)
+    mag = np.abs(arg)
+    c = ((mag[:, 1:-1] <= mag[:, :-2]) & (mag[:, 1:-1] <= mag[:, 2:]) & (mag[:, 1:-1] < _TANGENT_ARG)
+         & (values.real[:, 1:-1] > 0) & (np.sign(arg[:, :-2]) == np.sign(arg[:, 2:]))
+         & (np.sign(arg[:, 1:-1]) == np.sign(arg[:, 2:])) & (arg[:, 1:-1] != 0) & ~bad[:, :-1] & ~bad[:, 1:])
+    r, i = np.nonzero(c)
+    i = i + 1
+    return r, grid[r, i - 1], grid[r, i + 1], values[r, i - 1], values[r, i + 1], np.sign(arg[r, i])
+
+
+def _tangent_candidates_leaves(r, lo, hi, vlo, vhi):
+    """Leaves of a bisected interval with |arg H| < 0.05 at an end and the same sign at both ends."""
+    alo, ahi = np.angle(vlo), np.angle(vhi)
+    c = ((np.minimum(np.abs(alo), np.abs(ahi)) < _TANGENT_ARG) & (np.sign(alo) == np.sign(ahi)) & (alo != 0)
+         & ((vlo.real > 0) | (vhi.real > 0)))
+    return r[c], lo[c], hi[c], vlo[c], vhi[c], np.sign(alo[c])
+
+
+def _min_crossing(h: _Loop, grid: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(smallest positive real value of H, its angle) per row; inf/nan where there is none."""
+    n = grid.shape[0]
+    bad = (np.abs(np.angle(values[:, 1:] / values[:, :-1])) > _MAX_ARG_STEP) \
+        & ((grid[:, 1:] - grid[:, :-1]) > 1e-14 * grid[:, 1:])
+    br_, bi_ = np.nonzero(bad)
+    leaves = _split_turning(h, br_, grid[br_, bi_], grid[br_, bi_ + 1], values[br_, bi_], values[br_, bi_ + 1])
+    gr, gi = np.nonzero(~bad)
+    r = np.concatenate([gr, leaves[0]])
+    lo = np.concatenate([grid[gr, gi], leaves[1]])
+    hi = np.concatenate([grid[gr, gi + 1], leaves[2]])
+    vlo = np.concatenate([values[gr, gi], leaves[3]])
+    vhi = np.concatenate([values[gr, gi + 1], leaves[4]])
+    sign_change = (np.sign(vlo.imag) * np.sign(vhi.imag) < 0) & ((vlo.real > 0) | (vhi.real > 0))
+    cands = [_tangent_candidates_grid(grid, values, bad), _tangent_candidates_leaves(*leaves)]
+    tr, ta, tb, tva, tvb, ts = (np.concatenate([c[k] for c in cands]) for k in range(6))
+    tr, ta, tb, tva, tvb = _dip_brackets(h, tr.astype(int), ta, tb, tva, tvb, ts)
+    br = np.concatenate([r[sign_change], tr])
+    a, b = np.concatenate([lo[sign_change], ta]), np.concatenate([hi[sign_change], tb])
+    fa, fb = np.concatenate([vlo[sign_change].imag, tva.imag]), np.concatenate([vhi[sign_change].imag, tvb.imag])
+    best = np.full(n, np.inf)
+    angle = np.full(n, np.nan)
+    # an exact zero of Im H on a sample (each sample is the left end of one interval; π is handled below)
+    exact = (vlo.imag == 0.0) & (vlo.real > 0)
+    cand_r, cand_t, cand_v = [r[exact]], [lo[exact]], [vlo[exact].real]
+    if br.size:
+        roots = _solve_brackets(lambda t: h(t, br).imag, a, b, fa, fb)
+        cand_r.append(br)
+        cand_t.append(roots)
+        cand_v.append(h(roots, br).real)
+    cr, ct, cv = (np.concatenate(x) for x in (cand_r, cand_t, cand_v))
+    v_pi = h(np.full((n, 1), math.pi)).real[:, 0]
+    nyq = v_pi > 0
+    # as optim.crossovers: with a Nyquist crossover, a rounding-level crossing just below π is the same one
+    keep = (cv > 0) & ~(nyq[cr] & (math.pi - ct <= 1e-9))
+    cr, ct, cv = cr[keep], ct[keep], cv[keep]
+    order = np.lexsort((cv, cr))
+    cr, ct, cv = cr[order], ct[order], cv[order]
+    first = np.ones(cr.size, bool)
+    first[1:] = cr[1:] != cr[:-1]
+    best[cr[first]] = cv[first]
+    angle[cr[first]] = ct[first]
+    use_pi = nyq & (v_pi < best)
+    best[use_pi] = v_pi[use_pi]
+    angle[use_pi] = math.pi
+    return best, angle
+
+
+def batch_critical_stiffness(devices: Sequence[Device], damping: float | np.ndarray) -> BatchCritical:
+    """Exact K_cr [N/m] of every device at virtual damping B [N·s/m] (one B for all, or one per device).
+
+    Devices may mix rigid and cable models; each structure is scanned as one batch.
+    """
+    n = len(devices)
+    bvec = np.broadcast_to(np.asarray(damping, float), (n,)).copy()
+    if not np.all(np.isfinite(bvec) & (bvec >= 0)):
+        raise ValueError("damping: virtual damping B must be finite and ≥ 0")
+    kcr, ang, bmax = np.full(n, np.inf), np.full(n, np.nan), np.full(n, np.inf)
+    plants = [stiffness_loop_plant(d) for d in devices]
+    groups: dict[tuple, list[int]] = {}
+    for i, p in enumerate(plants):
+        key = ("rigid",) if isinstance(p, RigidZOH) else ("ss", p.a.shape[0])
+        groups.setdefault(key, []).append(i)
+    for idx in groups.values():
+        sub = [devices[i] for i in idx]
+        k, a, bm = _batch_one_structure(sub, [plants[i] for i in idx], bvec[idx])
+        kcr[idx], ang[idx], bmax[idx] = k, a, bm
+    return BatchCritical(kcr, ang, bmax)
+
+
+def _batch_one_structure(devices, plants, damping: np.ndarray):
+    ks = np.array([d.stiffness_scale for d in devices])
+    bs = np.array([d.damping_scale for d in devices])
+    phys = np.array([d.damping for d in devices])
+    betas = damping / bs
+    ev = _Evaluator(plants)
+    grid = _grids(devices, plants, betas)
+    inv = ev.inverse(grid)
+    e = np.expm1(-1j * grid)
+    k_loop, d_loop = _Loop(ev, betas), _Loop(ev, None)
+    alpha, angle = _min_crossing(k_loop, grid, -inv + betas[:, None] * e)
+    beta_max, _ = _min_crossing(d_loop, grid, -inv / (-e))
+    kcr = alpha * ks
+    bmax = beta_max * bs
+    dead = (phys + damping <= 0.0) | ((damping > 0.0) & (damping >= bmax))
+    kcr = np.where(dead, 0.0, kcr)
+    angle = np.where(dead | ~np.isfinite(kcr), np.nan, angle)
+    return kcr, angle, bmax

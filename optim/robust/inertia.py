@@ -1,0 +1,213 @@
+"""Robust inertia design: one force-feedforward gain K_f and filter cutoff that hold for every device of a box.
+
+The chapter's §5 loop 1 + K_f·D(z)·G_1(z) = 0 depends on the device (mass,
+damping, delay, cable), the user's grasp and the force sensor, so every path
+of the box may move K_f,cr.  Scenario exchange, as for the stiffness
+(optim/robust/stiffness.py):
+
+1. scenarios: the nominal device (clipped into the box) and every corner, each with
+   its grasp (the device's human block, else the chapter's eq. 30);
+2. the design over the scenarios is optim.inertia's own method with the scenarios
+   in place of its grasps: an exact Pareto scan of min_s K_f,cr(f_c; s) over the
+   band, then its CasADi crossover NLP (optim.inertia_nlp) with one margin
+   constraint per scenario crossover, and its exchange of crossovers;
+3. the whole box is searched for the device with the smallest K_f,cr at the
+   design's cutoff (Sobol + corners + pattern search, exact analysis);
+4. a device short of the margin by more than 1e-6 dB becomes a scenario.
+The gain is finally clipped to K_f,cr(worst)/10^{GM/20}.
+
+The sample time is not a free path here: the filter D(z) and the NLP work in
+cutoff angles θ_c = 2π f_c T, one per scenario otherwise.  The upper cutoff
+defaults to the lowest first cable mode of the box's corners (eq. 24).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from models.device import Device
+from models.feedforward import feedforward_plant
+from optim.feedforward import resolve_human
+from optim.inertia import InertiaRequirements, _band, _bisect, _Loop, _refine
+from optim.inertia_nlp import modal_plant
+
+from .box import UncertaintyBox
+from .stiffness import TOLERANCE_DB
+from .worst_case import minimise_over_box
+
+__all__ = ["RobustInertiaDesign", "robust_design_inertia"]
+
+_MAX_OUTER = 12
+_MODAL_RTOL = 1e-8
+
+
+@dataclass(frozen=True)
+class RobustInertiaDesign:
+    status: str
+    """optimal | infeasible | failed."""
+    objective: str
+    force_gain: float | None = None
+    filter_cutoff_hz: float | None = None
+    filter_order: int = 2
+    apparent_mass: float | None = None
+    """m/(1 + K_f) of the nominal device [kg]."""
+    apparent_mass_range: tuple[float, float] | None = None
+    """m/(1 + K_f) over the box's masses [kg]."""
+    critical_force_gain: float | None = None
+    """K_f,cr of the worst device at the design's cutoff."""
+    gain_margin_db: float | None = None
+    """worst-case 20·log10(K_f,cr/K_f) over the box [dB]."""
+    worst_case: dict | None = None
+    nominal_gain_margin_db: float | None = None
+    cutoff_band_hz: tuple[float, float] | None = None
+    scenarios: tuple[dict, ...] = ()
+    iterations: int = 0
+    evaluations: int = 0
+    reason: str | None = None
+    solver: dict = field(default_factory=dict)
+    elapsed_ms: float = 0.0
+
+
+class _ScenarioLoop(_Loop):
+    """optim.inertia's worst-grasp loop with one plant per scenario device (same sample time)."""
+
+    def __init__(self, plants, order: int):
+        self.plants, self.order, self._memo = plants, order, {}
+
+
+def _plant(device: Device):
+    human, _ = resolve_human(device)
+    return feedforward_plant(device, human)
+
+
+def robust_design_inertia(nominal: Device, req: InertiaRequirements, box: UncertaintyBox) -> RobustInertiaDesign:
+    t0 = time.perf_counter()
+    if req.humans is not None or req.human_mass_range is not None:
+        raise ValueError("requirements.uncertainty: give the grasp's range as device.human.mass (with a human "
+                         "block), not together with humans or human_mass_range")
+    k = box.paths.index("device.sample_time") if "device.sample_time" in box.paths else None
+    if k is not None and box.upper[k] > box.lower[k]:
+        raise ValueError("requirements.uncertainty.device.sample_time: the inertia design cannot hold one filter "
+                         "cutoff angle over several sample times; fix the sample time")
+    corners = box.devices(box.corners())
+    bands = [_band(d, req) for d in [nominal, *corners]]
+    lo_hz, hi_hz = bands[0][0], min(b[1] for b in bands)
+    if not lo_hz < hi_hz:
+        raise ValueError(f"requirements.cutoff_min_hz: must be below the lowest upper cutoff of the box {hi_hz:g} Hz")
+    rho = 10 ** (req.min_gain_margin_db / 20)
+    t_of = 2 * math.pi * nominal.sample_time
+    active = np.array([hi > lo for lo, hi in zip(box.lower, box.upper)])
+    points = [box.nominal_point()] + [c for c in box.corners()]
+    points = list(np.unique(np.array(points), axis=0))
+    objective = "target_apparent_mass" if req.target_apparent_mass is not None else "min_apparent_mass"
+    evals, info, kf, theta = 0, {}, None, None
+    for it in range(1, _MAX_OUTER + 1):
+        plants = [_plant(box.device_at(p)) for p in points]
+        loop = _ScenarioLoop(plants, req.filter_order)
+        out = _design(loop, req, rho, lo_hz, hi_hz, t_of, nominal.mass, objective, info)
+        if isinstance(out, RobustInertiaDesign):
+            return _with(out, t0, it, evals, box, points, lo_hz, hi_hz)
+        kf, theta = out
+
+        def evaluate(u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            vals = [loop_for(box.device_at(x)).exact(theta) for x in box.to_box(u)]
+            return np.array([v[0] for v in vals]), np.array([v[1] if v[1] is not None else np.nan for v in vals])
+
+        def loop_for(dev: Device) -> _ScenarioLoop:
+            return _ScenarioLoop([_plant(dev)], req.filter_order)
+
+        wu, wk, wa, n = minimise_over_box(box, active, evaluate, samples=64, starts=2, seed=it)
+        evals += n
+        margin = 20 * math.log10(wk / kf) if wk > 0 else -math.inf
+        if margin >= req.min_gain_margin_db - TOLERANCE_DB:
+            break
+        wp = box.to_box(wu)
+        if any(np.array_equal(wp, p) for p in points):
+            return _with(RobustInertiaDesign(status="failed", objective=objective, reason=(
+                "the worst device is already a scenario but the design misses its margin")), t0, it, evals, box,
+                points, lo_hz, hi_hz)
+        points.append(wp)
+    else:
+        return _with(RobustInertiaDesign(status="failed", objective=objective,
+                                         reason=f"the scenario exchange did not settle in {_MAX_OUTER} rounds"),
+                     t0, it, evals, box, points, lo_hz, hi_hz)
+    kf = min(kf, wk / rho)
+    wdev = box.device_at(box.to_box(wu))
+    nom = _ScenarioLoop([_plant(box.device_at(box.nominal_point()))], req.filter_order).exact(theta)[0]
+    masses = [d.mass for d in corners] + [nominal.mass]
+    worst = {"device": box.describe(box.to_box(wu)), "critical_force_gain": wk,
+             "crossover_frequency": None if not math.isfinite(wa) else wa / wdev.sample_time,
+             "gain_margin_db": 20 * math.log10(wk / kf)}
+    d = RobustInertiaDesign(
+        status="optimal", objective=objective, force_gain=kf, filter_cutoff_hz=theta / t_of,
+        filter_order=req.filter_order, apparent_mass=nominal.mass / (1 + kf),
+        apparent_mass_range=(min(masses) / (1 + kf), max(masses) / (1 + kf)), critical_force_gain=wk,
+        gain_margin_db=worst["gain_margin_db"], worst_case=worst, nominal_gain_margin_db=20 * math.log10(nom / kf),
+        solver=dict(info))
+    return _with(d, t0, it, evals, box, points, lo_hz, hi_hz)
+
+
+def _with(d: RobustInertiaDesign, t0, it, evals, box, points, lo_hz, hi_hz) -> RobustInertiaDesign:
+    return RobustInertiaDesign(**{**d.__dict__, "iterations": it, "evaluations": evals,
+                                  "scenarios": tuple(box.describe(p) for p in points),
+                                  "cutoff_band_hz": (lo_hz, hi_hz), "elapsed_ms": (time.perf_counter() - t0) * 1e3})
+
+
+def _design(loop: _ScenarioLoop, req, rho, lo_hz, hi_hz, t_of, mass, objective, info):
+    """(K_f, θ_c) over the current scenarios (optim.inertia's method), or a finished design (infeasible/failed)."""
+    cutoffs = np.geomspace(lo_hz, hi_hz, max(2, req.pareto_points))
+    t = cutoffs * t_of
+    kcrs = np.array([loop.exact(th)[0] for th in t])
+    if not np.all(np.isfinite(kcrs)):
+        return RobustInertiaDesign(status="infeasible", objective=objective,
+                                   reason="no phase crossover at some cutoff: the model bounds no force gain there")
+    j_best = int(np.argmax(kcrs))
+    if objective == "target_apparent_mass":
+        kf = mass / req.target_apparent_mass - 1.0
+        if kf <= 0.0:
+            return RobustInertiaDesign(status="infeasible", objective=objective, reason=(
+                f"target_apparent_mass {req.target_apparent_mass:g} is not below the nominal mass {mass:g}"))
+        feasible = np.nonzero(kcrs >= rho * kf)[0]
+        if feasible.size == 0:
+            best = kcrs[j_best] / rho
+            return RobustInertiaDesign(status="infeasible", objective=objective, force_gain=best,
+                                       filter_cutoff_hz=float(cutoffs[j_best]), reason=(
+                                           f"K_f = {kf:.6g} needs K_f,cr ≥ {rho * kf:.6g} on every device of the box; "
+                                           f"the best reachable is K_f = {best:.6g} at {cutoffs[j_best]:.4g} Hz"))
+        j_hi = int(feasible[-1])
+        if j_hi == len(t) - 1:
+            info.update(return_status="upper cutoff bound feasible (exact)")
+            return kf, float(t[-1])
+        # the highest cutoff that keeps the margin on every scenario: bisection of the exact verdict
+        theta = _bisect(lambda th: loop.exact(th)[0] >= rho * kf, t[j_hi], t[j_hi + 1])
+        info.update(return_status="exact bisection of the margin boundary")
+        return kf, theta
+    modal = []
+    for plant in loop.plants:
+        mp, err = modal_plant(plant)
+        if not err <= _MODAL_RTOL:
+            return RobustInertiaDesign(status="failed", objective=objective,
+                                       reason=f"modal form of G_1 off by {err:.2g} (ill-conditioned Φ)")
+        modal.append(mp)
+    lo_j, hi_j = max(j_best - 1, 0), min(j_best + 1, len(t) - 1)
+    here = loop.structure(t[j_best])
+    if loop.structure(t[lo_j]) != here:
+        lo_j = j_best
+    if loop.structure(t[hi_j]) != here:
+        hi_j = j_best
+    theta = float(t[j_best])
+    if lo_j < hi_j:
+        try:
+            refined = _refine(loop, modal, math.log(rho), t[j_best], (t[lo_j], t[hi_j]), "max_gain", 0.0, info)
+        except ValueError as exc:          # scenarios whose plants differ in order (e.g. a fractional delay)
+            info.update(return_status=f"scan point kept: {exc}")
+            refined = None
+        if refined is not None and loop.exact(refined)[0] >= kcrs[j_best]:
+            theta = refined
+    else:
+        info.update(return_status="scan point kept: crossover branches change on both sides")
+    return loop.exact(theta)[0] / rho, theta

@@ -1,0 +1,17 @@
+"""Imported by the compute workers' forkserver only: fills the numerics' per-process caches once.
+
+The exact rigid discretisation builds its series coefficients on first use
+(models.discretize, cached per process) and scipy imports submodules lazily;
+doing both here, before the forkserver forks any worker, makes every worker —
+including one that replaces a killed worker — answer its first call at full speed.
+"""
+
+from models.device import PRESETS, Device
+from optim.analysis import analyse_stability
+from optim.boundary import stability_boundary
+
+for _name in sorted(PRESETS):
+    _device = Device(preset=_name)
+    analyse_stability(_device, 1.0, 1e-6, "exact")
+    analyse_stability(_device.rigid(), 1.0, 1e-6, "exact")
+stability_boundary(Device(mass=1.0, damping=1.0), None, 3)

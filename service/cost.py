@@ -1,0 +1,62 @@
+"""What a request will cost, before it runs: the cost limits and the inline-or-worker choice.
+
+The estimates are coarse (a factor of 2 either way is fine): they only decide
+whether a call runs inline in the request thread (cheap, fast path) or in a
+killable worker process under the request time budget (service.executor).
+Coefficients measured on the 2-core development machine (bench/bench_service.py
+and docs/limits.md): exact rigid analysis ≈ 1 ms plus ≈ 6 µs per sample of delay,
+about 3× that for a cable device and 2× with virtual damping (B_max is found too);
+the 40-digit reference rung ≈ 0.12 s plus 12 ms per sample of delay (10× for a cable).
+"""
+
+from __future__ import annotations
+
+from models.device import Device
+
+from .errors import NumericInputError
+
+__all__ = ["MAX_REFERENCE_DELAY_SAMPLES", "check_reference_cost", "stability_cost_ms", "boundary_cost_ms", "bode_cost_ms"]
+
+#: Cost limit of the ``reference`` rung: the loop delay it accepts, in sample periods.
+#: At this limit one reference analysis costs ≈ 2.5 s (rigid) to ≈ 25 s (cable).
+MAX_REFERENCE_DELAY_SAMPLES = 200
+
+
+def check_reference_cost(device: Device, method: str) -> None:
+    """422 naming ``method`` when the 40-digit rung would exceed its documented cost limit."""
+    if method == "reference" and device.delay_samples > MAX_REFERENCE_DELAY_SAMPLES:
+        raise NumericInputError(
+            "method", f"the reference rung accepts at most {MAX_REFERENCE_DELAY_SAMPLES} samples of delay "
+                      f"(delay / sample_time = {device.delay_samples:.6g}); use method=exact, which is exact "
+                      "to 1e-12 at any delay")
+
+
+def _exact_ms(device: Device, damping: float) -> float:
+    ms = 1.0 + 0.006 * device.delay_samples
+    if device.cable is not None:
+        ms *= 3.0
+    if damping > 0:
+        ms *= 2.0
+    return ms
+
+
+def stability_cost_ms(device: Device, method: str, damping: float, grid_points: int) -> float:
+    """Estimated cost [ms] of one ``analyse_stability`` call."""
+    if method == "linear":
+        return 0.1
+    if method == "grid":
+        return 0.5 + 3e-4 * grid_points * (4.0 if device.cable is not None else 1.0)
+    if method == "reference":
+        return (120.0 + 12.0 * device.delay_samples) * (10.0 if device.cable is not None else 1.0)
+    return _exact_ms(device, damping) * (2.0 if device.cable is not None else 1.0)  # cable adds the rigid K_cr
+
+
+def boundary_cost_ms(device: Device, points: int) -> float:
+    """Estimated cost [ms] of one ``stability_boundary`` call (B_max, the points, the refined optimum)."""
+    return (points + 25) * _exact_ms(device, 1.0)
+
+
+def bode_cost_ms(device: Device, damping: float, points: int) -> float:
+    """Estimated cost [ms] of one ``loop_frequency_response`` call (one exact K_cr plus the grid)."""
+    per_point = 0.02 if device.cable is not None else 0.001
+    return _exact_ms(device, damping) + per_point * points

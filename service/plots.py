@@ -1,0 +1,101 @@
+"""PNG and SVG figures of the stability boundary and of the loop's Bode diagram (headless matplotlib).
+
+Figures are drawn from the numerics' own results (optim.boundary.Boundary,
+optim.frequency_response.FrequencyResponse) without recomputing anything: the
+plotted arrays are those objects' arrays.  ``matplotlib.figure.Figure`` is used
+directly (no pyplot): no global figure registry, so concurrent requests in the
+thread pool do not share state.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+from typing import Literal
+
+import matplotlib
+
+matplotlib.use("Agg")  # headless: no display, no GUI toolkit
+# SVG element ids are random unless salted: a fixed salt makes equal requests give equal files.
+matplotlib.rcParams["svg.hashsalt"] = "zwidth"
+
+import numpy as np  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
+
+from optim.boundary import Boundary  # noqa: E402
+from optim.frequency_response import FrequencyResponse  # noqa: E402
+
+__all__ = ["boundary_figure", "bode_figure", "render", "MEDIA_TYPES", "ImageFormat"]
+
+ImageFormat = Literal["png", "svg"]
+MEDIA_TYPES: dict[str, str] = {"png": "image/png", "svg": "image/svg+xml"}
+
+
+def boundary_figure(boundary: Boundary, title: str = "") -> Figure:
+    """K_cr(B) with eq. 10's linear estimate beside it and the optimum marked (chapter Fig. 5/9)."""
+    fig = Figure(figsize=(6.4, 4.4), dpi=100)
+    ax = fig.add_subplot()
+    b = np.array([p.damping for p in boundary.points])
+    k = np.array([p.critical_stiffness for p in boundary.points], dtype=float)  # NaN where every K is stable
+    lin = np.array([p.linear_estimate for p in boundary.points])
+    ax.plot(b, k, "-", color="C0", label="exact K_cr(B)", gid="boundary")
+    ax.plot(b, lin, "--", color="C7", label="linear estimate (eq. 10)", gid="linear")
+    best = boundary.optimum
+    ax.plot([best.damping], [best.critical_stiffness], "o", color="C3", gid="optimum",
+            label=f"optimum B = {best.damping:.4g} N·s/m, K = {best.critical_stiffness:.5g} N/m")
+    if boundary.max_stable_damping is not None:
+        ax.axvline(boundary.max_stable_damping, color="C1", lw=0.8, ls=":", gid="b_max",
+                   label=f"B_max = {boundary.max_stable_damping:.4g} N·s/m")
+    finite = k[np.isfinite(k)]
+    top = max(float(finite.max()) if finite.size else 1.0, best.critical_stiffness)
+    ax.set_ylim(0.0, 1.15 * top)
+    ax.set_xlabel("virtual damping B [N·s/m]")
+    ax.set_ylabel("critical stiffness K_cr [N/m]")
+    ax.set_title(title or "Stability boundary")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize="small")
+    # Fixed margins: tight_layout would draw the figure once more just to measure it (half the cost).
+    fig.subplots_adjust(left=0.14, right=0.97, bottom=0.12, top=0.92)
+    return fig
+
+
+def bode_figure(response: FrequencyResponse, stiffness: float | None = None, title: str = "") -> Figure:
+    """|G(e^{jωT})| [dB re 1 m/N] and its phase [deg], the crossovers of K_cr(B) marked."""
+    fig = Figure(figsize=(6.4, 6.0), dpi=100)
+    ax_m, ax_p = fig.subplots(2, 1, sharex=True)
+    w = response.frequency
+    with np.errstate(divide="ignore"):  # an exact zero of G (undamped anti-resonance) plots as a gap
+        db = 20 * np.log10(response.magnitude)
+    ax_m.semilogx(w, db, color="C0", gid="magnitude", label="|G(e^{jωT})|")
+    ax_p.semilogx(w, response.phase_deg, color="C0", gid="phase")
+    for i, c in enumerate(response.crossovers):
+        label = "crossovers (K_i = 1/|G|)" if i == 0 else None
+        ax_m.plot([c.frequency], [20 * math.log10(c.magnitude)], "o", color="C3", gid=f"crossover-{i}", label=label)
+        ax_p.plot([c.frequency], [c.phase_deg], "o", color="C3")
+        ax_m.annotate(f"{c.stiffness:.4g} N/m", (c.frequency, 20 * math.log10(c.magnitude)),
+                      textcoords="offset points", xytext=(4, 6), fontsize="x-small")
+    if stiffness is not None and response.damping == 0.0:
+        # With B = 0 the gain margin is the gap between 1/K and |G| at the crossover that sets K_cr.
+        ax_m.axhline(-20 * math.log10(stiffness), color="C2", ls="--", lw=0.8, gid="wall",
+                     label=f"1/K, K = {stiffness:.4g} N/m")
+    ax_p.axhline(-180.0, color="C7", lw=0.6)
+    ax_m.axvline(response.nyquist_frequency, color="C7", lw=0.6, ls=":")
+    ax_m.set_ylabel("|G| [dB re 1 m/N]")
+    ax_p.set_ylabel("phase [deg]")
+    ax_p.set_xlabel("ω [rad/s]")
+    ax_m.set_title(title or "Sampled loop Z[H·G_r·e^{-t_d s}]")
+    for ax in (ax_m, ax_p):
+        ax.grid(True, which="major", alpha=0.3)
+    ax_m.legend(fontsize="small")
+    fig.subplots_adjust(left=0.14, right=0.97, bottom=0.09, top=0.94, hspace=0.08)
+    return fig
+
+
+def render(fig: Figure, fmt: ImageFormat) -> bytes:
+    """The figure as PNG or SVG bytes (SVG without a date, so equal inputs give equal files)."""
+    if fmt not in MEDIA_TYPES:
+        raise ValueError(f"format: must be one of {', '.join(MEDIA_TYPES)}")
+    buf = io.BytesIO()
+    metadata = {"Date": None} if fmt == "svg" else {"Software": None}
+    fig.savefig(buf, format=fmt, metadata=metadata)
+    return buf.getvalue()

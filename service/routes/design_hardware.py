@@ -1,0 +1,31 @@
+"""POST /v1/design/hardware: the loosest hardware parameter that still renders a target wall."""
+
+from __future__ import annotations
+
+import dataclasses
+
+from fastapi import APIRouter
+
+from optim.hardware import HardwareDesign, HardwareTarget, design_hardware
+from service.errors import NumericInputError
+from service.schemas.design_hardware import HardwareDesignRequest, HardwareDesignResponse
+
+from .design_stiffness import _finite
+
+router = APIRouter()
+
+
+def run_hardware(request: HardwareDesignRequest) -> HardwareDesign:
+    t = request.target
+    try:
+        return design_hardware(request.device, HardwareTarget(t.stiffness, t.min_gain_margin_db, t.max_damping),
+                               request.free, points=request.points)
+    except ValueError as exc:
+        field, _, msg = str(exc).partition(": ")
+        raise NumericInputError(field, msg) from None
+
+
+@router.post("/v1/design/hardware", response_model=HardwareDesignResponse, tags=["design"])
+def design_hardware_route(request: HardwareDesignRequest) -> HardwareDesignResponse:
+    # plain def: CPU-bound, runs in the threadpool (CasADi solvers are cached per thread)
+    return HardwareDesignResponse(**_finite(dataclasses.asdict(run_hardware(request))))

@@ -1,0 +1,65 @@
+"""POST /v1/plots/robust and /v1/plots/hardware?format=png|svg."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from fastapi import APIRouter, Query
+from fastapi.responses import Response
+from pydantic import BaseModel, ConfigDict, Field
+
+from optim.robust.box import UncertaintyBox
+from optim.robust.stiffness import robust_design_stiffness
+from optim.stiffness import StiffnessRequirements
+
+from ..errors import NumericInputError
+from ..plots_robust import MEDIA_TYPES, margin_slice, plot_hardware, plot_robust_slice
+from ..schemas.design_hardware import HardwareDesignRequest
+from ..schemas.design_stiffness import StiffnessDesignRequest
+from .design_hardware import run_hardware
+from .design_stiffness import input_error
+
+router = APIRouter(tags=["plots"])
+_IMAGE = {200: {"content": {"image/png": {}, "image/svg+xml": {}}}}
+
+
+class RobustPlotRequest(StiffnessDesignRequest):
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    x: str | None = Field(None, description="uncertain path on the x axis (default: the first)")
+    y: str | None = Field(None, description="uncertain path on the y axis (default: the second)")
+    points: int = Field(41, ge=5, le=121, description="grid points per axis")
+
+
+@router.post("/v1/plots/robust", response_class=Response, responses=_IMAGE)
+def robust_plot(req: RobustPlotRequest, format: Literal["png", "svg"] = Query("png")) -> Response:  # noqa: A002
+    unc = req.requirements.uncertainty
+    if not unc:
+        raise NumericInputError("requirements.uncertainty", "the robust plot needs at least one uncertain path")
+    ranges = {k: (v.min, v.max) for k, v in unc.items()}
+    try:
+        box = UncertaintyBox.from_ranges(req.device, ranges)
+        design = robust_design_stiffness(req.device, StiffnessRequirements(
+            **req.requirements.model_dump(exclude={"uncertainty"})), box)
+    except ValueError as exc:
+        raise input_error(exc) from None
+    paths = list(box.paths)
+    x = req.x or paths[0]
+    y = req.y or (paths[1] if len(paths) > 1 else paths[0])
+    for name, p in (("x", x), ("y", y)):
+        if p not in paths:
+            raise NumericInputError(name, f"{p!r} is not one of the uncertain paths {paths}")
+    if design.status != "optimal":
+        raise NumericInputError("requirements", f"no robust design to plot: {design.status}: {design.reason}")
+    worst = box.to_box(box.to_unit(list(design.worst_case["device"].values())))
+    xs, ys, margin = margin_slice(box, design.stiffness, design.damping, worst, x, y, req.points)
+    wxy = (worst[paths.index(x)], worst[paths.index(y)])
+    title = (f"K = {design.stiffness:.5g} N/m, B = {design.damping:.4g} N·s/m; worst margin "
+             f"{design.gain_margin_db:.4f} dB")
+    return Response(content=plot_robust_slice(xs, ys, margin, wxy, req.requirements.min_gain_margin_db, (x, y),
+                                              format, title), media_type=MEDIA_TYPES[format])
+
+
+@router.post("/v1/plots/hardware", response_class=Response, responses=_IMAGE)
+def hardware_plot(req: HardwareDesignRequest, format: Literal["png", "svg"] = Query("png")) -> Response:  # noqa: A002
+    design = run_hardware(req)
+    return Response(content=plot_hardware(design, req.target.stiffness, format), media_type=MEDIA_TYPES[format])

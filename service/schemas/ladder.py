@@ -1,0 +1,45 @@
+"""Response pieces of the accuracy ladder shared by the design endpoints (issue 6)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict
+from typing import Literal
+
+from pydantic import BaseModel, Field
+
+from optim.analysis import DEFAULT_GRID_POINTS, MAX_GRID_POINTS
+
+__all__ = ["Method", "MethodField", "GridPointsField", "ExactCheckOut", "rung_fields"]
+
+Method = Literal["linear", "grid", "exact", "reference"]
+
+
+def MethodField():  # noqa: N802  (a Field factory, used like a type in the request models)
+    return Field(default="exact", description="rung of the accuracy ladder: linear (closed form), grid (dense scan on "
+                                              "a frequency grid), exact, reference (exact design re-verified at 40 digits)")
+
+
+def GridPointsField():  # noqa: N802
+    return Field(default=DEFAULT_GRID_POINTS, ge=10, le=MAX_GRID_POINTS, description="frequency samples for method=grid")
+
+
+class ExactCheckOut(BaseModel):
+    """The exact analysis of a design produced by an approximate rung (linear, grid)."""
+
+    critical_value: float | None = Field(description="exact K_cr(B) [N/m] (stiffness) or K_f,cr at the cutoff (inertia)")
+    gain_margin_db: float | None = Field(description="exact margin of the design [dB]")
+    meets_min_gain_margin: bool
+    stable: bool
+    passive: bool | None = Field(None, description="exact delayed passivity (when passivity was required)")
+    statement: str = Field(description="'safe: …' or 'UNSAFE: …'")
+
+
+def rung_fields(info) -> dict:
+    """method, error_estimate, error_source, exact_check of an optim.design_ladder.RungInfo, JSON-safe."""
+    err = info.error_estimate
+    check = asdict(info.exact_check) if info.exact_check is not None else None
+    if check is not None:
+        check = {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in check.items()}
+    return {"method": info.method, "error_estimate": err if err is not None and math.isfinite(err) else None,
+            "error_source": info.error_source, "exact_check": check}

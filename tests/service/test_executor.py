@@ -1,0 +1,119 @@
+"""The request time budget: a runaway is stopped (503), its worker replaced, the next request served normally."""
+
+from __future__ import annotations
+
+import math
+import time
+
+import pytest
+
+from models.device import Device
+from optim.analysis import analyse_stability
+from service.cost import boundary_cost_ms, stability_cost_ms
+from service.executor import BoundedExecutor, ComputeTimeout
+
+from .conftest import LHIFAM_RIGID, make_client
+
+STABILITY = "/v1/analysis/stability"
+
+
+@pytest.fixture
+def executor():
+    ex = BoundedExecutor(workers=1, timeout=0.5)
+    try:
+        yield ex
+    finally:
+        ex.shutdown()
+
+
+def test_timeout_fires_and_the_worker_is_replaced(executor):
+    device = Device(**LHIFAM_RIGID)
+    first = executor.run(analyse_stability, device)  # starts the worker
+    t0 = time.monotonic()
+    with pytest.raises(ComputeTimeout, match="time budget of 0.5 s"):
+        executor.run(time.sleep, 30)
+    assert time.monotonic() - t0 < 5  # stopped at the budget, not after 30 s
+    assert executor.replaced == 1
+    t0 = time.monotonic()
+    again = executor.run(analyse_stability, device)
+    assert time.monotonic() - t0 < 2.0  # the replacement was forked warm
+    assert again.critical_stiffness == first.critical_stiffness
+
+
+def test_exceptions_come_back_and_the_worker_survives(executor):
+    with pytest.raises(ValueError, match="method"):
+        executor.run(analyse_stability, Device(**LHIFAM_RIGID), None, 0.0, "bogus")
+    assert executor.replaced == 0
+    assert executor.run(math.sqrt, 4.0) == 2.0
+
+
+def test_a_crashed_worker_is_reported_and_replaced(executor):
+    import os
+
+    from service.executor import ComputeUnavailable
+
+    with pytest.raises(ComputeUnavailable):
+        executor.run(os._exit, 3)
+    assert executor.replaced == 1
+    assert executor.run(math.sqrt, 9.0) == 3.0
+
+
+def test_cheap_calls_run_inline_and_expensive_ones_in_a_worker(executor):
+    import os
+
+    assert executor.run(os.getpid, cost_ms=1.0) == os.getpid()
+    assert executor.run(os.getpid, cost_ms=1e4) != os.getpid()
+    assert executor.run(os.getpid) != os.getpid()  # no estimate: always bounded
+
+
+def test_waiting_for_a_busy_worker_counts_against_the_budget():
+    import threading
+
+    ex = BoundedExecutor(workers=1, timeout=0.4)
+    try:
+        ex.run(math.sqrt, 1.0)
+        blocker = threading.Thread(target=lambda: pytest.raises(ComputeTimeout, ex.run, time.sleep, 30))
+        blocker.start()
+        time.sleep(0.1)
+        with pytest.raises(ComputeTimeout, match="no compute worker became free"):
+            ex.run(math.sqrt, 1.0, timeout=0.1)
+        blocker.join()
+    finally:
+        ex.shutdown()
+
+
+def test_cost_estimates_send_the_cheap_paths_inline():
+    """The fast path (exact rigid analysis, p50 goal 5 ms) never pays the worker round trip."""
+    rigid, cable = Device(**LHIFAM_RIGID), Device(preset="lhifam")
+    inline = BoundedExecutor(workers=1).inline_cost_ms
+    assert stability_cost_ms(rigid, "exact", 0.0, 1000) < inline
+    assert stability_cost_ms(cable, "exact", 5.0, 1000) < inline
+    assert stability_cost_ms(rigid, "linear", 0.0, 1000) < inline
+    assert stability_cost_ms(rigid, "reference", 0.0, 1000) > inline
+    assert stability_cost_ms(rigid.model_copy(update={"delay": 5.0}), "exact", 1.0, 1000) > inline
+    assert boundary_cost_ms(rigid, 50) > inline
+
+
+def test_http_timeout_answers_503_and_the_next_request_is_served_normally():
+    """A 40-digit reference analysis of a cable device takes seconds: with a 0.3 s budget it is stopped."""
+    with make_client(request_timeout=0.3, compute_workers=1) as c:
+        t0 = time.monotonic()
+        r = c.post(STABILITY, json={"device": {"preset": "lhifam", "delay": 0.01}, "method": "reference"})
+        assert time.monotonic() - t0 < 5
+        assert r.status_code == 503
+        assert "time budget of 0.3 s" in r.json()["detail"] and "ZWIDTH_REQUEST_TIMEOUT" in r.json()["detail"]
+        assert r.headers["retry-after"] == "1"
+        assert c.app.state.executor.replaced == 1
+        ok = c.post(STABILITY, json={"device": LHIFAM_RIGID})
+        assert ok.status_code == 200 and ok.json()["critical_stiffness"] > 0
+        # An expensive-path request that fits the budget is served by the replacement worker.
+        ok = c.post(STABILITY, json={"device": LHIFAM_RIGID, "method": "grid", "grid_points": 200_000})
+        assert ok.status_code == 200, ok.text
+
+
+def test_shutdown_stops_the_workers():
+    with make_client(compute_workers=1) as c:
+        c.post(STABILITY, json={"device": LHIFAM_RIGID, "method": "grid", "grid_points": 200_000})
+        workers = list(c.app.state.executor._idle)
+        assert workers and all(w.process.is_alive() for w in workers)
+    assert all(not w.process.is_alive() for w in workers)

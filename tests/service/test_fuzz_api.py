@@ -1,0 +1,116 @@
+"""Schemathesis fuzzing of the whole API from its own OpenAPI schema (every operation; the docs pages
+are not in the schema).  Checks: no 5xx, status codes, content types and bodies conform to the schema.
+
+One 5xx is by design and allowed: 503 with the request-time-budget message, the documented answer to a
+valid request that costs more than ZWIDTH_REQUEST_TIMEOUT (e.g. a 2000-point boundary of a device with
+hundreds of samples of delay).  The budget here is 1 s so the run stays short; any other 5xx, and any
+503 without that message, fails the test, and at most 10 % of the requests may hit the budget.
+"""
+
+from __future__ import annotations
+
+import threading
+
+import pytest
+import schemathesis
+from hypothesis import HealthCheck, settings
+from schemathesis.checks import not_a_server_error
+from schemathesis.specs.openapi.checks import (
+    content_type_conformance,
+    response_schema_conformance,
+    status_code_conformance,
+)
+
+from service.app import create_app
+from service.settings import Settings
+
+pytestmark = pytest.mark.slow
+
+#: Generated requests per operation and phase; ≥ 1000 requests in all across the operations.
+MAX_EXAMPLES = 50
+
+BUDGET_S = 1.0
+APP = create_app(Settings(prestart_workers=False, request_timeout=BUDGET_S, compute_workers=2, access_log=False))
+schema = schemathesis.openapi.from_asgi("/openapi.json", APP)
+
+_calls = {"n": 0, "by_status": {}}
+_lock = threading.Lock()
+_BUDGET_MESSAGES = ("the computation did not finish within the request time budget",
+                    "no compute worker became free within the request time budget")
+
+
+def no_5xx_but_the_time_budget(ctx, response, case):
+    """not_a_server_error, except the documented 503 of an over-budget computation."""
+    if response.status_code == 503:
+        detail = response.json().get("detail", "")
+        if isinstance(detail, str) and detail.startswith(_BUDGET_MESSAGES):
+            return True
+    return not_a_server_error(ctx, response, case)
+
+
+#: Operations with a defect the fuzzer found outside the service layer, fuzzed in a test of their own that
+#: is expected to fail until it is fixed (each has a strict reproducer below).  Still fuzzed, not excluded.
+KNOWN_DEFECTS = {
+    "/v1/analysis/force-feedforward": "filter.cutoff_hz = 5e-324 (allowed by the schema's gt=0) divides by "
+                                      "zero in the filter discretisation",
+    "/v1/design/inertia": "requirements.humans[].mass = 5e-324 (models.device.Human allows any m_h > 0) makes "
+                          "0/0 in the grasp model",
+}
+
+
+def _call_and_check(case) -> None:
+    response = case.call()
+    with _lock:
+        _calls["n"] += 1
+        _calls["by_status"][response.status_code] = _calls["by_status"].get(response.status_code, 0) + 1
+    case.validate_response(response, checks=[no_5xx_but_the_time_budget, status_code_conformance,
+                                             content_type_conformance, response_schema_conformance])
+
+
+_SETTINGS = settings(max_examples=MAX_EXAMPLES, deadline=None, derandomize=True, database=None,
+                     suppress_health_check=list(HealthCheck))
+
+
+@schema.exclude(path=list(KNOWN_DEFECTS)).parametrize()
+@_SETTINGS
+def test_api_conforms_to_its_schema_and_never_answers_5xx(case):
+    _call_and_check(case)
+
+
+@schema.include(path=list(KNOWN_DEFECTS)).parametrize()
+@pytest.mark.xfail(strict=False, reason="known defects: " + "; ".join(f"{k}: {v}" for k, v in KNOWN_DEFECTS.items()))
+@_SETTINGS
+def test_operations_with_known_defects(case):
+    _call_and_check(case)
+
+
+@pytest.mark.xfail(strict=True, reason=KNOWN_DEFECTS["/v1/analysis/force-feedforward"])
+def test_known_defect_force_feedforward_tiny_cutoff():
+    r = _client().post("/v1/analysis/force-feedforward", json={
+        "device": {"mass": 5.4, "damping": 3.5, "human": {"mass": 2, "damping": 2, "stiffness": 10},
+                   "force_sensor": {"time_constant": 0.005}}, "filter": {"cutoff_hz": 5e-324, "order": 2}})
+    assert r.status_code < 500
+
+
+@pytest.mark.xfail(strict=True, reason=KNOWN_DEFECTS["/v1/design/inertia"])
+def test_known_defect_inertia_tiny_human_mass():
+    r = _client().post("/v1/design/inertia", json={
+        "device": {"mass": 5.4, "damping": 3.5, "human": {"mass": 2, "damping": 2, "stiffness": 10},
+                   "force_sensor": {"time_constant": 0.005}},
+        "requirements": {"humans": [{"damping": 0.0, "mass": 5e-324, "stiffness": 0.0}]}})
+    assert r.status_code < 500
+
+
+def _client():
+    from fastapi.testclient import TestClient
+
+    return TestClient(APP, raise_server_exceptions=False)
+
+
+def test_enough_requests_were_generated():
+    """Runs after the fuzz test in file order: the run really exercised the API."""
+    if _calls["n"] == 0:
+        pytest.skip("fuzz test not run in this session (selected alone)")
+    print(f"schemathesis: {_calls['n']} requests, by status {_calls['by_status']}")
+    assert _calls["n"] >= 1000, _calls
+    assert _calls["by_status"].get(503, 0) <= 0.1 * _calls["n"], _calls

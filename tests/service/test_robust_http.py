@@ -1,0 +1,123 @@
+"""POST /v1/design/stiffness with requirements.uncertainty, /v1/design/hardware and their plots over HTTP."""
+
+import math
+import warnings
+
+import pytest
+
+with warnings.catch_warnings():
+    warnings.simplefilter("ignore")
+    from fastapi.testclient import TestClient
+
+from models.device import Device
+from optim.margins import critical_stiffness
+from service.app import create_app
+
+LH_RIGID = {"preset": "lhifam", "cable": None}
+UNC = {"device.mass": {"min": 4, "max": 7}, "device.delay": {"min": 0, "max": 0.002}}
+
+
+@pytest.fixture(scope="module")
+def client():
+    return TestClient(create_app())
+
+
+def test_robust_design(client):
+    r = client.post("/v1/design/stiffness", json={"device": LH_RIGID, "requirements": {"uncertainty": UNC}})
+    assert r.status_code == 200
+    body = r.json()
+    assert body["status"] == "optimal" and body["robust"] is True
+    assert body["gain_margin_db"] >= 6 - 1e-6
+    worst = body["worst_case"]
+    dev = Device(mass=worst["device"]["device.mass"], damping=3.5, delay=worst["device"]["device.delay"])
+    kcr = critical_stiffness(dev, body["damping"]).critical_stiffness
+    assert kcr == pytest.approx(worst["critical_stiffness"], rel=1e-9)
+    assert 20 * math.log10(kcr / body["stiffness"]) == pytest.approx(body["gain_margin_db"], abs=1e-9)
+    assert body["iterations"] >= 1 and len(body["scenarios"]) >= 5 and body["evaluations"] > 0
+    assert body["nominal_gain_margin_db"] > body["gain_margin_db"]
+
+
+def test_nominal_request_unchanged(client):
+    body = client.post("/v1/design/stiffness", json={"device": LH_RIGID}).json()
+    assert body["robust"] is False and body["worst_case"] is None
+
+
+@pytest.mark.parametrize("unc,loc_end,fragment", [
+    ({"device.mass": {"min": -1, "max": 7}}, "device.mass", "greater than 0"),
+    ({"device.mass": {"min": 7, "max": 4}}, "device.mass", "≤ max"),
+    ({"device.nope": {"min": 1, "max": 2}}, "device.nope", "unknown path"),
+    ({"device.mass": {"min": 1}}, "max", "required"),
+])
+def test_bad_uncertainty_is_422_naming_the_field(client, unc, loc_end, fragment):
+    r = client.post("/v1/design/stiffness", json={"device": LH_RIGID, "requirements": {"uncertainty": unc}})
+    assert r.status_code == 422
+    err = r.json()["detail"][0]
+    assert err["loc"][-1] == loc_end and fragment in err["msg"]
+
+
+def test_nan_range_is_422(client):
+    body = '{"device": {"preset": "lhifam", "cable": null}, "requirements": {"uncertainty": ' \
+           '{"device.mass": {"min": NaN, "max": 7}}}}'
+    r = client.post("/v1/design/stiffness", content=body, headers={"content-type": "application/json"})
+    assert r.status_code == 422
+
+
+def test_hardware(client):
+    r = client.post("/v1/design/hardware", json={"device": LH_RIGID, "target": {"stiffness": 2e5}, "free": "delay",
+                                                 "points": 11})
+    assert r.status_code == 200
+    body = r.json()
+    assert body["status"] == "optimal" and body["direction"] == "max" and body["bounded"]
+    assert body["controller"]["gain_margin_db"] == pytest.approx(6.0, abs=1e-6)
+    assert len(body["curve"]) == 11 and body["intervals"][0][1] == pytest.approx(body["value"])
+
+
+def test_hardware_infeasible_and_bad_free(client):
+    body = client.post("/v1/design/hardware", json={"device": LH_RIGID, "target": {"stiffness": 1e12},
+                                                    "free": "sample_time", "points": 9}).json()
+    assert body["status"] == "infeasible" and body["value"] is None and body["limiting_effect"]
+    r = client.post("/v1/design/hardware", json={"device": LH_RIGID, "target": {"stiffness": 1e4},
+                                                 "free": "cable.stiffness"})
+    assert r.status_code == 422 and r.json()["detail"][0]["loc"][-1] == "free"
+    r = client.post("/v1/design/hardware", json={"device": LH_RIGID, "target": {"stiffness": 1e4}, "free": "color"})
+    assert r.status_code == 422
+
+
+@pytest.mark.parametrize("fmt,magic", [("png", b"\x89PNG"), ("svg", b"<?xml")])
+def test_plots(client, fmt, magic):
+    r = client.post(f"/v1/plots/robust?format={fmt}", json={"device": LH_RIGID, "requirements": {"uncertainty": UNC},
+                                                            "points": 9})
+    assert r.status_code == 200 and r.content.startswith(magic)
+    r = client.post(f"/v1/plots/hardware?format={fmt}", json={"device": LH_RIGID, "target": {"stiffness": 2e5},
+                                                              "free": "delay", "points": 9})
+    assert r.status_code == 200 and r.content.startswith(magic)
+
+
+def test_robust_plot_bad_axis(client):
+    r = client.post("/v1/plots/robust", json={"device": LH_RIGID, "requirements": {"uncertainty": UNC},
+                                              "x": "device.damping", "points": 9})
+    assert r.status_code == 422 and r.json()["detail"][0]["loc"][-1] == "x"
+
+
+def test_robust_inertia(client):
+    r = client.post("/v1/design/inertia", json={"device": {"preset": "lhifam"}, "requirements": {
+        "uncertainty": {"device.human.mass": {"min": 0.5, "max": 4}}}})
+    assert r.status_code == 200
+    body = r.json()
+    assert body["robust"] is True and body["status"] == "optimal"
+    assert body["gain_margin_db"] == pytest.approx(6.0, abs=1e-6)
+    assert body["worst_case"]["device"] == {"device.human.mass": 4.0}
+    assert body["critical_force_gain"] / body["force_gain"] == pytest.approx(10 ** (6 / 20), rel=1e-9)
+
+
+def test_robust_inertia_refuses_sample_time(client):
+    r = client.post("/v1/design/inertia", json={"device": {"preset": "lhifam"}, "requirements": {
+        "uncertainty": {"device.sample_time": {"min": 0.0005, "max": 0.001}}}})
+    assert r.status_code == 422
+    assert r.json()["detail"][0]["loc"][-1] == "device.sample_time"
+
+
+def test_robust_with_passivity_is_422(client):
+    r = client.post("/v1/design/stiffness", json={"device": LH_RIGID, "requirements": {
+        "passivity": True, "uncertainty": {"device.delay": {"min": 0, "max": 0.001}}}})
+    assert r.status_code == 422 and r.json()["detail"][0]["loc"][-1] == "passivity"
