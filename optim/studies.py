@@ -35,7 +35,7 @@ __all__ = ["MAX_STUDY_POINTS", "PROBLEMS", "StudyInputError", "ProblemUnavailabl
 
 #: Cost limit: the largest number of points one study may have (grid product or LHS samples).
 MAX_STUDY_POINTS = 1_000_000
-PROBLEMS: tuple[str, ...] = ("stability", "stiffness", "inertia")
+PROBLEMS: tuple[str, ...] = ("stability", "critical_stiffness", "stiffness", "inertia")
 SCALES = ("linear", "log")
 DESIGNS = ("grid", "latin_hypercube")
 
@@ -67,6 +67,8 @@ class Problem:
     """sweepable requirement fields -> "float" | "int"."""
     check_requirements: Callable[[Mapping[str, Any]], None]
     """raises ValueError("<field>: <rule>") for requirements the problem cannot take."""
+    evaluate_batch: Callable[[Sequence[Device], Sequence[Mapping[str, Any]]], list[tuple[dict | None, str | None]]] | None = None
+    """Optional: a whole chunk at once (valid devices and requirements) -> (results, None) | (None, reason) each."""
 
 
 def _clean(value: Any) -> Any:
@@ -191,6 +193,15 @@ def get_problem(name: str) -> Problem:
         return _CACHE[name]
     if name == "stability":
         problem = Problem("stability", _stability, _STABILITY_REQUIREMENTS, _check_stability_requirements)
+    elif name == "critical_stiffness":
+        from .critical_study import evaluate_batch, evaluate_one
+
+        def one(device: Device, req: Mapping[str, Any]) -> dict[str, Any]:
+            _check_stability_requirements(req)
+            return evaluate_one(device, req)
+
+        problem = Problem("critical_stiffness", one, _STABILITY_REQUIREMENTS, _check_stability_requirements,
+                          evaluate_batch)
     elif name in _LAZY:
         problem = _design_problem(name, *_LAZY[name])
     else:
@@ -467,11 +478,50 @@ def evaluate_chunk(problem: str, device: Mapping[str, Any], requirements: Mappin
     Runs in a worker (local process or Dask): plain data in, plain data out, no writes, so a task
     that runs twice is harmless.  ``axes`` is ((path, kind), …) of the swept values.
     """
+    try:
+        prob = get_problem(problem)
+    except StudyInputError:
+        prob = None  # every point records the reason (evaluate_point below)
+    if prob is not None and prob.evaluate_batch is not None:
+        return _evaluate_chunk_batch(prob, device, requirements, axes, rows)
     out = []
     for index, digest, values in rows:
         tree = {"device": copy.deepcopy(dict(device)), "requirements": copy.deepcopy(dict(requirements))}
         for (path, kind), v in zip(axes, values):
             _set(tree, path, int(v) if kind == "int" else float(v))
         result, error = evaluate_point(problem, tree["device"], tree["requirements"])
+        out.append((index, digest, [float(v) for v in values], result, error))
+    return out
+
+
+def _evaluate_chunk_batch(prob: Problem, device: Mapping[str, Any], requirements: Mapping[str, Any],
+                          axes: Sequence[tuple[str, str]], rows: Sequence[tuple[int, str, Sequence[float]]]) -> list[tuple]:
+    """evaluate_chunk of a vectorised problem: each point validated alone, the valid ones evaluated together."""
+    errors: list[str | None] = []
+    devices: list[Device] = []
+    reqs: list[Mapping[str, Any]] = []
+    for _, _, values in rows:
+        tree = {"device": copy.deepcopy(dict(device)), "requirements": copy.deepcopy(dict(requirements))}
+        for (path, kind), v in zip(axes, values):
+            _set(tree, path, int(v) if kind == "int" else float(v))
+        try:
+            dev = Device.model_validate(tree["device"])
+        except ValueError as exc:
+            errors.append(f"invalid device: {_first_error(exc)}")
+            continue
+        try:
+            prob.check_requirements(tree["requirements"])
+        except ValueError as exc:
+            errors.append(f"ValueError: {exc}")
+            continue
+        errors.append(None)
+        devices.append(dev)
+        reqs.append(tree["requirements"])
+    results = iter(prob.evaluate_batch(devices, reqs))
+    out = []
+    for (index, digest, values), error in zip(rows, errors):
+        result = None
+        if error is None:
+            result, error = next(results)
         out.append((index, digest, [float(v) for v in values], result, error))
     return out

@@ -41,7 +41,7 @@ class StudyBase(BaseModel):
     device: dict[str, Any] = Field(description="a device object (ARCHITECTURE.md), swept paths override it")
     requirements: dict[str, Any] = Field(
         default_factory=dict,
-        description="stability: {stiffness?, damping?} of the wall; stiffness/inertia: the design's requirements")
+        description="stability, critical_stiffness: {stiffness?, damping?} of the wall; stiffness/inertia: the design's requirements")
 
 
 class StudyRequest(BaseModel):
@@ -52,7 +52,7 @@ class StudyRequest(BaseModel):
          "sweep": {"device.cable.stiffness": {"start": 2e4, "stop": 2e5, "scale": "log"},
                    "device.delay": {"start": 0, "stop": 0.002}},
          "sampling": {"design": "latin_hypercube", "samples": 500, "seed": 1}}]}}
-    problem: Literal["stability", "stiffness", "inertia"]
+    problem: Literal["stability", "critical_stiffness", "stiffness", "inertia"]
     base: StudyBase
     sweep: dict[str, ValueList | RangeSpec] = Field(
         description="dotted path (device.delay, device.cable.stiffness, requirements.damping, …) -> "

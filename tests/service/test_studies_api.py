@@ -218,3 +218,33 @@ def test_stiffness_study_calls_the_design(client):
         kcr = critical_stiffness(dev, row["damping"]).critical_stiffness
         # the optimum sits on the margin: equality up to the design's own solver tolerance (1e-9 relative)
         assert row["stiffness"] <= kcr * 10 ** (-row["requirements.min_gain_margin_db"] / 20) * (1 + 1e-9)
+
+
+def test_critical_stiffness_study_end_to_end(client):
+    """The vectorised problem through the API: each row is the exact per-point analysis to 1e-12 (its stated
+    accuracy; vectorised arithmetic, so not bit for bit), and a point invalid only in combination fails alone."""
+    from models.device import Device
+    from optim.analysis import analyse_stability
+
+    req = {"problem": "critical_stiffness",
+           "base": {"device": LHIFAM_RIGID, "requirements": {"stiffness": 1500.0}},
+           "sweep": {"device.delay": [0.0, 0.0012, 0.02], "device.sample_time": [0.001, 1e-6],
+                     "requirements.damping": [0.0, 5.0]}}
+    r = client.post("/v1/studies", json=req)
+    assert r.status_code == 202, r.text
+    sid = r.json()["id"]
+    st = wait_finished(_get(client), sid)
+    assert (st["status"], st["done"], st["failed"]) == ("done", 12, 2), st  # 0.02 s / 1e-6 s > 10,000 samples
+    page = client.get(f"/v1/studies/{sid}/results", params={"limit": 100}).json()
+    assert {"critical_stiffness", "crossover_frequency", "max_stable_damping", "linear_estimate",
+            "gain_margin_db", "stable", "reason"} <= set(page["columns"])
+    for row in page["rows"]:
+        if row["device.delay"] == 0.02 and row["device.sample_time"] == 1e-6:
+            assert row["error"].startswith("invalid device") and row.get("critical_stiffness") is None
+            continue
+        assert row["error"] is None
+        dev = Device(**{**LHIFAM_RIGID, "sample_time": row["device.sample_time"]}, delay=row["device.delay"])
+        ref = analyse_stability(dev, 1500.0, row["requirements.damping"])
+        assert row["critical_stiffness"] == pytest.approx(ref.critical_stiffness, rel=1e-12, abs=0.0)
+        assert row["stable"] == ref.stable
+        assert row["gain_margin_db"] == pytest.approx(ref.gain_margin_db, rel=0.0, abs=1e-10)  # 20/ln10 · 1e-12 dB
