@@ -28,7 +28,10 @@ from service.studies.store import StudyStore
 
 ROOT = Path(__file__).resolve().parents[1]
 #: Throughput goals of issue 8 on 2 cores [points/s].
-GOALS = {"stability": 2000, "stiffness": 200}
+GOALS = {"stability": 2000, "critical_stiffness": 2000, "stiffness": 200}
+#: Points per chunk of the vectorised problem: one batch_critical_stiffness call per delay class of a chunk,
+#: whose per-call numpy overhead is spread over the chunk (≈ 4000 points/CPU-s from 128 to 512 points).
+CRITICAL_CHUNK = 256
 
 
 def stability_study(points: int) -> dict:
@@ -37,6 +40,11 @@ def stability_study(points: int) -> dict:
     return {"problem": "stability", "base": {"device": {"mass": 5.4, "damping": 3.5}, "requirements": {"stiffness": 1500.0}},
             "sweep": {"device.delay": {"start": 0.0, "stop": 0.004, "num": n_delay},
                       "requirements.damping": [0.0, 2.0, 5.0, 10.0]}}
+
+
+def critical_study(points: int) -> dict:
+    """The stability study's wall and sweep, on the vectorised K_cr problem (a whole chunk per batch)."""
+    return {**stability_study(points), "problem": "critical_stiffness"}
 
 
 def stiffness_study(points: int) -> dict:
@@ -57,6 +65,8 @@ class Row:
     failed: int
     cpu: float | None = None
     """CPU time of the processes that evaluated the points, median over the repeats [s]."""
+    chunk: int | None = None
+    """points per chunk (None: the in-process baseline, one point at a time)."""
 
     @property
     def median(self) -> float:
@@ -128,19 +138,23 @@ def _study(study: dict, executor, label: str, repeats: int, chunk_size: int) -> 
                 failed = row["failed"]
                 if c0 is not None and c1 is not None:
                     cpus.append(c1 - c0)
-    return Row(plan.problem, label, plan.total, tuple(times), failed, statistics.median(cpus) if cpus else None)
+    return Row(plan.problem, label, plan.total, tuple(times), failed, statistics.median(cpus) if cpus else None,
+               chunk_size)
 
 
 def measure(points: int = 400, repeats: int = 3, workers: tuple[int, ...] = (1, 2), dask: bool = True,
-            chunk_size: int = 32) -> list[Row]:
-    studies = [stability_study(points)]
+            chunk_size: int = 32, critical_points: int | None = None, critical_chunk: int = CRITICAL_CHUNK) -> list[Row]:
+    """``critical_points`` (default 10 × points) of the vectorised problem run in chunks of ``critical_chunk``,
+    on the local pools only (its study is short: a Dask cluster's start would dominate the run)."""
+    studies = [(stability_study(points), chunk_size, dask),
+               (critical_study(critical_points or 10 * points), critical_chunk, False)]
     try:
         get_problem("stiffness")
-        studies.append(stiffness_study(max(2, points // 10)))
+        studies.append((stiffness_study(max(2, points // 10)), chunk_size, dask))
     except ProblemUnavailable:
         pass
     rows: list[Row] = []
-    for study in studies:
+    for study, chunk_size, dask in studies:
         rows.append(_baseline(study, repeats))
         for n in workers:
             ex = LocalExecutor(n)
@@ -176,16 +190,18 @@ def render(rows: list[Row], note: str = "", load: tuple[float, float] | None = N
         "points/s against the baseline of the same problem, measured in the same run. *Points per CPU-s* divides "
         "by the CPU time of the processes that evaluated the points (this process, the pool's workers via psutil, "
         "the Dask workers via `client.run`): what one free core gives, whatever else shares the machine; "
-        "n free cores give about n times that." + load_text,
+        "n free cores give about n times that. `critical_stiffness` is the vectorised problem (optim.critical_study: "
+        "a chunk's devices in one `batch_critical_stiffness` call per delay class) over the same wall and sweep as "
+        "`stability`; its baseline evaluates it one point at a time (a batch of one)." + load_text,
         "",
-        "| problem | executor | points | median [s] | p95 [s] | points/s | ratio vs baseline | points per CPU-s | failed points |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "| problem | executor | points | median [s] | p95 [s] | points/s | ratio vs baseline | points per CPU-s | failed points | points per chunk |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     base = {r.problem: r.rate for r in rows if "baseline" in r.executor}
     for r in rows:
         cpu = f"{r.cpu_rate:.0f}" if r.cpu_rate else "—"
         lines.append(f"| {r.problem} | {r.executor} | {r.points} | {r.median:.3f} | {r.p95:.3f} | {r.rate:.0f} | "
-                     f"{r.rate / base[r.problem]:.2f} | {cpu} | {r.failed} |")
+                     f"{r.rate / base[r.problem]:.2f} | {cpu} | {r.failed} | {r.chunk or '—'} |")
     goals = []
     for prob, goal in GOALS.items():
         mine = [r for r in rows if r.problem == prob]
@@ -195,6 +211,12 @@ def render(rows: list[Row], note: str = "", load: tuple[float, float] | None = N
             goals.append(f"{prob}: ≥ {goal} points/s — best measured {best:.0f}/s, two free cores ≈ "
                          f"{2 * per_core:.0f}/s ({'met' if best >= goal else 'not met'})")
     lines += ["", "Goals on 2 cores (issue 8): " + "; ".join(goals) + "."]
+    stab, crit = base.get("stability"), [r for r in rows if r.problem == "critical_stiffness"]
+    if stab and crit:
+        best = max(crit, key=lambda r: r.rate)
+        lines += ["", f"K_cr of a sweep: the vectorised `critical_stiffness` study ({best.executor}) gives "
+                  f"{best.rate:.0f} points/s, {best.rate / stab:.1f} × the one-by-one full `stability` analysis "
+                  f"of the same points ({stab:.0f}/s, measured in this run)."]
     if not any(r.problem == "stiffness" for r in rows):
         lines += ["", "Stiffness designs: `optim.stiffness` is not in this build, so the stiffness problem answers "
                   "422 and is not measured here."]
@@ -207,13 +229,14 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--points", type=int, default=400)
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--critical-points", type=int, default=None, help="points of the critical_stiffness study (default 10 × points)")
     ap.add_argument("--no-dask", action="store_true")
     ap.add_argument("--out", default=str(ROOT / "docs" / "bench_studies.md"))
     args = ap.parse_args()
     import os
 
     before = os.getloadavg()[0]
-    rows = measure(args.points, args.repeats, dask=not args.no_dask)
+    rows = measure(args.points, args.repeats, dask=not args.no_dask, critical_points=args.critical_points)
     text = render(rows, load=(before, os.getloadavg()[0]))
     Path(args.out).write_text(text)
     print(text)
