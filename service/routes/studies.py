@@ -146,7 +146,9 @@ def study_results(study_id: str, request: Request, format: Literal["json", "csv"
                     headers=headers)
 
 
-@router.get("/{study_id}/plot", responses={200: {"content": {"image/png": {}, "image/svg+xml": {}}}})
+@router.get("/{study_id}/plot", response_class=Response, responses={200: {"description": "the figure", "content": {
+    "image/png": {"schema": {"type": "string", "format": "binary"}},
+    "image/svg+xml": {"schema": {"type": "string", "format": "binary"}}}}})
 def study_plot(study_id: str, request: Request, y: str, x: str, x2: str | None = None,
                format: Literal["png", "svg"] = "png") -> Response:
     """Result ``y`` against swept ``x`` (line) or against ``x`` and ``x2`` (heatmap)."""
