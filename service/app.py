@@ -54,7 +54,8 @@ def _is_v1(router) -> bool:
 def create_app(settings: Settings | None = None) -> FastAPI:
     settings = settings or Settings()
     configure_logging(settings.log_level)
-    executor = BoundedExecutor(workers=settings.compute_workers, timeout=settings.request_timeout)
+    executor = BoundedExecutor(workers=settings.compute_workers, timeout=settings.request_timeout,
+                                inline_cost_ms=settings.inline_cost_ms)
 
     @asynccontextmanager
     async def lifespan(_: FastAPI) -> AsyncIterator[None]:

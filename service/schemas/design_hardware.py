@@ -6,7 +6,7 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from models.device import Device
+from .common import Device  # the numerics' validated domain (optim.domain) applies
 
 __all__ = ["HardwareTargetIn", "HardwareDesignRequest", "HardwareDesignResponse", "CurvePoint"]
 
