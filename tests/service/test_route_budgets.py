@@ -100,3 +100,27 @@ def test_expensive_request_answers_503_and_the_next_one_is_served(clients, name)
     assert executor.replaced == replaced + 1  # the runaway's worker was killed and replaced
     ok = client.post(cheap_path, json=cheap_body)
     assert ok.status_code == 200, ok.text[:300]
+
+
+def test_cost_estimates_send_designs_and_long_runs_to_a_worker():
+    """Designs, reference rungs, relays and long simulations are bounded; the cheap rungs and short runs
+    stay inline (no round trip).  Robust and hardware designs pass cost None (always a worker)."""
+    from models.device import Device
+    from models.scene import Scene
+    from service.cost import (force_feedforward_cost_ms, inertia_design_cost_ms, simulation_cost_ms,
+                              stiffness_design_cost_ms)
+    from service.executor import BoundedExecutor
+
+    inline = BoundedExecutor(workers=1).inline_cost_ms
+    rigid, ff = Device(**LHIFAM_RIGID), Device(**FF_DEVICE)
+    for method in ("exact", "grid", "reference"):
+        assert stiffness_design_cost_ms(rigid, method, 2000) > inline
+        assert inertia_design_cost_ms(ff, method, 2000, 1) > inline
+    assert stiffness_design_cost_ms(rigid, "linear", 2000) < inline
+    assert inertia_design_cost_ms(ff, "linear", 2000, 1) < inline
+    assert force_feedforward_cost_ms(ff, "exact", 2000) < inline  # ≈ 2 ms: the round trip would double it
+    assert force_feedforward_cost_ms(ff, "reference", 2000) > inline
+    assert force_feedforward_cost_ms(ff, "grid", 1_000_000) > inline
+    assert simulation_cost_ms(rigid, Scene(**RELEASE)) < inline
+    assert simulation_cost_ms(rigid, Scene(**{**RELEASE, "duration": 100.0})) > inline
+    assert simulation_cost_ms(rigid, Scene(**{**RELAY, "duration": 1.0})) > inline
