@@ -22,6 +22,7 @@ from .cli_common import (DEFAULT_URL, AsJson, Connection, DeviceFile, Local, Pre
                          emit, handle_errors, open_client, out, scene_root)
 from .cli_design import app as design_app
 from .cli_plot import app as plot_app
+from .cli_study import app as study_app
 from .robust_cli import robust_app
 
 app = typer.Typer(help="zwidth: the stiffest wall, the lightest feel and the filter that are still safe to render.\n\n"
@@ -29,7 +30,7 @@ app = typer.Typer(help="zwidth: the stiffest wall, the lightest feel and the fil
 app.add_typer(design_app, name="design")
 app.add_typer(plot_app, name="plot")
 app.add_typer(robust_app, name="robust")
-# Studies: clients/cli_study.py (branch `studies`) adds `zwidth study run|status|results` with one line here.
+app.add_typer(study_app, name="study")
 
 
 # ------------------------------------------------------------------------------------------------ presets

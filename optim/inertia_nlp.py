@@ -21,7 +21,6 @@ and per thread (CasADi/Ipopt objects are not thread-safe); numbers go in as p.
 from __future__ import annotations
 
 import math
-import threading
 from dataclasses import dataclass
 
 import casadi as ca
@@ -30,12 +29,13 @@ import numpy as np
 from models.feedforward import FeedforwardPlant
 from models.filters import butterworth_polynomial
 
+from .solver_cache import thread_solver
+
 __all__ = ["ModalPlant", "modal_plant", "CrossoverNLP", "solve_crossover_nlp"]
 
 _IPOPT = {"ipopt.print_level": 0, "print_time": 0, "ipopt.sb": "yes", "ipopt.tol": 1e-12,
           "ipopt.bound_relax_factor": 0.0, "ipopt.constr_viol_tol": 1e-10,
           "ipopt.max_iter": 200}
-_local = threading.local()
 
 
 @dataclass(frozen=True)
@@ -141,13 +141,8 @@ def _build(n_modes: int, order: int, n_cross: int, objective: str) -> CrossoverN
 
 
 def _solver(n_modes: int, order: int, n_cross: int, objective: str) -> CrossoverNLP:
-    cache = getattr(_local, "cache", None)
-    if cache is None:
-        cache = _local.cache = {}
     key = (n_modes, order, n_cross, objective)
-    if key not in cache:
-        cache[key] = _build(*key)
-    return cache[key]
+    return thread_solver("inertia", key, lambda: _build(*key))
 
 
 @dataclass(frozen=True)

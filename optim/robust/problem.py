@@ -18,7 +18,6 @@ Nyquist flag of each scenario) and per thread, Ipopt silent, status always read.
 
 from __future__ import annotations
 
-import threading
 from dataclasses import dataclass
 
 import casadi as ca
@@ -26,10 +25,10 @@ import numpy as np
 
 from optim.stiffness.loop import casadi_loop_function
 from optim.stiffness.problem import IPOPT_OPTIONS
+from optim.solver_cache import thread_solver
 
 __all__ = ["RobustKey", "RobustSolution", "solve_robust"]
 
-_local = threading.local()
 _GLOBAL = 5                           # g, K_ref, B_ref, K_cap, B_cap
 
 
@@ -87,12 +86,7 @@ def _build(key: RobustKey) -> ca.Function:
 
 
 def _solver(key: RobustKey) -> ca.Function:
-    cache = getattr(_local, "solvers", None)
-    if cache is None:
-        cache = _local.solvers = {}
-    if key not in cache:
-        cache[key] = _build(key)
-    return cache[key]
+    return thread_solver("robust-stiffness", key, lambda: _build(key))
 
 
 def solve_robust(key: RobustKey, global_params: np.ndarray, scenario_params: list[np.ndarray], x0: np.ndarray,

@@ -16,12 +16,12 @@ parametric sensitivity of the optimum: d(−a*)/dp = ∂L/∂p = lam_p (envelope
 
 from __future__ import annotations
 
-import threading
 from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
 
+from ..solver_cache import thread_solver
 from .loop import casadi_loop_function
 
 __all__ = ["ProblemKey", "ProblemSolution", "solve_problem", "N_CUTS", "IPOPT_OPTIONS"]
@@ -30,7 +30,6 @@ N_CUTS = 10
 IPOPT_OPTIONS = {"ipopt.print_level": 0, "print_time": 0, "ipopt.sb": "yes", "ipopt.tol": 1e-11,
                  "ipopt.acceptable_tol": 1e-9, "ipopt.max_iter": 200,
                  "ipopt.bound_relax_factor": 1e-12, "calc_lam_p": True}
-_local = threading.local()
 
 
 @dataclass(frozen=True)
@@ -89,12 +88,7 @@ def _build(key: ProblemKey) -> ca.Function:
 
 def solver_for(key: ProblemKey) -> ca.Function:
     """This thread's solver for the structure (CasADi solvers are not thread-safe)."""
-    cache = getattr(_local, "solvers", None)
-    if cache is None:
-        cache = _local.solvers = {}
-    if key not in cache:
-        cache[key] = _build(key)
-    return cache[key]
+    return thread_solver("stiffness", key, lambda: _build(key))
 
 
 def solve_problem(key: ProblemKey, params: np.ndarray, x0: np.ndarray,

@@ -23,7 +23,12 @@ class HardwareTargetIn(BaseModel):
 
 
 class HardwareDesignRequest(BaseModel):
-    model_config = _STRICT
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, json_schema_extra={"examples": [
+        {"device": {"preset": "lhifam", "cable": None}, "target": {"stiffness": 20000, "min_gain_margin_db": 6},
+         "free": "delay"},
+        {"device": {"preset": "lhifam"}, "target": {"stiffness": 5000, "max_damping": 20}, "free": "cable.stiffness"},
+        {"device": {"mass": 5.4, "damping": 3.5, "delay": 0.001}, "target": {"stiffness": 3000}, "free": "sample_time"},
+    ]})
 
     device: Device
     target: HardwareTargetIn

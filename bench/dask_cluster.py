@@ -1,0 +1,79 @@
+"""A throw-away Dask cluster on loopback (a scheduler and N single-thread workers as processes).
+
+Used by the study benchmark and tests; every process is killed on exit, whatever happened.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Iterator
+
+__all__ = ["local_dask_cluster"]
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _kill(proc: subprocess.Popen) -> None:
+    if proc.poll() is None:
+        try:
+            os.killpg(proc.pid, signal.SIGTERM)
+            proc.wait(10)
+        except (subprocess.TimeoutExpired, ProcessLookupError):
+            try:
+                os.killpg(proc.pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+            proc.wait(10)
+
+
+@contextmanager
+def local_dask_cluster(workers: int = 2, timeout: float = 60.0) -> Iterator[str]:
+    """Yield the scheduler address of ``dask scheduler`` + ``workers`` × ``dask worker --nthreads 1``."""
+    dask = str(Path(sys.executable).parent / "dask")
+    port = _free_port()
+    address = f"tcp://127.0.0.1:{port}"
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))}
+    log = tempfile.TemporaryFile()
+    scratch = tempfile.TemporaryDirectory(prefix="zwidth-dask-")
+    procs: list[subprocess.Popen] = []
+    common = dict(cwd=ROOT, env=env, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+    try:
+        try:
+            _start(procs, dask, port, address, workers, scratch.name, common, timeout)
+        except Exception:
+            log.seek(0)
+            sys.stderr.write(log.read().decode(errors="replace")[-4000:])
+            raise
+        yield address
+    finally:
+        for p in reversed(procs):
+            _kill(p)
+        log.close()
+        scratch.cleanup()
+
+
+def _start(procs, dask, port, address, workers, scratch, common, timeout) -> None:
+    from distributed import Client
+
+    procs.append(subprocess.Popen([dask, "scheduler", "--host", "127.0.0.1", "--port", str(port),
+                                   "--no-dashboard"], **common))
+    for _ in range(workers):
+        # One thread per process: CasADi solvers are not thread-safe (FIELD-NOTES).
+        procs.append(subprocess.Popen([dask, "worker", address, "--nthreads", "1", "--no-nanny",
+                                       "--host", "127.0.0.1", "--no-dashboard", "--local-directory", scratch],
+                                      **common))
+    with Client(address, timeout=timeout, set_as_default=False) as client:
+        client.wait_for_workers(workers, timeout=timeout)

@@ -1,0 +1,172 @@
+"""/v1/studies: submit, follow, export, plot and cancel batch design-space studies (issue 8)."""
+
+from __future__ import annotations
+
+import random
+import time
+import uuid
+from typing import Annotated, Literal
+
+from fastapi import APIRouter, HTTPException, Query, Request, Response
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import StreamingResponse
+
+from optim.studies import StudyInputError
+
+from ..schemas.studies import StudyCreated, StudyList, StudyRequest, StudyResults, StudyStatus
+from ..studies.export import columns, csv_chunks, flat_row, parquet_bytes, scan_columns
+from ..studies.lifespan import study_lifespan
+from ..studies.plot import plot_rows
+from ..studies.runner import StudyRunner, plan_from_request
+
+router = APIRouter(prefix="/v1/studies", tags=["studies"], lifespan=study_lifespan)
+
+MAX_PAGE = 10_000
+MAX_PLOT_POINTS = 200_000
+
+
+def _runner(request: Request) -> StudyRunner:
+    runner = getattr(request.app.state, "study_runner", None)
+    if runner is None:
+        why = getattr(request.app.state, "study_error", None) or "the study runner is not started"
+        raise HTTPException(status_code=503, detail=why)
+    return runner
+
+
+def _study(runner: StudyRunner, study_id: str) -> dict:
+    row = runner.store.get(study_id)
+    if row is None:
+        raise HTTPException(status_code=404, detail=f"no study {study_id!r}")
+    return row
+
+
+def _invalid(loc: list, msg: str) -> RequestValidationError:
+    return RequestValidationError([{"type": "value_error", "loc": tuple(loc), "msg": msg}])
+
+
+def _body_loc(field: str, sweep_paths) -> list:
+    """'sweep.device.cable.stiffness.num' -> ['body', 'sweep', 'device.cable.stiffness', 'num'] (pydantic's shape)."""
+    if field.startswith("sweep."):
+        rest = field.removeprefix("sweep.")
+        for path in sorted(sweep_paths, key=len, reverse=True):
+            if rest == path or rest.startswith(path + "."):
+                tail = rest.removeprefix(path).lstrip(".")
+                return ["body", "sweep", path, *([tail] if tail else [])]
+    return ["body", *field.split(".")]
+
+
+def _status(row: dict) -> StudyStatus:
+    done, total = row["done"], row["total"]
+    rate = eta = None
+    if row["run_started_at"] is not None:
+        end = row["finished_at"] if row["status"] != "running" and row["finished_at"] else time.time()
+        elapsed = end - row["run_started_at"]
+        progressed = done - row["run_start_done"]
+        if elapsed > 0 and progressed > 0:
+            rate = progressed / elapsed
+    if row["status"] == "done":
+        eta = 0.0
+    elif row["status"] == "running" and rate:
+        eta = (total - done) / rate
+    req = row["request"]
+    return StudyStatus(id=row["id"], name=req.get("name"), problem=row["problem"], status=row["status"],
+                       total=total, done=done, failed=row["failed"], progress=done / total if total else 1.0,
+                       rate=rate, eta_s=eta, created_at=row["created_at"], started_at=row["run_started_at"],
+                       resumed_from=row["run_start_done"],
+                       finished_at=row["finished_at"], error=row["error"], sweep=list(req.get("sweep", {})))
+
+
+@router.post("", status_code=202, response_model=StudyCreated)
+def submit_study(req: StudyRequest, request: Request) -> StudyCreated:
+    """Plan the study, store the request (on disk before answering), queue it: 202 with its id."""
+    runner = _runner(request)
+    body = req.model_dump(mode="json")
+    if req.sampling.design == "latin_hypercube" and req.sampling.seed is None:
+        body["sampling"]["seed"] = random.SystemRandom().randrange(2**63)  # stored: a resume redraws the same
+    try:
+        plan = plan_from_request(body)
+    except StudyInputError as exc:
+        raise _invalid(_body_loc(exc.field, body["sweep"]), exc.msg) from exc
+    study_id = str(uuid.uuid4())
+    runner.store.create(study_id, req.problem, body, plan.total)
+    runner.notify()
+    return StudyCreated(id=study_id, status="queued", points=plan.total, problem=req.problem)
+
+
+@router.get("", response_model=StudyList)
+def list_studies(request: Request, offset: Annotated[int, Query(ge=0)] = 0,
+                 limit: Annotated[int, Query(ge=1, le=1000)] = 100,
+                 status: Literal["queued", "running", "done", "cancelled", "failed"] | None = None) -> StudyList:
+    rows = _runner(request).store.list(limit, offset, status)
+    return StudyList(studies=[_status(r) for r in rows], offset=offset, limit=limit)
+
+
+@router.get("/{study_id}", response_model=StudyStatus)
+def get_study(study_id: str, request: Request) -> StudyStatus:
+    return _status(_study(_runner(request), study_id))
+
+
+@router.delete("/{study_id}", response_model=StudyStatus)
+def cancel_study(study_id: str, request: Request, purge: bool = False) -> StudyStatus | Response:
+    """Cancel a queued or running study (stored results stay); ``purge=true`` also deletes it and its results."""
+    runner = _runner(request)
+    row = _study(runner, study_id)
+    if runner.store.cancel(study_id):
+        runner.cancel(study_id)
+    if purge:
+        if runner.current == study_id:
+            raise HTTPException(status_code=409, detail="the study is still stopping; purge it again in a moment")
+        runner.store.delete(study_id)
+        return Response(status_code=204)
+    return _status(runner.store.get(study_id) or row)
+
+
+@router.get("/{study_id}/results", response_model=StudyResults,
+            responses={200: {"content": {"text/csv": {}, "application/vnd.apache.parquet": {}}}})
+def study_results(study_id: str, request: Request, format: Literal["json", "csv", "parquet"] = "json",
+                  offset: Annotated[int, Query(ge=0)] = 0,
+                  limit: Annotated[int, Query(ge=1, le=MAX_PAGE)] = 1000) -> StudyResults | Response:
+    """Stored results in point order: JSON paged by offset/limit; CSV and Parquet whole."""
+    runner = _runner(request)
+    row = _study(runner, study_id)
+    paths = list(row["request"].get("sweep", {}))
+    if format == "json":
+        recs = runner.store.results(study_id, offset, limit)
+        rows = [flat_row(paths, r) for r in recs]
+        return StudyResults(id=study_id, status=row["status"], total=row["total"], offset=offset, limit=limit,
+                            next_offset=offset + len(rows) if len(rows) == limit else None,
+                            columns=columns(paths, rows), rows=rows)
+    def rows():  # a fresh pass over the store each time: exports stream, they are not held in memory
+        return (flat_row(paths, r) for r in runner.store.iter_results(study_id))
+    cols, kinds = scan_columns(paths, rows())
+    headers = {"Content-Disposition": f'attachment; filename="study-{study_id}.{format}"'}
+    if format == "csv":
+        return StreamingResponse(csv_chunks(cols, rows()), media_type="text/csv", headers=headers)
+    return Response(parquet_bytes(cols, kinds, rows()), media_type="application/vnd.apache.parquet",
+                    headers=headers)
+
+
+@router.get("/{study_id}/plot", response_class=Response, responses={200: {"description": "the figure", "content": {
+    "image/png": {"schema": {"type": "string", "format": "binary"}},
+    "image/svg+xml": {"schema": {"type": "string", "format": "binary"}}}}})
+def study_plot(study_id: str, request: Request, y: str, x: str, x2: str | None = None,
+               format: Literal["png", "svg"] = "png") -> Response:
+    """Result ``y`` against swept ``x`` (line) or against ``x`` and ``x2`` (heatmap)."""
+    runner = _runner(request)
+    row = _study(runner, study_id)
+    paths = list(row["request"].get("sweep", {}))
+    for name, value in (("x", x), ("x2", x2)):
+        if value is not None and value not in paths:
+            raise _invalid(["query", name], f"{value!r} is not swept in this study; swept: {', '.join(paths)}")
+    if x2 == x:
+        raise _invalid(["query", "x2"], "must differ from x")
+    if row["done"] > MAX_PLOT_POINTS:
+        raise _invalid(["query", "x"], f"the study has more than {MAX_PLOT_POINTS} points to draw; export it instead")
+    rows = [flat_row(paths, r) for r in runner.store.iter_results(study_id)]
+    if rows and not any(y in r for r in rows):
+        known = [c for c in columns(paths, rows) if c not in ("index", "error", *paths)]
+        raise _invalid(["query", "y"], f"{y!r} is not a result of this study; results: {', '.join(known)}")
+    sweep = row["request"].get("sweep", {})
+    log_paths = {p: spec.get("scale") == "log" for p, spec in sweep.items() if isinstance(spec, dict)}
+    image = plot_rows(rows, y, x, x2, format, f"{row['problem']} study {study_id[:8]}: {y}", log_paths)
+    return Response(image, media_type="image/png" if format == "png" else "image/svg+xml")

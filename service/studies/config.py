@@ -1,0 +1,19 @@
+"""Settings of the study runner (ZWIDTH_STUDY_*); the store URL and the Dask scheduler are the
+service's own ZWIDTH_DATABASE_URL and ZWIDTH_DASK_SCHEDULER (service.settings)."""
+
+from __future__ import annotations
+
+from pydantic import Field
+from pydantic_settings import BaseSettings, SettingsConfigDict
+
+__all__ = ["StudySettings"]
+
+
+class StudySettings(BaseSettings):
+    model_config = SettingsConfigDict(env_prefix="ZWIDTH_STUDY_", extra="ignore")
+
+    workers: int | None = Field(default=None, ge=1, le=256,
+                                description="local worker processes; default one per core")
+    chunk_size: int = Field(default=64, ge=1, le=100_000,
+                            description="points per task: large enough to amortise a task's overhead, "
+                                        "small enough for progress and a prompt cancel")

@@ -1,0 +1,119 @@
+"""Where a study's chunks run: a local process pool (default) or a Dask distributed cluster.
+
+Both take a plain function and plain arguments (``optim.studies.evaluate_chunk``) and hand back
+futures; the coordinator waits on them and is the only one that writes.  Workers build their own
+CasADi solvers: nothing symbolic crosses a process boundary (casadi #2949).
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import multiprocessing
+from concurrent.futures.process import BrokenProcessPool
+import os
+from typing import Any, Callable, Protocol
+
+__all__ = ["Executor", "LocalExecutor", "DaskExecutor", "make_executor"]
+
+
+class Executor(Protocol):
+    kind: str
+
+    @property
+    def slots(self) -> int: ...
+    def submit(self, fn: Callable, *args: Any) -> Any: ...
+    def wait(self, futures: set, timeout: float) -> tuple[set, set]: ...
+    def cancel(self, futures: set) -> None: ...
+    def reset(self) -> None: ...
+    def close(self) -> None: ...
+
+
+class LocalExecutor:
+    """A process pool sized to the cores (``spawn``: the server has threads, fork would copy their locks)."""
+
+    kind = "local"
+
+    def __init__(self, workers: int | None = None):
+        self.workers = max(1, workers or os.cpu_count() or 1)
+        self._pool: cf.ProcessPoolExecutor | None = None
+
+    @property
+    def slots(self) -> int:
+        return self.workers
+
+    def _get(self) -> cf.ProcessPoolExecutor:
+        if self._pool is None:
+            self._pool = cf.ProcessPoolExecutor(max_workers=self.workers,
+                                                mp_context=multiprocessing.get_context("spawn"))
+        return self._pool
+
+    def submit(self, fn: Callable, *args: Any) -> cf.Future:
+        try:
+            return self._get().submit(fn, *args)
+        except BrokenProcessPool:  # a worker died before the coordinator saw one of its futures fail
+            self.reset()
+            return self._get().submit(fn, *args)
+
+    def wait(self, futures: set, timeout: float) -> tuple[set, set]:
+        done, pending = cf.wait(futures, timeout=timeout, return_when=cf.FIRST_COMPLETED)
+        return set(done), set(pending)
+
+    def cancel(self, futures: set) -> None:
+        for f in futures:
+            f.cancel()
+
+    def reset(self) -> None:
+        """Drop a broken pool (a worker killed by the OS); the next submit starts a fresh one."""
+        # Only a broken pool: every future of a broken pool fails, and each would call reset.
+        if self._pool is not None and getattr(self._pool, "_broken", False):
+            self._pool.shutdown(wait=False, cancel_futures=True)
+            self._pool = None
+
+    def close(self) -> None:
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+            self._pool = None
+
+
+class DaskExecutor:
+    """Chunks become Dask tasks on the cluster at ``address`` (tasks compute and return, never write)."""
+
+    kind = "dask"
+
+    def __init__(self, address: str, timeout: float = 30.0):
+        from distributed import Client
+
+        self.address = address
+        self.client = Client(address, set_as_default=False, timeout=timeout)
+
+    @property
+    def slots(self) -> int:
+        return max(1, sum(self.client.nthreads().values()))
+
+    def submit(self, fn: Callable, *args: Any) -> Any:
+        # pure=False: the same chunk submitted again after a restart is a new task, not a cached key.
+        return self.client.submit(fn, *args, pure=False)
+
+    def wait(self, futures: set, timeout: float) -> tuple[set, set]:
+        from distributed import wait
+
+        try:
+            with self.client.as_current():  # wait() looks up the default client; ours is not the default
+                done, pending = wait(list(futures), timeout=timeout, return_when="FIRST_COMPLETED")
+        except TimeoutError:
+            return set(), set(futures)
+        return set(done), set(pending)
+
+    def cancel(self, futures: set) -> None:
+        if futures:
+            self.client.cancel(list(futures))
+
+    def reset(self) -> None:
+        pass  # the scheduler reschedules tasks of a lost worker itself
+
+    def close(self) -> None:
+        self.client.close()
+
+
+def make_executor(dask_scheduler: str | None, workers: int | None) -> Executor:
+    return DaskExecutor(dask_scheduler) if dask_scheduler else LocalExecutor(workers)

@@ -1,0 +1,122 @@
+"""Study results as flat rows, CSV and Parquet (columns: index, the swept paths, the results, error).
+
+Exports stream: a first pass over the stored rows finds the columns and their types, a second
+writes them in batches, so a million-point study never sits in memory as Python objects.  CSV
+writes floats with ``repr`` (exact round trip), booleans as ``true``/``false`` and a missing value
+(a non-finite number, or a field that does not apply to the point) as an empty cell.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+from itertools import islice
+from typing import Any, Callable, Iterable, Iterator, Sequence
+
+__all__ = ["flat_row", "columns", "scan_columns", "csv_chunks", "parquet_bytes"]
+
+Rows = Callable[[], Iterable[dict[str, Any]]]
+
+
+def flat_row(paths: Sequence[str], rec: dict[str, Any]) -> dict[str, Any]:
+    row: dict[str, Any] = {"index": rec["idx"]}
+    row.update(zip(paths, rec["params"]))
+    row.update(rec["result"] or {})
+    row["error"] = rec["error"]
+    return row
+
+
+def columns(paths: Sequence[str], rows: Iterable[dict[str, Any]]) -> list[str]:
+    return scan_columns(paths, rows)[0]
+
+
+def _kind(v: Any) -> str:
+    if isinstance(v, bool):
+        return "bool"
+    if isinstance(v, int):
+        return "int"
+    if isinstance(v, float):
+        return "float"
+    return "str"
+
+
+def scan_columns(paths: Sequence[str], rows: Iterable[dict[str, Any]]) -> tuple[list[str], dict[str, set[str]]]:
+    """Column order (index, swept paths, results as first seen, error) and the value kinds of each."""
+    kinds: dict[str, set[str]] = {"index": {"int"}, **{p: {"float"} for p in paths}}
+    for row in rows:
+        for k, v in row.items():
+            if k != "error" and v is not None:
+                kinds.setdefault(k, set()).add(_kind(v))
+            elif k != "error":
+                kinds.setdefault(k, set())
+    kinds["error"] = {"str"}
+    return list(kinds), kinds
+
+
+def _batches(rows: Iterable[dict[str, Any]], size: int) -> Iterator[list[dict[str, Any]]]:
+    it = iter(rows)
+    while batch := list(islice(it, size)):
+        yield batch
+
+
+def _cell(value: Any) -> str:
+    if value is None:
+        return ""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        return repr(value)
+    return str(value)
+
+
+def csv_chunks(cols: Sequence[str], rows: Iterable[dict[str, Any]], batch: int = 5000) -> Iterator[str]:
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(cols)
+    for part in _batches(rows, batch):
+        for row in part:
+            w.writerow([_cell(row.get(c)) for c in cols])
+        yield buf.getvalue()
+        buf.seek(0)
+        buf.truncate()
+    if buf.tell():
+        yield buf.getvalue()
+
+
+def _arrow_type(kinds: set[str]):
+    import pyarrow as pa
+
+    if not kinds:
+        return pa.null()
+    if kinds == {"bool"}:
+        return pa.bool_()
+    if kinds == {"int"}:
+        return pa.int64()
+    if kinds <= {"int", "float"}:
+        return pa.float64()  # a column holding 1 and 1.5 is a double column
+    return pa.string()
+
+
+def _convert(values: list, typ) -> list:
+    import pyarrow as pa
+
+    if typ == pa.float64():
+        return [None if v is None else float(v) for v in values]
+    if typ == pa.string():
+        return [None if v is None else (v if isinstance(v, str) else _cell(v)) for v in values]
+    return values
+
+
+def parquet_bytes(cols: Sequence[str], kinds: dict[str, set[str]], rows: Iterable[dict[str, Any]],
+                  batch: int = 50_000) -> bytes:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    schema = pa.schema([(c, _arrow_type(kinds[c])) for c in cols])
+    buf = io.BytesIO()
+    with pq.ParquetWriter(buf, schema) as writer:
+        for part in _batches(rows, batch):
+            data = {c: pa.array(_convert([r.get(c) for r in part], schema.field(c).type), type=schema.field(c).type)
+                    for c in cols}
+            writer.write_table(pa.table(data, schema=schema))
+    return buf.getvalue()

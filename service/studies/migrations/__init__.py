@@ -1,0 +1,1 @@
+"""Alembic environment of the study store, applied programmatically at startup (store.migrate)."""

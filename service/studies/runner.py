@@ -1,0 +1,190 @@
+"""The study runner: one coordinator thread that schedules chunks on an executor and writes results.
+
+The coordinator is the store's only writer of results.  It takes the oldest queued or running
+study (so a study interrupted by a crash resumes at the next start), skips the points already
+stored (by content hash), keeps a bounded number of chunks in flight, and writes each chunk in
+one transaction as it completes.  A task that failed (a worker killed, a broken pool) is
+resubmitted; after three attempts the study is marked ``failed`` with the error, never
+completed with made-up points.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import socket
+import threading
+import time
+import uuid
+from concurrent.futures import CancelledError
+from concurrent.futures.process import BrokenProcessPool
+from typing import Any, Callable, Iterator
+
+from optim.studies import StudyInputError, StudyPlan, evaluate_chunk, plan_study, point_hash
+
+from .executors import Executor
+from .store import StudyStore
+
+__all__ = ["StudyRunner", "plan_from_request"]
+
+log = logging.getLogger("zwidth.studies")
+
+_MAX_ATTEMPTS = 3
+_BLOCK = 8192  # points planned (values + hashes) at a time: bounded memory for a 1e6-point study
+
+
+def plan_from_request(request: dict[str, Any]) -> StudyPlan:
+    base = request.get("base") or {}
+    return plan_study(request["problem"], base.get("device") or {}, base.get("requirements") or {},
+                      request.get("sweep") or {}, request.get("sampling"))
+
+
+class StudyRunner:
+    """Runs studies from ``store`` on the executor made by ``executor_factory`` (see module docstring)."""
+
+    def __init__(self, store: StudyStore, executor_factory: Callable[[], Executor], chunk_size: int = 64,
+                 in_flight_per_slot: int = 2, poll: float = 0.5):
+        self.store = store
+        self._factory = executor_factory
+        self.executor: Executor | None = None
+        self.chunk_size = chunk_size
+        self.in_flight_per_slot = in_flight_per_slot
+        self.poll = poll
+        self._wake = threading.Event()
+        self._stop = threading.Event()
+        self._cancelled: set[str] = set()
+        self._thread: threading.Thread | None = None
+        self.current: str | None = None
+        # host:pid:nonce — another process on this host can tell a crashed owner from a live one.
+        self.owner = f"{socket.gethostname()}:{os.getpid()}:{uuid.uuid4().hex[:8]}"
+
+    # -- control --------------------------------------------------------------------------------
+    def start(self) -> None:
+        self._thread = threading.Thread(target=self._loop, name="zwidth-study-coordinator", daemon=True)
+        self._thread.start()
+
+    def stop(self, timeout: float = 30.0) -> None:
+        """Stop scheduling; running studies stay ``running`` in the store and resume at the next start."""
+        self._stop.set()
+        self._wake.set()
+        if self._thread is not None:
+            self._thread.join(timeout)
+        if self.executor is not None:
+            self.executor.close()
+            self.executor = None
+
+    def notify(self) -> None:
+        self._wake.set()
+
+    def cancel(self, study_id: str) -> None:
+        self._cancelled.add(study_id)
+        self._wake.set()
+
+    def run_until_idle(self, timeout: float = 600.0) -> None:
+        """Run every active study in the calling thread (tests, CLI local runs, benchmarks)."""
+        deadline = time.monotonic() + timeout
+        while not self._stop.is_set() and time.monotonic() < deadline:
+            ids = self.store.active_ids(self.owner)
+            if not ids:
+                return
+            self._run(ids[0])
+
+    # -- coordinator ----------------------------------------------------------------------------
+    def _loop(self) -> None:
+        while not self._stop.is_set():
+            try:
+                ids = self.store.active_ids(self.owner)
+                if ids:
+                    self._run(ids[0])
+                    continue
+            except Exception:  # noqa: BLE001 - the coordinator must survive a bad database moment
+                log.exception("study coordinator error; retrying")
+                self._stop.wait(2.0)
+            self._wake.wait(self.poll)
+            self._wake.clear()
+
+    def _executor(self) -> Executor:
+        if self.executor is None:
+            self.executor = self._factory()
+        return self.executor
+
+    def _blocks(self, plan: StudyPlan, stored: set[str]) -> Iterator[list[tuple[int, str, list[float]]]]:
+        prefix, paths = plan.digest(), plan.paths
+        chunk: list[tuple[int, str, list[float]]] = []
+        for start in range(0, plan.total, _BLOCK):
+            for k, row in enumerate(plan.values(start, start + _BLOCK).tolist()):
+                digest = point_hash(prefix, start + k, paths, row)
+                if digest in stored:
+                    continue
+                chunk.append((start + k, digest, row))
+                if len(chunk) == self.chunk_size:
+                    yield chunk
+                    chunk = []
+        if chunk:
+            yield chunk
+
+    def _should_stop(self, study_id: str) -> bool:
+        return self._stop.is_set() or study_id in self._cancelled
+
+    def _run(self, study_id: str) -> None:
+        row = self.store.begin_run(study_id, self.owner)
+        if row is None:  # cancelled meanwhile, or another live coordinator holds it
+            return
+        self.current = study_id
+        try:
+            self._run_plan(study_id, row)
+        except Exception as exc:
+            # e.g. the Dask scheduler is unreachable: the study stays active and says why; the loop retries
+            self.store.set_error(study_id, f"retrying after {type(exc).__name__}: {exc}")
+            raise
+        finally:
+            self.current = None
+            self._cancelled.discard(study_id)
+
+    def _run_plan(self, study_id: str, row: dict) -> None:
+        try:
+            plan = plan_from_request(row["request"])
+        except (StudyInputError, KeyError, TypeError) as exc:  # e.g. a design module removed from the build
+            self.store.finish(study_id, "failed", f"the stored request cannot be planned: {exc}")
+            return
+        executor = self._executor()
+        args = (plan.problem, dict(plan.device), dict(plan.requirements), [(a.path, a.kind) for a in plan.axes])
+        todo = self._blocks(plan, self.store.stored_hashes(study_id))
+        pending: dict[Any, tuple[list, int]] = {}
+        limit = max(1, executor.slots * self.in_flight_per_slot)
+        exhausted = False
+        last_check = time.monotonic()
+        while True:
+            if self._should_stop(study_id):
+                executor.cancel(set(pending))
+                return
+            while not exhausted and len(pending) < limit:
+                rows = next(todo, None)
+                if rows is None:
+                    exhausted = True
+                    break
+                pending[executor.submit(evaluate_chunk, *args, rows)] = (rows, 1)
+            if not pending:
+                break
+            done, _ = executor.wait(set(pending), timeout=self.poll)
+            for fut in done:
+                rows, attempt = pending.pop(fut)
+                try:
+                    out = fut.result()
+                except (CancelledError, Exception) as exc:  # noqa: BLE001 - resubmitted or reported below
+                    if isinstance(exc, BrokenProcessPool):
+                        executor.reset()
+                    if attempt >= _MAX_ATTEMPTS:
+                        executor.cancel(set(pending))
+                        self.store.finish(study_id, "failed",
+                                          f"a chunk failed {attempt} times: {type(exc).__name__}: {exc}")
+                        return
+                    log.warning("study %s: chunk failed (%s), resubmitting", study_id, exc)
+                    pending[executor.submit(evaluate_chunk, *args, rows)] = (rows, attempt + 1)
+                    continue
+                self.store.write_chunk(study_id, out)
+            if time.monotonic() - last_check > 1.0:  # a cancel from another process; keep the lease
+                last_check = time.monotonic()
+                if self.store.status(study_id) != "running" or not self.store.renew(study_id, self.owner):
+                    self._cancelled.add(study_id)
+        self.store.finish(study_id, "done")
