@@ -24,7 +24,8 @@ from __future__ import annotations
 from models.device import Device, Human
 
 __all__ = ["DELTA_MIN", "DELTA_MAX", "SCALE_MIN", "SCALE_MAX", "RATIO_MIN", "RATIO_MAX", "CUTOFF_RATIO_MIN",
-           "check_device_domain", "check_human_domain", "check_human_mass", "check_cutoff_domain"]
+           "check_device_domain", "check_human_domain", "check_human_mass", "check_cutoff_domain",
+           "check_controller_domain"]
 
 #: Smallest non-zero δ = bT/m (below it the scan's lowest frequency ~1e-4·√δ underflows).
 DELTA_MIN = 1e-30
@@ -70,6 +71,16 @@ def check_human_mass(mass: float, device: Device, field: str) -> None:
     """A grasp mass (named ``field``, e.g. "requirements.human_mass_range.min") with mass/device mass within
     [RATIO_MIN, RATIO_MAX]."""
     _ratio(field, mass, device.mass, "human mass/mass", zero_ok=False)
+
+
+def check_controller_domain(value: float, device: Device, kind: str, field: str) -> None:
+    """A stiffness (``kind`` "stiffness": K·T²/m, chapter Table 1's α) or damping ("damping": B·T/m, β) that a
+    request asks for or caps, named ``field``, within [RATIO_MIN, RATIO_MAX].  A subnormal cap or target
+    otherwise divides by zero in the design's scaling, or gives an infinite gain margin."""
+    m, t = device.mass, device.sample_time
+    scale, what = (m / t / t, "stiffness·sample_time²/mass (α)") if kind == "stiffness" else \
+        (m / t, "damping·sample_time/mass (β)")
+    _ratio(field, value, scale, what, zero_ok=False)
 
 
 def check_cutoff_domain(cutoff_hz: float, sample_time: float, field: str) -> None:
