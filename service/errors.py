@@ -23,7 +23,7 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from .executor import ComputeTimeout, ComputeUnavailable
 
-__all__ = ["json_safe", "install_error_handlers", "NumericInputError", "ERROR_RESPONSES"]
+__all__ = ["json_safe", "install_error_handlers", "NumericInputError", "ERROR_RESPONSES", "NOT_FOUND"]
 
 _log = logging.getLogger("zwidth.errors")
 
@@ -34,6 +34,8 @@ ERROR_RESPONSES: dict[int | str, dict[str, Any]] = {
     503: {"description": "the computation exceeded the request time budget (ZWIDTH_REQUEST_TIMEOUT) "
                          "or its worker died; the worker was replaced", "content": {"application/json": {"schema": _DETAIL}}},
 }
+#: Answer of a /v1 route with a path parameter when no resource has that id (documented by service.app).
+NOT_FOUND: dict[str, Any] = {"description": "no resource with this id", "content": {"application/json": {"schema": _DETAIL}}}
 # FastAPI's own message when it cannot read a body (e.g. bytes that are not UTF-8).
 _UNPARSABLE = "There was an error parsing the body"
 

@@ -9,7 +9,9 @@ hundreds of samples of delay).  The budget here is 1 s so the run stays short; a
 
 from __future__ import annotations
 
+import tempfile
 import threading
+from pathlib import Path
 
 import pytest
 import schemathesis
@@ -30,7 +32,10 @@ pytestmark = pytest.mark.slow
 MAX_EXAMPLES = 50
 
 BUDGET_S = 1.0
-APP = create_app(Settings(prestart_workers=False, request_timeout=BUDGET_S, compute_workers=2, access_log=False))
+#: Studies the fuzzer creates go to a throw-away store, not the working directory's zwidth.db.
+_STORE = Path(tempfile.mkdtemp(prefix="zwidth-fuzz-")) / "studies.db"
+APP = create_app(Settings(prestart_workers=False, request_timeout=BUDGET_S, compute_workers=2, access_log=False,
+                          database_url=f"sqlite:///{_STORE}"))
 schema = schemathesis.openapi.from_asgi("/openapi.json", APP)
 
 _calls = {"n": 0, "by_status": {}}
