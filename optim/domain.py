@@ -10,7 +10,9 @@ Found by fuzzing the HTTP API (tests/service/test_fuzz_api.py).
 Each check raises ValueError("field: rule"), which the service answers as a
 422 naming the field.  The limits are far outside any haptic device
 (δ ≈ 6.5e-4 for the LHifAM) and inside the range swept by
-tests/optim/test_domain.py, where every analysis returns finite numbers.
+tests/optim/test_domain.py, where every analysis returns finite numbers.  The same ratios bound the grasps
+and filter cutoffs a request gives beside its device (check_human_domain, check_cutoff_domain), and every
+device of a robust design's uncertainty box (optim.robust.box).
 
 optim.analysis and optim.boundary also turn any floating-point overflow into a
 ValueError naming the device; this check comes first and names the field and
@@ -19,9 +21,11 @@ the rule.
 
 from __future__ import annotations
 
-from models.device import Device
+from models.device import Device, Human
 
-__all__ = ["DELTA_MIN", "DELTA_MAX", "SCALE_MIN", "SCALE_MAX", "RATIO_MIN", "RATIO_MAX", "check_device_domain"]
+__all__ = ["DELTA_MIN", "DELTA_MAX", "SCALE_MIN", "SCALE_MAX", "RATIO_MIN", "RATIO_MAX", "CUTOFF_RATIO_MIN",
+           "check_device_domain", "check_human_domain", "check_human_mass", "check_cutoff_domain",
+           "check_controller_domain"]
 
 #: Smallest non-zero δ = bT/m (below it the scan's lowest frequency ~1e-4·√δ underflows).
 DELTA_MIN = 1e-30
@@ -36,6 +40,11 @@ SCALE_MAX = 1e250
 #: larger than the device is not a model double precision can carry next to it.
 RATIO_MIN = 1e-30
 RATIO_MAX = 1e30
+#: Smallest filter cutoff relative to the sampling rate, f_c·T (θ_c = 2π·f_c·T rad per sample).  Down to it the
+#: exact K_f,cr follows the first-order filter's scaling law K_f,cr ∝ 1/θ_c and agrees with the 40-digit
+#: reference; at 1e-12 the reference rung's scan misses the crossover the exact rung finds, and below ~1e-15
+#: the exact answer stops scaling (tests/optim/test_domain.py).  1e-9 is 1 µHz at 1 kHz: no force filter.
+CUTOFF_RATIO_MIN = 1e-9
 
 
 def _ratio(field: str, value: float, scale: float, what: str, zero_ok: bool) -> None:
@@ -45,6 +54,43 @@ def _ratio(field: str, value: float, scale: float, what: str, zero_ok: bool) -> 
     if not (RATIO_MIN <= r <= RATIO_MAX):
         raise ValueError(f"{field}: {what} = {r:.3g} must be {'0 or ' if zero_ok else ''}within "
                          f"[{RATIO_MIN:g}, {RATIO_MAX:g}] for double-precision analysis")
+
+
+def check_human_domain(human: Human, device: Device, field: str) -> None:
+    """The grasp ``human`` (named ``field``, e.g. "requirements.humans.0") next to ``device``: the ratios
+    human mass/mass, damping·T/mass and stiffness·T²/mass within [RATIO_MIN, RATIO_MAX] (damping and stiffness
+    may be 0), as for the device's own human block.  A subnormal grasp mass otherwise makes 0/0 in the
+    grasp model."""
+    m, t = device.mass, device.sample_time
+    check_human_mass(human.mass, device, f"{field}.mass")
+    _ratio(f"{field}.damping", human.damping, m / t, "human damping·sample_time/mass", zero_ok=True)
+    _ratio(f"{field}.stiffness", human.stiffness, m / t / t, "human stiffness·sample_time²/mass", zero_ok=True)
+
+
+def check_human_mass(mass: float, device: Device, field: str) -> None:
+    """A grasp mass (named ``field``, e.g. "requirements.human_mass_range.min") with mass/device mass within
+    [RATIO_MIN, RATIO_MAX]."""
+    _ratio(field, mass, device.mass, "human mass/mass", zero_ok=False)
+
+
+def check_controller_domain(value: float, device: Device, kind: str, field: str) -> None:
+    """A stiffness (``kind`` "stiffness": K·T²/m, chapter Table 1's α) or damping ("damping": B·T/m, β) that a
+    request asks for or caps, named ``field``, within [RATIO_MIN, RATIO_MAX].  A subnormal cap or target
+    otherwise divides by zero in the design's scaling, or gives an infinite gain margin."""
+    m, t = device.mass, device.sample_time
+    scale, what = (m / t / t, "stiffness·sample_time²/mass (α)") if kind == "stiffness" else \
+        (m / t, "damping·sample_time/mass (β)")
+    _ratio(field, value, scale, what, zero_ok=False)
+
+
+def check_cutoff_domain(cutoff_hz: float, sample_time: float, field: str) -> None:
+    """A filter cutoff (named ``field``) with f_c·T ≥ CUTOFF_RATIO_MIN; the upper limit, the Nyquist
+    frequency (f_c·T < 1/2), is models.filters.ButterworthLowPass's own rule."""
+    r = cutoff_hz * sample_time
+    if not r >= CUTOFF_RATIO_MIN:
+        raise ValueError(f"{field}: cutoff_hz·sample_time = {r:.3g} must be ≥ {CUTOFF_RATIO_MIN:g} for "
+                         f"double-precision analysis (a cutoff of at least {CUTOFF_RATIO_MIN / sample_time:.3g} Hz "
+                         f"at this sample time)")
 
 
 def check_device_domain(device: Device) -> None:

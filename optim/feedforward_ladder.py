@@ -149,7 +149,9 @@ def _plateau_crossing(device: Device, human: Human, filt: ButterworthLowPass | N
     top = math.pi * (1 - 1e-9) if filt is not None else math.pi
     # the plateau model's phase falls monotonically (lags only): march until Im g changes sign with
     # Re g < 0 (h = −1/g real and positive), in steps the delay's phase cannot outrun
-    step = min(0.05, 0.5 / (d + 1), 0.3 * filt.cutoff_angle if filt is not None else 1.0)
+    # (a cutoff below 0.05 rad/sample is passed in the geometric part; above it the filter's phase turns
+    # no faster than at θ_c = 0.05, and a step of 0.3·θ_c would march ~1/θ_c steps: a hang for tiny θ_c)
+    step = min(0.05, 0.5 / (d + 1), 0.3 * max(filt.cutoff_angle, 0.05) if filt is not None else 1.0)
     lo, g_lo = 1e-3, loop(1e-3)
     while lo < top:
         hi = min(top, lo + step if lo >= 0.05 else lo * 1.3)

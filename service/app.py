@@ -21,7 +21,7 @@ from fastapi.middleware.cors import CORSMiddleware
 from . import routes
 from .auth import UNAUTHORIZED, bearer_auth
 from .docs import install_docs
-from .errors import ERROR_RESPONSES, install_error_handlers
+from .errors import ERROR_RESPONSES, NOT_FOUND, install_error_handlers
 from .executor import BoundedExecutor
 from .logs import configure_logging
 from .middleware import BodyLimitMiddleware, RequestContextMiddleware
@@ -51,10 +51,21 @@ def _is_v1(router) -> bool:
     return any(getattr(r, "path", "").startswith("/v1/") or getattr(r, "path", "") == "/v1" for r in router.routes)
 
 
+def _document_not_found(router) -> None:
+    """A /v1 route with a path parameter (e.g. /v1/studies/{study_id}) answers 404 for an unknown id: say so in
+    the OpenAPI schema (the fuzz test checks every status code against it).  Idempotent."""
+    from fastapi.routing import APIRoute
+
+    for route in router.routes:
+        if isinstance(route, APIRoute) and "{" in route.path:
+            route.responses.setdefault(404, NOT_FOUND)
+
+
 def create_app(settings: Settings | None = None) -> FastAPI:
     settings = settings or Settings()
     configure_logging(settings.log_level)
-    executor = BoundedExecutor(workers=settings.compute_workers, timeout=settings.request_timeout)
+    executor = BoundedExecutor(workers=settings.compute_workers, timeout=settings.request_timeout,
+                                inline_cost_ms=settings.inline_cost_ms)
 
     @asynccontextmanager
     async def lifespan(_: FastAPI) -> AsyncIterator[None]:
@@ -77,6 +88,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     v1_responses = {**ERROR_RESPONSES, **({401: UNAUTHORIZED} if token else {})}
     for router in _routers():
         if _is_v1(router):
+            _document_not_found(router)
             application.include_router(router, dependencies=guard, responses=v1_responses)
         else:
             application.include_router(router)

@@ -15,7 +15,8 @@ from models.device import Device
 
 from .errors import NumericInputError
 
-__all__ = ["MAX_REFERENCE_DELAY_SAMPLES", "check_reference_cost", "stability_cost_ms", "boundary_cost_ms", "bode_cost_ms"]
+__all__ = ["MAX_REFERENCE_DELAY_SAMPLES", "check_reference_cost", "stability_cost_ms", "boundary_cost_ms", "bode_cost_ms",
+           "stiffness_design_cost_ms", "inertia_design_cost_ms", "force_feedforward_cost_ms", "simulation_cost_ms"]
 
 #: Cost limit of the ``reference`` rung: the loop delay it accepts, in sample periods.
 #: At this limit one reference analysis costs ≈ 2.5 s (rigid) to ≈ 25 s (cable).
@@ -60,3 +61,64 @@ def bode_cost_ms(device: Device, damping: float, points: int) -> float:
     """Estimated cost [ms] of one ``loop_frequency_response`` call (one exact K_cr plus the grid)."""
     per_point = 0.02 if device.cable is not None else 0.001
     return _exact_ms(device, damping) + per_point * points
+
+
+# Designs, robust designs and long simulations (issue 10).  Measured on the 2-core machine in a warm
+# process (bench/bench_design_http.py; a worker's first design also builds its CasADi solver, which the
+# forkserver does once in service._warm): exact rigid stiffness design ≈ 15-30 ms, cable alike;
+# the grid rung scans 201 dampings × grid_points; the reference rung adds 40-digit checks (≈ 0.4 s);
+# an inertia design ≈ 40-50 ms; the force-feedforward analysis ≈ 1.5-3 ms (exact), ≈ 0.75 µs per grid
+# point, ≈ 0.15-0.25 s for the reference; simulations ≈ 1 µs (linear recursion), 10 µs (sampled loop,
+# relay, quantisation, saturation) and 40 µs (event integrator, Coulomb friction) per sample, and a
+# relay's analysis ≈ 0.1 s.  Robust designs and hardware designs (tens of exact designs) always go to a
+# worker (cost None).
+
+def _delay_factor(device: Device) -> float:
+    return 1.0 + 0.006 * device.delay_samples
+
+
+def stiffness_design_cost_ms(device: Device, method: str, grid_points: int) -> float:
+    """Estimated cost [ms] of one ``design_stiffness_on_rung`` call (linear: inline; the others: a worker)."""
+    cable = 4.0 if device.cable is not None else 1.0
+    if method == "linear":
+        return 0.1
+    if method == "grid":
+        return 5.0 + 201 * grid_points * 3e-5 * cable
+    if method == "reference":
+        return 400.0 * cable * _delay_factor(device)
+    return 30.0 * _delay_factor(device)
+
+
+def inertia_design_cost_ms(device: Device, method: str, grid_points: int, humans: int) -> float:
+    """Estimated cost [ms] of one ``design_inertia_on_rung`` call (linear: inline; the others: a worker)."""
+    if method == "linear":
+        return 2.0 * max(humans, 1)
+    if method == "grid":
+        return 40.0 + 201 * grid_points * 7.5e-4 * max(humans, 1)
+    if method == "reference":
+        return 400.0 * max(humans, 1) * _delay_factor(device)
+    return 50.0 * max(humans, 1) * _delay_factor(device)
+
+
+def force_feedforward_cost_ms(device: Device, method: str, grid_points: int) -> float:
+    """Estimated cost [ms] of one force-feedforward analysis (with the rigid comparison of a cable device)."""
+    cable = 2.0 if device.cable is not None else 1.0
+    if method == "linear":
+        return 0.5
+    if method == "grid":
+        return 0.5 + 7.5e-4 * grid_points
+    if method == "reference":
+        return 250.0 * cable * _delay_factor(device)
+    return 3.0 * cable * _delay_factor(device)
+
+
+#: Cost per simulated sample [ms] of each propagation method of models.simulate.
+_SIM_MS_PER_SAMPLE = {"exact-linear-recursion": 1e-3, "exact-sampled-loop": 1e-2, "event-integrator": 4e-2}
+
+
+def simulation_cost_ms(device: Device, scene) -> float:
+    """Estimated cost [ms] of one simulation (and, for a relay, its analysis ≈ 0.1 s: a worker)."""
+    from models.simulate import propagation_method, sample_count
+
+    ms = 1.0 + _SIM_MS_PER_SAMPLE[propagation_method(scene)] * sample_count(device, scene)
+    return ms + (100.0 if scene.experiment == "relay" else 0.0)

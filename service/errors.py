@@ -23,7 +23,7 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from .executor import ComputeTimeout, ComputeUnavailable
 
-__all__ = ["json_safe", "install_error_handlers", "NumericInputError", "ERROR_RESPONSES"]
+__all__ = ["json_safe", "install_error_handlers", "NumericInputError", "ERROR_RESPONSES", "NOT_FOUND"]
 
 _log = logging.getLogger("zwidth.errors")
 
@@ -34,6 +34,8 @@ ERROR_RESPONSES: dict[int | str, dict[str, Any]] = {
     503: {"description": "the computation exceeded the request time budget (ZWIDTH_REQUEST_TIMEOUT) "
                          "or its worker died; the worker was replaced", "content": {"application/json": {"schema": _DETAIL}}},
 }
+#: Answer of a /v1 route with a path parameter when no resource has that id (documented by service.app).
+NOT_FOUND: dict[str, Any] = {"description": "no resource with this id", "content": {"application/json": {"schema": _DETAIL}}}
 # FastAPI's own message when it cannot read a body (e.g. bytes that are not UTF-8).
 _UNPARSABLE = "There was an error parsing the body"
 
@@ -45,6 +47,10 @@ class NumericInputError(ValueError):
         super().__init__(f"{field}: {msg}")
         self.field = field
         self.msg = msg
+
+    def __reduce__(self):
+        # Raised inside a compute worker, it travels back pickled: rebuild it from its two parts.
+        return (NumericInputError, (self.field, self.msg))
 
 
 def json_safe(value: Any) -> Any:
@@ -59,7 +65,13 @@ def json_safe(value: Any) -> Any:
 
 
 # A model validator's message "field: rule" (models.device, optim) names the field it is about.
-_FIELD_RULE = re.compile(r"(?:Value error, )?([a-z_][a-z0-9_]*(?:\.[a-z_][a-z0-9_]*)*): (.+)", re.DOTALL)
+# A list index is a numeric segment ("requirements.humans.0.mass"); it becomes an int in loc, as FastAPI's own.
+_FIELD_RULE = re.compile(r"(?:Value error, )?([a-z_][a-z0-9_]*(?:\.(?:[a-z_][a-z0-9_]*|[0-9]+))*): (.+)", re.DOTALL)
+
+
+def field_loc(field: str) -> list[str | int]:
+    """"requirements.humans.0.mass" → ["requirements", "humans", 0, "mass"]."""
+    return [int(p) if p.isdigit() else p for p in field.split(".")]
 
 
 def _name_the_field(e: dict[str, Any]) -> dict[str, Any]:
@@ -70,7 +82,7 @@ def _name_the_field(e: dict[str, Any]) -> dict[str, Any]:
     if m is None:
         return e
     loc = list(e.get("loc", ()))
-    field = m.group(1).split(".")
+    field = field_loc(m.group(1))
     if loc[-len(field):] != field:
         loc += field
     return {**e, "loc": loc, "msg": m.group(2)}
@@ -140,7 +152,7 @@ def install_error_handlers(app: FastAPI) -> None:
     @app.exception_handler(NumericInputError)
     async def _numeric(_: Request, exc: NumericInputError) -> JSONResponse:
         return JSONResponse(status_code=422, content={"detail": [
-            {"type": "value_error", "loc": ["body", *exc.field.split(".")], "msg": exc.msg}]})
+            {"type": "value_error", "loc": ["body", *field_loc(exc.field)], "msg": exc.msg}]})
 
     @app.exception_handler(ValueError)
     async def _value(request: Request, exc: ValueError) -> JSONResponse:
@@ -152,7 +164,7 @@ def install_error_handlers(app: FastAPI) -> None:
             return await _unexpected(request, exc)
         _log.info("numerics refused the input", extra={"field": m.group(1)})
         return JSONResponse(status_code=422, content={"detail": [
-            {"type": "value_error", "loc": ["body", *m.group(1).split(".")], "msg": m.group(2)}]})
+            {"type": "value_error", "loc": ["body", *field_loc(m.group(1))], "msg": m.group(2)}]})
 
     async def _unexpected(_: Request, exc: Exception) -> JSONResponse:
         # Never leak a stack trace or an internal path: the traceback goes to the log only.  (Other

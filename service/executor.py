@@ -45,7 +45,7 @@ _log = logging.getLogger("zwidth.executor")
 #: Longest wait for a new worker to start (the forkserver's first start imports numpy, scipy and the numerics).
 STARTUP_TIMEOUT = 60.0
 #: Modules the forkserver imports once, so that every worker starts warm.
-PRELOAD = ("numpy", "scipy.optimize", "service.executor", "service._warm")
+PRELOAD = ("numpy", "scipy.optimize", "service.executor", "service.jobs", "service._warm")
 
 
 class ComputeTimeout(Exception):

@@ -78,8 +78,11 @@ def plot_hardware(design: HardwareDesign, target_stiffness: float, fmt: str = "p
         ax.axvline(design.value, color="k", lw=1, label=f"loosest {design.free} = {design.value:.4g}")
     if q.size and q.min() > 0 and q.max() / q.min() > 20:
         ax.set_xscale("log")
-    if np.nanmax(np.where(k > 0, k, np.nan)) / max(np.nanmin(np.where(k > 0, k, np.nan)), 1e-300) > 20:
+    positive = k[k > 0]  # empty when no design was scanned (an infeasible answer has no curve) or none is stable
+    if positive.size and positive.max() / positive.min() > 20:
         ax.set_yscale("log")
+    if not design.curve and design.reason:
+        ax.text(0.5, 0.5, design.reason, transform=ax.transAxes, ha="center", va="center", wrap=True, fontsize=8)
     ax.set_xlabel(design.free)
     ax.set_ylabel("K* [N/m]")
     ax.legend(fontsize=8)

@@ -27,6 +27,9 @@ class Settings(BaseSettings):
                                    description="compute budget of one request [s]; a bounded call past it answers 503")
     compute_workers: int = Field(default=2, ge=1, le=64,
                                  description="worker processes for expensive (bounded) numerics calls")
+    inline_cost_ms: float = Field(default=25.0, ge=0, le=60_000,
+                                  description="calls estimated below this cost [ms] run inline in the request thread "
+                                              "(not bounded by the budget); 0 sends every estimated call to a worker")
     prestart_workers: bool = Field(default=True,
                                    description="start the compute workers when the app starts (else on first use)")
     cors_origins: Annotated[list[str], NoDecode] = Field(

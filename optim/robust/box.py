@@ -19,6 +19,8 @@ from pydantic import ValidationError
 
 from models.device import Device
 
+from ..domain import check_device_domain
+
 __all__ = ["PATHS", "STIFFNESS_PATHS", "UncertaintyBox", "MAX_UNCERTAIN"]
 
 #: every path a robust design accepts, with the unit of its range
@@ -85,16 +87,20 @@ class UncertaintyBox:
         for k, path in enumerate(self.paths):
             for value in (self.lower[k], self.upper[k]):
                 try:
-                    self._device({path: value})
+                    check_device_domain(self._device({path: value}))
                 except ValidationError as exc:
                     msg = exc.errors()[0]["msg"]
                     raise ValueError(f"{field}.{path}: {value:g} gives an invalid device ({msg})") from None
+                except ValueError as exc:  # optim.domain's dimensionless ranges ("field: rule")
+                    raise ValueError(f"{field}.{path}: {value:g} leaves the validated numeric domain ({exc})") from None
         try:
             for x in self.corners():
-                self.device_at(x)
+                check_device_domain(self.device_at(x))
         except ValidationError as exc:
             msg = exc.errors()[0]["msg"]
             raise ValueError(f"{field}: a corner of the box gives an invalid device ({msg})") from None
+        except ValueError as exc:
+            raise ValueError(f"{field}: a corner of the box leaves the validated numeric domain ({exc})") from None
 
     def _device(self, values: Mapping[str, float]) -> Device:
         data = _base_data(self.nominal)

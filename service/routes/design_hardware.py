@@ -8,6 +8,7 @@ from fastapi import APIRouter
 
 from optim.hardware import HardwareDesign, HardwareTarget, design_hardware
 from service.errors import NumericInputError
+from service.executor import BoundedExecutor, Compute
 from service.schemas.design_hardware import HardwareDesignRequest, HardwareDesignResponse
 
 from .design_stiffness import _finite
@@ -15,17 +16,18 @@ from .design_stiffness import _finite
 router = APIRouter()
 
 
-def run_hardware(request: HardwareDesignRequest) -> HardwareDesign:
+def run_hardware(request: HardwareDesignRequest, compute: BoundedExecutor) -> HardwareDesign:
+    """The design in a compute worker (tens of exact designs: never inline), under the request time budget."""
     t = request.target
     try:
-        return design_hardware(request.device, HardwareTarget(t.stiffness, t.min_gain_margin_db, t.max_damping),
-                               request.free, points=request.points)
+        return compute.run(design_hardware, request.device,
+                           HardwareTarget(t.stiffness, t.min_gain_margin_db, t.max_damping),
+                           request.free, points=request.points, cost_ms=None)
     except ValueError as exc:
         field, _, msg = str(exc).partition(": ")
         raise NumericInputError(field, msg) from None
 
 
 @router.post("/v1/design/hardware", response_model=HardwareDesignResponse, tags=["design"])
-def design_hardware_route(request: HardwareDesignRequest) -> HardwareDesignResponse:
-    # plain def: CPU-bound, runs in the threadpool (CasADi solvers are cached per thread)
-    return HardwareDesignResponse(**_finite(dataclasses.asdict(run_hardware(request))))
+def design_hardware_route(request: HardwareDesignRequest, compute: Compute) -> HardwareDesignResponse:
+    return HardwareDesignResponse(**_finite(dataclasses.asdict(run_hardware(request, compute))))

@@ -13,7 +13,9 @@ from optim.design_ladder import design_stiffness_on_rung
 from optim.robust.box import UncertaintyBox
 from optim.robust.stiffness import robust_design_stiffness
 from optim.stiffness import StiffnessRequirements
+from service.cost import stiffness_design_cost_ms
 from service.errors import NumericInputError
+from service.executor import Compute
 from service.schemas.design_stiffness import StiffnessDesignRequest, StiffnessDesignResponse
 from service.schemas.ladder import rung_fields
 
@@ -32,17 +34,19 @@ def _finite(value):
 
 
 @router.post("/v1/design/stiffness", response_model=StiffnessDesignResponse, tags=["design"])
-def design_stiffness_route(request: StiffnessDesignRequest) -> StiffnessDesignResponse:
-    # a plain def: FastAPI runs it in the threadpool, and the CasADi solver cache is per thread
+def design_stiffness_route(request: StiffnessDesignRequest, compute: Compute) -> StiffnessDesignResponse:
+    # A plain def (the threadpool); the design runs in a compute worker under the request time budget
+    # (service/cost.py), where the CasADi solvers are built and cached per process.
     t0 = time.perf_counter()
     fields = request.requirements.model_dump(exclude={"uncertainty"})
     req = StiffnessRequirements(**fields)
     if request.requirements.uncertainty is not None:
         if request.method != "exact":
             raise NumericInputError("method", "robust designs (requirements.uncertainty) are computed on the exact rung only")
-        return _robust(request, req, t0)
+        return _robust(request, req, t0, compute)
     try:
-        design, rung = design_stiffness_on_rung(request.device, req, request.method, request.grid_points)
+        design, rung = compute.run(design_stiffness_on_rung, request.device, req, request.method, request.grid_points,
+                                   cost_ms=stiffness_design_cost_ms(request.device, request.method, request.grid_points))
     except (RuntimeError, ArithmeticError, ValueError) as exc:   # CasADi raises RuntimeError on solver trouble
         return StiffnessDesignResponse(status="failed", reason=f"solver trouble: {exc}",
                                        elapsed_ms=(time.perf_counter() - t0) * 1e3)
@@ -60,11 +64,12 @@ def input_error(exc: ValueError) -> Exception:
     return NumericInputError(field, msg)
 
 
-def _robust(request: StiffnessDesignRequest, req: StiffnessRequirements, t0: float) -> StiffnessDesignResponse:
+def _robust(request: StiffnessDesignRequest, req: StiffnessRequirements, t0: float,
+            compute: Compute) -> StiffnessDesignResponse:
     ranges = {k: (v.min, v.max) for k, v in request.requirements.uncertainty.items()}
     try:
         box = UncertaintyBox.from_ranges(request.device, ranges)
-        d = robust_design_stiffness(request.device, req, box)
+        d = compute.run(robust_design_stiffness, request.device, req, box, cost_ms=None)  # always a worker
     except ValueError as exc:
         raise input_error(exc) from None
     except (RuntimeError, ArithmeticError) as exc:

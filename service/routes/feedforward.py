@@ -9,11 +9,13 @@ from fastapi import APIRouter
 
 from models.filters import ButterworthLowPass
 from optim.design_ladder import design_inertia_on_rung
-from optim.feedforward import apparent_mass, critical_force_gain, resolve_human
-from optim.feedforward_ladder import analyse_force_feedforward
+from optim.feedforward import apparent_mass, resolve_human
 from optim.inertia import RIGID_OPTIMISM_FLAG, InertiaRequirements
 
+from ..cost import force_feedforward_cost_ms, inertia_design_cost_ms
 from ..errors import NumericInputError
+from ..executor import Compute
+from ..jobs import force_feedforward_job
 from ..schemas.ladder import rung_fields
 from ..schemas.feedforward import (ForceFeedforwardRequest, ForceFeedforwardResponse, InertiaRequest,
                                    InertiaResponse)
@@ -39,14 +41,13 @@ def _human_notes(source: str) -> list[str]:
 
 
 @router.post("/v1/analysis/force-feedforward", response_model=ForceFeedforwardResponse)
-def force_feedforward(req: ForceFeedforwardRequest) -> ForceFeedforwardResponse:
+def force_feedforward(req: ForceFeedforwardRequest, compute: Compute) -> ForceFeedforwardResponse:
     start = time.perf_counter()
     dev = req.device
     try:
         filt = ButterworthLowPass(req.filter.order, req.filter.cutoff_hz, dev.sample_time) if req.filter else None
-        res = analyse_force_feedforward(dev, filt, method=req.method, grid_points=req.grid_points)
-        rigid = (critical_force_gain(dev.rigid(), filt, res.human).critical_force_gain
-                 if dev.cable and req.method in ("exact", "reference") else None)   # the rung's cost stays its own
+        res, rigid = compute.run(force_feedforward_job, dev, filt, req.method, req.grid_points,
+                                 cost_ms=force_feedforward_cost_ms(dev, req.method, req.grid_points))
     except ValueError as exc:
         raise _field_error(exc, "filter.") from exc
     kcr = _finite(res.critical_force_gain)
@@ -70,7 +71,7 @@ def force_feedforward(req: ForceFeedforwardRequest) -> ForceFeedforwardResponse:
 
 
 @router.post("/v1/design/inertia", response_model=InertiaResponse)
-def inertia(req: InertiaRequest) -> InertiaResponse:
+def inertia(req: InertiaRequest, compute: Compute) -> InertiaResponse:
     r = req.requirements
     spec = InertiaRequirements(
         min_gain_margin_db=r.min_gain_margin_db, cutoff_min_hz=r.cutoff_min_hz, cutoff_max_hz=r.cutoff_max_hz,
@@ -80,9 +81,11 @@ def inertia(req: InertiaRequest) -> InertiaResponse:
     if r.uncertainty is not None:
         if req.method != "exact":
             raise NumericInputError("method", "robust designs (requirements.uncertainty) are computed on the exact rung only")
-        return _robust_inertia(req, spec)
+        return _robust_inertia(req, spec, compute)
     try:
-        d, rung = design_inertia_on_rung(req.device, spec, req.method, req.grid_points)
+        d, rung = compute.run(design_inertia_on_rung, req.device, spec, req.method, req.grid_points,
+                              cost_ms=inertia_design_cost_ms(req.device, req.method, req.grid_points,
+                                                             len(r.humans or ()) or (2 if r.human_mass_range else 1)))
     except ValueError as exc:
         raise _field_error(exc) from exc
     notes = _human_notes(d.human_source)
@@ -112,7 +115,7 @@ def inertia(req: InertiaRequest) -> InertiaResponse:
         elapsed_ms=d.elapsed_ms, **rung_fields(rung))
 
 
-def _robust_inertia(req: InertiaRequest, spec: InertiaRequirements) -> InertiaResponse:
+def _robust_inertia(req: InertiaRequest, spec: InertiaRequirements, compute: Compute) -> InertiaResponse:
     from optim.robust.box import UncertaintyBox
     from optim.robust.inertia import robust_design_inertia
 
@@ -120,7 +123,7 @@ def _robust_inertia(req: InertiaRequest, spec: InertiaRequirements) -> InertiaRe
 
     try:
         box = UncertaintyBox.from_ranges(req.device, {k: (v.min, v.max) for k, v in req.requirements.uncertainty.items()})
-        d = robust_design_inertia(req.device, spec, box)
+        d = compute.run(robust_design_inertia, req.device, spec, box, cost_ms=None)  # always a worker
     except ValueError as exc:
         raise input_error(exc) from None
     human, source = resolve_human(req.device)

@@ -9,11 +9,12 @@ from fastapi.responses import Response
 from pydantic import BaseModel, ConfigDict, Field
 
 from optim.robust.box import UncertaintyBox
-from optim.robust.stiffness import robust_design_stiffness
 from optim.stiffness import StiffnessRequirements
 
 from ..errors import NumericInputError
-from ..plots_robust import MEDIA_TYPES, margin_slice, plot_hardware, plot_robust_slice
+from ..executor import Compute
+from ..jobs import robust_slice_job
+from ..plots_robust import MEDIA_TYPES, plot_hardware
 from ..schemas.design_hardware import HardwareDesignRequest
 from ..schemas.design_stiffness import StiffnessDesignRequest
 from .design_hardware import run_hardware
@@ -31,15 +32,14 @@ class RobustPlotRequest(StiffnessDesignRequest):
 
 
 @router.post("/v1/plots/robust", response_class=Response, responses=_IMAGE)
-def robust_plot(req: RobustPlotRequest, format: Literal["png", "svg"] = Query("png")) -> Response:  # noqa: A002
+def robust_plot(req: RobustPlotRequest, compute: Compute,
+                format: Literal["png", "svg"] = Query("png")) -> Response:  # noqa: A002
     unc = req.requirements.uncertainty
     if not unc:
         raise NumericInputError("requirements.uncertainty", "the robust plot needs at least one uncertain path")
     ranges = {k: (v.min, v.max) for k, v in unc.items()}
     try:
         box = UncertaintyBox.from_ranges(req.device, ranges)
-        design = robust_design_stiffness(req.device, StiffnessRequirements(
-            **req.requirements.model_dump(exclude={"uncertainty"})), box)
     except ValueError as exc:
         raise input_error(exc) from None
     paths = list(box.paths)
@@ -48,18 +48,19 @@ def robust_plot(req: RobustPlotRequest, format: Literal["png", "svg"] = Query("p
     for name, p in (("x", x), ("y", y)):
         if p not in paths:
             raise NumericInputError(name, f"{p!r} is not one of the uncertain paths {paths}")
-    if design.status != "optimal":
-        raise NumericInputError("requirements", f"no robust design to plot: {design.status}: {design.reason}")
-    worst = box.to_box(box.to_unit(list(design.worst_case["device"].values())))
-    xs, ys, margin = margin_slice(box, design.stiffness, design.damping, worst, x, y, req.points)
-    wxy = (worst[paths.index(x)], worst[paths.index(y)])
-    title = (f"K = {design.stiffness:.5g} N/m, B = {design.damping:.4g} N·s/m; worst margin "
-             f"{design.gain_margin_db:.4f} dB")
-    return Response(content=plot_robust_slice(xs, ys, margin, wxy, req.requirements.min_gain_margin_db, (x, y),
-                                              format, title), media_type=MEDIA_TYPES[format])
+    requirements = StiffnessRequirements(**req.requirements.model_dump(exclude={"uncertainty"}))
+    try:  # the robust design and the points² exact analyses of the slice: always a worker
+        image = compute.run(robust_slice_job, req.device, requirements, box, x, y, req.points,
+                            req.requirements.min_gain_margin_db, format, cost_ms=None)
+    except NumericInputError:
+        raise
+    except ValueError as exc:
+        raise input_error(exc) from None
+    return Response(content=image, media_type=MEDIA_TYPES[format])
 
 
 @router.post("/v1/plots/hardware", response_class=Response, responses=_IMAGE)
-def hardware_plot(req: HardwareDesignRequest, format: Literal["png", "svg"] = Query("png")) -> Response:  # noqa: A002
-    design = run_hardware(req)
+def hardware_plot(req: HardwareDesignRequest, compute: Compute,
+                  format: Literal["png", "svg"] = Query("png")) -> Response:  # noqa: A002
+    design = run_hardware(req, compute)
     return Response(content=plot_hardware(design, req.target.stiffness, format), media_type=MEDIA_TYPES[format])

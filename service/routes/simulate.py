@@ -9,10 +9,13 @@ from fastapi import APIRouter
 
 from models.device import Device
 from models.scene import Scene
-from models.simulate import SimulationResult, check_cost, simulate
-from optim.relay import RelayReport, relay_experiment
+from models.simulate import SimulationResult, check_cost
+from optim.relay import RelayReport
 
+from ..cost import simulation_cost_ms
 from ..errors import NumericInputError
+from ..executor import BoundedExecutor, Compute
+from ..jobs import simulate_job
 from ..schemas.simulate import SimulateRequest, SimulateResponse
 
 router = APIRouter(tags=["simulation"])
@@ -27,15 +30,14 @@ def _field_error(exc: ValueError) -> NumericInputError:
     return NumericInputError(field if msg else "scene", msg or str(exc))
 
 
-def run_scene(device: Device, scene: Scene) -> tuple[SimulationResult, RelayReport | None]:
-    """Validate the cost, simulate, analyse a relay; ValueErrors name the field."""
+def run_scene(device: Device, scene: Scene, compute: BoundedExecutor) -> tuple[SimulationResult, RelayReport | None]:
+    """Validate the cost, simulate (inline when short, else in a compute worker under the request time
+    budget), analyse a relay; ValueErrors name the field."""
     try:
         check_cost(device, scene)
-        result = simulate(device, scene)
+        return compute.run(simulate_job, device, scene, cost_ms=simulation_cost_ms(device, scene))
     except ValueError as exc:
         raise _field_error(exc) from exc
-    relay = relay_experiment(device, scene, result) if scene.experiment == "relay" else None
-    return result, relay
 
 
 def _cycle(c) -> dict:
@@ -78,9 +80,9 @@ def _relay_out(rep: RelayReport) -> dict:
 
 
 @router.post("/v1/simulate", response_model=SimulateResponse)
-def simulate_scene(req: SimulateRequest) -> SimulateResponse:
+def simulate_scene(req: SimulateRequest, compute: Compute) -> SimulateResponse:
     start = time.perf_counter()
-    res, relay = run_scene(req.device, req.scene)
+    res, relay = run_scene(req.device, req.scene, compute)
     tr, v = res.trajectory, res.verdict
     return SimulateResponse(
         effects_simulated=list(res.effects_simulated), not_simulated=list(res.not_simulated), method=res.method,

@@ -7,6 +7,7 @@ from typing import Literal
 from fastapi import APIRouter, Query
 from fastapi.responses import Response
 
+from ..executor import Compute
 from ..plots_simulation import MEDIA_TYPES, plot_simulation
 from ..schemas.simulate import SimulateRequest
 from .simulate import run_scene
@@ -16,6 +17,7 @@ router = APIRouter(tags=["plots"])
 
 @router.post("/v1/plots/simulation", response_class=Response,
              responses={200: {"content": {"image/png": {}, "image/svg+xml": {}}}})
-def simulation_plot(req: SimulateRequest, format: Literal["png", "svg"] = Query("png")) -> Response:  # noqa: A002
-    res, _ = run_scene(req.device, req.scene)
+def simulation_plot(req: SimulateRequest, compute: Compute,
+                    format: Literal["png", "svg"] = Query("png")) -> Response:  # noqa: A002
+    res, _ = run_scene(req.device, req.scene, compute)
     return Response(content=plot_simulation(res, format), media_type=MEDIA_TYPES[format])

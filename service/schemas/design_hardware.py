@@ -4,9 +4,11 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from models.device import Device
+from optim.domain import check_controller_domain
+
+from .common import Device  # the numerics' validated domain (optim.domain) applies
 
 __all__ = ["HardwareTargetIn", "HardwareDesignRequest", "HardwareDesignResponse", "CurvePoint"]
 
@@ -35,6 +37,14 @@ class HardwareDesignRequest(BaseModel):
     free: Literal["sample_time", "delay", "damping", "mass", "cable.stiffness"] = Field(
         description="the hardware parameter to find (the others are the device's)")
     points: int = Field(41, ge=9, le=201, description="points of the trade-off curve")
+
+    @model_validator(mode="after")
+    def _in_domain(self) -> "HardwareDesignRequest":
+        """optim.domain: the target K and the cap on B, made dimensionless by the device, within range."""
+        check_controller_domain(self.target.stiffness, self.device, "stiffness", "target.stiffness")
+        if self.target.max_damping is not None:
+            check_controller_domain(self.target.max_damping, self.device, "damping", "target.max_damping")
+        return self
 
 
 class CurvePoint(BaseModel):

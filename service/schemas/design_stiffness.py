@@ -6,6 +6,8 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from optim.domain import check_controller_domain
+
 from .common import Device  # the numerics' validated domain (optim.domain) applies
 
 from .ladder import ExactCheckOut, GridPointsField, Method, MethodField
@@ -68,6 +70,22 @@ class StiffnessDesignRequest(BaseModel):
     requirements: StiffnessRequirementsIn = Field(default_factory=StiffnessRequirementsIn)
     method: Method = MethodField()
     grid_points: int = GridPointsField()
+
+    @model_validator(mode="after")
+    def _in_domain(self) -> "StiffnessDesignRequest":
+        """optim.domain: every cap on K or B, made dimensionless by the device (α = K·T²/m, β = B·T/m), within
+        range; the derived caps K ≤ F/x and B ≤ F_noise·T/q are named by their force."""
+        r, dev = self.requirements, self.device
+        if r.max_damping is not None:
+            check_controller_domain(r.max_damping, dev, "damping", "requirements.max_damping")
+        if r.max_stiffness is not None:
+            check_controller_domain(r.max_stiffness, dev, "stiffness", "requirements.max_stiffness")
+        if r.max_force is not None and r.max_penetration is not None:
+            check_controller_domain(r.max_force / r.max_penetration, dev, "stiffness", "requirements.max_force")
+        if r.quantization is not None and r.max_force_noise is not None:
+            check_controller_domain(r.max_force_noise * dev.sample_time / r.quantization, dev, "damping",
+                                    "requirements.max_force_noise")
+        return self
 
 
 class SensitivityOut(BaseModel):

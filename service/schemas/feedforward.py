@@ -9,6 +9,7 @@ from pydantic import BaseModel, Field, model_validator
 from models.device import Human
 from models.filters import MAX_FILTER_ORDER
 from optim.analysis import DEFAULT_GRID_POINTS, MAX_GRID_POINTS
+from optim.domain import check_cutoff_domain, check_human_domain, check_human_mass
 
 from .common import STRICT, Device
 from .design_stiffness import RangeIn
@@ -35,6 +36,12 @@ class ForceFeedforwardRequest(BaseModel):
                                      "grid = fixed log grid, exact, reference = 40-digit mpmath (slow)")
     grid_points: int = Field(default=DEFAULT_GRID_POINTS, ge=10, le=MAX_GRID_POINTS,
                              description="frequency samples for method=grid")
+
+    @model_validator(mode="after")
+    def _in_domain(self) -> "ForceFeedforwardRequest":
+        if self.filter is not None:  # optim.domain: f_c·T within the validated range
+            check_cutoff_domain(self.filter.cutoff_hz, self.device.sample_time, "filter.cutoff_hz")
+        return self
 
 
 class ForceCrossoverOut(BaseModel):
@@ -121,6 +128,20 @@ class InertiaRequest(BaseModel):
     requirements: InertiaRequirementsIn = Field(default_factory=InertiaRequirementsIn)
     method: Method = MethodField()
     grid_points: int = GridPointsField()
+
+    @model_validator(mode="after")
+    def _in_domain(self) -> "InertiaRequest":
+        """optim.domain's ratios for what the requirements add to the device: cutoffs and grasps."""
+        r, dev = self.requirements, self.device
+        for name in ("cutoff_min_hz", "cutoff_max_hz"):
+            if getattr(r, name) is not None:
+                check_cutoff_domain(getattr(r, name), dev.sample_time, f"requirements.{name}")
+        for i, h in enumerate(r.humans or ()):
+            check_human_domain(h, dev, f"requirements.humans.{i}")
+        if r.human_mass_range is not None:
+            check_human_mass(r.human_mass_range.min, dev, "requirements.human_mass_range.min")
+            check_human_mass(r.human_mass_range.max, dev, "requirements.human_mass_range.max")
+        return self
 
 
 class ParetoPointOut(BaseModel):

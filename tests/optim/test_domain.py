@@ -52,3 +52,68 @@ def test_inside_the_domain_every_exact_analysis_is_finite(log_delta, delay, log_
         res = analyse_stability(device, 1.0, beta, "exact")
     assert res.critical_stiffness is None or (math.isfinite(res.critical_stiffness) and res.critical_stiffness >= 0)
     assert math.isfinite(res.linear_estimate)
+
+
+# --- what a request adds to its device: filter cutoffs, grasps, uncertainty boxes (issue 10) ---------------
+
+from models.device import Human  # noqa: E402
+from models.filters import ButterworthLowPass  # noqa: E402
+from optim.domain import (CUTOFF_RATIO_MIN, RATIO_MIN, check_cutoff_domain, check_human_domain,  # noqa: E402
+                          check_human_mass)
+from optim.feedforward_ladder import analyse_force_feedforward  # noqa: E402
+
+_FF = Device(mass=5.4, damping=3.5, human={"mass": 2, "damping": 2, "stiffness": 10},
+             force_sensor={"time_constant": 0.005})
+
+
+@pytest.mark.parametrize("cutoff_hz", [5e-324, 1e-300, 0.99 * CUTOFF_RATIO_MIN / 0.001])
+def test_a_cutoff_below_the_domain_is_refused_naming_the_field(cutoff_hz):
+    with pytest.raises(ValueError, match=r"^filter\.cutoff_hz: cutoff_hz·sample_time = .* must be ≥ 1e-09"):
+        check_cutoff_domain(cutoff_hz, 0.001, "filter.cutoff_hz")
+    check_cutoff_domain(CUTOFF_RATIO_MIN / 0.001, 0.001, "filter.cutoff_hz")
+
+
+@pytest.mark.parametrize("order", [1, 4])
+def test_at_the_lowest_cutoff_exact_agrees_with_the_reference(order):
+    """The rule's justification: at f_c·T = CUTOFF_RATIO_MIN the exact rung still agrees with the 40-digit
+    reference (rtol 1e-9: both are exact to ~1e-12; at 1e-12 the reference's scan misses the crossover)."""
+    filt = ButterworthLowPass(order, CUTOFF_RATIO_MIN / 0.001, 0.001)
+    exact = analyse_force_feedforward(_FF, filt, method="exact").critical_force_gain
+    ref = analyse_force_feedforward(_FF, filt, method="reference").critical_force_gain
+    assert math.isfinite(exact) and exact == pytest.approx(ref, rel=1e-9)
+
+
+def test_first_order_cutoff_scaling_law_holds_down_to_the_limit():
+    """A first-order D(z) far below the loop's crossover scales K_f,cr as 1/θ_c (|D| ≈ θ_c/θ there): an
+    independent check that the exact rung is still resolving the filter at the domain's edge (rtol 1e-3:
+    the law is asymptotic; its correction is ≈ 1 % at f_c·T = 1e-6, proportional to f_c, so ≈ 1e-4 here)."""
+    k = [analyse_force_feedforward(_FF, ButterworthLowPass(1, r / 0.001, 0.001), method="exact").critical_force_gain
+         for r in (10 * CUTOFF_RATIO_MIN, CUTOFF_RATIO_MIN)]
+    assert k[1] / k[0] == pytest.approx(10.0, rel=1e-3)
+
+
+def test_the_linear_rung_is_quick_at_the_lowest_cutoff():
+    """It marched in steps of 0.3·θ_c above 0.05 rad: ~1/θ_c steps, a hang for a tiny cutoff (fuzz finding)."""
+    import time
+
+    t0 = time.perf_counter()
+    res = analyse_force_feedforward(_FF, ButterworthLowPass(2, CUTOFF_RATIO_MIN / 0.001, 0.001), method="linear")
+    assert time.perf_counter() - t0 < 2.0 and math.isfinite(res.critical_force_gain)
+
+
+def test_grasps_beside_the_device_are_held_to_the_device_ratios():
+    with pytest.raises(ValueError, match=r"^requirements\.humans\.0\.mass: human mass/mass"):
+        check_human_domain(Human(mass=5e-324, damping=0, stiffness=0), _FF, "requirements.humans.0")
+    with pytest.raises(ValueError, match=r"^requirements\.humans\.1\.stiffness: "):
+        check_human_domain(Human(mass=1, damping=0, stiffness=1e-300), _FF, "requirements.humans.1")
+    with pytest.raises(ValueError, match=r"^requirements\.human_mass_range\.min: "):
+        check_human_mass(1e-40, _FF, "requirements.human_mass_range.min")
+    check_human_domain(Human(mass=5.4 * RATIO_MIN * 1.01, damping=0, stiffness=0), _FF, "requirements.humans.0")
+
+
+def test_uncertainty_box_ends_must_stay_in_the_domain():
+    from optim.robust.box import UncertaintyBox
+
+    with pytest.raises(ValueError, match=r"^requirements\.uncertainty\.device\.human\.mass: 1e-300 leaves"):
+        UncertaintyBox.from_ranges(_FF, {"device.human.mass": (1e-300, 2.0)})
+    UncertaintyBox.from_ranges(_FF, {"device.human.mass": (0.5, 4.0)})

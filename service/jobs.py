@@ -1,0 +1,61 @@
+"""What a compute worker runs for a route that needs more than one numerics call (service.executor).
+
+Each job is a module-level function of validated inputs (devices, frozen dataclasses, plain numbers), so
+that it pickles by reference, and returns a picklable result: the numerics' frozen dataclasses or bytes.
+CasADi solvers are never sent: the design code builds and caches its own in each worker process.  A job
+raises what the numerics raise (ValueError "field: rule", NumericInputError); the route maps them.
+A route with a single numerics call passes that function to ``Compute.run`` directly.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+from models.device import Device
+from models.filters import ButterworthLowPass
+from models.scene import Scene
+from models.simulate import SimulationResult, simulate
+from optim.feedforward import critical_force_gain
+from optim.feedforward_ladder import ForceFeedforwardAnalysis, analyse_force_feedforward
+from optim.relay import RelayReport, relay_experiment
+from optim.robust.box import UncertaintyBox
+from optim.robust.stiffness import robust_design_stiffness
+from optim.stiffness import StiffnessRequirements
+
+from .errors import NumericInputError
+from .plots_robust import margin_slice, plot_robust_slice
+
+__all__ = ["force_feedforward_job", "simulate_job", "robust_slice_job"]
+
+
+def force_feedforward_job(device: Device, filt: ButterworthLowPass | None, method: str,
+                          grid_points: int) -> tuple[ForceFeedforwardAnalysis, float | None]:
+    """The rung's K_f,cr analysis and, for a cable device on the exact or reference rung, what the rigid
+    model claims (its cost stays out of the cheaper rungs)."""
+    res = analyse_force_feedforward(device, filt, method=method, grid_points=grid_points)
+    rigid = (critical_force_gain(device.rigid(), filt, res.human).critical_force_gain
+             if device.cable and method in ("exact", "reference") else None)
+    return res, rigid
+
+
+def simulate_job(device: Device, scene: Scene) -> tuple[SimulationResult, RelayReport | None]:
+    """Simulate the scene and, for a relay, read it like a lab.  The per-sample record (large, never
+    serialised) is dropped before the result travels back from the worker."""
+    result = simulate(device, scene)
+    relay = relay_experiment(device, scene, result) if scene.experiment == "relay" else None
+    return dataclasses.replace(result, record=None), relay
+
+
+def robust_slice_job(device: Device, requirements: StiffnessRequirements, box: UncertaintyBox, x: str, y: str,
+                     points: int, min_gain_margin_db: float, fmt: str) -> bytes:
+    """The robust design and the figure of the margin over its (x, y) slice through the worst device."""
+    design = robust_design_stiffness(device, requirements, box)
+    if design.status != "optimal":
+        raise NumericInputError("requirements", f"no robust design to plot: {design.status}: {design.reason}")
+    paths = list(box.paths)
+    worst = box.to_box(box.to_unit(list(design.worst_case["device"].values())))
+    xs, ys, margin = margin_slice(box, design.stiffness, design.damping, worst, x, y, points)
+    wxy = (worst[paths.index(x)], worst[paths.index(y)])
+    title = (f"K = {design.stiffness:.5g} N/m, B = {design.damping:.4g} N·s/m; worst margin "
+             f"{design.gain_margin_db:.4f} dB")
+    return plot_robust_slice(xs, ys, margin, wxy, min_gain_margin_db, (x, y), fmt, title)
