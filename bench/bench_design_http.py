@@ -18,13 +18,11 @@ import json
 import os
 import platform
 import statistics
-import subprocess
-import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+from bench.live_server import ROOT, LiveServer
 PATH = "/v1/design/stiffness"
 BODY = {"device": {"mass": 5.4, "damping": 3.5, "sample_time": 0.001}}
 #: Acceptable p50 increase of the worker path over the inline path [ms] (issue 10: one process round trip).
@@ -42,41 +40,6 @@ class Stats:
 def _pct(samples: list[float], q: float) -> float:
     s = sorted(samples)
     return s[min(len(s) - 1, int(round(q * (len(s) - 1))))]
-
-
-def _server(inline_cost_ms: float):
-    from bench.bench_service import _free_port
-
-    port = _free_port()
-    env = {**os.environ, "PYTHONPATH": str(ROOT), "ZWIDTH_ACCESS_LOG": "false",
-           "ZWIDTH_INLINE_COST_MS": str(inline_cost_ms), "ZWIDTH_COMPUTE_WORKERS": "1"}
-    proc = subprocess.Popen([sys.executable, "-m", "uvicorn", "service.app:app", "--host", "127.0.0.1", "--port",
-                             str(port), "--log-level", "warning", "--no-access-log"],
-                            cwd=ROOT, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    deadline = time.monotonic() + 60
-    while time.monotonic() < deadline:
-        if proc.poll() is not None:
-            raise RuntimeError("uvicorn exited")
-        try:
-            c = http.client.HTTPConnection("127.0.0.1", port, timeout=1)
-            c.request("GET", "/healthz")
-            if c.getresponse().status == 200:
-                c.close()
-                return proc, port
-        except OSError:
-            time.sleep(0.05)
-    proc.kill()
-    raise RuntimeError("uvicorn did not start")
-
-
-def _stop(proc) -> None:
-    if proc.poll() is None:
-        proc.terminate()
-        try:
-            proc.wait(10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait(10)
 
 
 def _post(conn: http.client.HTTPConnection, payload: bytes) -> float:
@@ -97,8 +60,8 @@ def run(n: int = 300, out: Path | None = None) -> dict[str, Stats]:
     procs, conns = {}, {}
     try:
         for key, inline in (("worker", 25.0), ("inline", 1000.0)):
-            procs[key], port = _server(inline)
-            conns[key] = http.client.HTTPConnection("127.0.0.1", port, timeout=60)
+            procs[key] = LiveServer({"ZWIDTH_INLINE_COST_MS": str(inline), "ZWIDTH_COMPUTE_WORKERS": "1"})
+            conns[key] = http.client.HTTPConnection("127.0.0.1", procs[key].port, timeout=60)
         payload = json.dumps(BODY).encode()
         samples: dict[str, list[float]] = {k: [] for k in conns}
         for _ in range(max(10, n // 10)):  # warm-up: the worker's start, solver caches, connections
@@ -111,7 +74,7 @@ def run(n: int = 300, out: Path | None = None) -> dict[str, Stats]:
         for c in conns.values():
             c.close()
         for p in procs.values():
-            _stop(p)
+            p.stop()
     result = {k: Stats(labels[k], len(v), 1e3 * statistics.median(v), 1e3 * _pct(v, 0.95)) for k, v in samples.items()}
     if out is not None:
         out.write_text(render(result, load_before), encoding="utf-8")

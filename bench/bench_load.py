@@ -15,16 +15,14 @@ from __future__ import annotations
 import argparse
 import asyncio
 import datetime as _dt
-import os
 import platform
-import socket
-import subprocess
-import sys
 import time
 from pathlib import Path
 
 import httpx
 import numpy as np
+
+from bench.live_server import LiveServer
 
 RIGID = {"mass": 5.4, "damping": 3.5, "sample_time": 0.001}
 MIX: list[tuple[str, str, dict]] = [
@@ -38,12 +36,6 @@ MIX: list[tuple[str, str, dict]] = [
 ]
 # weights: analyses dominate a lab's traffic
 WEIGHTS = (6, 3, 1, 1, 2)
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def _rss_kib(pid: int) -> int:
@@ -63,22 +55,6 @@ def _rss_kib(pid: int) -> int:
         except OSError:
             continue
     return total
-
-
-def start_server(port: int, workers: int) -> subprocess.Popen:
-    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parent.parent)}
-    proc = subprocess.Popen([sys.executable, "-m", "uvicorn", "service.app:app", "--host", "127.0.0.1",
-                             "--port", str(port), "--workers", str(workers), "--log-level", "warning"],
-                            env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    deadline = time.monotonic() + 60
-    while time.monotonic() < deadline:
-        try:
-            if httpx.get(f"http://127.0.0.1:{port}/healthz", timeout=1).status_code == 200:
-                return proc
-        except httpx.HTTPError:
-            time.sleep(0.2)
-    proc.kill()
-    raise RuntimeError("server did not become healthy within 60 s")
 
 
 async def _client(base: str, stop_at: float, rng: np.random.Generator, out: dict, max_requests: int) -> None:
@@ -123,21 +99,16 @@ def _baseline(base: str, repeats: int) -> dict[str, float]:
 
 
 def run(clients: int = 50, seconds: float = 30.0, workers: int = 2, baseline_repeats: int = 10) -> dict:
-    port = free_port()
-    proc = start_server(port, workers)
-    base = f"http://127.0.0.1:{port}"
+    server = LiveServer(workers=workers)
+    base = f"http://127.0.0.1:{server.port}"
     try:
         base_ms = _baseline(base, baseline_repeats)
-        rss_before = _rss_kib(proc.pid)
+        rss_before = _rss_kib(server.pid)
         out, wall = asyncio.run(_drive(base, clients, seconds))
-        rss_after = _rss_kib(proc.pid)
+        rss_after = _rss_kib(server.pid)
         health = httpx.get(f"{base}/healthz", timeout=5).status_code
     finally:
-        proc.terminate()
-        try:
-            proc.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
+        server.stop()
     return {"clients": clients, "seconds": seconds, "workers": workers, "wall": wall, "per_kind": out,
             "baseline_ms": base_ms, "rss_before_kib": rss_before, "rss_after_kib": rss_after, "health_after": health}
 

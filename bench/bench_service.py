@@ -21,16 +21,13 @@ import http.client
 import json
 import os
 import platform
-import socket
 import statistics
-import subprocess
-import sys
 import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+from bench.live_server import ROOT, LiveServer
 PATH = "/v1/analysis/stability"
 BODY = {"device": {"mass": 5.4, "damping": 3.5, "sample_time": 0.001}}
 GOAL_P50_MS = 5.0
@@ -53,45 +50,6 @@ def _pct(samples: list[float], q: float) -> float:
 
 def _stats(label: str, samples: list[float], throughput: float | None = None) -> Stats:
     return Stats(label, len(samples), 1e3 * statistics.median(samples), 1e3 * _pct(samples, 0.95), throughput)
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-class _Server:
-    def __init__(self) -> None:
-        self.port = _free_port()
-        env = {**os.environ, "PYTHONPATH": str(ROOT), "ZWIDTH_ACCESS_LOG": "false"}
-        self.proc = subprocess.Popen(
-            [sys.executable, "-m", "uvicorn", "service.app:app", "--host", "127.0.0.1", "--port", str(self.port),
-             "--log-level", "warning", "--no-access-log"],
-            cwd=ROOT, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        deadline = time.monotonic() + 30
-        while time.monotonic() < deadline:
-            if self.proc.poll() is not None:
-                raise RuntimeError("uvicorn exited")
-            try:
-                c = http.client.HTTPConnection("127.0.0.1", self.port, timeout=1)
-                c.request("GET", "/healthz")
-                if c.getresponse().status == 200:
-                    c.close()
-                    return
-            except OSError:
-                time.sleep(0.05)
-        self.stop()
-        raise RuntimeError("uvicorn did not start")
-
-    def stop(self) -> None:
-        if self.proc.poll() is None:
-            self.proc.terminate()
-            try:
-                self.proc.wait(10)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait(10)
 
 
 def _post(conn: http.client.HTTPConnection, payload: bytes) -> float:
@@ -181,7 +139,7 @@ def numerics(n: int) -> list[float]:
 
 def run(duration: float = 8.0, clients: int = 4, n_seq: int = 400, out: Path | None = None) -> dict[str, Stats]:
     load_before = os.getloadavg()[0]
-    server = _Server()
+    server = LiveServer(timeout=30.0)
     try:
         seq = _stats("uvicorn, 1 client (sequential)", sequential(server.port, n_seq))
         flat, rps = concurrent(server.port, clients, duration)

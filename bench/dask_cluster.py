@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import os
 import signal
-import socket
 import subprocess
 import sys
 import tempfile
@@ -17,13 +16,7 @@ from typing import Iterator
 
 __all__ = ["local_dask_cluster"]
 
-ROOT = Path(__file__).resolve().parents[1]
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+from bench.live_server import ROOT, free_port
 
 
 def _kill(proc: subprocess.Popen) -> None:
@@ -43,7 +36,7 @@ def _kill(proc: subprocess.Popen) -> None:
 def local_dask_cluster(workers: int = 2, timeout: float = 60.0) -> Iterator[str]:
     """Yield the scheduler address of ``dask scheduler`` + ``workers`` × ``dask worker --nthreads 1``."""
     dask = str(Path(sys.executable).parent / "dask")
-    port = _free_port()
+    port = free_port()
     address = f"tcp://127.0.0.1:{port}"
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))}
     log = tempfile.TemporaryFile()
