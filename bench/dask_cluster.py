@@ -14,9 +14,9 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Iterator
 
-__all__ = ["local_dask_cluster"]
-
 from bench.live_server import ROOT, free_port
+
+__all__ = ["local_dask_cluster"]
 
 
 def _kill(proc: subprocess.Popen) -> None:
