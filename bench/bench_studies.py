@@ -143,14 +143,15 @@ def _study(study: dict, executor, label: str, repeats: int, chunk_size: int) -> 
 
 
 def measure(points: int = 400, repeats: int = 3, workers: tuple[int, ...] = (1, 2), dask: bool = True,
-            chunk_size: int = 32, critical_points: int | None = None, critical_chunk: int = CRITICAL_CHUNK) -> list[Row]:
+            chunk_size: int = 32, critical_points: int | None = None, critical_chunk: int = CRITICAL_CHUNK,
+            stiffness_points: int | None = None) -> list[Row]:
     """``critical_points`` (default 10 × points) of the vectorised problem run in chunks of ``critical_chunk``,
     on the local pools only (its study is short: a Dask cluster's start would dominate the run)."""
     studies = [(stability_study(points), chunk_size, dask),
                (critical_study(critical_points or 10 * points), critical_chunk, False)]
     try:
         get_problem("stiffness")
-        studies.append((stiffness_study(max(2, points // 10)), chunk_size, dask))
+        studies.append((stiffness_study(max(2, stiffness_points or points)), chunk_size, dask))
     except ProblemUnavailable:
         pass
     rows: list[Row] = []
@@ -230,13 +231,17 @@ def main() -> None:
     ap.add_argument("--points", type=int, default=400)
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--critical-points", type=int, default=None, help="points of the critical_stiffness study (default 10 × points)")
+    ap.add_argument("--stiffness-points", type=int, default=None,
+                    help="designs of the stiffness study (default = points: a study long enough that the pool's "
+                         "start and the last chunk's tail do not dominate)")
     ap.add_argument("--no-dask", action="store_true")
     ap.add_argument("--out", default=str(ROOT / "docs" / "bench_studies.md"))
     args = ap.parse_args()
     import os
 
     before = os.getloadavg()[0]
-    rows = measure(args.points, args.repeats, dask=not args.no_dask, critical_points=args.critical_points)
+    rows = measure(args.points, args.repeats, dask=not args.no_dask, critical_points=args.critical_points,
+                   stiffness_points=args.stiffness_points)
     text = render(rows, load=(before, os.getloadavg()[0]))
     Path(args.out).write_text(text)
     print(text)

@@ -104,8 +104,11 @@ def max_stable_damping(device: Device) -> float:
     return min(c.value for c in found) * device.damping_scale
 
 
-def critical_stiffness(device: Device, damping: float = 0.0) -> CriticalStiffness:
-    """Exact K_cr(B) (every crossover bracketed and refined to double precision)."""
+def critical_stiffness(device: Device, damping: float = 0.0, *, b_max: float | None = None) -> CriticalStiffness:
+    """Exact K_cr(B) (every crossover bracketed and refined to double precision).
+
+    ``b_max``: the caller's ``max_stable_damping(device)`` of this same device, when it has it (a design
+    calls this many times on one device); computed here otherwise."""
     if not (math.isfinite(damping) and damping >= 0.0):
         raise ValueError("damping: virtual damping B must be finite and ≥ 0")
     plant = loop_plant(device)
@@ -114,7 +117,10 @@ def critical_stiffness(device: Device, damping: float = 0.0) -> CriticalStiffnes
         return CriticalStiffness(0.0, None, (), damping, 0.0,
                                  reason="no physical or virtual damping: no positive stiffness is stable "
                                         "(linear condition α < 2(δ+β)/(1+2d) with δ = β = 0)")
-    b_max = max_stable_damping(device) if damping > 0.0 else None
+    if damping > 0.0:
+        b_max = max_stable_damping(device) if b_max is None else b_max
+    else:
+        b_max = None
     if b_max is not None and damping >= b_max:
         return CriticalStiffness(0.0, None, (), damping, b_max,
                                  reason=f"virtual damping B = {damping:.6g} N·s/m is at or above the largest "

@@ -217,7 +217,7 @@ def _solve_scenarios(scenarios: list[_Scenario], g: float, upper_b: float, k_cap
         changed = False
         for sc, thetas in zip(scenarios, sol.thetas):
             sc.crossings = [(t, bb) for t, (_, bb) in zip(thetas, sc.crossings)]
-            exact = critical_stiffness(sc.device, b)
+            exact = critical_stiffness(sc.device, b, b_max=sc.b_max)
             if k > g * exact.critical_stiffness * (1 + _VERIFY_RTOL) and exact.crossover_frequency is not None:
                 th = exact.crossover_frequency * sc.device.sample_time
                 if th >= math.pi * (1 - 1e-9):
@@ -234,7 +234,7 @@ def _solve_scenarios(scenarios: list[_Scenario], g: float, upper_b: float, k_cap
 
 def _finish(t0, nominal, box, req, scenarios, sol, k_nlp, b, wc: WorstCase, it, evals, ignored, k_caps, b_caps):
     g = req.gain_factor
-    per_scenario = [critical_stiffness(sc.device, b).critical_stiffness for sc in scenarios]
+    per_scenario = [critical_stiffness(sc.device, b, b_max=sc.b_max).critical_stiffness for sc in scenarios]
     k = min([k_nlp, g * wc.critical_stiffness, *(g * v for v in per_scenario), *k_caps.values()])
     if not k > 0:
         return _done(t0, status="infeasible", iterations=it, evaluations=evals, ignored_paths=ignored,

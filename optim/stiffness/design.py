@@ -97,6 +97,8 @@ class _Context:
     d_pass: int
     loop_flat: np.ndarray
     n_states: int
+    b_max: float
+    """B_max of the device [N·s/m] (passed to every exact re-check instead of recomputed)."""
 
 
 def _infeasible(reason: str, t0: float, **kw) -> StiffnessDesign:
@@ -137,7 +139,7 @@ def design_stiffness(device: Device, requirements: StiffnessRequirements | None 
     curve = boundary_curve(device, beta_hi)
     matrices = loop_matrices(device)
     ctx = _Context(device, req, curve, beta_hi, k_cap / ks if math.isfinite(k_cap) else 1e30,
-                   b_cap / bs if math.isfinite(b_cap) else 1e30, d_pass, matrices.flat(), matrices.n)
+                   b_cap / bs if math.isfinite(b_cap) else 1e30, d_pass, matrices.flat(), matrices.n, b_max)
     betas, objective, pass_theta = _coarse_profile(ctx)
     i = int(np.argmax(objective))
     if not objective[i] > 0.0:
@@ -239,7 +241,7 @@ def _solve_from(ctx: _Context, beta0: float, alpha0: float, pass_theta0: float) 
         x0 = np.array(x_start + [t for t, _ in crossings])
         sol = solve_problem(key, params, x0, (interval[0] / beta_ref, interval[1] / beta_ref), [b for _, b in crossings])
         k, b = sol.a * alpha_ref * ks, max(sol.b * beta_ref * bs, 0.0)   # Ipopt may relax a bound by ~1e-8
-        exact = critical_stiffness(dev, b)
+        exact = critical_stiffness(dev, b, b_max=ctx.b_max)
         pk = largest_passive_stiffness(dev, b) if ctx.req.passivity else None
         attempt = _Attempt(sol, key, params, alpha_ref, beta_ref, interval, k, b, exact, pk.stiffness if pk else None,
                            False)

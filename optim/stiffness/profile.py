@@ -140,7 +140,41 @@ def _segments(curve: BoundaryCurve, betas: np.ndarray):
 
 
 def coarse_critical(curve: BoundaryCurve, betas: np.ndarray) -> np.ndarray:
-    """K_cr(β)/(m/T²) linearly interpolated on the sampled curve, for each β (inf: no crossover)."""
+    """K_cr(β)/(m/T²) linearly interpolated on the sampled curve, for each β (inf: no crossover).
+
+    Sparse form of ``_segments``: each segment crosses only the β's in its half-open range
+    [min(b0, b1), max(b0, b1)), found by bisection in the sorted β's, so the work is the number of
+    (β, crossing) pairs, not β's × segments."""
+    betas = np.asarray(betas, dtype=float)
+    order = np.argsort(betas, kind="stable")
+    sb = betas[order]
+    b0, b1 = curve.beta[:-1], curve.beta[1:]
+    a0, a1 = curve.alpha[:-1], curve.alpha[1:]
+    keep = (a0 > 0) | (a1 > 0)
+    b0, b1, a0, a1 = b0[keep], b1[keep], a0[keep], a1[keep]
+    lo, hi = np.minimum(b0, b1), np.maximum(b0, b1)
+    start = np.searchsorted(sb, lo, side="left")
+    stop = np.searchsorted(sb, hi, side="left")
+    counts = np.maximum(stop - start, 0)
+    kcr = np.full(sb.shape, np.inf)
+    total = int(counts.sum())
+    if total:
+        seg = np.repeat(np.arange(counts.size), counts)
+        first = np.repeat(np.cumsum(counts) - counts, counts)
+        idx = np.repeat(start, counts) + (np.arange(total) - first)
+        x = sb[idx]
+        w = (x - b0[seg]) / (b1[seg] - b0[seg])
+        # a segment that straddles α = 0 (near B_max) counts, its α clamped at 0: K_cr → 0 there
+        alpha = np.maximum(a0[seg] + w * (a1[seg] - a0[seg]), 0.0)
+        np.minimum.at(kcr, idx, alpha)
+    out = np.empty_like(kcr)
+    out[order] = kcr
+    nyq = curve.nyquist_alpha(betas)
+    return np.where(nyq > 0, np.minimum(out, nyq), out)
+
+
+def _coarse_critical_dense(curve: BoundaryCurve, betas: np.ndarray) -> np.ndarray:
+    """The dense (β's × segments) form of coarse_critical, kept as the test's second computation."""
     pos, _, alpha, _ = _segments(curve, betas)
     kcr = np.where(pos, alpha, np.inf).min(axis=1) if pos.shape[1] else np.full(betas.shape, np.inf)
     nyq = curve.nyquist_alpha(betas)
