@@ -21,6 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
+from models.device import Device
+from optim.analysis import analyse_stability
 from optim.studies import ProblemUnavailable, evaluate_point, get_problem
 from service.studies.executors import DaskExecutor, LocalExecutor
 from service.studies.runner import StudyRunner, plan_from_request
@@ -29,9 +31,6 @@ from service.studies.store import StudyStore
 ROOT = Path(__file__).resolve().parents[1]
 #: Throughput goals of issue 8 on 2 cores [points/s].
 GOALS = {"stability": 2000, "critical_stiffness": 2000, "stiffness": 200}
-#: Points per chunk of the vectorised problem: one batch_critical_stiffness call per delay class of a chunk,
-#: whose per-call numpy overhead is spread over the chunk (≈ 4000 points/CPU-s from 128 to 512 points).
-CRITICAL_CHUNK = 256
 
 
 def stability_study(points: int) -> dict:
@@ -100,18 +99,36 @@ def _worker_cpu(executor) -> float | None:
     return None
 
 
+def _previous_stability(device: dict, req: dict) -> tuple[dict | None, str | None]:
+    """The previous version's stability point: one full exact ``analyse_stability`` per point (no batch)."""
+    try:
+        analyse_stability(Device.model_validate(device), req.get("stiffness"), float(req.get("damping") or 0.0),
+                          "exact")
+        return {}, None
+    except ValueError as exc:
+        return None, str(exc)
+
+
+#: the baseline of each problem: the per-point path the study is measured against, side by side
+BASELINES = {
+    "stability": ("previous version: one analyse_stability per point, in-process", _previous_stability),
+    "critical_stiffness": ("previous version: one analyse_stability per point, in-process", _previous_stability),
+}
+
+
 def _baseline(study: dict, repeats: int) -> Row:
     plan = plan_from_request(study)
     inputs = [plan.inputs(v) for v in plan.values(0, plan.total).tolist()]
-    evaluate_point(plan.problem, *inputs[0])  # imports and caches outside the timing
+    label, fn = BASELINES.get(plan.problem, ("single point, in-process (baseline)",
+                                             lambda dev, req: evaluate_point(plan.problem, dev, req)))
+    fn(*inputs[0])  # imports and caches outside the timing
     times, cpus, failed = [], [], 0
     for _ in range(repeats):
         t0, c0 = time.perf_counter(), time.process_time()
-        failed = sum(evaluate_point(plan.problem, dev, req)[1] is not None for dev, req in inputs)
+        failed = sum(fn(dev, req)[1] is not None for dev, req in inputs)
         times.append(time.perf_counter() - t0)
         cpus.append(time.process_time() - c0)
-    return Row(plan.problem, "single point, in-process (baseline)", plan.total, tuple(times), failed,
-               statistics.median(cpus))
+    return Row(plan.problem, label, plan.total, tuple(times), failed, statistics.median(cpus))
 
 
 def _study(study: dict, executor, label: str, repeats: int, chunk_size: int) -> Row:
@@ -139,19 +156,20 @@ def _study(study: dict, executor, label: str, repeats: int, chunk_size: int) -> 
                 if c0 is not None and c1 is not None:
                     cpus.append(c1 - c0)
     return Row(plan.problem, label, plan.total, tuple(times), failed, statistics.median(cpus) if cpus else None,
-               chunk_size)
+               runner.chunk_size_for(plan.problem))
 
 
 def measure(points: int = 400, repeats: int = 3, workers: tuple[int, ...] = (1, 2), dask: bool = True,
-            chunk_size: int = 32, critical_points: int | None = None, critical_chunk: int = CRITICAL_CHUNK,
-            stiffness_points: int | None = None) -> list[Row]:
-    """``critical_points`` (default 10 × points) of the vectorised problem run in chunks of ``critical_chunk``,
-    on the local pools only (its study is short: a Dask cluster's start would dominate the run)."""
-    studies = [(stability_study(points), chunk_size, dask),
-               (critical_study(critical_points or 10 * points), critical_chunk, False)]
+            chunk_size: int = 64, analysis_points: int | None = None, critical_dask: bool = False) -> list[Row]:
+    """``points`` stiffness designs; ``analysis_points`` (default 10 × points) for the two vectorised analysis
+    problems.  ``chunk_size`` is the runner's (the service's default 64); vectorised problems take their
+    ``chunk_factor`` times it (optim.studies)."""
+    n_analysis = analysis_points or 10 * points
+    studies = [(stability_study(n_analysis), chunk_size, dask),
+               (critical_study(n_analysis), chunk_size, dask and critical_dask)]
     try:
         get_problem("stiffness")
-        studies.append((stiffness_study(max(2, stiffness_points or points)), chunk_size, dask))
+        studies.append((stiffness_study(max(2, points)), chunk_size, dask))
     except ProblemUnavailable:
         pass
     rows: list[Row] = []
@@ -186,19 +204,22 @@ def render(rows: list[Row], note: str = "", load: tuple[float, float] | None = N
         f"Generated by `python -m bench.bench_studies` on {datetime.date.today()}, {platform.machine()} "
         f"CPython {platform.python_version()}, {os.cpu_count()} cores (shared with other work while measured).",
         "A *study* row is a whole study run by the service's runner: planning, content hashes, chunks on the "
-        "executor, results written to a fresh SQLite (WAL) store. The *baseline* evaluates the same points one "
-        "by one in this process without a store. Wall time per run (median / p95 over the repeats); the ratio is "
+        "executor, results written to a fresh SQLite (WAL) store (the runner's chunk of 64 points, times the "
+        "problem's chunk_factor: 4 for the vectorised analyses). The *baseline* (points per chunk —) evaluates "
+        "the same points one by one in this process without a store: for `stability` and `critical_stiffness` "
+        "the previous version's path, one full exact `analyse_stability` per point. Wall time per run (median / p95 over the repeats); the ratio is "
         "points/s against the baseline of the same problem, measured in the same run. *Points per CPU-s* divides "
         "by the CPU time of the processes that evaluated the points (this process, the pool's workers via psutil, "
         "the Dask workers via `client.run`): what one free core gives, whatever else shares the machine; "
-        "n free cores give about n times that. `critical_stiffness` is the vectorised problem (optim.critical_study: "
-        "a chunk's devices in one `batch_critical_stiffness` call per delay class) over the same wall and sweep as "
-        "`stability`; its baseline evaluates it one point at a time (a batch of one)." + load_text,
+        "n free cores give about n times that. Both analysis problems are vectorised over a chunk: `stability` "
+        "(optim.stability_study: K_cr, B_max, margin, passivity, eq. 10, Q and the rigid comparison of every "
+        "point) and `critical_stiffness` (optim.critical_study: the boundary alone), over the same wall and "
+        "sweep." + load_text,
         "",
         "| problem | executor | points | median [s] | p95 [s] | points/s | ratio vs baseline | points per CPU-s | failed points | points per chunk |",
         "|---|---|---|---|---|---|---|---|---|---|",
     ]
-    base = {r.problem: r.rate for r in rows if "baseline" in r.executor}
+    base = {r.problem: r.rate for r in rows if r.chunk is None}
     for r in rows:
         cpu = f"{r.cpu_rate:.0f}" if r.cpu_rate else "—"
         lines.append(f"| {r.problem} | {r.executor} | {r.points} | {r.median:.3f} | {r.p95:.3f} | {r.rate:.0f} | "
@@ -212,12 +233,12 @@ def render(rows: list[Row], note: str = "", load: tuple[float, float] | None = N
             goals.append(f"{prob}: ≥ {goal} points/s — best measured {best:.0f}/s, two free cores ≈ "
                          f"{2 * per_core:.0f}/s ({'met' if best >= goal else 'not met'})")
     lines += ["", "Goals on 2 cores (issue 8): " + "; ".join(goals) + "."]
-    stab, crit = base.get("stability"), [r for r in rows if r.problem == "critical_stiffness"]
-    if stab and crit:
-        best = max(crit, key=lambda r: r.rate)
-        lines += ["", f"K_cr of a sweep: the vectorised `critical_stiffness` study ({best.executor}) gives "
-                  f"{best.rate:.0f} points/s, {best.rate / stab:.1f} × the one-by-one full `stability` analysis "
-                  f"of the same points ({stab:.0f}/s, measured in this run)."]
+    stab = [r for r in rows if r.problem == "stability" and r.chunk is not None]
+    if stab and "stability" in base:
+        best = max(stab, key=lambda r: r.rate)
+        lines += ["", f"Stability sweeps: the vectorised `stability` study ({best.executor}) gives {best.rate:.0f} "
+                  f"points/s, {best.rate / base['stability']:.1f} × the previous version's one-by-one full analysis "
+                  f"of the same points ({base['stability']:.0f}/s, measured in this run)."]
     if not any(r.problem == "stiffness" for r in rows):
         lines += ["", "Stiffness designs: `optim.stiffness` is not in this build, so the stiffness problem answers "
                   "422 and is not measured here."]
@@ -228,20 +249,19 @@ def render(rows: list[Row], note: str = "", load: tuple[float, float] | None = N
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument("--points", type=int, default=400)
+    ap.add_argument("--points", type=int, default=400,
+                    help="designs of the stiffness study (long enough that the pool's start and the last chunk's "
+                         "tail do not dominate)")
     ap.add_argument("--repeats", type=int, default=3)
-    ap.add_argument("--critical-points", type=int, default=None, help="points of the critical_stiffness study (default 10 × points)")
-    ap.add_argument("--stiffness-points", type=int, default=None,
-                    help="designs of the stiffness study (default = points: a study long enough that the pool's "
-                         "start and the last chunk's tail do not dominate)")
+    ap.add_argument("--analysis-points", type=int, default=None,
+                    help="points of the stability and critical_stiffness studies (default 10 × points)")
     ap.add_argument("--no-dask", action="store_true")
     ap.add_argument("--out", default=str(ROOT / "docs" / "bench_studies.md"))
     args = ap.parse_args()
     import os
 
     before = os.getloadavg()[0]
-    rows = measure(args.points, args.repeats, dask=not args.no_dask, critical_points=args.critical_points,
-                   stiffness_points=args.stiffness_points)
+    rows = measure(args.points, args.repeats, dask=not args.no_dask, analysis_points=args.analysis_points)
     text = render(rows, load=(before, os.getloadavg()[0]))
     Path(args.out).write_text(text)
     print(text)

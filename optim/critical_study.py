@@ -1,7 +1,7 @@
 """The ``critical_stiffness`` study problem: K_cr(B) of a whole chunk of points at once (issue 8).
 
-The ``stability`` problem runs one full ``analyse_stability`` per point (passivity, Q, the rigid
-comparison …, ~3 ms).  A sweep that only needs the stability boundary gets it here from
+The ``stability`` problem (optim.stability_study) adds passivity, Q and the rigid comparison to every
+point.  A sweep that only needs the stability boundary gets it here from
 ``optim.robust.batch.batch_critical_stiffness``, which scans every device of the chunk in the same
 numpy arrays (grouped by plant structure inside it: rigid, cable, …).  Same mathematics as
 ``optim.margins.critical_stiffness`` (every crossover bracketed and refined to double precision),
@@ -16,7 +16,7 @@ out of range) fails its point, never the chunk.
 from __future__ import annotations
 
 import math
-from typing import Any, Mapping, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -25,7 +25,7 @@ from models.device import Device
 from .margins import gain_margin_db, linear_estimate
 from .robust.batch import batch_critical_stiffness
 
-__all__ = ["evaluate_batch", "evaluate_one"]
+__all__ = ["evaluate_batch", "evaluate_one", "by_delay_class", "row"]
 
 _NO_DAMPING = ("no physical or virtual damping: no positive stiffness is stable "
                "(linear condition α < 2(δ+β)/(1+2d) with δ = β = 0)")
@@ -36,7 +36,7 @@ def _finite(x: float) -> float | None:
     return float(x) if math.isfinite(x) else None
 
 
-def _row(dev: Device, req: Mapping[str, Any], kcr: float, angle: float, bmax: float) -> tuple[dict | None, str | None]:
+def row(dev: Device, req: Mapping[str, Any], kcr: float, angle: float, bmax: float) -> tuple[dict | None, str | None]:
     b = float(req.get("damping") or 0.0)
     k = req.get("stiffness")
     if math.isnan(kcr) or math.isnan(bmax):
@@ -70,37 +70,50 @@ def evaluate_batch(devices: Sequence[Device], requirements: Sequence[Mapping[str
     The requirements must already be valid (optim.studies checks each point's).  When the batch
     raises, it is split in halves down to the point that raises, so that only that point fails.
     """
+    return by_delay_class(devices, requirements, _evaluate_same_class)
+
+
+Batch = Callable[[Sequence[Device], Sequence[Mapping[str, Any]]], list[tuple[dict | None, str | None]]]
+
+
+def by_delay_class(devices: Sequence[Device], requirements: Sequence[Mapping[str, Any]], same_class: Batch
+                   ) -> list[tuple[dict | None, str | None]]:
+    """Run ``same_class`` on the points of each delay class, bisecting a batch that raises down to its point.
+
+    Rows of one batch share a grid length set by the longest delay: points of very different delays are
+    scanned in separate batches (delay classes a factor 2 apart) so that one long delay does not make
+    every row of the chunk long."""
     if not devices:
         return []
-    # Rows of one batch share a grid length set by the longest delay: points of very different delays are
-    # scanned in separate batches (delay classes a factor 2 apart) so that one long delay does not make
-    # every row of the chunk long.
     classes: dict[int, list[int]] = {}
     for i, dev in enumerate(devices):
         classes.setdefault(int(math.log2(1.0 + dev.delay_samples)), []).append(i)
-    if len(classes) > 1:
-        out: list[tuple[dict | None, str | None]] = [(None, None)] * len(devices)
-        for idx in classes.values():
-            for i, r in zip(idx, _evaluate_same_class([devices[i] for i in idx], [requirements[i] for i in idx])):
-                out[i] = r
-        return out
-    return _evaluate_same_class(devices, requirements)
+    out: list[tuple[dict | None, str | None]] = [(None, None)] * len(devices)
+    for idx in classes.values():
+        for i, r in zip(idx, _bisecting(same_class, [devices[i] for i in idx], [requirements[i] for i in idx])):
+            out[i] = r
+    return out
+
+
+def _bisecting(same_class: Batch, devices: Sequence[Device], requirements: Sequence[Mapping[str, Any]]
+               ) -> list[tuple[dict | None, str | None]]:
+    try:
+        # inf/nan inside the scan are expected (no crossover, 1/0 at a pole); NaN results are caught per point
+        with np.errstate(all="ignore"):
+            return same_class(devices, requirements)
+    except Exception as exc:  # noqa: BLE001 - recorded against the point that raises, never the whole chunk
+        if len(devices) == 1:
+            return [(None, f"{type(exc).__name__}: {exc}")]
+        half = len(devices) // 2
+        return (_bisecting(same_class, devices[:half], requirements[:half])
+                + _bisecting(same_class, devices[half:], requirements[half:]))
 
 
 def _evaluate_same_class(devices: Sequence[Device], requirements: Sequence[Mapping[str, Any]]
                          ) -> list[tuple[dict | None, str | None]]:
     b = np.array([float(r.get("damping") or 0.0) for r in requirements])
-    try:
-        # inf/nan inside the scan are expected (no crossover, 1/0 at a pole); NaN results are caught per point
-        with np.errstate(all="ignore"):
-            res = batch_critical_stiffness(devices, b)
-    except Exception as exc:  # noqa: BLE001 - recorded against the point that raises, never the whole chunk
-        if len(devices) == 1:
-            return [(None, f"{type(exc).__name__}: {exc}")]
-        half = len(devices) // 2
-        return (_evaluate_same_class(devices[:half], requirements[:half])
-                + _evaluate_same_class(devices[half:], requirements[half:]))
-    return [_row(dev, req, float(k), float(a), float(bm))
+    res = batch_critical_stiffness(devices, b)
+    return [row(dev, req, float(k), float(a), float(bm))
             for dev, req, k, a, bm in zip(devices, requirements, res.critical_stiffness, res.crossover_angle,
                                           res.max_stable_damping)]
 

@@ -29,7 +29,11 @@ from models.device import Device
 from models.discretize import split_delay
 
 __all__ = ["PassivityCheck", "PassiveStiffness", "passivity_samples", "kernel", "passivity_margin",
-           "is_passive", "max_passive_stiffness", "largest_passive_stiffness", "passive_alpha_on_grid"]
+           "is_passive", "max_passive_stiffness", "largest_passive_stiffness", "passive_alpha_on_grid",
+           "batch_required_damping"]
+
+_GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
+_GOLDEN_STEPS = 80         # a bracket of 2 grid steps shrinks by 0.618⁸⁰ ≈ 2e-17: θ to the last bit
 
 
 @dataclass(frozen=True)
@@ -178,3 +182,48 @@ def passive_alpha_on_grid(delta: float, d: int, betas: np.ndarray) -> tuple[np.n
     up = upper[np.arange(upper.shape[0]), j]
     ok = (up > np.maximum(lower, 0.0)) & np.all(np.where(np.abs(s)[None, :] < 1e-12, slack > 0, True), axis=1)
     return np.where(ok, up, 0.0), theta[j]
+
+
+def batch_required_damping(d: int, half_tk: np.ndarray, damping: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """sup over θ ∈ [0, π] of P(θ) = (K·T/2)·s_d(θ) − B·cos((d+1)θ) for many (K·T/2, B) with the same d.
+
+    The vectorised form of ``passivity_margin`` (the study path): the same grid, its three largest
+    samples per row refined by golden-section search over [θ_{i−1}, θ_{i+1}] in lock step (P is smooth
+    there; the bounded Brent search of ``passivity_margin`` is the second computation in the tests).
+    Returns (required damping [N·s/m], worst θ [rad]) per row.
+    """
+    half_tk = np.asarray(half_tk, float)
+    damping = np.asarray(damping, float)
+    theta = _grid(d)
+    s, c = kernel(theta, d)
+    p = half_tk[:, None] * s[None, :] - damping[:, None] * c[None, :]
+    n, m = p.shape
+    top = np.argpartition(-p, min(3, m) - 1, axis=1)[:, :3]
+    rows = np.repeat(np.arange(n), top.shape[1])
+    idx = top.ravel()
+    a, b = theta[np.maximum(idx - 1, 0)], theta[np.minimum(idx + 1, m - 1)]
+    kk, bb = half_tk[rows], damping[rows]
+
+    def f(t: np.ndarray) -> np.ndarray:
+        ss, cc = kernel(t, d)
+        return kk * ss - bb * cc
+
+    x1, x2 = b - _GOLDEN * (b - a), a + _GOLDEN * (b - a)
+    f1, f2 = f(x1), f(x2)
+    for _ in range(_GOLDEN_STEPS):
+        left = f1 > f2                        # the maximum is in [a, x2]
+        a, b = np.where(left, a, x1), np.where(left, x2, b)
+        n1 = np.where(left, b - _GOLDEN * (b - a), x2)
+        n2 = np.where(left, x1, a + _GOLDEN * (b - a))
+        fn = f(np.where(left, n1, n2))
+        f1, f2 = np.where(left, fn, f2), np.where(left, f1, fn)
+        x1, x2 = n1, n2
+    t_ref = np.where(f1 > f2, x1, x2).reshape(n, -1)
+    v_ref = np.maximum(f1, f2).reshape(n, -1)
+    # the grid samples themselves stay candidates (θ = 0 and π are ends no bracket interior reaches)
+    v_grid = p[np.arange(n)[:, None], top]
+    better = v_ref > v_grid
+    t_all = np.where(better, t_ref, theta[top])
+    v_all = np.where(better, v_ref, v_grid)
+    j = np.argmax(v_all, axis=1)
+    return v_all[np.arange(n), j], t_all[np.arange(n), j]

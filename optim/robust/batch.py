@@ -120,6 +120,13 @@ class _Evaluator:
         return out
 
 
+def _unit_steps(counts: np.ndarray) -> np.ndarray:
+    """Row i: linspace(0, 1, counts[i]) padded with 1.0 to the longest row."""
+    j = np.arange(int(counts.max()), dtype=float)[None, :]
+    den = np.maximum(counts - 1, 1).astype(float)[:, None]
+    return np.minimum(j / den, 1.0)
+
+
 def _grids(devices: Sequence[Device], plants, betas: np.ndarray) -> np.ndarray:
     """One sorted grid per device (rows of equal length), as optim.crossovers.scan_grid builds it."""
     delta = np.array([d.delta for d in devices])
@@ -129,12 +136,14 @@ def _grids(devices: Sequence[Device], plants, betas: np.ndarray) -> np.ndarray:
     damp = np.maximum(delta, 0.0)
     theta_min = np.where(damp > 0, 1e-4 * np.minimum(np.minimum(1.0, np.sqrt(damp * scale)), 10 * damp), 1e-4 * scale)
     theta_lin = np.maximum(0.05, theta_min * 10)          # as scan_grid: 60 log samples a decade up to 0.05 rad
-    n_log = int(max(40, np.max(60 * np.log10(theta_lin / theta_min)) + 2))
     step = np.minimum(0.02, math.pi / (16.0 * (ds + 1.0)))
-    n_lin = int(np.max(np.ceil((math.pi - theta_lin) / step))) + 1
-    u = np.linspace(0.0, 1.0, n_log)
-    log_part = theta_min[:, None] * (theta_lin / theta_min)[:, None] ** u[None, :]
-    lin_part = theta_lin[:, None] + (math.pi - theta_lin)[:, None] * np.linspace(0.0, 1.0, n_lin)[None, :]
+    # Each row's own sample counts (as scan_grid), padded to the batch's longest by repeating the row's last
+    # sample: a row's distinct samples, and so its answer, do not depend on which other rows share the batch
+    # (a study resumed in other chunks gives bit-identical rows).
+    n_log = np.maximum(40, (60 * np.log10(theta_lin / theta_min)).astype(np.int64) + 2)
+    n_lin = np.ceil((math.pi - theta_lin) / step).astype(np.int64) + 1
+    log_part = theta_min[:, None] * (theta_lin / theta_min)[:, None] ** _unit_steps(n_log)
+    lin_part = theta_lin[:, None] + (math.pi - theta_lin)[:, None] * _unit_steps(n_lin)
     parts = [log_part, lin_part]
     # a conjugate pair gives the same angle twice: one cluster is enough
     hints = [tuple(sorted({h for h in tuple(p.pole_angles()) + tuple(p.zero_angles()) if 0.0 < h <= math.pi}))

@@ -15,5 +15,6 @@ class StudySettings(BaseSettings):
     workers: int | None = Field(default=None, ge=1, le=256,
                                 description="local worker processes; default one per core")
     chunk_size: int = Field(default=64, ge=1, le=100_000,
-                            description="points per task: large enough to amortise a task's overhead, "
-                                        "small enough for progress and a prompt cancel")
+                            description="points per task: large enough to amortise a task's overhead, small enough "
+                                        "for progress and a prompt cancel (vectorised problems take their "
+                                        "chunk_factor times this, optim.studies)")

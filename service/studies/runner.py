@@ -20,7 +20,7 @@ from concurrent.futures import CancelledError
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any, Callable, Iterator
 
-from optim.studies import StudyInputError, StudyPlan, evaluate_chunk, plan_study, point_hash
+from optim.studies import StudyInputError, StudyPlan, evaluate_chunk, get_problem, plan_study, point_hash
 
 from .executors import Executor
 from .store import StudyStore
@@ -108,16 +108,24 @@ class StudyRunner:
             self.executor = self._factory()
         return self.executor
 
+    def chunk_size_for(self, problem: str) -> int:
+        """Points per chunk for this problem: the runner's chunk size times the problem's chunk_factor."""
+        try:
+            return self.chunk_size * get_problem(problem).chunk_factor
+        except StudyInputError:   # unknown or unavailable: the study fails where it is planned, not here
+            return self.chunk_size
+
     def _blocks(self, plan: StudyPlan, stored: set[str]) -> Iterator[list[tuple[int, str, list[float]]]]:
         prefix, paths = plan.digest(), plan.paths
         chunk: list[tuple[int, str, list[float]]] = []
+        size = self.chunk_size_for(plan.problem)
         for start in range(0, plan.total, _BLOCK):
             for k, row in enumerate(plan.values(start, start + _BLOCK).tolist()):
                 digest = point_hash(prefix, start + k, paths, row)
                 if digest in stored:
                     continue
                 chunk.append((start + k, digest, row))
-                if len(chunk) == self.chunk_size:
+                if len(chunk) == size:
                     yield chunk
                     chunk = []
         if chunk:
