@@ -29,11 +29,12 @@ from .models import Health
 
 if TYPE_CHECKING:  # modules of endpoints that may not be in every build (imported when called)
     from service.schemas.feedforward import ForceFeedforwardResponse, InertiaResponse
-    from service.schemas.studies import StudyCreated, StudyResults, StudyStatus
+    from service.schemas.studies import StudyCreated, StudyList, StudyResults, StudyStatus
 
 __all__ = ["Call", "Kind", "Plot", "health", "presets", "stability", "boundary", "force_feedforward",
            "design_stiffness", "design_inertia", "simulate", "plot_simulation", "plot_boundary", "plot_bode",
-           "submit_study", "study", "study_results", "plot_study", "device_json"]
+           "submit_study", "study", "studies", "study_results", "export_study", "cancel_study", "plot_study",
+           "device_json", "Export"]
 
 R = TypeVar("R")
 #: Kinds of call, each with its own timeout (see :class:`clients.client.Timeouts`).
@@ -47,7 +48,7 @@ PartLike = BaseModel | Mapping[str, Any]
 class Call(Generic[R]):
     """One HTTP request of the contract and the parser of its 2xx answer."""
 
-    method: Literal["GET", "POST"]
+    method: Literal["GET", "POST", "DELETE"]
     path: str
     kind: Kind
     parse: Callable[[httpx.Response], R]
@@ -204,6 +205,48 @@ def study(study_id: str) -> Call[StudyStatus]:
     from service.schemas.studies import StudyStatus
 
     return Call("GET", f"/v1/studies/{_id(study_id)}", "read", _model(StudyStatus))
+
+
+def studies(*, offset: int | None = None, limit: int | None = None, status: str | None = None) -> Call[StudyList]:
+    """``GET /v1/studies``: the studies, newest first."""
+    from service.schemas.studies import StudyList
+
+    params = {k: v for k, v in (("offset", offset), ("limit", limit), ("status", status)) if v is not None}
+    return Call("GET", "/v1/studies", "read", _model(StudyList), params=params)
+
+
+def cancel_study(study_id: str, *, purge: bool = False) -> Call[StudyStatus | None]:
+    """``DELETE /v1/studies/{id}``: cancel a queued or running study (stored rows stay); ``purge`` also deletes
+    the study and its rows (the answer is then None: 204)."""
+    from service.schemas.studies import StudyStatus
+
+    def parse(response: httpx.Response) -> StudyStatus | None:
+        return None if response.status_code == 204 else StudyStatus.model_validate_json(response.content)
+
+    return Call("DELETE", f"/v1/studies/{_id(study_id)}", "read", parse, params={"purge": "true"} if purge else None)
+
+
+@dataclasses.dataclass(frozen=True)
+class Export:
+    """Every stored row of a study as the service wrote it: CSV text or Parquet bytes."""
+
+    content: bytes
+    media_type: str
+
+    def save(self, path: str) -> None:
+        with open(path, "wb") as fh:
+            fh.write(self.content)
+
+
+def export_study(study_id: str, format: Literal["csv", "parquet"] = "csv") -> Call[Export]:  # noqa: A002
+    """``GET /v1/studies/{id}/results?format=csv|parquet``: every stored row, streamed."""
+    if format not in ("csv", "parquet"):
+        raise ValueError("format: must be csv or parquet (the json pages come from study_results)")
+
+    def parse(response: httpx.Response) -> Export:
+        return Export(response.content, response.headers.get("content-type", "").split(";")[0])
+
+    return Call("GET", f"/v1/studies/{_id(study_id)}/results", "results", parse, params={"format": format})
 
 
 def study_results(study_id: str, *, offset: int | None = None, limit: int | None = None) -> Call[StudyResults]:

@@ -1,140 +1,137 @@
 """``zwidth study run|status|results|cancel``: batch studies on a zwidth server, with a progress bar.
 
-Exit codes as every ``zwidth`` command (clients/cli_common.py): 0 ok, 1 the study did not finish
+Every call goes through :class:`clients.ZwidthClient` (its timeouts, retries and errors), and the
+exit codes are every ``zwidth`` command's (clients/cli_common.py): 0 ok, 1 the study did not finish
 ``done``, 2 a 422 (the message names the field) or bad usage, 3 the service could not answer.
 """
 
 from __future__ import annotations
 
 import json
-import os
 import sys
 import time
 from pathlib import Path
 
-import httpx
 import typer
+
+from .cli_common import EXIT_NO, Token, Url, err, handle_errors, out, usage_error
+from .client import DEFAULT_URL, ZwidthClient
+from .errors import APIError
 
 app = typer.Typer(help="Batch design-space studies on a zwidth server (POST /v1/studies).", no_args_is_help=True)
 
-_SERVER = typer.Option("http://127.0.0.1:8000", "--url", "--server", envvar="ZWIDTH_URL", help="service URL")
 _ACTIVE = ("queued", "running")
 
 
-class _Service(httpx.Client):
-    """httpx.Client whose transport failures end the command with exit code 3."""
-
-    def send(self, *args, **kw):
-        try:
-            return super().send(*args, **kw)
-        except httpx.TransportError as exc:
-            typer.echo(f"error: the service at {self.base_url} did not answer ({type(exc).__name__}: {exc})", err=True)
-            raise typer.Exit(3) from None
+def _client(url: str, token: str | None) -> ZwidthClient:
+    """The client of every study command (tests replace it with one on an in-process app)."""
+    return ZwidthClient(url, token=token)
 
 
-def _client(server: str) -> httpx.Client:
-    token = os.environ.get("ZWIDTH_API_TOKEN")
-    headers = {"Authorization": f"Bearer {token}"} if token else {}
-    # Per kind of call: submissions and exports may take a while, status polls should not.
-    return _Service(base_url=server, headers=headers, timeout=httpx.Timeout(10.0, read=300.0))
-
-
-def _check(r: httpx.Response) -> dict:
-    if r.status_code >= 400:
-        code = 2 if r.status_code == 422 else 3
-        try:
-            detail = r.json().get("detail")
-        except ValueError:
-            detail = r.text
-        if isinstance(detail, list):
-            detail = "; ".join(f"{'.'.join(map(str, e.get('loc', ())))}: {e.get('msg')}" for e in detail)
-        typer.echo(f"error {r.status_code}: {detail}", err=True)
-        raise typer.Exit(code)
-    return r.json() if r.headers.get("content-type", "").startswith("application/json") else {}
-
-
-def _follow(http: httpx.Client, study_id: str, poll: float) -> dict:
+def _follow(zw: ZwidthClient, study_id: str, poll: float):
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
     with Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
-                  TextColumn("{task.fields[rate]}"), TimeRemainingColumn(), transient=False) as bar:
-        st = _check(http.get(f"/v1/studies/{study_id}"))
-        task = bar.add_task(study_id[:8], total=st["total"], rate="")
+                  TextColumn("{task.fields[rate]}"), TimeRemainingColumn(), console=err, transient=False) as bar:
+        st = zw.study(study_id)
+        task = bar.add_task(study_id[:8], total=st.total, rate="")
         while True:
-            rate = f"{st['rate']:.0f} pts/s" if st.get("rate") else ""
-            bar.update(task, completed=st["done"], rate=rate, description=f"{study_id[:8]} {st['status']}")
-            if st["status"] not in _ACTIVE:
+            rate = f"{st.rate:.0f} pts/s" if st.rate else ""
+            bar.update(task, completed=st.done, rate=rate, description=f"{study_id[:8]} {st.status}")
+            if st.status not in _ACTIVE:
                 return st
             time.sleep(poll)
-            st = _check(http.get(f"/v1/studies/{study_id}"))
+            st = zw.study(study_id)
+
+
+def _read_request(request: Path) -> dict:
+    try:
+        body = json.loads(sys.stdin.read() if str(request) == "-" else request.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise usage_error(f"{request}: cannot read a JSON study request ({exc})") from None
+    if not isinstance(body, dict):
+        raise usage_error(f"{request}: expected a JSON object (problem, base, sweep)")
+    return body
 
 
 @app.command()
+@handle_errors
 def run(request: Path = typer.Argument(..., help="study request (JSON file), '-' for stdin"),
-        server: str = _SERVER, wait: bool = typer.Option(True, help="follow the study with a progress bar"),
+        url: Url = DEFAULT_URL, token: Token = None,
+        wait: bool = typer.Option(True, help="follow the study with a progress bar"),
         poll: float = typer.Option(0.5, min=0.05, help="seconds between status polls")) -> None:
     """Submit a study; print its id (and follow it to the end with --wait)."""
-    body = json.loads(sys.stdin.read() if str(request) == "-" else request.read_text())
-    with _client(server) as http:
-        created = _check(http.post("/v1/studies", json=body))
-        typer.echo(f"study {created['id']}: {created['points']} points ({created['problem']})")
+    body = _read_request(request)
+    with _client(url, token) as zw:
+        created = zw.submit_study(body)
+        out.print(f"study {created.id}: {created.points} points ({created.problem})")
         if wait:
-            st = _follow(http, created["id"], poll)
-            typer.echo(f"{st['status']}: {st['done']}/{st['total']} points, {st['failed']} failed"
-                       + (f" ({st['error']})" if st.get("error") else ""))
-            if st["status"] != "done":
-                raise typer.Exit(1)
+            st = _follow(zw, created.id, poll)
+            out.print(f"{st.status}: {st.done}/{st.total} points, {st.failed} failed"
+                      + (f" ({st.error})" if st.error else ""))
+            if st.status != "done":
+                raise typer.Exit(EXIT_NO)
 
 
 @app.command()
-def status(study_id: str = typer.Argument(None, help="study id; all studies when omitted"), server: str = _SERVER,
-           as_json: bool = typer.Option(False, "--json")) -> None:
+@handle_errors
+def status(study_id: str = typer.Argument(None, help="study id; all studies when omitted"),
+           url: Url = DEFAULT_URL, token: Token = None, as_json: bool = typer.Option(False, "--json")) -> None:
     """Status, progress, rate and ETA of a study (or a list of all)."""
-    with _client(server) as http:
-        data = _check(http.get(f"/v1/studies/{study_id}" if study_id else "/v1/studies"))
+    with _client(url, token) as zw:
+        data = zw.study(study_id) if study_id else zw.studies()
     if as_json:
-        typer.echo(json.dumps(data, indent=2))
+        sys.stdout.write(data.model_dump_json(indent=2) + "\n")
         return
-    for st in ([data] if study_id else data["studies"]):
-        eta = f", ETA {st['eta_s']:.0f} s" if st.get("eta_s") else ""
-        rate = f", {st['rate']:.0f} pts/s" if st.get("rate") else ""
-        typer.echo(f"{st['id']}  {st['problem']:9} {st['status']:9} {st['done']}/{st['total']} "
-                   f"({st['failed']} failed){rate}{eta}")
+    for st in ([data] if study_id else data.studies):
+        eta = f", ETA {st.eta_s:.0f} s" if st.eta_s else ""
+        rate = f", {st.rate:.0f} pts/s" if st.rate else ""
+        out.print(f"{st.id}  {st.problem:9} {st.status:9} {st.done}/{st.total} ({st.failed} failed){rate}{eta}")
 
 
 @app.command()
-def results(study_id: str, server: str = _SERVER,
+@handle_errors
+def results(study_id: str, url: Url = DEFAULT_URL, token: Token = None,
             fmt: str = typer.Option("csv", "--format", help="csv | parquet | json"),
-            out: Path = typer.Option(None, "--out", help="file to write; stdout for csv/json when omitted")) -> None:
+            dest: Path = typer.Option(None, "--out", help="file to write; stdout for csv/json when omitted")) -> None:
     """Download a study's results (JSON gathers every page)."""
     if fmt not in ("csv", "parquet", "json"):
-        typer.echo("--format must be csv, parquet or json", err=True)
-        raise typer.Exit(2)
-    if fmt == "parquet" and out is None:
-        typer.echo("--out is required for parquet", err=True)
-        raise typer.Exit(2)
-    with _client(server) as http:
+        raise usage_error("--format must be csv, parquet or json")
+    if fmt == "parquet" and dest is None:
+        raise usage_error("--out is required for parquet")
+    with _client(url, token) as zw:
         if fmt == "json":
             rows, offset = [], 0
             while offset is not None:
-                page = _check(http.get(f"/v1/studies/{study_id}/results", params={"offset": offset, "limit": 10000}))
-                rows += page["rows"]
-                offset = page["next_offset"]
+                page = zw.study_results(study_id, offset=offset, limit=10000)
+                rows += page.rows
+                offset = page.next_offset
             payload = json.dumps(rows, indent=1).encode()
         else:
-            r = http.get(f"/v1/studies/{study_id}/results", params={"format": fmt})
-            _check(r)
-            payload = r.content
-    if out is None:
+            payload = zw.export_study(study_id, fmt).content
+    if dest is None:
         sys.stdout.write(payload.decode())
     else:
-        out.write_bytes(payload)
-        typer.echo(f"wrote {out} ({len(payload)} bytes)")
+        dest.write_bytes(payload)
+        out.print(f"wrote {dest} ({len(payload)} bytes)")
 
 
 @app.command()
-def cancel(study_id: str, server: str = _SERVER) -> None:
-    """Cancel a queued or running study (stored results stay)."""
-    with _client(server) as http:
-        st = _check(http.delete(f"/v1/studies/{study_id}"))
-    typer.echo(f"{st['id']}: {st['status']} at {st['done']}/{st['total']}")
+@handle_errors
+def cancel(study_id: str, url: Url = DEFAULT_URL, token: Token = None,
+           purge: bool = typer.Option(False, help="also delete the study and its stored rows")) -> None:
+    """Cancel a queued or running study (stored results stay unless --purge)."""
+    with _client(url, token) as zw:
+        st = zw.cancel_study(study_id)
+        if purge:
+            # the service answers 409 while the runner is still stopping the study: ask again for a while
+            deadline = time.monotonic() + 30.0
+            while True:
+                try:
+                    st = zw.cancel_study(study_id, purge=True)
+                    break
+                except APIError as exc:
+                    if exc.status != 409 or time.monotonic() > deadline:
+                        raise
+                    time.sleep(0.2)
+    out.print(f"{study_id}: purged" if st is None else f"{st.id}: {st.status} at {st.done}/{st.total}")

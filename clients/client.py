@@ -187,6 +187,9 @@ class ZwidthClient(_Core):
     plot_bode = _sync(calls.plot_bode)
     submit_study = _sync(calls.submit_study)
     study = _sync(calls.study)
+    studies = _sync(calls.studies)
+    cancel_study = _sync(calls.cancel_study)
+    export_study = _sync(calls.export_study)
     study_results = _sync(calls.study_results)
     plot_study = _sync(calls.plot_study)
 
@@ -239,5 +242,8 @@ class AsyncZwidthClient(_Core):
     plot_bode = _async(calls.plot_bode)
     submit_study = _async(calls.submit_study)
     study = _async(calls.study)
+    studies = _async(calls.studies)
+    cancel_study = _async(calls.cancel_study)
+    export_study = _async(calls.export_study)
     study_results = _async(calls.study_results)
     plot_study = _async(calls.plot_study)

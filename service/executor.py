@@ -213,10 +213,14 @@ class BoundedExecutor:
     def warm_up(self) -> None:
         """Start every worker now (optional: they otherwise start on first use)."""
         started = []
-        for _ in range(self.workers):
-            if self._slots.acquire(blocking=False):
-                started.append(self._take())
         try:
+            for _ in range(self.workers):
+                if self._slots.acquire(blocking=False):
+                    try:
+                        started.append(self._take())
+                    except ComputeUnavailable:   # shut down while warming up (an app stopped at once)
+                        self._slots.release()
+                        return
             for w in started:
                 w.wait_ready(STARTUP_TIMEOUT)
         finally:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import contextlib
 import csv
 import io
 import json
@@ -11,7 +10,7 @@ import pytest
 from fastapi.testclient import TestClient
 from typer.testing import CliRunner
 
-from clients import cli_study
+from clients import ZwidthClient, cli_study
 from clients.cli import app as cli
 from service.app import create_app
 from service.settings import Settings
@@ -22,7 +21,9 @@ from tests.service.studies_helpers import small_study
 def zwidth(tmp_path, monkeypatch):
     monkeypatch.setenv("ZWIDTH_STUDY_WORKERS", "1")
     with TestClient(create_app(Settings(database_url=f"sqlite:///{tmp_path / 's.db'}"))) as client:
-        monkeypatch.setattr(cli_study, "_client", lambda server: contextlib.nullcontext(client))
+        # the CLI's own ZwidthClient, sending through the in-process app's transport
+        monkeypatch.setattr(cli_study, "_client",
+                            lambda url, token: ZwidthClient("http://testserver", transport=client._transport))
         runner = CliRunner()
         yield lambda *args, **kw: runner.invoke(cli, ["study", *args], **kw)
 
@@ -60,4 +61,23 @@ def test_no_service_is_exit_code_3(tmp_path):
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]  # nothing listens here once closed
     r = CliRunner().invoke(cli, ["study", "run", str(req), "--url", f"http://127.0.0.1:{port}"])
-    assert r.exit_code == 3 and "did not answer" in r.output
+    assert r.exit_code == 3 and "no answer from the service" in r.output
+
+
+def test_cancel_and_purge(zwidth, tmp_path):
+    req = tmp_path / "study.json"
+    req.write_text(json.dumps(small_study(3)))
+    sid = zwidth("run", str(req), "--no-wait").output.split()[1].rstrip(":")
+    r = zwidth("cancel", sid)
+    assert r.exit_code == 0 and sid in r.output            # cancelled, or done already: both are answers
+    r = zwidth("cancel", sid, "--purge")
+    assert r.exit_code == 0 and "purged" in r.output
+    r = zwidth("status", sid)
+    assert r.exit_code == 3 and "404" in r.output          # gone
+
+
+def test_unreadable_request_is_usage(zwidth, tmp_path):
+    req = tmp_path / "bad.json"
+    req.write_text("{not json")
+    r = zwidth("run", str(req))
+    assert r.exit_code == 2 and "cannot read" in r.output

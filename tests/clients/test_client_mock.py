@@ -52,7 +52,7 @@ def test_exception_tree():
 def test_both_clients_expose_the_same_methods_with_the_builders_signatures():
     import inspect
 
-    names = [n for n in calls.__all__ if n not in ("Call", "Kind", "Plot", "device_json")]
+    names = [n for n in calls.__all__ if n not in ("Call", "Kind", "Plot", "Export", "device_json")]
     for name in names:
         build = getattr(calls, name)
         for cls in (ZwidthClient, AsyncZwidthClient):
@@ -221,3 +221,29 @@ def test_study_calls():
     for bad in ("", "..", "a/b", "a?b"):
         with pytest.raises(ValueError, match="study_id"):
             calls.plot_study(bad, "y", "x")
+
+
+def test_study_calls_send_the_contract_requests():
+    seen = []
+
+    def answer(r: httpx.Request) -> httpx.Response:
+        seen.append(r)
+        if r.method == "DELETE" and r.url.params.get("purge") == "true":
+            return httpx.Response(204)
+        if r.url.params.get("format") == "parquet":
+            return httpx.Response(200, content=b"PAR1...", headers={"content-type": "application/vnd.apache.parquet"})
+        return httpx.Response(200, json={"studies": [], "offset": 0, "limit": 5})
+
+    zw, _ = client(answer)
+    assert zw.studies(limit=5, status="done").studies == []
+    assert zw.cancel_study("abc", purge=True) is None
+    export = zw.export_study("abc", "parquet")
+    assert export.content.startswith(b"PAR1") and export.media_type == "application/vnd.apache.parquet"
+    with pytest.raises(ValueError, match="study_id"):
+        zw.cancel_study("../x")
+    with pytest.raises(ValueError, match="format"):
+        zw.export_study("abc", "xlsx")
+    assert [(r.method, r.url.path, dict(r.url.params)) for r in seen] == [
+        ("GET", "/v1/studies", {"limit": "5", "status": "done"}),
+        ("DELETE", "/v1/studies/abc", {"purge": "true"}),
+        ("GET", "/v1/studies/abc/results", {"format": "parquet"})]
