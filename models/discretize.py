@@ -123,8 +123,14 @@ class RigidZOH:
         object.__setattr__(self, "_coef", self._compute_coefficients())
         object.__setattr__(self, "_c0", (phi2(self.delta), _rigid_c(self.delta)))
 
-    def _coefficients(self) -> tuple[float, float, float, float, float, float, float]:
+    def coefficients(self) -> tuple[float, float, float, float, float, float, float]:
+        """(1 − p, Φ₁₂, Γ0 pos, Γ0 vel, Γ1 pos, Γ1 vel, 1 − f): the closed-form ZOH coefficients
+        (dimensionless), each from φ₁/φ₂/expm1 without cancellation (batched evaluators read them)."""
         return self._coef  # type: ignore[attr-defined]
+
+    def f0_numerator(self) -> tuple[float, float]:
+        """(φ₂(δ), c(δ)): N(z) = φ₂·(z + 1) + c of the whole-sample (f = 0) form, its zero near −1 kept."""
+        return self._c0  # type: ignore[attr-defined]
 
     def _compute_coefficients(self) -> tuple[float, float, float, float, float, float, float]:
         dl, f = self.delta, self.f
@@ -138,7 +144,7 @@ class RigidZOH:
         return one_minus_p, phi12, g0p, g0v, g1p, g1v, s0
 
     def numerator(self, z: np.ndarray) -> np.ndarray:
-        one_minus_p, phi12, g0p, g0v, g1p, g1v, _ = self._coefficients()
+        one_minus_p, phi12, g0p, g0v, g1p, g1v, _ = self.coefficients()
         if self.f == 0.0:
             # φ₂·(z + 1) + c(δ): the zero near z = -1 without cancellation.
             a, c = self._c0  # type: ignore[attr-defined]
@@ -168,7 +174,7 @@ class RigidZOH:
 
     def matrices(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(Φ, Γ0, Γ1, C) of the position/velocity model (dimensionless)."""
-        one_minus_p, phi12, g0p, g0v, g1p, g1v, _ = self._coefficients()
+        one_minus_p, phi12, g0p, g0v, g1p, g1v, _ = self.coefficients()
         phi = np.array([[1.0, phi12], [0.0, 1.0 - one_minus_p]])
         return phi, np.array([g0p, g0v]), np.array([g1p, g1v]), np.array([1.0, 0.0])
 
@@ -222,7 +228,8 @@ class StateSpaceZOH:
     zeros_hint: tuple[float, ...] = ()
     _cache: dict = field(default_factory=dict, compare=False, repr=False)
 
-    def _mats(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def accurate_matrices(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(Φ, E = A·Ψ(1), Γ0, Γ1): E from the accurate form, never Φ − I by subtraction (cached)."""
         if "m" not in self._cache:
             n = self.a.shape[0]
             big = np.zeros((2 * n, 2 * n))
@@ -244,7 +251,7 @@ class StateSpaceZOH:
     def inverse_response(self, theta: np.ndarray) -> np.ndarray:
         return 1.0 / self.response(theta)
 
-    def _modal(self):
+    def modal_form(self):
         """Split off an exact integrator (E's first column is exactly 0) and diagonalise the rest.
 
         With E = [[0, e₁₂ᵀ], [0, E₂₂]] the resolvent is solved as x₂ = ((z-1)I - E₂₂)⁻¹Γ₂
@@ -253,7 +260,7 @@ class StateSpaceZOH:
         Used only when V is well conditioned (error ≈ cond(V)·ε ≤ 1e-12); else None.
         """
         if "modal" not in self._cache:
-            _, emat, g0, g1 = self._mats()
+            _, emat, g0, g1 = self.accurate_matrices()
             modal = None
             if emat.shape[0] > 1 and np.all(emat[:, 0] == 0.0):
                 lam, v = np.linalg.eig(emat[1:, 1:])
@@ -270,13 +277,13 @@ class StateSpaceZOH:
         zm1 = np.expm1(1j * theta)
         zinv = np.exp(-1j * theta)
         delay = np.exp(-1j * self.d * theta)
-        modal = self._modal()
+        modal = self.modal_form()
         if modal is not None:
             lam, c1, c2v, e12v, r0, r1, g0_1, g1_1 = modal
             y = (r0[None, :] + zinv[:, None] * r1[None, :]) / (zm1[:, None] - lam[None, :])   # V⁻¹x₂
             x1 = (g0_1 + zinv * g1_1 + y @ e12v) / zm1
             return (c1 * x1 + y @ c2v) * delay
-        _, emat, g0, g1 = self._mats()
+        _, emat, g0, g1 = self.accurate_matrices()
         n = emat.shape[0]
         mats = zm1[:, None, None] * np.eye(n)[None] - emat[None]
         rhs = g0[None, :] + zinv[:, None] * g1[None, :]
@@ -291,7 +298,7 @@ class StateSpaceZOH:
         return tuple(_fold(abs(w)) for w in self.zeros_hint)
 
     def matrices(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        phi, _, g0, g1 = self._mats()
+        phi, _, g0, g1 = self.accurate_matrices()
         return phi, g0, g1, self.c
 
 

@@ -62,20 +62,20 @@ class _Evaluator:
         self.rigid = isinstance(plants[0], RigidZOH)
         self.d = np.array([p.d for p in plants], float)
         if self.rigid:
-            coef = np.array([p._coefficients() for p in plants])          # (1−p, Φ12, g0p, g0v, g1p, g1v, 1−f)
+            coef = np.array([p.coefficients() for p in plants])          # (1−p, Φ12, g0p, g0v, g1p, g1v, 1−f)
             self.coef = [coef[:, k] for k in range(coef.shape[1])]
-            c0 = np.array([p._c0 for p in plants])                          # (φ₂(δ), c(δ)) of the f = 0 form
+            c0 = np.array([p.f0_numerator() for p in plants])                          # (φ₂(δ), c(δ)) of the f = 0 form
             self.a0, self.c0 = c0[:, 0], c0[:, 1]
             self.whole = np.array([p.f == 0.0 for p in plants])
             return
-        modal = [p._modal() for p in plants]
+        modal = [p.modal_form() for p in plants]
         self.modal_ok = np.array([m is not None for m in modal])
         ref = next((m for m in modal if m is not None), None)
         if ref is not None:
             filled = [m if m is not None else tuple(np.zeros_like(np.asarray(v)) for v in ref) for m in modal]
             self.lam, self.c1, self.c2v, self.e12v, self.r0, self.r1, self.g01, self.g11 = (
                 np.array([np.asarray(m[k]) for m in filled]) for k in range(8))
-        mats = [p._mats() for p in plants]
+        mats = [p.accurate_matrices() for p in plants]
         self.emat = np.array([m[1] for m in mats])
         self.g0 = np.array([m[2] for m in mats])
         self.g1 = np.array([m[3] for m in mats])

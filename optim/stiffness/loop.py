@@ -53,8 +53,7 @@ def loop_matrices(device: Device) -> LoopMatrices:
         dl = plant.delta
         e = np.array([[0.0, phi1(dl)], [0.0, math.expm1(-dl)]])
         return LoopMatrices(e, np.asarray(g0, float), np.asarray(g1, float), np.asarray(c, float), plant.d)
-    # StateSpaceZOH keeps E = A·Ψ(1) (accurate) in its cache; matrices() only exposes Φ.
-    _, emat, g0, g1 = plant._mats()
+    _, emat, g0, g1 = plant.accurate_matrices()
     return LoopMatrices(np.array(emat), np.array(g0), np.array(g1), np.array(plant.c, dtype=float), plant.d)
 
 
