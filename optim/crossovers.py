@@ -21,7 +21,18 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-__all__ = ["Crossing", "positive_real_crossings", "scan_grid"]
+__all__ = ["Crossing", "positive_real_crossings", "scan_grid", "LOG_PER_DECADE", "LOG_END", "LOG_MIN_SAMPLES",
+           "LIN_STEP", "STEPS_PER_DELAY_TURN", "CLUSTER_HALF_WIDTH", "CLUSTER_POINTS", "CLUSTER_GEOM"]
+
+# The scan grid's constants, shared with the batched scan of optim.robust.batch (one place to change them):
+LOG_PER_DECADE = 60           # log samples per decade from θ_min ...
+LOG_END = 0.05                # ... up to this angle [rad/sample] (or 10 θ_min)
+LOG_MIN_SAMPLES = 40
+LIN_STEP = 0.02               # then a linear grid, its step at most this ...
+STEPS_PER_DELAY_TURN = 16     # ... and π/(16(d+1)), so z^-d turns by < π/16 per step
+CLUSTER_HALF_WIDTH = 50       # a cluster of CLUSTER_POINTS around each resonance, ± 50·max(δ, 1e-6) wide,
+CLUSTER_POINTS = 201
+CLUSTER_GEOM = (1e-9, 0.2, 60)  # and geometric steps h·(1 ± g) on both sides of it
 
 _MAX_ARG_STEP = 0.25          # rad of arg H between consecutive samples after refinement
 _MAX_REFINE_ROUNDS = 60
@@ -39,17 +50,18 @@ def scan_grid(theta_min: float, delay_samples: float, hints: Sequence[float], wi
     """Initial samples on [theta_min, π]."""
     # 60 samples per decade all the way up to 0.05 rad, then a linear grid that the delay's
     # phase (d·θ) cannot turn a full circle within.
-    theta_lin = max(0.05, theta_min * 10)
-    parts = [np.geomspace(theta_min, theta_lin, max(40, int(60 * math.log10(theta_lin / theta_min)) + 2))]
-    step = min(0.02, math.pi / (16.0 * (delay_samples + 1.0)))
+    theta_lin = max(LOG_END, theta_min * 10)
+    parts = [np.geomspace(theta_min, theta_lin,
+                          max(LOG_MIN_SAMPLES, int(LOG_PER_DECADE * math.log10(theta_lin / theta_min)) + 2))]
+    step = min(LIN_STEP, math.pi / (STEPS_PER_DELAY_TURN * (delay_samples + 1.0)))
     parts.append(np.linspace(theta_lin, math.pi, int(math.ceil((math.pi - theta_lin) / step)) + 1))
     for h in hints:
         if 0.0 < h <= math.pi:
-            w = max(width_hint, 1e-6) * 50
+            w = max(width_hint, 1e-6) * CLUSTER_HALF_WIDTH
             lo, hi = max(theta_min, h - w), min(math.pi, h + w)
-            parts.append(np.linspace(lo, hi, 201))
-            parts.append(h * (1.0 + np.geomspace(1e-9, 0.2, 60)))
-            parts.append(h * (1.0 - np.geomspace(1e-9, 0.2, 60)))
+            parts.append(np.linspace(lo, hi, CLUSTER_POINTS))
+            parts.append(h * (1.0 + np.geomspace(*CLUSTER_GEOM)))
+            parts.append(h * (1.0 - np.geomspace(*CLUSTER_GEOM)))
     grid = np.unique(np.clip(np.concatenate(parts), theta_min, math.pi))
     return grid
 

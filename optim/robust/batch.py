@@ -33,7 +33,8 @@ import numpy as np
 from models.device import Device
 from models.discretize import RigidZOH, StateSpaceZOH
 from models.plants import stiffness_loop_plant
-from optim.crossovers import _solve_brackets
+from optim.crossovers import (CLUSTER_GEOM, CLUSTER_HALF_WIDTH, CLUSTER_POINTS, LIN_STEP, LOG_END, LOG_MIN_SAMPLES,
+                              LOG_PER_DECADE, STEPS_PER_DELAY_TURN, _solve_brackets)
 
 __all__ = ["BatchCritical", "batch_critical_stiffness"]
 
@@ -135,12 +136,12 @@ def _grids(devices: Sequence[Device], plants, betas: np.ndarray) -> np.ndarray:
     # θ_min of optim.margins with β = 0 (the damper-only loop's scan, the lower of the two)
     damp = np.maximum(delta, 0.0)
     theta_min = np.where(damp > 0, 1e-4 * np.minimum(np.minimum(1.0, np.sqrt(damp * scale)), 10 * damp), 1e-4 * scale)
-    theta_lin = np.maximum(0.05, theta_min * 10)          # as scan_grid: 60 log samples a decade up to 0.05 rad
-    step = np.minimum(0.02, math.pi / (16.0 * (ds + 1.0)))
+    theta_lin = np.maximum(LOG_END, theta_min * 10)       # as scan_grid (its constants)
+    step = np.minimum(LIN_STEP, math.pi / (STEPS_PER_DELAY_TURN * (ds + 1.0)))
     # Each row's own sample counts (as scan_grid), padded to the batch's longest by repeating the row's last
     # sample: a row's distinct samples, and so its answer, do not depend on which other rows share the batch
     # (a study resumed in other chunks gives bit-identical rows).
-    n_log = np.maximum(40, (60 * np.log10(theta_lin / theta_min)).astype(np.int64) + 2)
+    n_log = np.maximum(LOG_MIN_SAMPLES, (LOG_PER_DECADE * np.log10(theta_lin / theta_min)).astype(np.int64) + 2)
     n_lin = np.ceil((math.pi - theta_lin) / step).astype(np.int64) + 1
     log_part = theta_min[:, None] * (theta_lin / theta_min)[:, None] ** _unit_steps(n_log)
     lin_part = theta_lin[:, None] + (math.pi - theta_lin)[:, None] * _unit_steps(n_lin)
@@ -152,11 +153,11 @@ def _grids(devices: Sequence[Device], plants, betas: np.ndarray) -> np.ndarray:
     if n_h:
         # rows with fewer resonances repeat their last one (or π/2): equal lengths, duplicates are harmless
         hm = np.array([list(h) + [h[-1] if h else math.pi / 2] * (n_h - len(h)) for h in hints])
-        w = np.maximum(delta, 1e-6)[:, None] * 50
+        w = np.maximum(delta, 1e-6)[:, None] * CLUSTER_HALF_WIDTH
         lo, hi = np.maximum(theta_min[:, None], hm - w), np.minimum(math.pi, hm + w)
-        lin = np.linspace(0.0, 1.0, 201)
+        lin = np.linspace(0.0, 1.0, CLUSTER_POINTS)
         parts.append((lo[..., None] + (hi - lo)[..., None] * lin).reshape(len(devices), -1))
-        g = np.geomspace(1e-9, 0.2, 60)
+        g = np.geomspace(*CLUSTER_GEOM)
         parts.append((hm[..., None] * (1.0 + g)).reshape(len(devices), -1))
         parts.append((hm[..., None] * (1.0 - g)).reshape(len(devices), -1))
     grid = np.concatenate(parts, axis=1)
