@@ -35,8 +35,8 @@ from scipy.optimize import brentq
 
 from models.device import MAX_DELAY_SAMPLES, Device
 
-from .hardware_targets import (HardwarePoint, HardwareTarget, achievable_force_gain, achievable_stiffness,
-                               current_value, device_with, evaluate, limiting_effect)
+from .hardware_targets import (DesignFailed, HardwareTarget, Probe, achievable_force_gain, achievable_stiffness,
+                               current_value, device_with, limiting_effect)
 
 __all__ = ["FREE_PARAMETERS", "HardwareTarget", "HardwareDesign", "design_hardware", "device_with",
            "achievable_stiffness", "achievable_force_gain", "loose_direction"]
@@ -93,10 +93,6 @@ class HardwareDesign:
     elapsed_ms: float = 0.0
 
 
-class _Failed(Exception):
-    pass
-
-
 def loose_direction(free: str, target: HardwareTarget) -> str:
     """The direction in which the hardware gets looser (module docstring)."""
     if free == "mass" and target.stiffness is None and target.feedforward == "apparent_mass":
@@ -130,49 +126,42 @@ def design_hardware(device: Device, target: HardwareTarget, free: str, points: i
         raise ValueError("free: cable.stiffness needs a device with a cable block")
     target.check(device, free)
     direction = loose_direction(free, target)
-    memo: dict[float, HardwarePoint] = {}
-
-    def at(q: float) -> HardwarePoint:
-        q = float(q)
-        if q not in memo:
-            memo[q] = evaluate(device, free, q, target)
-            if memo[q].failed:
-                raise _Failed(memo[q].failed)
-        return memo[q]
 
     def done(**kw) -> HardwareDesign:
         return HardwareDesign(free=free, direction=direction, elapsed_ms=(time.perf_counter() - t0) * 1e3, **kw)
 
     try:
-        return _design(device, target, free, direction, _grid(device, free, points), at, done)
-    except _Failed as exc:
+        return _design(Probe(device, free, target), _grid(device, free, points), direction, done)
+    except DesignFailed as exc:
         return done(status="failed", reason=str(exc))
 
 
-def _design(device, target, free, direction, qs, at, done) -> HardwareDesign:
-    pts = [at(q) for q in qs]
-    curve = tuple(p.curve_entry() for p in pts)
-    combined = np.array([p.combined for p in pts])
+def _design(probe: Probe, qs: np.ndarray, direction: str, done) -> HardwareDesign:
+    target, free = probe.target, probe.free
+    curve = tuple(probe.curve_entry(q) for q in qs)
+    excess = {name: np.array([probe.excess(name, q) for q in qs]) for name in target.names}
+    combined = np.min(np.vstack(list(excess.values())), axis=0)
     i_best = int(np.argmax(combined))
-    best = pts[i_best]
     matters, flat = _matters(curve, target)
-    common = dict(curve=curve, best_value=best.value, matters=matters,
+    common = dict(curve=curve, best_value=float(qs[i_best]), matters=matters,
                   best_achievable_stiffness=curve[i_best]["achievable_stiffness"],
                   best_achievable_force_gain=curve[i_best]["achievable_force_gain"],
                   best_apparent_mass=curve[i_best]["apparent_mass"])
-    feasible = combined >= 0.0
-    edges = []
-    for j in np.nonzero(feasible[:-1] != feasible[1:])[0]:
-        lo, hi = float(qs[j]), float(qs[j + 1])
-        x = brentq(lambda q: at(q).combined, lo, hi, xtol=1e-14 * max(abs(hi), 1e-300), rtol=4e-15, maxiter=200)
-        edges.append({"value": x, "limiting_target": at(x).limiting})
-    intervals = _intervals(qs, feasible, [e["value"] for e in edges])
+    # Each target's own feasible set (Brent on its own excess: only its design runs), then their
+    # intersection: a window between two targets narrower than the grid step is still found.
+    alone = {name: _feasible_set(probe, name, qs, e) for name, e in excess.items()}
+    intervals = [(float(qs[0]), float(qs[-1]), None, None)]
+    for name, own in alone.items():
+        intervals = _intersect(intervals, own)
     if not intervals:
-        return done(status="infeasible", reason=_unreachable(target, free, qs, best), limiting_target=best.limiting,
-                    limiting_effect=limiting_effect(best.limiting, free), **common)
-    loose_end = intervals[-1][1] if direction == "max" else intervals[0][0]
-    range_end = float(qs[-1]) if direction == "max" else float(qs[0])
-    bounded = loose_end != range_end
+        limiting = _infeasible_limit(alone, excess, i_best)
+        return done(status="infeasible", reason=_unreachable(probe, qs, i_best, alone, limiting),
+                    limiting_target=limiting, limiting_effect=limiting_effect(limiting, free), **common)
+    edges = sorted(({"value": v, "limiting_target": tag} for lo, hi, tlo, thi in intervals
+                    for v, tag in ((lo, tlo), (hi, thi)) if tag is not None), key=lambda e: e["value"])
+    loose_end, limiting = (intervals[-1][1], intervals[-1][3]) if direction == "max" else \
+        (intervals[0][0], intervals[0][2])
+    bounded = limiting is not None
     notes = []
     if not matters:
         notes.append(f"{free} does not matter here: the {flat} changes by less than {_FLAT_RTOL:.0e} relative over "
@@ -180,13 +169,47 @@ def _design(device, target, free, direction, qs, at, done) -> HardwareDesign:
     elif len(intervals) > 1:
         notes.append(f"the feasible set is not one interval: {len(intervals)} intervals")
     if not bounded:
-        notes.append(f"the target holds up to the end of the scanned range ({free} = {range_end:g}) in the loose "
+        notes.append(f"the target holds up to the end of the scanned range ({free} = {loose_end:g}) in the loose "
                      f"direction")
-    limiting = next((e["limiting_target"] for e in edges if e["value"] == loose_end), None) if bounded else None
     return done(status="optimal", value=loose_end if bounded else None, bounded=bounded,
-                controller=_controller(at(loose_end), target), intervals=tuple(intervals), edges=tuple(edges),
-                note="; ".join(notes) or None, limiting_target=limiting,
-                limiting_effect=limiting_effect(limiting, free) if limiting else None, **common)
+                controller=_controller(probe, loose_end), intervals=tuple((lo, hi) for lo, hi, _, _ in intervals),
+                edges=tuple(edges), note="; ".join(notes) or None, limiting_target=limiting,
+                limiting_effect=limiting_effect(limiting, free) if bounded else None, **common)
+
+
+def _feasible_set(probe: Probe, name: str, qs: np.ndarray, excess: np.ndarray) -> list[tuple]:
+    """The named target's feasible intervals [(lo, hi, lo_tag, hi_tag)]: a tag names the target at a refined
+    edge, None at an end of the scanned range."""
+    feasible = excess >= 0.0
+    edges = []
+    for j in np.nonzero(feasible[:-1] != feasible[1:])[0]:
+        lo, hi = float(qs[j]), float(qs[j + 1])
+        edges.append(brentq(lambda q: probe.excess(name, q), lo, hi, xtol=1e-14 * max(abs(hi), 1e-300),
+                            rtol=4e-15, maxiter=200))
+    ends = (float(qs[0]), float(qs[-1]))
+    return [(lo, hi, None if lo in ends else name, None if hi in ends else name)
+            for lo, hi in _intervals(qs, feasible, edges)]
+
+
+def _intersect(a: list[tuple], b: list[tuple]) -> list[tuple]:
+    """Intersection of two sorted lists of tagged closed intervals; each end keeps the tag of the set it came from."""
+    out = []
+    for a0, a1, ta0, ta1 in a:
+        for b0, b1, tb0, tb1 in b:
+            lo, tlo = (a0, ta0) if a0 >= b0 else (b0, tb0)
+            hi, thi = (a1, ta1) if a1 <= b1 else (b1, tb1)
+            if lo <= hi:
+                out.append((lo, hi, tlo, thi))
+    return sorted(out, key=lambda iv: iv[0])
+
+
+def _infeasible_limit(alone: dict, excess: dict, i_best: int) -> str:
+    """The target that makes the answer infeasible: one never met on its own (the furthest from reach when
+    several), else (each met alone, never together) the one with the smallest excess at the best value."""
+    never = [name for name, own in alone.items() if not own]
+    if never:
+        return min(never, key=lambda n: excess[n].max())
+    return min(excess, key=lambda n: excess[n][i_best])
 
 
 def _matters(curve: tuple[dict, ...], target: HardwareTarget) -> tuple[bool, str]:
@@ -203,16 +226,16 @@ def _matters(curve: tuple[dict, ...], target: HardwareTarget) -> tuple[bool, str
     return False, " and the ".join(_WHAT[n][1] for n in target.names)
 
 
-def _controller(p: HardwarePoint, target: HardwareTarget) -> dict:
+def _controller(probe: Probe, q: float) -> dict:
     """The best controller at this value (stiffness part and/or force-feedforward part)."""
-    out: dict = {}
-    if p.stiffness is not None:
-        k, b, d = p.stiffness
+    target, out = probe.target, {}
+    if target.stiffness is not None:
+        k, b, d = probe.stiffness(q)
         kt = target.stiffness
         out.update(stiffness=kt, damping=b, achievable_stiffness=k,
                    gain_margin_db=20 * math.log10(d.critical_stiffness / kt) if d.status == "optimal" else None)
-    if p.force is not None:
-        f = p.force
+    if target.feedforward is not None:
+        f = probe.force(q)
         kf = max(target.required_force_gain(f.mass), 0.0)
         margin = None
         if kf > 0 and f.critical_force_gain is not None:
@@ -224,19 +247,24 @@ def _controller(p: HardwarePoint, target: HardwareTarget) -> dict:
     return out
 
 
-def _unreachable(target: HardwareTarget, free: str, qs: np.ndarray, best: HardwarePoint) -> str:
+def _unreachable(probe: Probe, qs: np.ndarray, i_best: int, alone: dict, limiting: str) -> str:
+    target, free, q = probe.target, probe.free, float(qs[i_best])
     asked, got = [], []
     if target.stiffness is not None:
         asked.append(f"K = {target.stiffness:g} N/m")
-        got.append(f"K* = {best.stiffness[0]:g} N/m")
+        got.append(f"K* = {probe.stiffness(q)[0]:g} N/m")
     if target.force_gain is not None:
         asked.append(f"K_f = {target.force_gain:g}")
     if target.apparent_mass is not None:
         asked.append(f"apparent mass {target.apparent_mass:g} kg")
-    if best.force is not None:
-        got.append(f"K_f* = {best.force.force_gain:g} (apparent mass {best.force.apparent_mass:g} kg)")
+    if target.feedforward is not None:
+        f = probe.force(q)
+        got.append(f"K_f* = {f.force_gain:g} (apparent mass {f.apparent_mass:g} kg)")
+    why = (f"{limiting} is not reachable on its own" if not alone[limiting] else
+           "each target is reachable alone, but not at the same value: " + "; ".join(
+               f"{n} in " + ", ".join(f"[{lo:g}, {hi:g}]" for lo, hi, _, _ in own) for n, own in alone.items()))
     return (f"the target {' and '.join(asked)} is not reachable for any {free} in [{qs[0]:g}, {qs[-1]:g}]: the best "
-            f"achievable is {', '.join(got)} at {free} = {best.value:g}, where {best.limiting} limits")
+            f"achievable is {', '.join(got)} at {free} = {q:g}; {why}")
 
 
 def _intervals(qs: np.ndarray, feasible: np.ndarray, edges: list[float]) -> list[tuple[float, float]]:

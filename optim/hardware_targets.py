@@ -25,8 +25,8 @@ from models.filters import MAX_FILTER_ORDER
 from optim.inertia import InertiaDesign, InertiaRequirements, design_inertia, upper_cutoff_hz
 from optim.stiffness import StiffnessDesign, StiffnessRequirements, design_stiffness
 
-__all__ = ["HardwareTarget", "ForceGainAt", "HardwarePoint", "achievable_stiffness", "achievable_force_gain",
-           "evaluate", "device_with", "current_value", "limiting_effect"]
+__all__ = ["HardwareTarget", "ForceGainAt", "Probe", "DesignFailed", "achievable_stiffness", "achievable_force_gain",
+           "device_with", "current_value", "limiting_effect"]
 
 
 @dataclass(frozen=True)
@@ -186,56 +186,59 @@ def achievable_force_gain(device: Device, free: str, value: float, target: Hardw
     return ForceGainAt("failed", 0.0, None, None, dev.mass, d, d.reason or f"inertia design {d.status}")
 
 
-@dataclass(frozen=True)
-class HardwarePoint:
-    """Everything the inverse design knows at one value q of the free parameter."""
+class DesignFailed(Exception):
+    """A forward design at one value of the free parameter did not converge (the message says which, where)."""
 
-    value: float
-    excess: dict
-    """target name → relative excess (≥ 0: met), see the module docstring."""
-    stiffness: tuple[float, float | None, StiffnessDesign] | None = None
-    """achievable_stiffness(...) when a stiffness target is given."""
-    force: ForceGainAt | None = None
-    """achievable_force_gain(...) when a force-feedforward target is given."""
-    failed: str | None = None
-    """why a design at this value failed (then the excess is meaningless)."""
 
-    @property
-    def combined(self) -> float:
-        """The smallest excess: ≥ 0 exactly where every target is met."""
-        return min(self.excess.values())
+class Probe:
+    """The forward designs a target needs, at values of the free parameter, memoised per design: a Brent
+    search on one target's excess runs only that target's design."""
 
-    @property
-    def limiting(self) -> str:
-        """The target with the smallest excess."""
-        return min(self.excess, key=self.excess.get)
+    def __init__(self, device: Device, free: str, target: HardwareTarget):
+        self.device, self.free, self.target = device, free, target
+        self._stiffness: dict[float, tuple] = {}
+        self._force: dict[float, ForceGainAt] = {}
 
-    def curve_entry(self) -> dict:
-        k, b = (self.stiffness[0], self.stiffness[1]) if self.stiffness else (None, None)
-        f = self.force
-        return {"value": self.value, "achievable_stiffness": k, "damping": b,
+    def stiffness(self, q: float) -> tuple[float, float | None, StiffnessDesign]:
+        """achievable_stiffness at q; DesignFailed when the stiffness design failed."""
+        q = float(q)
+        if q not in self._stiffness:
+            self._stiffness[q] = achievable_stiffness(self.device, self.free, q, self.target)
+        k, b, d = self._stiffness[q]
+        if d.status == "failed":
+            raise DesignFailed(f"the stiffness design failed at {self.free} = {q:g}: {d.reason}")
+        return k, b, d
+
+    def force(self, q: float) -> ForceGainAt:
+        """achievable_force_gain at q; DesignFailed when the inertia design failed."""
+        q = float(q)
+        if q not in self._force:
+            self._force[q] = achievable_force_gain(self.device, self.free, q, self.target)
+        f = self._force[q]
+        if f.status == "failed":
+            raise DesignFailed(f"the inertia design failed at {self.free} = {q:g}: {f.reason}")
+        return f
+
+    def excess(self, name: str, q: float) -> float:
+        """The named target's relative excess at q (module docstring): ≥ 0 exactly where it is met."""
+        t = self.target
+        if name == "stiffness":
+            return self.stiffness(q)[0] / t.stiffness - 1.0
+        f = self.force(q)
+        if name == "force_gain":
+            return f.force_gain / t.force_gain - 1.0
+        return t.apparent_mass * (1.0 + f.force_gain) / f.mass - 1.0
+
+    def excesses(self, q: float) -> dict[str, float]:
+        return {name: self.excess(name, q) for name in self.target.names}
+
+    def curve_entry(self, q: float) -> dict:
+        k, b = self.stiffness(q)[:2] if self.target.stiffness is not None else (None, None)
+        f = self.force(q) if self.target.feedforward is not None else None
+        return {"value": float(q), "achievable_stiffness": k, "damping": b,
                 "achievable_force_gain": f.force_gain if f else None,
                 "filter_cutoff_hz": f.filter_cutoff_hz if f else None,
                 "apparent_mass": f.apparent_mass if f else None}
-
-
-def evaluate(device: Device, free: str, value: float, target: HardwareTarget) -> HardwarePoint:
-    """The designs the target asks for at ``value`` and each target's relative excess."""
-    excess, stiff, force, failed = {}, None, None, None
-    if target.stiffness is not None:
-        stiff = achievable_stiffness(device, free, value, target)
-        if stiff[2].status == "failed":
-            failed = f"the stiffness design failed at {free} = {value:g}: {stiff[2].reason}"
-        excess["stiffness"] = stiff[0] / target.stiffness - 1.0
-    if target.feedforward is not None:
-        force = achievable_force_gain(device, free, value, target)
-        if force.status == "failed":
-            failed = failed or f"the inertia design failed at {free} = {value:g}: {force.reason}"
-        if target.force_gain is not None:
-            excess["force_gain"] = force.force_gain / target.force_gain - 1.0
-        else:
-            excess["apparent_mass"] = target.apparent_mass * (1.0 + force.force_gain) / force.mass - 1.0
-    return HardwarePoint(float(value), excess, stiff, force, failed)
 
 
 _EFFECTS = {
