@@ -56,7 +56,7 @@ class HardwareTarget:
     @property
     def names(self) -> tuple[str, ...]:
         """The targets given, stiffness first."""
-        return tuple(n for n in ("stiffness", self.feedforward) if n is not None and getattr(self, n) is not None)
+        return tuple(n for n in ("stiffness", "force_gain", "apparent_mass") if getattr(self, n) is not None)
 
     def requirements(self) -> StiffnessRequirements:
         return StiffnessRequirements(min_gain_margin_db=self.min_gain_margin_db, max_damping=self.max_damping)
