@@ -28,13 +28,14 @@ from service.schemas.simulate import SimulateResponse
 from .models import Health
 
 if TYPE_CHECKING:  # modules of endpoints that may not be in every build (imported when called)
+    from service.schemas.design_hardware import HardwareDesignResponse
     from service.schemas.feedforward import ForceFeedforwardResponse, InertiaResponse
     from service.schemas.studies import StudyCreated, StudyList, StudyResults, StudyStatus
 
 __all__ = ["Call", "Kind", "Plot", "health", "presets", "stability", "boundary", "force_feedforward",
-           "design_stiffness", "design_inertia", "simulate", "plot_simulation", "plot_boundary", "plot_bode",
-           "submit_study", "study", "studies", "study_results", "export_study", "cancel_study", "plot_study",
-           "device_json", "Export"]
+           "design_stiffness", "design_inertia", "design_hardware", "plot_hardware", "simulate", "plot_simulation",
+           "plot_boundary", "plot_bode", "submit_study", "study", "studies", "study_results", "export_study",
+           "cancel_study", "plot_study", "device_json", "Export"]
 
 R = TypeVar("R")
 #: Kinds of call, each with its own timeout (see :class:`clients.client.Timeouts`).
@@ -166,6 +167,40 @@ def design_inertia(device: DeviceLike, requirements: PartLike | None = None) -> 
 
     return Call("POST", "/v1/design/inertia", "design", _model(InertiaResponse),
                 json=_body(device=device, requirements=requirements))
+
+
+def _hardware_body(device: DeviceLike, free: str, stiffness: float | None, force_gain: float | None,
+                   apparent_mass: float | None, min_gain_margin_db: float | None, max_damping: float | None,
+                   cutoff_min_hz: float | None, filter_order: int | None, points: int | None) -> dict[str, Any]:
+    target = _body(stiffness=stiffness, force_gain=force_gain, apparent_mass=apparent_mass,
+                   min_gain_margin_db=min_gain_margin_db, max_damping=max_damping, cutoff_min_hz=cutoff_min_hz,
+                   filter_order=filter_order)
+    return _body(device=device, target=target, free=free, points=points)
+
+
+def design_hardware(device: DeviceLike, free: str, *, stiffness: float | None = None, force_gain: float | None = None,
+                    apparent_mass: float | None = None, min_gain_margin_db: float | None = None,
+                    max_damping: float | None = None, cutoff_min_hz: float | None = None,
+                    filter_order: int | None = None, points: int | None = None) -> Call[HardwareDesignResponse]:
+    """``POST /v1/design/hardware``: the loosest value of ``free`` (sample_time, delay, damping, mass,
+    cable.stiffness) that still renders a wall ``stiffness`` K [N/m] and/or a force-feedforward ``force_gain``
+    K_f or ``apparent_mass`` [kg], with the controller and the trade-off curve."""
+    from service.schemas.design_hardware import HardwareDesignResponse
+
+    return Call("POST", "/v1/design/hardware", "design", _model(HardwareDesignResponse),
+                json=_hardware_body(device, free, stiffness, force_gain, apparent_mass, min_gain_margin_db,
+                                    max_damping, cutoff_min_hz, filter_order, points))
+
+
+def plot_hardware(device: DeviceLike, free: str, *, stiffness: float | None = None, force_gain: float | None = None,
+                  apparent_mass: float | None = None, min_gain_margin_db: float | None = None,
+                  max_damping: float | None = None, cutoff_min_hz: float | None = None,
+                  filter_order: int | None = None, points: int | None = None,
+                  format: ImageFormat = "png") -> Call[Plot]:  # noqa: A002
+    """``POST /v1/plots/hardware?format=``: the hardware trade-off curves, one panel per target."""
+    return Call("POST", "/v1/plots/hardware", "plot", _image,
+                json=_hardware_body(device, free, stiffness, force_gain, apparent_mass, min_gain_margin_db,
+                                    max_damping, cutoff_min_hz, filter_order, points), params={"format": format})
 
 
 def simulate(device: DeviceLike, scene: PartLike) -> Call[SimulateResponse]:

@@ -4,6 +4,8 @@ HTTP only (httpx), plus a typer sub-app ``robust_app`` (``app.add_typer(robust_a
 
     zwidth robust stiffness --preset lhifam --rigid --range device.mass=4:7 --range device.delay=0:0.002
     zwidth robust hardware --preset lhifam --rigid --free delay --stiffness 2e5
+    zwidth robust hardware --preset lhifam --rigid --free delay --stiffness 2e5 --force-gain 5
+    zwidth robust hardware --preset lhifam --rigid --free mass --apparent-mass 0.5
 """
 
 from __future__ import annotations
@@ -42,12 +44,15 @@ def robust_inertia(device: dict, uncertainty: dict[str, tuple[float, float]], re
     return _post(base_url, "/v1/design/inertia", {"device": device, "requirements": req}).json()
 
 
-def hardware(device: dict, free: str, stiffness: float, min_gain_margin_db: float = 6.0,
-             max_damping: float | None = None, points: int = 41, base_url: str = DEFAULT_URL) -> dict[str, Any]:
-    """POST /v1/design/hardware."""
-    target: dict[str, Any] = {"stiffness": stiffness, "min_gain_margin_db": min_gain_margin_db}
-    if max_damping is not None:
-        target["max_damping"] = max_damping
+def hardware(device: dict, free: str, stiffness: float | None = None, min_gain_margin_db: float = 6.0,
+             max_damping: float | None = None, points: int = 41, base_url: str = DEFAULT_URL, *,
+             force_gain: float | None = None, apparent_mass: float | None = None) -> dict[str, Any]:
+    """POST /v1/design/hardware: a wall stiffness [N/m] and/or a force gain K_f or apparent mass [kg] target."""
+    target: dict[str, Any] = {"min_gain_margin_db": min_gain_margin_db}
+    for key, value in (("stiffness", stiffness), ("max_damping", max_damping), ("force_gain", force_gain),
+                       ("apparent_mass", apparent_mass)):
+        if value is not None:
+            target[key] = value
     return _post(base_url, "/v1/design/hardware", {"device": device, "target": target, "free": free,
                                                    "points": points}).json()
 
@@ -87,11 +92,15 @@ def _stiffness_cmd(preset: str = typer.Option("lhifam"), rigid: bool = typer.Opt
 
 @robust_app.command("hardware")
 def _hardware_cmd(free: str = typer.Option(..., help="sample_time | delay | damping | mass | cable.stiffness"),
-                  stiffness: float = typer.Option(..., help="target K [N/m]"),
+                  stiffness: float | None = typer.Option(None, help="target K [N/m]"),
+                  force_gain: float | None = typer.Option(None, help="target force-feedforward gain K_f"),
+                  apparent_mass: float | None = typer.Option(None, help="target apparent mass m/(1 + K_f) [kg]"),
                   margin: float = typer.Option(6.0), max_damping: float | None = typer.Option(None),
+                  points: int = typer.Option(41, help="points of the trade-off curve"),
                   preset: str = typer.Option("lhifam"), rigid: bool = typer.Option(False),
                   url: str = typer.Option(DEFAULT_URL)) -> None:
-    """The loosest value of one hardware parameter that still renders the target."""
-    out = hardware(_device(preset, rigid), free, stiffness, margin, max_damping, base_url=url)
+    """The loosest value of one hardware parameter that still renders the target(s)."""
+    out = hardware(_device(preset, rigid), free, stiffness, margin, max_damping, points, url,
+                   force_gain=force_gain, apparent_mass=apparent_mass)
     out.pop("curve", None)
     typer.echo(json.dumps(out, indent=2))

@@ -1,39 +1,45 @@
-"""Inverse (hardware) design: the loosest value of one hardware parameter that still renders a target wall.
+"""Inverse (hardware) design: the loosest value of one hardware parameter that still renders a target.
 
-For a value q of the free parameter the best controller is the stiffness design
-of optim.stiffness (B free up to the optional max_damping, the requested gain
-margin), giving the achievable stiffness K*(q).  The target is reachable where
-K*(q) ≥ K_target.  K*(q) is scanned on a grid around the device's own value
-(the trade-off curve), every change of feasibility between grid points is
-refined by Brent's method on K*(q) − K_target, and the loosest value is the edge
-of the feasible set in the direction that makes the hardware cheaper:
+The target (optim/hardware_targets.py) is a wall stiffness K_t and/or a transparency target, the force
+gain K_f,t or the apparent mass m_t = m/(1 + K_f) (eq. 28).  For a value q of the free parameter the best
+controller is the stiffness design of optim.stiffness (B free up to the optional max_damping, the requested
+gain margin), giving the achievable stiffness K*(q), and the inertia design of optim.inertia (the largest K_f
+with the same margin, best over its filter-cutoff band), giving K_f*(q).  The targets hold where every
+relative excess (K*/K_t − 1, K_f*/K_f,t − 1, m_t/m_app* − 1) is ≥ 0.  The smallest excess is scanned on a grid
+around the device's own value (the trade-off curve), every change of feasibility between grid points is
+refined by Brent's method on it, and the loosest value is the edge of the feasible set in the direction that
+makes the hardware cheaper:
 
     sample_time: larger   delay: larger   damping: smaller
-    cable.stiffness: smaller   mass: smaller (a lighter device)
+    cable.stiffness: smaller   mass: smaller (a lighter device), except for an apparent-mass target alone:
+    the apparent mass grows with m, so that target sets the heaviest device (direction max)
 
 Which parameters move K* (Table 1: K = α·m/T², α depends on δ = bT/m, β = BT/m, d = t_d/T):
 with B free, K* = (m/T²)·α*(δ, d) grows with m (the virtual damper can make up
 for the physical one), so a target sets the lightest device; with B capped,
 K* → g·(b + B_cap)/(T/2 + t_d) (eq. 10) as m grows and mass stops mattering.
-The answer says so when K* changes by less than 0.1 % over the scanned range.
-With a cable block, ``mass`` and ``damping`` scale the cable block's two masses
-(dampings) together, keeping their ratio.
+K_f* grows with m too (worst case K_f,cr ≈ 1 + m/m_h, eq. 33), but more slowly than m: the apparent mass
+m/(1 + K_f*) grows with m.  The answer says so when no achievable quantity changes by more than 0.1 % over the
+scanned range.  With a cable block, ``mass`` and ``damping`` scale the cable block's two masses (dampings)
+together, keeping their ratio.
 """
 
 from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import brentq
 
 from models.device import MAX_DELAY_SAMPLES, Device
-from optim.stiffness import StiffnessRequirements, design_stiffness
+
+from .hardware_targets import (DesignFailed, HardwareTarget, Probe, achievable_force_gain, achievable_stiffness,
+                               current_value, device_with, limiting_effect)
 
 __all__ = ["FREE_PARAMETERS", "HardwareTarget", "HardwareDesign", "design_hardware", "device_with",
-           "achievable_stiffness"]
+           "achievable_stiffness", "achievable_force_gain", "loose_direction"]
 
 #: free parameter → (direction that loosens the hardware, unit)
 FREE_PARAMETERS: dict[str, tuple[str, str]] = {
@@ -41,19 +47,10 @@ FREE_PARAMETERS: dict[str, tuple[str, str]] = {
     "mass": ("min", "kg"), "cable.stiffness": ("min", "N/m"),
 }
 _SPAN = 30.0            # the curve spans value/30 … value·30 (log scale)
-_FLAT_RTOL = 1e-3       # K* varying less than this over the span: the parameter does not matter
-
-
-@dataclass(frozen=True)
-class HardwareTarget:
-    stiffness: float
-    """K the device must render [N/m]."""
-    min_gain_margin_db: float = 6.0
-    max_damping: float | None = None
-    """optional cap on the virtual damping B [N·s/m]."""
-
-    def requirements(self) -> StiffnessRequirements:
-        return StiffnessRequirements(min_gain_margin_db=self.min_gain_margin_db, max_damping=self.max_damping)
+_FLAT_RTOL = 1e-3       # achievable values varying less than this over the span: the parameter does not matter
+_WHAT = {"stiffness": ("achievable_stiffness", "achievable stiffness"),
+         "force_gain": ("achievable_force_gain", "achievable force gain"),
+         "apparent_mass": ("apparent_mass", "achievable apparent mass")}
 
 
 @dataclass(frozen=True)
@@ -69,63 +66,42 @@ class HardwareDesign:
     bounded: bool = True
     """False when the target holds up to the end of the scanned range in the loose direction."""
     controller: dict | None = None
-    """{stiffness, damping, gain_margin_db} of the best controller at that value."""
+    """the best controller at that value: {stiffness, damping, achievable_stiffness, gain_margin_db} for a
+    stiffness target, {force_gain, filter_cutoff_hz, filter_order, achievable_force_gain, apparent_mass,
+    critical_force_gain, force_gain_margin_db} for a force-feedforward target (None for a target not given)."""
     intervals: tuple[tuple[float, float], ...] = ()
     """the feasible set in the scanned range, as closed intervals [SI]."""
+    edges: tuple[dict, ...] = ()
+    """every refined edge of the feasible set: [{value, limiting_target}] (the target that binds there)."""
     curve: tuple[dict, ...] = ()
-    """trade-off curve: [{value, achievable_stiffness, damping}] (achievable_stiffness 0 where nothing is stable)."""
+    """trade-off curve: [{value, achievable_stiffness, damping, achievable_force_gain, filter_cutoff_hz,
+    apparent_mass}] (achievable_stiffness 0 where nothing is stable; None for a target not given)."""
     best_value: float | None = None
-    """where the curve peaks: the value with the largest achievable stiffness."""
+    """where the curve is best: the value with the largest smallest relative excess over the targets."""
     best_achievable_stiffness: float | None = None
+    """K* at best_value [N/m]."""
+    best_achievable_force_gain: float | None = None
+    """K_f* at best_value [dimensionless]."""
+    best_apparent_mass: float | None = None
+    """m/(1 + K_f*) at best_value [kg]."""
     matters: bool = True
+    limiting_target: str | None = None
+    """the target that sets the answer: "stiffness" | "force_gain" | "apparent_mass" (None when unbounded)."""
     reason: str | None = None
     note: str | None = None
     limiting_effect: str | None = None
     elapsed_ms: float = 0.0
 
 
-def _set(data: dict, path: str, value: float) -> None:
-    parts = path.split(".")
-    for key in parts[:-1]:
-        data = data[key]
-    data[parts[-1]] = value
-
-
-def device_with(device: Device, free: str, value: float) -> Device:
-    """The device with the free parameter set to ``value`` (validated)."""
-    data = device.model_dump()
-    data["preset"] = None
-    cable = data.get("cable")
-    if cable is not None:
-        data.pop("mass")
-        data.pop("damping")
-        if free in ("mass", "damping"):
-            a, b = f"motor_{free}", f"body_{free}"
-            total = cable[a] + cable[b]
-            ratio = value / total if total > 0 else 0.0
-            cable[a], cable[b] = cable[a] * ratio, cable[b] * ratio
-            return Device.model_validate(data)
-    _set(data, free, float(value))
-    return Device.model_validate(data)
-
-
-def _current(device: Device, free: str) -> float:
-    obj = device
-    for key in free.split("."):
-        obj = getattr(obj, key)
-    return float(obj)
-
-
-def achievable_stiffness(device: Device, free: str, value: float, target: HardwareTarget):
-    """(K*, B*, design) of the best controller for the device with the free parameter at value."""
-    d = design_stiffness(device_with(device, free, value), target.requirements())
-    if d.status == "optimal":
-        return d.stiffness, d.damping, d
-    return 0.0, None, d
+def loose_direction(free: str, target: HardwareTarget) -> str:
+    """The direction in which the hardware gets looser (module docstring)."""
+    if free == "mass" and target.stiffness is None and target.feedforward == "apparent_mass":
+        return "max"
+    return FREE_PARAMETERS[free][0]
 
 
 def _grid(device: Device, free: str, points: int) -> np.ndarray:
-    v = _current(device, free)
+    v = current_value(device, free)
     if free == "delay":
         hi = max(30 * device.sample_time, 30 * v)
         hi = min(hi, 0.5 * MAX_DELAY_SAMPLES * device.sample_time)
@@ -148,68 +124,147 @@ def design_hardware(device: Device, target: HardwareTarget, free: str, points: i
         raise ValueError(f"free: must be one of {', '.join(FREE_PARAMETERS)}")
     if free == "cable.stiffness" and device.cable is None:
         raise ValueError("free: cable.stiffness needs a device with a cable block")
-    if not (math.isfinite(target.stiffness) and target.stiffness > 0):
-        raise ValueError("target.stiffness: must be a finite number > 0")
-    direction = FREE_PARAMETERS[free][0]
-    qs = _grid(device, free, points)
-    ks, bs, status = [], [], []
-    for q in qs:
-        k, b, d = achievable_stiffness(device, free, float(q), target)
-        ks.append(k)
-        bs.append(b)
-        status.append(d.status)
-    ks = np.array(ks)
-    if "failed" in status:
-        bad = float(qs[status.index("failed")])
-        return HardwareDesign(status="failed", free=free, direction=direction,
-                              reason=f"the stiffness design failed at {free} = {bad:g}",
-                              elapsed_ms=(time.perf_counter() - t0) * 1e3)
-    curve = tuple({"value": float(q), "achievable_stiffness": float(k), "damping": b} for q, k, b in zip(qs, ks, bs))
-    i_best = int(np.argmax(ks))
-    spread = (ks.max() - ks.min()) / ks.max() if ks.max() > 0 else 0.0
-    matters = bool(spread > _FLAT_RTOL)
-    common = dict(free=free, direction=direction, curve=curve, best_value=float(qs[i_best]),
-                  best_achievable_stiffness=float(ks[i_best]), matters=matters)
-    kt = target.stiffness
-    feasible = ks >= kt
+    target.check(device, free)
+    direction = loose_direction(free, target)
 
-    def excess(q: float) -> float:
-        return achievable_stiffness(device, free, q, target)[0] - kt
+    def done(**kw) -> HardwareDesign:
+        return HardwareDesign(free=free, direction=direction, elapsed_ms=(time.perf_counter() - t0) * 1e3, **kw)
 
+    try:
+        return _design(Probe(device, free, target), _grid(device, free, points), direction, done)
+    except DesignFailed as exc:
+        return done(status="failed", reason=str(exc))
+
+
+def _design(probe: Probe, qs: np.ndarray, direction: str, done) -> HardwareDesign:
+    target, free = probe.target, probe.free
+    curve = tuple(probe.curve_entry(q) for q in qs)
+    excess = {name: np.array([probe.excess(name, q) for q in qs]) for name in target.names}
+    combined = np.min(np.vstack(list(excess.values())), axis=0)
+    i_best = int(np.argmax(combined))
+    matters, flat = _matters(curve, target)
+    common = dict(curve=curve, best_value=float(qs[i_best]), matters=matters,
+                  best_achievable_stiffness=curve[i_best]["achievable_stiffness"],
+                  best_achievable_force_gain=curve[i_best]["achievable_force_gain"],
+                  best_apparent_mass=curve[i_best]["apparent_mass"])
+    # Each target's own feasible set (Brent on its own excess: only its design runs), then their
+    # intersection: a window between two targets narrower than the grid step is still found.
+    alone = {name: _feasible_set(probe, name, qs, e) for name, e in excess.items()}
+    intervals = [(float(qs[0]), float(qs[-1]), None, None)]
+    for name, own in alone.items():
+        intervals = _intersect(intervals, own)
+    if not intervals:
+        limiting = _infeasible_limit(alone, excess, i_best)
+        return done(status="infeasible", reason=_unreachable(probe, qs, i_best, alone, limiting),
+                    limiting_target=limiting, limiting_effect=limiting_effect(limiting, free), **common)
+    edges = sorted(({"value": v, "limiting_target": tag} for lo, hi, tlo, thi in intervals
+                    for v, tag in ((lo, tlo), (hi, thi)) if tag is not None), key=lambda e: e["value"])
+    loose_end, limiting = (intervals[-1][1], intervals[-1][3]) if direction == "max" else \
+        (intervals[0][0], intervals[0][2])
+    bounded = limiting is not None
+    notes = []
+    if not matters:
+        notes.append(f"{free} does not matter here: the {flat} changes by less than {_FLAT_RTOL:.0e} relative over "
+                     f"[{qs[0]:g}, {qs[-1]:g}]")
+    elif len(intervals) > 1:
+        notes.append(f"the feasible set is not one interval: {len(intervals)} intervals")
+    if not bounded:
+        notes.append(f"the target holds up to the end of the scanned range ({free} = {loose_end:g}) in the loose "
+                     f"direction")
+    return done(status="optimal", value=loose_end if bounded else None, bounded=bounded,
+                controller=_controller(probe, loose_end), intervals=tuple((lo, hi) for lo, hi, _, _ in intervals),
+                edges=tuple(edges), note="; ".join(notes) or None, limiting_target=limiting,
+                limiting_effect=limiting_effect(limiting, free) if bounded else None, **common)
+
+
+def _feasible_set(probe: Probe, name: str, qs: np.ndarray, excess: np.ndarray) -> list[tuple]:
+    """The named target's feasible intervals [(lo, hi, lo_tag, hi_tag)]: a tag names the target at a refined
+    edge, None at an end of the scanned range."""
+    feasible = excess >= 0.0
     edges = []
     for j in np.nonzero(feasible[:-1] != feasible[1:])[0]:
         lo, hi = float(qs[j]), float(qs[j + 1])
-        edges.append(brentq(excess, lo, hi, xtol=1e-14 * max(abs(hi), 1e-300), rtol=4e-15, maxiter=200))
-    intervals = _intervals(qs, feasible, edges)
-    if not intervals:
-        effect = _limiting_effect(free, direction)
-        return HardwareDesign(status="infeasible", intervals=(), reason=(
-            f"the target K = {kt:g} N/m is not reachable for any {free} in [{qs[0]:g}, {qs[-1]:g}]: the best "
-            f"achievable is {ks[i_best]:g} N/m at {free} = {qs[i_best]:g}"), limiting_effect=effect,
-            elapsed_ms=(time.perf_counter() - t0) * 1e3, **common)
-    loose_end = intervals[-1][1] if direction == "max" else intervals[0][0]
-    range_end = float(qs[-1]) if direction == "max" else float(qs[0])
-    bounded = loose_end != range_end
-    note = None
-    if not matters:
-        note = (f"{free} does not matter here: the achievable stiffness changes by less than "
-                f"{_FLAT_RTOL:.0e} relative over [{qs[0]:g}, {qs[-1]:g}]")
-    elif len(intervals) > 1:
-        note = f"the feasible set is not one interval: {len(intervals)} intervals"
-    if not bounded:
-        extra = (f"the target holds up to the end of the scanned range ({free} = {range_end:g}) in the loose "
-                 f"direction")
-        note = extra if note is None else note + "; " + extra
-    value = loose_end if bounded else None
-    controller = None
-    at = loose_end
-    k, b, d = achievable_stiffness(device, free, at, target)
-    if d.status == "optimal":
-        controller = {"stiffness": kt, "damping": b, "achievable_stiffness": k,
-                      "gain_margin_db": 20 * math.log10(d.critical_stiffness / kt)}
-    return HardwareDesign(status="optimal", value=value, bounded=bounded, controller=controller,
-                          intervals=tuple(intervals), note=note, limiting_effect=_limiting_effect(free, direction),
-                          elapsed_ms=(time.perf_counter() - t0) * 1e3, **common)
+        edges.append(brentq(lambda q: probe.excess(name, q), lo, hi, xtol=1e-14 * max(abs(hi), 1e-300),
+                            rtol=4e-15, maxiter=200))
+    ends = (float(qs[0]), float(qs[-1]))
+    return [(lo, hi, None if lo in ends else name, None if hi in ends else name)
+            for lo, hi in _intervals(qs, feasible, edges)]
+
+
+def _intersect(a: list[tuple], b: list[tuple]) -> list[tuple]:
+    """Intersection of two sorted lists of tagged closed intervals; each end keeps the tag of the set it came from."""
+    out = []
+    for a0, a1, ta0, ta1 in a:
+        for b0, b1, tb0, tb1 in b:
+            lo, tlo = (a0, ta0) if a0 >= b0 else (b0, tb0)
+            hi, thi = (a1, ta1) if a1 <= b1 else (b1, tb1)
+            if lo <= hi:
+                out.append((lo, hi, tlo, thi))
+    return sorted(out, key=lambda iv: iv[0])
+
+
+def _infeasible_limit(alone: dict, excess: dict, i_best: int) -> str:
+    """The target that makes the answer infeasible: one never met on its own (the furthest from reach when
+    several), else (each met alone, never together) the one with the smallest excess at the best value."""
+    never = [name for name, own in alone.items() if not own]
+    if never:
+        return min(never, key=lambda n: excess[n].max())
+    return min(excess, key=lambda n: excess[n][i_best])
+
+
+def _matters(curve: tuple[dict, ...], target: HardwareTarget) -> tuple[bool, str]:
+    """(does any target's achievable value change by more than _FLAT_RTOL relative over the scan, what is flat)."""
+    for name in target.names:
+        v = np.array([c[_WHAT[name][0]] for c in curve], dtype=float)
+        finite = np.isfinite(v)
+        if not finite.all():    # K_f* unbounded somewhere: it matters unless it is unbounded everywhere
+            if finite.any():
+                return True, _WHAT[name][1]
+            continue
+        if v.max() > 0 and (v.max() - v.min()) / v.max() > _FLAT_RTOL:
+            return True, _WHAT[name][1]
+    return False, " and the ".join(_WHAT[n][1] for n in target.names)
+
+
+def _controller(probe: Probe, q: float) -> dict:
+    """The best controller at this value (stiffness part and/or force-feedforward part)."""
+    target, out = probe.target, {}
+    if target.stiffness is not None:
+        k, b, d = probe.stiffness(q)
+        kt = target.stiffness
+        out.update(stiffness=kt, damping=b, achievable_stiffness=k,
+                   gain_margin_db=20 * math.log10(d.critical_stiffness / kt) if d.status == "optimal" else None)
+    if target.feedforward is not None:
+        f = probe.force(q)
+        kf = max(target.required_force_gain(f.mass), 0.0)
+        margin = None
+        if kf > 0 and f.critical_force_gain is not None:
+            margin = 20 * math.log10(f.critical_force_gain / kf)
+        out.update(force_gain=kf, filter_cutoff_hz=f.filter_cutoff_hz,
+                   filter_order=target.inertia_requirements().filter_order, achievable_force_gain=f.force_gain,
+                   apparent_mass=f.mass / (1.0 + kf), critical_force_gain=f.critical_force_gain,
+                   force_gain_margin_db=margin)
+    return out
+
+
+def _unreachable(probe: Probe, qs: np.ndarray, i_best: int, alone: dict, limiting: str) -> str:
+    target, free, q = probe.target, probe.free, float(qs[i_best])
+    asked, got = [], []
+    if target.stiffness is not None:
+        asked.append(f"K = {target.stiffness:g} N/m")
+        got.append(f"K* = {probe.stiffness(q)[0]:g} N/m")
+    if target.force_gain is not None:
+        asked.append(f"K_f = {target.force_gain:g}")
+    if target.apparent_mass is not None:
+        asked.append(f"apparent mass {target.apparent_mass:g} kg")
+    if target.feedforward is not None:
+        f = probe.force(q)
+        got.append(f"K_f* = {f.force_gain:g} (apparent mass {f.apparent_mass:g} kg)")
+    why = (f"{limiting} is not reachable on its own" if not alone[limiting] else
+           "each target is reachable alone, but not at the same value: " + "; ".join(
+               f"{n} in " + ", ".join(f"[{lo:g}, {hi:g}]" for lo, hi, _, _ in own) for n, own in alone.items()))
+    return (f"the target {' and '.join(asked)} is not reachable for any {free} in [{qs[0]:g}, {qs[-1]:g}]: the best "
+            f"achievable is {', '.join(got)} at {free} = {q:g}; {why}")
 
 
 def _intervals(qs: np.ndarray, feasible: np.ndarray, edges: list[float]) -> list[tuple[float, float]]:
@@ -225,13 +280,3 @@ def _intervals(qs: np.ndarray, feasible: np.ndarray, edges: list[float]) -> list
     if start is not None:
         out.append((start, float(qs[-1])))
     return out
-
-
-def _limiting_effect(free: str, direction: str) -> str:
-    return {
-        "sample_time": "sampling: the zero-order hold's half-sample lag (eq. 10: K < (b+B)/(T/2 + t_d))",
-        "delay": "loop delay: its phase lag (eq. 10: K < (b+B)/(T/2 + t_d))",
-        "damping": "physical damping: the dissipation that pays for the sampled loop's energy leak (eq. 10)",
-        "mass": "mass: with less inertia the virtual damper destabilises sooner (Table 1: β = BT/m, α = KT²/m)",
-        "cable.stiffness": "the cable's vibration mode: its resonance moves toward the crossover (§4, eq. 22-24)",
-    }[free]

@@ -37,7 +37,7 @@ from .feedforward import critical_force_gain_of_plant, resolve_human
 from .inertia_nlp import modal_plant, solve_crossover_nlp
 
 __all__ = ["InertiaRequirements", "ParetoPoint", "RigidComparison", "InertiaDesign", "design_inertia",
-           "RIGID_OPTIMISM_FLAG"]
+           "upper_cutoff_hz", "RIGID_OPTIMISM_FLAG"]
 
 #: Flag the rigid model when its critical K_f exceeds the cable model's by more than this.
 RIGID_OPTIMISM_FLAG = 0.20
@@ -117,14 +117,20 @@ class InertiaDesign:
     elapsed_ms: float = 0.0
 
 
+def upper_cutoff_hz(device: Device, cutoff_max_hz: float | None = None) -> tuple[float, str]:
+    """The top of the cutoff band [Hz] and where it comes from: ``cutoff_max_hz`` when given, else the
+    first cable mode ω_n/2π (eq. 24) when it lies below Nyquist, else 0.4 × Nyquist."""
+    nyq = 0.5 / device.sample_time
+    if cutoff_max_hz is not None:
+        return cutoff_max_hz, "requirements"
+    if device.cable is not None and device.cable.natural_frequency / (2 * math.pi) < nyq:
+        return device.cable.natural_frequency / (2 * math.pi), "first cable mode ω_n/2π (eq. 24)"
+    return 0.4 * nyq, "0.4 × Nyquist (no cable mode below Nyquist)"
+
+
 def _band(device: Device, req: InertiaRequirements) -> tuple[float, float, str]:
     nyq = 0.5 / device.sample_time
-    if req.cutoff_max_hz is not None:
-        hi, src = req.cutoff_max_hz, "requirements"
-    elif device.cable is not None and device.cable.natural_frequency / (2 * math.pi) < nyq:
-        hi, src = device.cable.natural_frequency / (2 * math.pi), "first cable mode ω_n/2π (eq. 24)"
-    else:
-        hi, src = 0.4 * nyq, "0.4 × Nyquist (no cable mode below Nyquist)"
+    hi, src = upper_cutoff_hz(device, req.cutoff_max_hz)
     if not hi < nyq:
         raise ValueError(f"requirements.cutoff_max_hz: must be below the Nyquist frequency {nyq:g} Hz, got {hi:g}")
     if not req.cutoff_min_hz < hi:

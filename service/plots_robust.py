@@ -2,19 +2,19 @@
 
 * robust: the margin 20·log10(K_cr(B; p)/K) over a two-parameter slice of the box (the other uncertain
   parameters at the worst device's values), worst device marked;
-* hardware: the trade-off curve K*(q) with the target and the loosest value marked.
+* hardware: the trade-off curves K*(q) and/or K_f*(q) (or the apparent mass), one panel per target, with
+  the targets and the loosest value marked.
 """
 
 from __future__ import annotations
 
 import io
-import math
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from optim.hardware import HardwareDesign
+from optim.hardware import HardwareDesign, HardwareTarget
 from optim.robust.box import UncertaintyBox
 from optim.robust.worst_case import box_critical_stiffness
 
@@ -64,28 +64,43 @@ def plot_robust_slice(xs, ys, margin, worst_xy, required_db: float, labels: tupl
     return _save(fig, fmt)
 
 
-def plot_hardware(design: HardwareDesign, target_stiffness: float, fmt: str = "png") -> bytes:
-    fig = Figure(figsize=(7, 4.5), dpi=100)
+#: target → (curve key, axis label, curve label); the target line is the target's own value
+_HW_PANELS = {
+    "stiffness": ("achievable_stiffness", "K* [N/m]", "achievable stiffness K*"),
+    "force_gain": ("achievable_force_gain", "K_f* [-]", "achievable force gain K_f*"),
+    "apparent_mass": ("apparent_mass", "m/(1 + K_f*) [kg]", "achievable apparent mass"),
+}
+
+
+def plot_hardware(design: HardwareDesign, target: HardwareTarget, fmt: str = "png") -> bytes:
+    """One panel per target given (stiffness; force gain or apparent mass), sharing the free parameter's axis."""
+    names = target.names
+    fig = Figure(figsize=(7, 3.2 + 2.3 * len(names)), dpi=100)
     FigureCanvasAgg(fig)
-    ax = fig.subplots()
+    axes = fig.subplots(len(names), 1, sharex=True, squeeze=False)[:, 0]
     q = np.array([p["value"] for p in design.curve])
-    k = np.array([p["achievable_stiffness"] for p in design.curve])
-    ax.plot(q, np.where(k > 0, k, np.nan), "-o", ms=3, lw=1.2, label="achievable stiffness K*")
-    ax.axhline(target_stiffness, color="tab:red", lw=1, ls="--", label="target")
-    for lo, hi in design.intervals:
-        ax.axvspan(lo, hi, color="tab:green", alpha=0.12)
-    if design.value is not None:
-        ax.axvline(design.value, color="k", lw=1, label=f"loosest {design.free} = {design.value:.4g}")
+    for ax, name in zip(axes, names):
+        key, ylabel, label = _HW_PANELS[name]
+        v = np.array([np.nan if p[key] is None else p[key] for p in design.curve], dtype=float)
+        shown = np.where((v > 0) & np.isfinite(v), v, np.nan)
+        ax.plot(q, shown, "-o", ms=3, lw=1.2, label=label)
+        ax.axhline(getattr(target, name), color="tab:red", lw=1, ls="--", label="target")
+        for lo, hi in design.intervals:
+            ax.axvspan(lo, hi, color="tab:green", alpha=0.12)
+        if design.value is not None:
+            ax.axvline(design.value, color="k", lw=1, label=f"loosest {design.free} = {design.value:.4g}")
+        positive = shown[np.isfinite(shown)]   # empty when no design was scanned or none is stable
+        if positive.size and positive.max() / positive.min() > 20:
+            ax.set_yscale("log")
+        ax.set_ylabel(ylabel)
+        ax.legend(fontsize=8)
     if q.size and q.min() > 0 and q.max() / q.min() > 20:
-        ax.set_xscale("log")
-    positive = k[k > 0]  # empty when no design was scanned (an infeasible answer has no curve) or none is stable
-    if positive.size and positive.max() / positive.min() > 20:
-        ax.set_yscale("log")
+        axes[-1].set_xscale("log")
     if not design.curve and design.reason:
-        ax.text(0.5, 0.5, design.reason, transform=ax.transAxes, ha="center", va="center", wrap=True, fontsize=8)
-    ax.set_xlabel(design.free)
-    ax.set_ylabel("K* [N/m]")
-    ax.legend(fontsize=8)
-    ax.set_title(f"hardware trade-off: {design.status}" + ("" if design.matters else " (the parameter does not "
-                                                                                      "matter)"), fontsize=10)
+        axes[0].text(0.5, 0.5, design.reason, transform=axes[0].transAxes, ha="center", va="center", wrap=True,
+                     fontsize=8)
+    axes[-1].set_xlabel(design.free)
+    limit = f", limited by {design.limiting_target}" if design.limiting_target else ""
+    axes[0].set_title(f"hardware trade-off: {design.status}{limit}" + (
+        "" if design.matters else " (the parameter does not matter)"), fontsize=10)
     return _save(fig, fmt)

@@ -1,4 +1,5 @@
-"""POST /v1/design/hardware: the loosest hardware parameter that still renders a target wall."""
+"""POST /v1/design/hardware: the loosest hardware parameter that still renders a target wall and/or
+force-feedforward gain (apparent mass)."""
 
 from __future__ import annotations
 
@@ -16,13 +17,16 @@ from .design_stiffness import _finite
 router = APIRouter()
 
 
+def hardware_target(request: HardwareDesignRequest) -> HardwareTarget:
+    """The request's target as optim's (the same field names)."""
+    return HardwareTarget(**request.target.model_dump())
+
+
 def run_hardware(request: HardwareDesignRequest, compute: BoundedExecutor) -> HardwareDesign:
     """The design in a compute worker (tens of exact designs: never inline), under the request time budget."""
-    t = request.target
     try:
-        return compute.run(design_hardware, request.device,
-                           HardwareTarget(t.stiffness, t.min_gain_margin_db, t.max_damping),
-                           request.free, points=request.points, cost_ms=None)
+        return compute.run(design_hardware, request.device, hardware_target(request), request.free,
+                           points=request.points, cost_ms=None)
     except ValueError as exc:
         field, _, msg = str(exc).partition(": ")
         raise NumericInputError(field, msg) from None

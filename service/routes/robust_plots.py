@@ -17,7 +17,7 @@ from ..jobs import robust_slice_job
 from ..plots_robust import MEDIA_TYPES, plot_hardware
 from ..schemas.design_hardware import HardwareDesignRequest
 from ..schemas.design_stiffness import StiffnessDesignRequest
-from .design_hardware import run_hardware
+from .design_hardware import hardware_target, run_hardware
 from .design_stiffness import input_error
 
 router = APIRouter(tags=["plots"])
@@ -63,4 +63,4 @@ def robust_plot(req: RobustPlotRequest, compute: Compute,
 def hardware_plot(req: HardwareDesignRequest, compute: Compute,
                   format: Literal["png", "svg"] = Query("png")) -> Response:  # noqa: A002
     design = run_hardware(req, compute)
-    return Response(content=plot_hardware(design, req.target.stiffness, format), media_type=MEDIA_TYPES[format])
+    return Response(content=plot_hardware(design, hardware_target(req), format), media_type=MEDIA_TYPES[format])

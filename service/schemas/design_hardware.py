@@ -6,11 +6,14 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from optim.domain import check_controller_domain
+from models.filters import MAX_FILTER_ORDER
+from optim.domain import check_controller_domain, check_cutoff_domain
+from optim.hardware_targets import HardwareTarget
 
 from .common import Device  # the numerics' validated domain (optim.domain) applies
 
-__all__ = ["HardwareTargetIn", "HardwareDesignRequest", "HardwareDesignResponse", "CurvePoint"]
+__all__ = ["HardwareTargetIn", "HardwareDesignRequest", "HardwareDesignResponse", "CurvePoint", "EdgeOut",
+           "ControllerOut"]
 
 _STRICT = ConfigDict(extra="forbid", allow_inf_nan=False)
 
@@ -18,10 +21,22 @@ _STRICT = ConfigDict(extra="forbid", allow_inf_nan=False)
 class HardwareTargetIn(BaseModel):
     model_config = _STRICT
 
-    stiffness: float = Field(gt=0, le=1e15, description="K the device must render [N/m]")
-    min_gain_margin_db: float = Field(6.0, ge=0, le=120, description="gain margin on stiffness [dB]")
+    stiffness: float | None = Field(None, gt=0, le=1e15, description="K the device must render [N/m]; optional "
+                                                                     "when force_gain or apparent_mass is given")
+    min_gain_margin_db: float = Field(6.0, ge=0, le=120, description="gain margin of every target [dB]: on the "
+                                                                     "stiffness and on the force gain")
     max_damping: float | None = Field(None, gt=0, le=1e12, description="optional cap on the virtual damping B "
-                                                                        "[N·s/m]")
+                                                                        "[N·s/m] (stiffness target)")
+    force_gain: float | None = Field(None, gt=0, le=1e9, description="force-feedforward gain K_f to reach "
+                                                                     "[dimensionless] (eq. 28)")
+    apparent_mass: float | None = Field(None, gt=0, le=1e12, description="apparent mass m/(1 + K_f) to reach [kg], "
+                                                                         "below the device's mass; not with "
+                                                                         "force_gain")
+    cutoff_min_hz: float | None = Field(None, gt=0, le=1e9, description="lowest filter cutoff of the inertia design "
+                                                                        "[Hz] (default 10: the human force "
+                                                                        "bandwidth)")
+    filter_order: int | None = Field(None, ge=1, le=MAX_FILTER_ORDER, description="Butterworth order of the "
+                                                                                  "inertia design (default 2)")
 
 
 class HardwareDesignRequest(BaseModel):
@@ -30,6 +45,8 @@ class HardwareDesignRequest(BaseModel):
          "free": "delay"},
         {"device": {"preset": "lhifam"}, "target": {"stiffness": 5000, "max_damping": 20}, "free": "cable.stiffness"},
         {"device": {"mass": 5.4, "damping": 3.5, "delay": 0.001}, "target": {"stiffness": 3000}, "free": "sample_time"},
+        {"device": {"preset": "lhifam", "cable": None}, "target": {"stiffness": 2e5, "force_gain": 5}, "free": "delay"},
+        {"device": {"preset": "lhifam", "cable": None}, "target": {"apparent_mass": 0.5}, "free": "mass"},
     ]})
 
     device: Device
@@ -40,24 +57,54 @@ class HardwareDesignRequest(BaseModel):
 
     @model_validator(mode="after")
     def _in_domain(self) -> "HardwareDesignRequest":
-        """optim.domain: the target K and the cap on B, made dimensionless by the device, within range."""
-        check_controller_domain(self.target.stiffness, self.device, "stiffness", "target.stiffness")
-        if self.target.max_damping is not None:
-            check_controller_domain(self.target.max_damping, self.device, "damping", "target.max_damping")
+        """The target's rules (optim.hardware_targets) and optim.domain: the target K, the cap on B and the lowest
+        cutoff, made dimensionless by the device, within range."""
+        t = self.target
+        # The target's own rules (one of each kind, what applies to which target): optim's, one source.
+        HardwareTarget(**t.model_dump()).check(self.device, self.free)
+        if t.stiffness is not None:
+            check_controller_domain(t.stiffness, self.device, "stiffness", "target.stiffness")
+        if t.max_damping is not None:
+            check_controller_domain(t.max_damping, self.device, "damping", "target.max_damping")
+        if t.cutoff_min_hz is not None:
+            check_cutoff_domain(t.cutoff_min_hz, self.device.sample_time, "target.cutoff_min_hz")
         return self
 
 
 class CurvePoint(BaseModel):
     value: float = Field(description="the free parameter [SI]")
-    achievable_stiffness: float = Field(description="largest K with the margin at this value [N/m] (0: none)")
+    achievable_stiffness: float | None = Field(None, description="largest K with the margin at this value [N/m] "
+                                                                 "(0: none; null without a stiffness target)")
     damping: float | None = Field(None, description="the B that achieves it [N·s/m]")
+    achievable_force_gain: float | None = Field(None, description="largest K_f with the margin, best over the "
+                                                                  "cutoff band (null without a force-feedforward "
+                                                                  "target, or when the model bounds none)")
+    filter_cutoff_hz: float | None = Field(None, description="the cutoff where it is reached [Hz] (null: no "
+                                                             "cutoff in the band)")
+    apparent_mass: float | None = Field(None, description="m/(1 + achievable K_f) at this value [kg]")
+
+
+class EdgeOut(BaseModel):
+    value: float = Field(description="an edge of the feasible set [SI]")
+    limiting_target: Literal["stiffness", "force_gain", "apparent_mass"] = Field(
+        description="the target that binds there")
 
 
 class ControllerOut(BaseModel):
-    stiffness: float = Field(description="the target K [N/m]")
+    stiffness: float | None = Field(None, description="the target K [N/m]")
     damping: float | None = Field(None, description="B of the best controller at the loosest value [N·s/m]")
-    achievable_stiffness: float = Field(description="largest K at that value [N/m] (= target at the edge)")
-    gain_margin_db: float = Field(description="exact margin of the target K with that B [dB]")
+    achievable_stiffness: float | None = Field(None, description="largest K at that value [N/m] (= target at the "
+                                                                 "edge when the stiffness limits)")
+    gain_margin_db: float | None = Field(None, description="exact margin of the target K with that B [dB]")
+    force_gain: float | None = Field(None, description="the K_f the target needs at that value (m/m_app − 1 for "
+                                                       "an apparent-mass target, 0 when not needed)")
+    filter_cutoff_hz: float | None = Field(None, description="cutoff with the largest critical force gain [Hz]")
+    filter_order: int | None = None
+    achievable_force_gain: float | None = Field(None, description="largest K_f at that value (= the needed K_f "
+                                                                  "at the edge when it limits)")
+    apparent_mass: float | None = Field(None, description="m/(1 + force_gain) [kg]")
+    critical_force_gain: float | None = Field(None, description="exact K_f,cr at that cutoff")
+    force_gain_margin_db: float | None = Field(None, description="20·log10(K_f,cr/force_gain) [dB]")
 
 
 class HardwareDesignResponse(BaseModel):
@@ -68,10 +115,17 @@ class HardwareDesignResponse(BaseModel):
     bounded: bool = Field(True, description="false: the target holds to the end of the scanned range")
     controller: ControllerOut | None = None
     intervals: list[tuple[float, float]] = Field(default_factory=list, description="feasible set (intervals)")
+    edges: list[EdgeOut] = Field(default_factory=list, description="edges of the feasible set and the target "
+                                                                   "binding at each")
     curve: list[CurvePoint] = Field(default_factory=list, description="trade-off curve")
-    best_value: float | None = Field(None, description="value of the free parameter with the largest K*")
-    best_achievable_stiffness: float | None = Field(None, description="the largest K* on the curve [N/m]")
-    matters: bool = Field(True, description="false: K* changes by < 0.1 % over the scanned range")
+    best_value: float | None = Field(None, description="value of the free parameter where the targets are "
+                                                       "best met (largest smallest relative excess)")
+    best_achievable_stiffness: float | None = Field(None, description="K* at best_value [N/m]")
+    best_achievable_force_gain: float | None = Field(None, description="K_f* at best_value")
+    best_apparent_mass: float | None = Field(None, description="m/(1 + K_f*) at best_value [kg]")
+    matters: bool = Field(True, description="false: no achievable value changes by > 0.1 % over the scanned range")
+    limiting_target: Literal["stiffness", "force_gain", "apparent_mass"] | None = Field(
+        None, description="the target that sets the answer (infeasible: the one furthest from reach at best_value)")
     reason: str | None = None
     note: str | None = None
     limiting_effect: str | None = None

@@ -107,6 +107,15 @@ def test_pydantic_parts_send_only_what_was_set():
     assert body["requirements"] == {"passivity": True}
 
 
+def test_hardware_calls_send_only_the_targets_given():
+    body = calls.design_hardware({"preset": "lhifam"}, "delay", force_gain=5.0, points=9).json
+    assert body == {"device": {"preset": "lhifam"}, "target": {"force_gain": 5.0}, "free": "delay", "points": 9}
+    call = calls.plot_hardware({"preset": "lhifam"}, "mass", stiffness=2e5, apparent_mass=0.5, format="svg")
+    assert call.path == "/v1/plots/hardware" and call.params == {"format": "svg"} and call.kind == "plot"
+    assert call.json["target"] == {"stiffness": 2e5, "apparent_mass": 0.5}
+    assert calls.design_hardware({"preset": "lhifam"}, "delay", stiffness=1.0).kind == "design"
+
+
 def test_422_names_the_fields_and_is_not_retried():
     detail = [{"type": "greater_than", "loc": ["body", "device", "mass"], "msg": "Input should be greater than 0"},
               {"type": "value_error", "loc": ["body", "requirements", "max_force"], "msg": "required"}]

@@ -83,6 +83,57 @@ def test_hardware_infeasible_and_bad_free(client):
     assert r.status_code == 422
 
 
+def test_hardware_force_feedforward_target(client):
+    """A stiffness and a force-gain target over HTTP: the force gain limits; the JSON carries both parts."""
+    r = client.post("/v1/design/hardware", json={"device": LH_RIGID, "target": {"stiffness": 2e5, "force_gain": 9},
+                                                 "free": "delay", "points": 9})
+    assert r.status_code == 200
+    body = r.json()
+    assert body["status"] == "optimal" and body["limiting_target"] == "force_gain"
+    assert body["edges"] == [{"value": body["value"], "limiting_target": "force_gain"}]
+    c = body["controller"]
+    assert c["force_gain"] == 9 and c["force_gain_margin_db"] == pytest.approx(6.0, abs=1e-6)
+    assert c["gain_margin_db"] > 6.0 and c["achievable_stiffness"] > 2e5 and c["filter_order"] == 2
+    # the exact K_f,cr at the returned cutoff, from the analysis route (a second code path)
+    dev = {**LH_RIGID, "delay": body["value"]}
+    ff = client.post("/v1/analysis/force-feedforward", json={"device": dev, "filter": {
+        "cutoff_hz": c["filter_cutoff_hz"], "order": 2}}).json()
+    assert 20 * math.log10(ff["critical_force_gain"] / 9) == pytest.approx(6.0, abs=1e-6)
+    assert all(p["achievable_force_gain"] > 0 and p["achievable_stiffness"] > 0 for p in body["curve"])
+
+
+def test_hardware_apparent_mass_alone(client):
+    body = client.post("/v1/design/hardware", json={"device": LH_RIGID, "target": {"apparent_mass": 0.5},
+                                                    "free": "mass", "points": 9}).json()
+    assert body["status"] == "optimal" and body["direction"] == "max" and body["limiting_target"] == "apparent_mass"
+    assert body["controller"]["apparent_mass"] == pytest.approx(0.5, rel=1e-12)
+    assert body["controller"]["stiffness"] is None and body["curve"][0]["achievable_stiffness"] is None
+
+
+@pytest.mark.parametrize("target,free,field", [
+    ({"force_gain": 5, "apparent_mass": 0.5}, "delay", "apparent_mass"),
+    ({"min_gain_margin_db": 6}, "delay", "stiffness"),
+    ({"apparent_mass": 5.4}, "delay", "apparent_mass"),           # not below the device's mass
+    ({"force_gain": 0}, "delay", "force_gain"),
+    ({"force_gain": 5, "max_damping": 10}, "delay", "max_damping"),
+    ({"stiffness": 2e5, "filter_order": 2}, "delay", "filter_order"),
+    ({"force_gain": 5, "filter_order": 9}, "delay", "filter_order"),
+])
+def test_hardware_bad_target_is_422_naming_the_field(client, target, free, field):
+    r = client.post("/v1/design/hardware", json={"device": LH_RIGID, "target": target, "free": free, "points": 9})
+    assert r.status_code == 422
+    assert r.json()["detail"][0]["loc"][-2:] == ["target", field]
+    r = client.post("/v1/plots/hardware", json={"device": LH_RIGID, "target": target, "free": free, "points": 9})
+    assert r.status_code == 422 and r.json()["detail"][0]["loc"][-1] == field
+
+
+def test_hardware_plot_with_force_target(client):
+    r = client.post("/v1/plots/hardware?format=svg", json={"device": LH_RIGID, "target": {
+        "stiffness": 2e5, "force_gain": 9}, "free": "delay", "points": 9})
+    assert r.status_code == 200 and r.content.startswith(b"<?xml")
+    assert b"K_f*" in r.content or b"force gain" in r.content
+
+
 @pytest.mark.parametrize("fmt,magic", [("png", b"\x89PNG"), ("svg", b"<?xml")])
 def test_plots(client, fmt, magic):
     r = client.post(f"/v1/plots/robust?format={fmt}", json={"device": LH_RIGID, "requirements": {"uncertainty": UNC},
