@@ -35,7 +35,7 @@ if TYPE_CHECKING:  # modules of endpoints that may not be in every build (import
 __all__ = ["Call", "Kind", "Plot", "health", "presets", "stability", "boundary", "force_feedforward",
            "design_stiffness", "design_inertia", "design_hardware", "plot_hardware", "simulate", "plot_simulation",
            "plot_boundary", "plot_bode", "submit_study", "study", "studies", "study_results", "export_study",
-           "cancel_study", "plot_study", "device_json", "Export"]
+           "cancel_study", "plot_study", "plot_robust", "device_json", "Export"]
 
 R = TypeVar("R")
 #: Kinds of call, each with its own timeout (see :class:`clients.client.Timeouts`).
@@ -190,6 +190,15 @@ def design_hardware(device: DeviceLike, free: str, *, stiffness: float | None = 
     return Call("POST", "/v1/design/hardware", "design", _model(HardwareDesignResponse),
                 json=_hardware_body(device, free, stiffness, force_gain, apparent_mass, min_gain_margin_db,
                                     max_damping, cutoff_min_hz, filter_order, points))
+
+
+def plot_robust(device: DeviceLike, requirements: PartLike, *, x: str | None = None, y: str | None = None,
+                points: int | None = None, format: ImageFormat = "png") -> Call[Plot]:  # noqa: A002
+    """``POST /v1/plots/robust?format=``: the robust stiffness design's margin over a two-parameter slice of the
+    box (``requirements.uncertainty``), the worst case marked."""
+    body = _body(device=device, requirements=requirements)
+    body.update({k: v for k, v in (("x", x), ("y", y), ("points", points)) if v is not None})
+    return Call("POST", "/v1/plots/robust", "plot", _image, json=body, params={"format": format})
 
 
 def plot_hardware(device: DeviceLike, free: str, *, stiffness: float | None = None, force_gain: float | None = None,

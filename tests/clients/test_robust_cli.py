@@ -1,65 +1,74 @@
-"""clients/robust_cli.py against the app: httpx.post is replaced by the app's TestClient (no network)."""
+"""``zwidth robust …`` (clients/robust_cli.py) through ``--local``: the service's own app in this process.
 
-import warnings
+The answers are the service's (checked against the numerics in tests/optim/robust and
+tests/optim/test_hardware*.py); here: the requests the commands build, their output and exit codes."""
 
-import httpx
+import json
+
 import pytest
+from typer.testing import CliRunner
 
-with warnings.catch_warnings():
-    warnings.simplefilter("ignore")
-    from fastapi.testclient import TestClient
-
-from clients import robust_cli
-from service.app import create_app
+from clients.cli import app as cli
+from clients.robust_cli import parse_range
 
 
-@pytest.fixture()
-def wired(monkeypatch):
-    client = TestClient(create_app())
-
-    def post(url, json=None, params=None, timeout=None):
-        return client.post(url.replace(robust_cli.DEFAULT_URL, ""), json=json, params=params)
-
-    monkeypatch.setattr(httpx, "post", post)
-    return client
+def run(*args: str, code: int = 0):
+    r = CliRunner().invoke(cli, ["robust", *args, "--local"])
+    assert r.exit_code == code, r.output
+    return r
 
 
-def test_robust_stiffness_and_hardware(wired):
-    dev = {"preset": "lhifam", "cable": None}
-    out = robust_cli.robust_stiffness(dev, {"device.delay": (0.0, 0.001)})
-    assert out["robust"] and out["status"] == "optimal" and out["gain_margin_db"] >= 6 - 1e-6
-    hw = robust_cli.hardware(dev, "delay", 2e5, points=9)
-    assert hw["status"] == "optimal" and hw["direction"] == "max"
-    png = robust_cli.plot("hardware", {"device": dev, "target": {"stiffness": 2e5}, "free": "delay", "points": 9})
-    assert png.startswith(b"\x89PNG")
+def test_robust_stiffness_json_and_table():
+    r = run("stiffness", "lhifam", "--rigid", "--range", "device.delay=0:0.001", "--json")
+    body = json.loads(r.output)
+    assert body["robust"] and body["status"] == "optimal"
+    assert body["worst_case"]["gain_margin_db"] >= 6 - 1e-6
+    assert body["worst_case"]["device"]["device.delay"] == pytest.approx(0.001)   # delay only lowers K_cr
+    table = run("stiffness", "lhifam", "--rigid", "--range", "device.delay=0:0.001").output
+    assert "robust stiffness design" in table and "device.delay = 0.001" in table
 
 
-def test_hardware_force_feedforward_targets(wired):
-    dev = {"preset": "lhifam", "cable": None}
-    hw = robust_cli.hardware(dev, "delay", 2e5, points=9, force_gain=9.0)
-    assert hw["status"] == "optimal" and hw["limiting_target"] == "force_gain"
-    assert hw["controller"]["force_gain_margin_db"] == pytest.approx(6.0, abs=1e-6)
-    hw = robust_cli.hardware(dev, "mass", points=9, apparent_mass=0.5)
-    assert hw["limiting_target"] == "apparent_mass" and hw["direction"] == "max"
+def test_hardware_force_gain_and_apparent_mass():
+    body = json.loads(run("hardware", "lhifam", "--rigid", "--free", "delay", "--stiffness", "2e5",
+                          "--force-gain", "9", "--points", "9", "--json").output)
+    assert body["status"] == "optimal" and body["limiting_target"] == "force_gain"
+    assert body["controller"]["force_gain_margin_db"] == pytest.approx(6.0, abs=1e-6)
+    body = json.loads(run("hardware", "lhifam", "--rigid", "--free", "mass", "--apparent-mass", "0.5",
+                          "--points", "9", "--json").output)
+    assert body["limiting_target"] == "apparent_mass" and body["direction"] == "max"
+    assert "hardware design" in run("hardware", "lhifam", "--rigid", "--free", "delay", "--force-gain", "5",
+                                    "--points", "9").output
 
 
-def test_hardware_command_force_gain(wired):
-    import json
+def test_infeasible_is_exit_1_and_bad_input_exit_2():
+    r = run("hardware", "lhifam", "--rigid", "--free", "delay", "--stiffness", "1e12", "--points", "9", "--json",
+            code=1)
+    assert json.loads(r.output)["status"] == "infeasible"
+    r = run("hardware", "lhifam", "--rigid", "--free", "delay", "--force-gain", "5", "--apparent-mass", "1",
+            "--points", "9", code=2)
+    assert "target" in r.output
+    r = run("stiffness", "lhifam", "--range", "device.wheels=1:2", code=2)
+    assert "device.wheels" in r.output
+    assert "--range" in run("stiffness", "lhifam", code=2).output
+    assert "--free" in run("hardware", "lhifam", code=2).output
 
-    from typer.testing import CliRunner
 
-    out = CliRunner().invoke(robust_cli.robust_app, ["hardware", "--free", "delay", "--rigid", "--force-gain", "5",
-                                                     "--points", "9"])
-    assert out.exit_code == 0, out.output
-    body = json.loads(out.output)
-    assert body["limiting_target"] == "force_gain" and body["controller"]["force_gain"] == 5.0
-    assert "curve" not in body
+def test_plots(tmp_path):
+    png = tmp_path / "slice.png"
+    run("plot", "lhifam", "--rigid", "--range", "device.mass=4:7", "--range", "device.delay=0:0.001",
+        "--points", "5", "-o", str(png))
+    assert png.read_bytes().startswith(b"\x89PNG")
+    svg = tmp_path / "hw.svg"
+    run("plot", "lhifam", "--rigid", "--free", "delay", "--stiffness", "2e5", "--points", "9", "-o", str(svg))
+    assert b"<svg" in svg.read_bytes()[:400]
+    assert "either" in run("plot", "lhifam", "-o", str(png), code=2).output
 
 
 def test_parse_range():
-    assert robust_cli.parse_range("device.mass=4:7") == ("device.mass", (4.0, 7.0))
-    with pytest.raises(Exception):
-        robust_cli.parse_range("device.mass=4")
+    assert parse_range("device.mass=4:7") == ("device.mass", {"min": 4.0, "max": 7.0})
+    import typer
+    with pytest.raises(typer.Exit):
+        parse_range("device.mass=4")
 
 
 def test_zwidth_client_design_hardware_in_process():
@@ -74,3 +83,6 @@ def test_zwidth_client_design_hardware_in_process():
         assert r.controller.force_gain_margin_db == pytest.approx(6.0, abs=1e-6)
         png = zw.plot_hardware({"preset": "lhifam", "cable": None}, "delay", force_gain=5.0, points=9)
         assert png.media_type == "image/png" and png.content.startswith(b"\x89PNG")
+        req = {"uncertainty": {"device.mass": {"min": 4, "max": 7}}}
+        svg = zw.plot_robust({"preset": "lhifam", "cable": None}, req, points=5, format="svg")
+        assert svg.media_type == "image/svg+xml"
