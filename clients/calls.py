@@ -271,15 +271,8 @@ def cancel_study(study_id: str, *, purge: bool = False) -> Call[StudyStatus | No
 
 
 @dataclasses.dataclass(frozen=True)
-class Export:
-    """Every stored row of a study as the service wrote it: CSV text or Parquet bytes."""
-
-    content: bytes
-    media_type: str
-
-    def save(self, path: str) -> None:
-        with open(path, "wb") as fh:
-            fh.write(self.content)
+class Export(Plot):
+    """Every stored row of a study as the service wrote it: CSV text or Parquet bytes (``.save(path)``)."""
 
 
 def export_study(study_id: str, format: Literal["csv", "parquet"] = "csv") -> Call[Export]:  # noqa: A002

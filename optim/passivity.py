@@ -28,11 +28,12 @@ from scipy.optimize import minimize_scalar
 from models.device import Device
 from models.discretize import split_delay
 
+from .golden import golden_minimum
+
 __all__ = ["PassivityCheck", "PassiveStiffness", "passivity_samples", "kernel", "passivity_margin",
            "is_passive", "max_passive_stiffness", "largest_passive_stiffness", "passive_alpha_on_grid",
            "batch_required_damping"]
 
-_GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
 _GOLDEN_STEPS = 80         # a bracket of 2 grid steps shrinks by 0.618⁸⁰ ≈ 2e-17: θ to the last bit
 
 
@@ -208,18 +209,9 @@ def batch_required_damping(d: int, half_tk: np.ndarray, damping: np.ndarray) -> 
         ss, cc = kernel(t, d)
         return kk * ss - bb * cc
 
-    x1, x2 = b - _GOLDEN * (b - a), a + _GOLDEN * (b - a)
-    f1, f2 = f(x1), f(x2)
-    for _ in range(_GOLDEN_STEPS):
-        left = f1 > f2                        # the maximum is in [a, x2]
-        a, b = np.where(left, a, x1), np.where(left, x2, b)
-        n1 = np.where(left, b - _GOLDEN * (b - a), x2)
-        n2 = np.where(left, x1, a + _GOLDEN * (b - a))
-        fn = f(np.where(left, n1, n2))
-        f1, f2 = np.where(left, fn, f2), np.where(left, f1, fn)
-        x1, x2 = n1, n2
-    t_ref = np.where(f1 > f2, x1, x2).reshape(n, -1)
-    v_ref = np.maximum(f1, f2).reshape(n, -1)
+    t_best, neg = golden_minimum(lambda t: -f(t), a, b, _GOLDEN_STEPS)
+    t_ref = t_best.reshape(n, -1)
+    v_ref = (-neg).reshape(n, -1)
     # the grid samples themselves stay candidates (θ = 0 and π are ends no bracket interior reaches)
     v_grid = p[np.arange(n)[:, None], top]
     better = v_ref > v_grid

@@ -35,6 +35,7 @@ from models.discretize import RigidZOH, StateSpaceZOH
 from models.plants import stiffness_loop_plant
 from optim.crossovers import (CLUSTER_GEOM, CLUSTER_HALF_WIDTH, CLUSTER_POINTS, LIN_STEP, LOG_END, LOG_MIN_SAMPLES,
                               LOG_PER_DECADE, STEPS_PER_DELAY_TURN, _solve_brackets)
+from optim.golden import golden_minimum
 
 __all__ = ["BatchCritical", "batch_critical_stiffness"]
 
@@ -204,22 +205,7 @@ def _split_turning(h: _Loop, rows, lo, hi, vlo, vhi):
 
 def _golden_dip(h: _Loop, r, a, b, sign):
     """min over [a, b] of sign·arg H (vectorised golden section): (argmin, min)."""
-    g = (math.sqrt(5.0) - 1.0) / 2.0
-
-    def f(t):
-        return sign * np.angle(h(t, r))
-
-    x1, x2 = b - g * (b - a), a + g * (b - a)
-    f1, f2 = f(x1), f(x2)
-    for _ in range(_GOLDEN_STEPS):
-        left = f1 < f2                       # the minimum is in [a, x2]
-        a, b = np.where(left, a, x1), np.where(left, x2, b)
-        n1 = np.where(left, b - g * (b - a), x2)
-        n2 = np.where(left, x1, a + g * (b - a))
-        fn = f(np.where(left, n1, n2))
-        f1, f2 = np.where(left, fn, f2), np.where(left, f1, fn)
-        x1, x2 = n1, n2
-    return np.where(f1 < f2, x1, x2), np.minimum(f1, f2)
+    return golden_minimum(lambda t: sign * np.angle(h(t, r)), a, b, _GOLDEN_STEPS)
 
 
 def _dip_brackets(h: _Loop, r, lo, hi, vlo, vhi, sign):
