@@ -11,6 +11,7 @@ with warnings.catch_warnings():
 
 from models.device import Device
 from optim.margins import critical_stiffness
+from optim.passivity import passivity_margin
 from service.app import create_app
 
 LH_RIGID = {"preset": "lhifam", "cable": None}
@@ -117,7 +118,26 @@ def test_robust_inertia_refuses_sample_time(client):
     assert r.json()["detail"][0]["loc"][-1] == "device.sample_time"
 
 
-def test_robust_with_passivity_is_422(client):
+def test_robust_with_passivity(client):
     r = client.post("/v1/design/stiffness", json={"device": LH_RIGID, "requirements": {
-        "passivity": True, "uncertainty": {"device.delay": {"min": 0, "max": 0.001}}}})
-    assert r.status_code == 422 and r.json()["detail"][0]["loc"][-1] == "passivity"
+        "passivity": True, "uncertainty": {"device.sample_time": {"min": 0.0008, "max": 0.0012},
+                                           "device.delay": {"min": 0.001, "max": 0.002}}}})
+    assert r.status_code == 200
+    body = r.json()
+    assert body["status"] == "optimal" and "passivity" in body["active_constraints"]
+    pw = body["passivity_worst_case"]
+    assert pw["delay_samples_used"] == 3 and pw["approached"] is True and body["passivity_delay_samples"] == 3
+    # the least passive device, just below its sample time, re-checked by optim.passivity
+    dev = Device(mass=5.4, damping=3.5, sample_time=pw["device"]["device.sample_time"] * (1 - 1e-9),
+                 delay=pw["device"]["device.delay"])
+    check = passivity_margin(dev, body["stiffness"], body["damping"])
+    assert check.delay_samples_used == 3
+    assert 3.5 - check.required_damping == pytest.approx(pw["passivity_margin"], abs=1e-6)
+    assert pw["passivity_margin"] >= -1e-9 and "rounded up" in body["passivity_note"]
+
+
+def test_robust_with_passivity_too_many_delays_is_422(client):
+    r = client.post("/v1/design/stiffness", json={"device": LH_RIGID, "requirements": {
+        "passivity": True, "uncertainty": {"device.delay": {"min": 0, "max": 0.1}}}})
+    assert r.status_code == 422 and r.json()["detail"][0]["loc"][-1] == "uncertainty"
+    assert "at most 64" in r.json()["detail"][0]["msg"]
