@@ -10,6 +10,8 @@ with warnings.catch_warnings():
     from fastapi.testclient import TestClient
 
 from models.device import Device
+from models.feedforward import feedforward_plant
+from optim.feedforward import critical_force_gain_of_plant, resolve_human
 from optim.margins import critical_stiffness
 from optim.passivity import passivity_margin
 from service.app import create_app
@@ -111,11 +113,29 @@ def test_robust_inertia(client):
     assert body["critical_force_gain"] / body["force_gain"] == pytest.approx(10 ** (6 / 20), rel=1e-9)
 
 
-def test_robust_inertia_refuses_sample_time(client):
+def test_robust_inertia_with_sample_time(client):
     r = client.post("/v1/design/inertia", json={"device": {"preset": "lhifam"}, "requirements": {
         "uncertainty": {"device.sample_time": {"min": 0.0005, "max": 0.001}}}})
-    assert r.status_code == 422
-    assert r.json()["detail"][0]["loc"][-1] == "device.sample_time"
+    assert r.status_code == 200
+    body = r.json()
+    assert body["status"] == "optimal" and body["gain_margin_db"] == pytest.approx(6.0, abs=1e-6)
+    worst = body["worst_case"]["device"]["device.sample_time"]
+    # the worst device at its own cutoff angle 2π·f_c·T (optim.feedforward, a fresh plant)
+    dev = Device(preset="lhifam", sample_time=worst)
+    human, _ = resolve_human(dev)
+    theta_c = 2 * math.pi * body["filter_cutoff_hz"] * worst
+    kcr = critical_force_gain_of_plant(feedforward_plant(dev, human), theta_c, 2)[0]
+    assert kcr == pytest.approx(body["critical_force_gain"], rel=1e-9)
+    assert len(body["pareto"]) == 17
+    rm = body["rigid_model"]
+    assert rm["optimism"] == pytest.approx(rm["critical_force_gain"] / body["critical_force_gain"] - 1, rel=1e-12)
+    assert any("pareto" in n for n in body["notes"])
+
+
+def test_robust_inertia_cutoff_above_a_corners_nyquist_is_422(client):
+    r = client.post("/v1/design/inertia", json={"device": {"preset": "lhifam"}, "requirements": {
+        "cutoff_max_hz": 300, "uncertainty": {"device.sample_time": {"min": 0.0005, "max": 0.002}}}})
+    assert r.status_code == 422 and r.json()["detail"][0]["loc"][-1] == "cutoff_max_hz"
 
 
 def test_robust_with_passivity(client):
