@@ -133,7 +133,7 @@ class PassivityWorst:
     corner: PassivityCorner
     check: PassivityCheck
     margin: float
-    """b − sup_θ P(θ) [N·s/m]: ≥ 0 when passive (the design sits on the supremum, so ≈ 0 when passivity binds)."""
+    """b − sup_θ P(θ) [N·s/m]: ≥ 0 when passive (≈ 0 when passivity binds: the design sits on the supremum)."""
 
 
 def worst_passivity(corners: list[PassivityCorner], stiffness: float, damping: float) -> PassivityWorst:

@@ -153,7 +153,7 @@ class _Passivity:
         return True
 
     def rows(self, k_ref: float, b_ref: float) -> np.ndarray:
-        """The cuts as (u, v, w) rows of problem.py: K·T·s/2 − B·c ≤ b divided by b, in k = K/K_ref, b = B/B_ref."""
+        """The cuts as (u, v, w) rows of problem.py: K·T·s/2 − B·c ≤ b over b, in k = K/K_ref, b = B/B_ref."""
         rows = []
         for i, theta in self.cuts:
             c = self.corners[i]
@@ -162,7 +162,8 @@ class _Passivity:
         return np.array(rows, float).reshape(-1, 3)
 
     def coarse(self, bgrid: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Per corner (rows) on the B grid: passive K [N/m] (a seed on optim.passivity's θ grid) and its angle."""
+        """On the B grid, per corner (rows): passive K [N/m] and the angle that binds (a seed on optim.passivity's
+        θ grid); and per B the corner with the smallest."""
         ks, thetas = [], []
         for c in self.corners:
             # Table 1 with m = 1 (passivity does not depend on the mass): δ = bT, β = BT, K = α/T²

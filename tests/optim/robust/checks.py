@@ -48,8 +48,9 @@ def dense_best(box: UncertaintyBox, gain: float, per_axis: int = 9, b_points: in
 
 
 # ---- passivity, computed independently of optim.passivity and optim.robust.passivity -------------------------
-# P(θ) = (K·T/2)·s_n(θ) − B·cos((n+1)θ) with s_n = 1 + 2·Σ_{k≤n} cos kθ summed term by term (optim.passivity uses
-# the closed form sin((n+½)θ)/sin(θ/2)); n = ⌈t_d/T⌉ by the device model's own rule (models.discretize.split_delay).
+# P(θ) = (K·T/2)·s_n(θ) − B·cos((n+1)θ) with s_n = 1 + 2·Σ_{k≤n} cos kθ summed term by term (optim.passivity
+# uses the closed form sin((n+½)θ)/sin(θ/2)); n = ⌈t_d/T⌉ by the device model's own rule
+# (models.discretize.split_delay).
 
 _THETA = np.linspace(0.0, np.pi, 20001)        # θ = 0 is the limit θ → 0⁺
 
