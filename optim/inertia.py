@@ -152,11 +152,16 @@ def _humans(device: Device, req: InertiaRequirements) -> tuple[list[Human], str]
 
 
 class _Loop:
-    """The exact K_f,cr(θ_c) of one device over a set of grasps (worst grasp)."""
+    """The exact K_f,cr(θ_c) of one device over a set of grasps (worst grasp).
+
+    ``cutoff_scales[j]`` maps θ_c to plant j's own cutoff angle (1 here: one device, one sample time;
+    optim.robust.inertia's devices of other sample times see the same cutoff in Hz at θ_c·T_j/T_ref).
+    """
 
     def __init__(self, device: Device, humans: list[Human], order: int):
         self.device, self.humans, self.order = device, humans, order
         self.plants = [feedforward_plant(device, h) for h in humans]
+        self.cutoff_scales = [1.0] * len(self.plants)
         self._memo: dict[float, tuple] = {}
 
     def exact(self, theta_c: float) -> tuple[float, float | None, int, list[tuple[int, float]]]:
@@ -174,7 +179,7 @@ class _Loop:
     def _exact(self, theta_c: float) -> tuple[float, float | None, int, list[tuple[int, float]]]:
         best, where, who, found = math.inf, None, 0, []
         for j, plant in enumerate(self.plants):
-            k, th, pairs = critical_force_gain_of_plant(plant, theta_c, self.order)
+            k, th, pairs = critical_force_gain_of_plant(plant, theta_c * self.cutoff_scales[j], self.order)
             found += [(j, a) for a, _ in pairs]
             if k < best:
                 best, where, who = k, th, j
@@ -195,7 +200,8 @@ def _refine(loop: _Loop, modal, log_rho: float, t0: float, bounds: tuple[float, 
     k0, _, _, tracked = loop.exact(t0)
     y0 = math.log(k0) - log_rho if objective == "max_gain" else y_fixed
     for rounds in range(1, _MAX_EXCHANGE_ROUNDS + 1):
-        res = solve_crossover_nlp(modal, tracked, loop.order, log_rho, t0, bounds, y0, objective, y_fixed)
+        res = solve_crossover_nlp(modal, tracked, loop.order, log_rho, t0, bounds, y0, objective, y_fixed,
+                                  cutoff_scales=loop.cutoff_scales)
         info.update(return_status=res.return_status, exchange_rounds=rounds,
                     tracked_crossovers=len(tracked))
         if not res.success:

@@ -2,7 +2,10 @@
 
 Decision variables: y = log K_f, the filter cutoff t = θ_c [rad/sample] and one
 angle θ_i per tracked phase crossover.  For each crossover i (of the plant of
-grasp h(i)), with h̃ = -conj(G_1)·Q and D = cosⁿφ/Q (models/filters.py):
+grasp h(i)), with h̃ = -conj(G_1)·Q and D = cosⁿφ/Q (models/filters.py) at the
+plant's own cutoff angle σ_h·t (σ = 1 for the plants of one device; a robust
+design's devices with other sample times T_h see the same cutoff in Hz at the
+angle t·T_h/T_ref):
 
     Im h̃(θ_i; t)/|h̃| = 0                    θ_i is a phase crossover at this cutoff
     Re h̃(θ_i; t)/|h̃| ≥ 1/2                  ... of the kind that can destabilise (h > 0)
@@ -12,7 +15,9 @@ This is the local reduction of the semi-infinite constraint "ρ·K_f ≤ h(θ) a
 every crossover"; optim/inertia.py adds crossovers the exact analysis finds
 (exchange method) and re-verifies the answer.  G_1 enters in modal form
 G_1(z) = z^{-d}·Σ_i (r0_i + r1_i z⁻¹)/(z - λ_i) + D_dir·z^{-d-1}, exact for the
-diagonalisable Φ of a damped device (checked against the exact response).
+diagonalisable Φ of a damped device (checked against the exact response).  Plants
+with fewer modes than the largest (a fractional delay adds states) are padded
+with modes of zero residue, which add exactly 0.
 
 Solvers are built once per structure (modes, filter order, crossovers, objective)
 and per thread (CasADi/Ipopt objects are not thread-safe); numbers go in as p.
@@ -123,13 +128,14 @@ def _build(n_modes: int, order: int, n_cross: int, objective: str) -> CrossoverN
     y, t = ca.SX.sym("y"), ca.SX.sym("t")
     th = ca.SX.sym("th", n_cross)
     n_p = 6 * n_modes + 2
-    p = ca.SX.sym("p", 1 + n_cross * n_p)          # [log ρ], then one plant block per crossover
+    p = ca.SX.sym("p", 1 + n_cross * (n_p + 1))    # [log ρ], then per crossover its plant block and σ
     log_rho = p[0]
     g = []
     for i in range(n_cross):
-        blk = p[1 + i * n_p: 1 + (i + 1) * n_p]
+        blk = p[1 + i * (n_p + 1): 1 + i * (n_p + 1) + n_p]
+        sigma = p[1 + i * (n_p + 1) + n_p]
         gr, gi = _g1_expr(th[i], blk, n_modes)
-        log_cn, qr, qi = _filter_expr(th[i], t, order)
+        log_cn, qr, qi = _filter_expr(th[i], sigma * t, order)
         hr, hi = -(gr * qr + gi * qi), -(gr * qi - gi * qr)          # -conj(G)·Q
         ah = ca.sqrt(hr * hr + hi * hi)
         g += [hi / ah, hr / ah,
@@ -154,15 +160,28 @@ class NLPResult:
     return_status: str
 
 
+def _padded(plant: ModalPlant, n_modes: int) -> ModalPlant:
+    """The plant with modes of zero residue (pole 0, off the unit circle) up to n_modes: the same G_1."""
+    extra = n_modes - len(plant.poles)
+    if extra == 0:
+        return plant
+    zeros = np.zeros(extra, complex)
+    return ModalPlant(np.concatenate([plant.poles, zeros]), np.concatenate([plant.r0, zeros]),
+                      np.concatenate([plant.r1, zeros]), plant.direct, plant.d)
+
+
 def solve_crossover_nlp(plants: list[ModalPlant], crossings: list[tuple[int, float]], order: int,
                         log_rho: float, t0: float, t_bounds: tuple[float, float], y0: float,
-                        objective: str, y_fixed: float = 0.0) -> NLPResult:
-    """One local solve; ``crossings`` are (plant index, θ_i0) pairs tracked from the exact analysis."""
+                        objective: str, y_fixed: float = 0.0,
+                        cutoff_scales: list[float] | None = None) -> NLPResult:
+    """One local solve; ``crossings`` are (plant index, θ_i0) pairs tracked from the exact analysis.
+
+    ``cutoff_scales[j]`` is plant j's cutoff angle over t (default 1: every plant at the angle t).
+    """
     n_modes = max(len(pl.poles) for pl in plants)
-    if any(len(pl.poles) != n_modes for pl in plants):
-        raise ValueError("all grasps must give plants of the same order")  # same device, same structure
+    scales = [1.0] * len(plants) if cutoff_scales is None else [float(v) for v in cutoff_scales]
     nlp = _solver(n_modes, order, len(crossings), objective)
-    p = [log_rho] + [v for j, _ in crossings for v in plants[j].params()]
+    p = [log_rho] + [v for j, _ in crossings for v in (*_padded(plants[j], n_modes).params(), scales[j])]
     # target mode: K_f is given, so y is fixed by its bounds (Ipopt makes it a parameter)
     y_lo, y_hi = (-50.0, 50.0) if objective == "max_gain" else (y_fixed, y_fixed)
     lbx = [y_lo, t_bounds[0]] + [a / 1.5 for _, a in crossings]

@@ -16,9 +16,17 @@ of the box may move K_f,cr.  Scenario exchange, as for the stiffness
 4. a device short of the margin by more than 1e-6 dB becomes a scenario.
 The gain is finally clipped to K_f,cr(worst)/10^{GM/20}.
 
-The sample time is not a free path here: the filter D(z) and the NLP work in
-cutoff angles θ_c = 2π f_c T, one per scenario otherwise.  The upper cutoff
-defaults to the lowest first cable mode of the box's corners (eq. 24).
+The filter is one cutoff f_c in Hz; each device discretises it with its own sample
+time (bilinear, prewarped at the cutoff), so scenario s sees the cutoff angle
+θ_s = 2π f_c T_s = θ_ref·T_s/T_ref (T_ref: the nominal device's).  The scan, the
+NLP (one cutoff variable θ_ref, a scale T_s/T_ref per crossover) and the
+worst-case search all carry each device's own angle.  The upper cutoff defaults
+to the lowest first cable mode, or 0.4 × Nyquist, over the box's corners (eq. 24).
+
+Besides the worst device the answer carries the scan of the last round as
+``pareto`` (best K_f per cutoff, worst over the *scenarios*: the design's own
+cutoff alone is verified over the whole box) and, with a cable block, what the
+rigid model of the worst device claims at the design's cutoff.
 """
 
 from __future__ import annotations
@@ -32,7 +40,7 @@ import numpy as np
 from models.device import Device
 from models.feedforward import feedforward_plant
 from optim.feedforward import resolve_human
-from optim.inertia import InertiaRequirements, _band, _bisect, _Loop, _refine
+from optim.inertia import InertiaRequirements, ParetoPoint, RigidComparison, _band, _bisect, _Loop, _refine, _rigid
 from optim.inertia_nlp import modal_plant
 
 from .box import UncertaintyBox
@@ -64,6 +72,11 @@ class RobustInertiaDesign:
     worst_case: dict | None = None
     nominal_gain_margin_db: float | None = None
     cutoff_band_hz: tuple[float, float] | None = None
+    pareto: tuple[ParetoPoint, ...] = ()
+    """the last round's scan: K_f,cr per cutoff, worst over the scenarios (an upper bound of the box's worst
+    except at the design's cutoff, which the box search verifies)."""
+    rigid_model: RigidComparison | None = None
+    """with a cable block: the rigid model of the worst device at the design's cutoff."""
     scenarios: tuple[dict, ...] = ()
     iterations: int = 0
     evaluations: int = 0
@@ -73,10 +86,20 @@ class RobustInertiaDesign:
 
 
 class _ScenarioLoop(_Loop):
-    """optim.inertia's worst-grasp loop with one plant per scenario device (same sample time)."""
+    """optim.inertia's worst-grasp loop with one plant per scenario device, each at its own cutoff angle
+    θ_ref·T_s/T_ref (the cutoff is one frequency in Hz)."""
 
-    def __init__(self, plants, order: int):
-        self.plants, self.order, self._memo = plants, order, {}
+    def __init__(self, devices: list[Device], order: int, t_ref: float):
+        self.plants, self.order, self._memo = [_plant(d) for d in devices], order, {}
+        self.cutoff_scales = [d.sample_time / t_ref for d in devices]
+
+
+@dataclass(frozen=True)
+class _Step:
+    force_gain: float
+    theta: float
+    """the cutoff angle at T_ref [rad per sample]."""
+    pareto: tuple[ParetoPoint, ...]
 
 
 def _plant(device: Device):
@@ -89,40 +112,33 @@ def robust_design_inertia(nominal: Device, req: InertiaRequirements, box: Uncert
     if req.humans is not None or req.human_mass_range is not None:
         raise ValueError("requirements.uncertainty: give the grasp's range as device.human.mass (with a human "
                          "block), not together with humans or human_mass_range")
-    k = box.paths.index("device.sample_time") if "device.sample_time" in box.paths else None
-    if k is not None and box.upper[k] > box.lower[k]:
-        raise ValueError("requirements.uncertainty.device.sample_time: the inertia design cannot hold one filter "
-                         "cutoff angle over several sample times; fix the sample time")
     corners = box.devices(box.corners())
-    bands = [_band(d, req) for d in [nominal, *corners]]
+    bands = [_band(d, req) for d in [box.device_at(box.nominal_point()), *corners]]
     lo_hz, hi_hz = bands[0][0], min(b[1] for b in bands)
     if not lo_hz < hi_hz:
         raise ValueError(f"requirements.cutoff_min_hz: must be below the lowest upper cutoff of the box {hi_hz:g} Hz")
     rho = 10 ** (req.min_gain_margin_db / 20)
-    t_of = 2 * math.pi * nominal.sample_time
+    t_ref = nominal.sample_time
+    t_of = 2 * math.pi * t_ref
     active = np.array([hi > lo for lo, hi in zip(box.lower, box.upper)])
     points = [box.nominal_point()] + [c for c in box.corners()]
     points = list(np.unique(np.array(points), axis=0))
     objective = "target_apparent_mass" if req.target_apparent_mass is not None else "min_apparent_mass"
-    evals, info, kf, theta = 0, {}, None, None
+    evals, info, step = 0, {}, None
     for it in range(1, _MAX_OUTER + 1):
-        plants = [_plant(box.device_at(p)) for p in points]
-        loop = _ScenarioLoop(plants, req.filter_order)
+        loop = _ScenarioLoop(box.devices(np.array(points)), req.filter_order, t_ref)
         out = _design(loop, req, rho, lo_hz, hi_hz, t_of, nominal.mass, objective, info)
         if isinstance(out, RobustInertiaDesign):
             return _with(out, t0, it, evals, box, points, lo_hz, hi_hz)
-        kf, theta = out
+        step, theta = out, out.theta
 
         def evaluate(u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            vals = [loop_for(box.device_at(x)).exact(theta) for x in box.to_box(u)]
+            vals = [_ScenarioLoop([box.device_at(x)], req.filter_order, t_ref).exact(theta) for x in box.to_box(u)]
             return np.array([v[0] for v in vals]), np.array([v[1] if v[1] is not None else np.nan for v in vals])
-
-        def loop_for(dev: Device) -> _ScenarioLoop:
-            return _ScenarioLoop([_plant(dev)], req.filter_order)
 
         wu, wk, wa, n = minimise_over_box(box, active, evaluate, samples=64, starts=2, seed=it)
         evals += n
-        margin = 20 * math.log10(wk / kf) if wk > 0 else -math.inf
+        margin = 20 * math.log10(wk / step.force_gain) if wk > 0 else -math.inf
         if margin >= req.min_gain_margin_db - TOLERANCE_DB:
             break
         wp = box.to_box(wu)
@@ -135,19 +151,21 @@ def robust_design_inertia(nominal: Device, req: InertiaRequirements, box: Uncert
         return _with(RobustInertiaDesign(status="failed", objective=objective,
                                          reason=f"the scenario exchange did not settle in {_MAX_OUTER} rounds"),
                      t0, it, evals, box, points, lo_hz, hi_hz)
-    kf = min(kf, wk / rho)
+    kf = min(step.force_gain, wk / rho)
+    cutoff_hz = step.theta / t_of
     wdev = box.device_at(box.to_box(wu))
-    nom = _ScenarioLoop([_plant(box.device_at(box.nominal_point()))], req.filter_order).exact(theta)[0]
+    nom = _ScenarioLoop([box.device_at(box.nominal_point())], req.filter_order, t_ref).exact(step.theta)[0]
     masses = [d.mass for d in corners] + [nominal.mass]
     worst = {"device": box.describe(box.to_box(wu)), "critical_force_gain": wk,
              "crossover_frequency": None if not math.isfinite(wa) else wa / wdev.sample_time,
              "gain_margin_db": 20 * math.log10(wk / kf)}
+    rigid = _rigid(wdev, [resolve_human(wdev)[0]], req, cutoff_hz, wk, rho) if wdev.cable is not None else None
     d = RobustInertiaDesign(
-        status="optimal", objective=objective, force_gain=kf, filter_cutoff_hz=theta / t_of,
+        status="optimal", objective=objective, force_gain=kf, filter_cutoff_hz=cutoff_hz,
         filter_order=req.filter_order, apparent_mass=nominal.mass / (1 + kf),
         apparent_mass_range=(min(masses) / (1 + kf), max(masses) / (1 + kf)), critical_force_gain=wk,
         gain_margin_db=worst["gain_margin_db"], worst_case=worst, nominal_gain_margin_db=20 * math.log10(nom / kf),
-        solver=dict(info))
+        pareto=step.pareto, rigid_model=rigid, solver=dict(info))
     return _with(d, t0, it, evals, box, points, lo_hz, hi_hz)
 
 
@@ -158,39 +176,42 @@ def _with(d: RobustInertiaDesign, t0, it, evals, box, points, lo_hz, hi_hz) -> R
 
 
 def _design(loop: _ScenarioLoop, req, rho, lo_hz, hi_hz, t_of, mass, objective, info):
-    """(K_f, θ_c) over the current scenarios (optim.inertia's method), or a finished design (infeasible/failed)."""
+    """A _Step (K_f, θ_ref, the scan) over the current scenarios (optim.inertia's method), or a finished design
+    (infeasible/failed)."""
     cutoffs = np.geomspace(lo_hz, hi_hz, max(2, req.pareto_points))
     t = cutoffs * t_of
     kcrs = np.array([loop.exact(th)[0] for th in t])
     if not np.all(np.isfinite(kcrs)):
         return RobustInertiaDesign(status="infeasible", objective=objective,
                                    reason="no phase crossover at some cutoff: the model bounds no force gain there")
+    pareto = tuple(ParetoPoint(float(c), float(k), float(k / rho), float(mass / (1 + k / rho)))
+                   for c, k in zip(cutoffs, kcrs))
     j_best = int(np.argmax(kcrs))
     if objective == "target_apparent_mass":
         kf = mass / req.target_apparent_mass - 1.0
         if kf <= 0.0:
-            return RobustInertiaDesign(status="infeasible", objective=objective, reason=(
+            return RobustInertiaDesign(status="infeasible", objective=objective, pareto=pareto, reason=(
                 f"target_apparent_mass {req.target_apparent_mass:g} is not below the nominal mass {mass:g}"))
         feasible = np.nonzero(kcrs >= rho * kf)[0]
         if feasible.size == 0:
             best = kcrs[j_best] / rho
-            return RobustInertiaDesign(status="infeasible", objective=objective, force_gain=best,
+            return RobustInertiaDesign(status="infeasible", objective=objective, force_gain=best, pareto=pareto,
                                        filter_cutoff_hz=float(cutoffs[j_best]), reason=(
                                            f"K_f = {kf:.6g} needs K_f,cr ≥ {rho * kf:.6g} on every device of the box; "
                                            f"the best reachable is K_f = {best:.6g} at {cutoffs[j_best]:.4g} Hz"))
         j_hi = int(feasible[-1])
         if j_hi == len(t) - 1:
             info.update(return_status="upper cutoff bound feasible (exact)")
-            return kf, float(t[-1])
+            return _Step(kf, float(t[-1]), pareto)
         # the highest cutoff that keeps the margin on every scenario: bisection of the exact verdict
         theta = _bisect(lambda th: loop.exact(th)[0] >= rho * kf, t[j_hi], t[j_hi + 1])
         info.update(return_status="exact bisection of the margin boundary")
-        return kf, theta
+        return _Step(kf, theta, pareto)
     modal = []
     for plant in loop.plants:
         mp, err = modal_plant(plant)
         if not err <= _MODAL_RTOL:
-            return RobustInertiaDesign(status="failed", objective=objective,
+            return RobustInertiaDesign(status="failed", objective=objective, pareto=pareto,
                                        reason=f"modal form of G_1 off by {err:.2g} (ill-conditioned Φ)")
         modal.append(mp)
     lo_j, hi_j = max(j_best - 1, 0), min(j_best + 1, len(t) - 1)
@@ -201,13 +222,9 @@ def _design(loop: _ScenarioLoop, req, rho, lo_hz, hi_hz, t_of, mass, objective, 
         hi_j = j_best
     theta = float(t[j_best])
     if lo_j < hi_j:
-        try:
-            refined = _refine(loop, modal, math.log(rho), t[j_best], (t[lo_j], t[hi_j]), "max_gain", 0.0, info)
-        except ValueError as exc:          # scenarios whose plants differ in order (e.g. a fractional delay)
-            info.update(return_status=f"scan point kept: {exc}")
-            refined = None
+        refined = _refine(loop, modal, math.log(rho), t[j_best], (t[lo_j], t[hi_j]), "max_gain", 0.0, info)
         if refined is not None and loop.exact(refined)[0] >= kcrs[j_best]:
             theta = refined
     else:
         info.update(return_status="scan point kept: crossover branches change on both sides")
-    return loop.exact(theta)[0] / rho, theta
+    return _Step(loop.exact(theta)[0] / rho, theta, pareto)

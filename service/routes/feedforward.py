@@ -127,6 +127,20 @@ def _robust_inertia(req: InertiaRequest, spec: InertiaRequirements, compute: Com
     except ValueError as exc:
         raise input_error(exc) from None
     human, source = resolve_human(req.device)
+    notes = _human_notes(source)
+    if d.pareto:
+        notes.append("pareto: K_f,cr at each cutoff is the worst over the scenarios (the box's corners, its nominal "
+                     "device and the worst devices the search added); only the design's cutoff is verified over the "
+                     "whole box")
+    rigid = None
+    if d.rigid_model is not None:
+        rm = d.rigid_model
+        rigid = {"critical_force_gain": _finite(rm.critical_force_gain), "force_gain": _finite(rm.force_gain),
+                 "optimism": _finite(rm.optimism), "optimistic": rm.optimistic}
+        if rm.optimistic:
+            notes.append(f"the rigid model of the worst device is optimistic: it claims K_f,cr = "
+                         f"{rm.critical_force_gain:.4g} at this cutoff, {100 * rm.optimism:.0f} % above the cable "
+                         f"model's {d.critical_force_gain:.4g}")
     return InertiaResponse(
         status=d.status, objective=d.objective, force_gain=_finite(d.force_gain), filter_cutoff_hz=d.filter_cutoff_hz,
         filter_order=d.filter_order, apparent_mass=_finite(d.apparent_mass),
@@ -135,8 +149,10 @@ def _robust_inertia(req: InertiaRequest, spec: InertiaRequirements, compute: Com
         cutoff_band_hz=d.cutoff_band_hz or (spec.cutoff_min_hz, spec.cutoff_min_hz),
         cutoff_max_source="requirements" if spec.cutoff_max_hz is not None else
         "lowest first cable mode (eq. 24) or 0.4 × Nyquist over the box's corners",
-        pareto=[], humans=[human.model_dump()], worst_human=None, human_source=source, rigid_model=None,
-        solver=dict(d.solver), reason=d.reason, notes=_human_notes(source), elapsed_ms=d.elapsed_ms, robust=True,
+        pareto=[{"filter_cutoff_hz": p.filter_cutoff_hz, "critical_force_gain": _finite(p.critical_force_gain),
+                 "force_gain": _finite(p.force_gain), "apparent_mass": _finite(p.apparent_mass)} for p in d.pareto],
+        humans=[human.model_dump()], worst_human=None, human_source=source, rigid_model=rigid,
+        solver=dict(d.solver), reason=d.reason, notes=notes, elapsed_ms=d.elapsed_ms, robust=True,
         worst_case=d.worst_case, nominal_gain_margin_db=_finite(d.nominal_gain_margin_db),
         apparent_mass_range=d.apparent_mass_range, scenarios=list(d.scenarios), iterations=d.iterations,
         evaluations=d.evaluations)

@@ -13,7 +13,7 @@ from .common import Device  # the numerics' validated domain (optim.domain) appl
 from .ladder import ExactCheckOut, GridPointsField, Method, MethodField
 
 __all__ = ["StiffnessRequirementsIn", "StiffnessDesignRequest", "SensitivityOut", "StiffnessDesignResponse",
-           "RangeIn", "WorstCaseOut"]
+           "RangeIn", "WorstCaseOut", "PassivityWorstCaseOut"]
 
 _STRICT = ConfigDict(extra="forbid", allow_inf_nan=False)
 _BIG = 1e12
@@ -104,6 +104,17 @@ class WorstCaseOut(BaseModel):
     gain_margin_db: float | None = Field(None, description="20·log10(K_cr/K) of the worst device [dB]")
 
 
+class PassivityWorstCaseOut(BaseModel):
+    device: dict[str, float] = Field(description="box values of the least passive device (SI)")
+    delay_samples_used: int = Field(description="whole samples of delay its passivity test uses, ⌈t_d/T⌉")
+    approached: bool = Field(description="true when the box only approaches it: devices with the sample time just "
+                                         "below this one have that many samples (at it the delay is one sample less)")
+    damping: float = Field(description="its physical damping b [N·s/m] (the box's smallest)")
+    required_damping: float = Field(description="sup over θ of P(θ) at the design [N·s/m]")
+    passivity_margin: float = Field(description="b − sup P [N·s/m]: ≥ 0, ≈ 0 when passivity binds")
+    worst_angle: float | None = Field(None, description="θ = ωT where P is largest [rad per sample]")
+
+
 class StiffnessDesignResponse(BaseModel):
     status: Literal["optimal", "infeasible", "failed"]
     stiffness: float | None = Field(None, description="K [N/m]")
@@ -132,6 +143,8 @@ class StiffnessDesignResponse(BaseModel):
     evaluations: int | None = Field(None, description="robust design: exact analyses of the worst-case searches")
     ignored_paths: list[str] | None = Field(None, description="uncertain paths that do not enter the stiffness loop "
                                                              "(the user's grasp, the force sensor)")
+    passivity_worst_case: PassivityWorstCaseOut | None = Field(
+        None, description="robust design with passivity: the least passive device of the box and its margin")
     method: Method = "exact"
     error_estimate: float | None = Field(None, description="relative error bound/estimate of critical_stiffness")
     error_source: str | None = None

@@ -10,7 +10,10 @@ with warnings.catch_warnings():
     from fastapi.testclient import TestClient
 
 from models.device import Device
+from models.feedforward import feedforward_plant
+from optim.feedforward import critical_force_gain_of_plant, resolve_human
 from optim.margins import critical_stiffness
+from optim.passivity import passivity_margin
 from service.app import create_app
 
 LH_RIGID = {"preset": "lhifam", "cable": None}
@@ -161,14 +164,51 @@ def test_robust_inertia(client):
     assert body["critical_force_gain"] / body["force_gain"] == pytest.approx(10 ** (6 / 20), rel=1e-9)
 
 
-def test_robust_inertia_refuses_sample_time(client):
+def test_robust_inertia_with_sample_time(client):
     r = client.post("/v1/design/inertia", json={"device": {"preset": "lhifam"}, "requirements": {
         "uncertainty": {"device.sample_time": {"min": 0.0005, "max": 0.001}}}})
-    assert r.status_code == 422
-    assert r.json()["detail"][0]["loc"][-1] == "device.sample_time"
+    assert r.status_code == 200
+    body = r.json()
+    assert body["status"] == "optimal" and body["gain_margin_db"] == pytest.approx(6.0, abs=1e-6)
+    worst = body["worst_case"]["device"]["device.sample_time"]
+    # the worst device at its own cutoff angle 2π·f_c·T (optim.feedforward, a fresh plant)
+    dev = Device(preset="lhifam", sample_time=worst)
+    human, _ = resolve_human(dev)
+    theta_c = 2 * math.pi * body["filter_cutoff_hz"] * worst
+    kcr = critical_force_gain_of_plant(feedforward_plant(dev, human), theta_c, 2)[0]
+    assert kcr == pytest.approx(body["critical_force_gain"], rel=1e-9)
+    assert len(body["pareto"]) == 17
+    rm = body["rigid_model"]
+    assert rm["optimism"] == pytest.approx(rm["critical_force_gain"] / body["critical_force_gain"] - 1, rel=1e-12)
+    assert any("pareto" in n for n in body["notes"])
 
 
-def test_robust_with_passivity_is_422(client):
+def test_robust_inertia_cutoff_above_a_corners_nyquist_is_422(client):
+    r = client.post("/v1/design/inertia", json={"device": {"preset": "lhifam"}, "requirements": {
+        "cutoff_max_hz": 300, "uncertainty": {"device.sample_time": {"min": 0.0005, "max": 0.002}}}})
+    assert r.status_code == 422 and r.json()["detail"][0]["loc"][-1] == "cutoff_max_hz"
+
+
+def test_robust_with_passivity(client):
     r = client.post("/v1/design/stiffness", json={"device": LH_RIGID, "requirements": {
-        "passivity": True, "uncertainty": {"device.delay": {"min": 0, "max": 0.001}}}})
-    assert r.status_code == 422 and r.json()["detail"][0]["loc"][-1] == "passivity"
+        "passivity": True, "uncertainty": {"device.sample_time": {"min": 0.0008, "max": 0.0012},
+                                           "device.delay": {"min": 0.001, "max": 0.002}}}})
+    assert r.status_code == 200
+    body = r.json()
+    assert body["status"] == "optimal" and "passivity" in body["active_constraints"]
+    pw = body["passivity_worst_case"]
+    assert pw["delay_samples_used"] == 3 and pw["approached"] is True and body["passivity_delay_samples"] == 3
+    # the least passive device, just below its sample time, re-checked by optim.passivity
+    dev = Device(mass=5.4, damping=3.5, sample_time=pw["device"]["device.sample_time"] * (1 - 1e-9),
+                 delay=pw["device"]["device.delay"])
+    check = passivity_margin(dev, body["stiffness"], body["damping"])
+    assert check.delay_samples_used == 3
+    assert 3.5 - check.required_damping == pytest.approx(pw["passivity_margin"], abs=1e-6)
+    assert pw["passivity_margin"] >= -1e-9 and "rounded up" in body["passivity_note"]
+
+
+def test_robust_with_passivity_too_many_delays_is_422(client):
+    r = client.post("/v1/design/stiffness", json={"device": LH_RIGID, "requirements": {
+        "passivity": True, "uncertainty": {"device.delay": {"min": 0, "max": 0.1}}}})
+    assert r.status_code == 422 and r.json()["detail"][0]["loc"][-1] == "uncertainty"
+    assert "at most 64" in r.json()["detail"][0]["msg"]
