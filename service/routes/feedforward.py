@@ -93,14 +93,7 @@ def inertia(req: InertiaRequest, compute: Compute) -> InertiaResponse:
     if jump:
         notes.append(f"K_f,cr jumps between {jump[0]:.4g} and {jump[1]:.4g} Hz, where two phase crossovers merge and "
                      "vanish; a design next to that jump is sensitive to model error (the lower crossover can return)")
-    rigid = None
-    if d.rigid_model is not None:
-        rm = d.rigid_model
-        rigid = {"critical_force_gain": _finite(rm.critical_force_gain), "force_gain": _finite(rm.force_gain),
-                 "optimism": _finite(rm.optimism), "optimistic": rm.optimistic}
-        if rm.optimistic:
-            notes.append(f"the rigid model is optimistic: it claims K_f,cr = {rm.critical_force_gain:.4g} at this "
-                         f"cutoff, {100 * rm.optimism:.0f} % above the cable model's {d.critical_force_gain:.4g}")
+    rigid = _rigid_out(d, notes, "the rigid model")
     return InertiaResponse(
         status=d.status, objective=d.objective, force_gain=_finite(d.force_gain),
         filter_cutoff_hz=d.filter_cutoff_hz, filter_order=d.filter_order, apparent_mass=_finite(d.apparent_mass),
@@ -113,6 +106,18 @@ def inertia(req: InertiaRequest, compute: Compute) -> InertiaResponse:
         worst_human=d.worst_human.model_dump() if d.worst_human else None, human_source=d.human_source,
         rigid_model=rigid, solver={k: v for k, v in d.solver.items()}, reason=d.reason, notes=notes,
         elapsed_ms=d.elapsed_ms, **rung_fields(rung))
+
+
+def _rigid_out(d, notes: list[str], who: str) -> dict | None:
+    """The design's rigid-model comparison as the response's dict; a note when the rigid model over-promises."""
+    rm = d.rigid_model
+    if rm is None:
+        return None
+    if rm.optimistic:
+        notes.append(f"{who} is optimistic: it claims K_f,cr = {rm.critical_force_gain:.4g} at this cutoff, "
+                     f"{100 * rm.optimism:.0f} % above the cable model's {d.critical_force_gain:.4g}")
+    return {"critical_force_gain": _finite(rm.critical_force_gain), "force_gain": _finite(rm.force_gain),
+            "optimism": _finite(rm.optimism), "optimistic": rm.optimistic}
 
 
 def _robust_inertia(req: InertiaRequest, spec: InertiaRequirements, compute: Compute) -> InertiaResponse:
@@ -132,15 +137,7 @@ def _robust_inertia(req: InertiaRequest, spec: InertiaRequirements, compute: Com
         notes.append("pareto: K_f,cr at each cutoff is the worst over the scenarios (the box's corners, its nominal "
                      "device and the worst devices the search added); only the design's cutoff is verified over the "
                      "whole box")
-    rigid = None
-    if d.rigid_model is not None:
-        rm = d.rigid_model
-        rigid = {"critical_force_gain": _finite(rm.critical_force_gain), "force_gain": _finite(rm.force_gain),
-                 "optimism": _finite(rm.optimism), "optimistic": rm.optimistic}
-        if rm.optimistic:
-            notes.append(f"the rigid model of the worst device is optimistic: it claims K_f,cr = "
-                         f"{rm.critical_force_gain:.4g} at this cutoff, {100 * rm.optimism:.0f} % above the cable "
-                         f"model's {d.critical_force_gain:.4g}")
+    rigid = _rigid_out(d, notes, "the rigid model of the worst device")
     return InertiaResponse(
         status=d.status, objective=d.objective, force_gain=_finite(d.force_gain), filter_cutoff_hz=d.filter_cutoff_hz,
         filter_order=d.filter_order, apparent_mass=_finite(d.apparent_mass),

@@ -6,7 +6,6 @@ from __future__ import annotations
 import functools
 import os
 import signal
-import socket
 import subprocess
 import sys
 import time
@@ -17,15 +16,11 @@ from pathlib import Path
 import httpx
 import pytest
 
+from bench.live_server import free_port
+
 ROOT = Path(__file__).resolve().parents[2]
 #: Keys whose values are wall-clock timings, which differ between any two runs.
 TIMING_KEYS = frozenset({"elapsed_ms", "setup_ms", "solve_ms"})
-
-
-def free_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 @dataclass

@@ -7,50 +7,25 @@ workers, as a crash would), then a new server resumes from the store alone.
 
 from __future__ import annotations
 
-import os
-import signal
-import socket
-import subprocess
-import sys
 import time
 from pathlib import Path
 
 import httpx
 import pytest
 
+from bench.live_server import LiveServer
 from tests.service.studies_helpers import small_study, wait_finished
-
-ROOT = Path(__file__).resolve().parents[2]
 pytestmark = pytest.mark.e2e
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+class Server(LiveServer):
+    """The study service on a free port, on the store ``db``, its output appended to ``log`` (kept across restarts)."""
 
-
-class Server:
     def __init__(self, db: Path, log: Path):
-        self.port = _free_port()
-        env = {**os.environ, "PYTHONPATH": str(ROOT), "ZWIDTH_DATABASE_URL": f"sqlite:///{db}",
-               "ZWIDTH_STUDY_WORKERS": "2", "ZWIDTH_STUDY_CHUNK_SIZE": "8"}
-        env.pop("ZWIDTH_DASK_SCHEDULER", None)
-        self.log = open(log, "ab")
-        self.proc = subprocess.Popen([sys.executable, "-m", "uvicorn", "service.app:app", "--host", "127.0.0.1",
-                                      "--port", str(self.port), "--log-level", "warning"],
-                                     cwd=ROOT, env=env, stdout=self.log, stderr=subprocess.STDOUT,
-                                     start_new_session=True)
-        self.http = httpx.Client(base_url=f"http://127.0.0.1:{self.port}", timeout=30)
-        deadline = time.monotonic() + 60
-        while time.monotonic() < deadline:
-            assert self.proc.poll() is None, log.read_text()
-            try:
-                if self.http.get("/v1/studies").status_code == 200:
-                    return
-            except httpx.TransportError:
-                time.sleep(0.1)
-        raise AssertionError("server did not start")
+        super().__init__({"ZWIDTH_DATABASE_URL": f"sqlite:///{db}", "ZWIDTH_STUDY_WORKERS": "2",
+                          "ZWIDTH_STUDY_CHUNK_SIZE": "8", "ZWIDTH_DASK_SCHEDULER": None},
+                         log=log, ready_path="/v1/studies")
+        self.http = httpx.Client(base_url=self.url, timeout=30)
 
     def get(self, sid: str) -> dict:
         return self.http.get(f"/v1/studies/{sid}").json()
@@ -65,21 +40,11 @@ class Server:
 
     def kill(self) -> None:
         self.http.close()
-        if self.proc.poll() is None:
-            os.killpg(self.proc.pid, signal.SIGKILL)
-        self.proc.wait(10)
-        self.log.close()
+        super().kill()
 
     def stop(self) -> None:
         self.http.close()
-        if self.proc.poll() is None:
-            os.killpg(self.proc.pid, signal.SIGTERM)
-            try:
-                self.proc.wait(20)
-            except subprocess.TimeoutExpired:
-                os.killpg(self.proc.pid, signal.SIGKILL)
-                self.proc.wait(10)
-        self.log.close()
+        super().stop()
 
 
 def test_sigkill_mid_run_then_resume(tmp_path):
