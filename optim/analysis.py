@@ -102,6 +102,8 @@ def grid_critical_stiffness(device: Device, damping: float, points: int) -> tupl
 
     Returns (K_cr, ω, crossovers, error estimate).  Linear interpolation of Im H
     between samples; its error is estimated from the change of Re H across the bracket.
+    The estimate is ∞ (unbounded: the grid cannot vouch for its answer) when the grid shows
+    that it missed crossovers (see ``grid_unresolved``).
     """
     plant = loop_plant(device)
     beta = damping / device.damping_scale
@@ -124,7 +126,25 @@ def grid_critical_stiffness(device: Device, damping: float, points: int) -> tupl
     if not found:
         return math.inf, None, (), math.inf
     j = int(np.argmin([c.stiffness for c in found]))
-    return found[j].stiffness, found[j].frequency, tuple(found), errs[j]
+    kcr = found[j].stiffness
+    err = math.inf if grid_unresolved(h, device.delta + beta, kcr / device.stiffness_scale) else errs[j]
+    return kcr, found[j].frequency, tuple(found), err
+
+
+def grid_unresolved(h: np.ndarray, damping_sum: float, alpha: float) -> bool:
+    """Whether the grid's own samples show it may have missed a crossover below its answer α (dimensionless).
+
+    * parity below the grid: for θ → 0⁺, Im H ≈ −(δ + β)·θ < 0 (the mass-damper asymptote of every device
+      here); Im H > 0 at the lowest sample means an odd number of crossovers lie below the grid (the trap of
+      FIELD-NOTES: the first one sits near sqrt((δ+β)/(d+½)), below 1e-3 rad/sample for tiny δ);
+    * between samples: arg H turning by more than π/2 from one sample to the next, where Re H is positive and
+      below α at either end, can hide a pair of crossovers with K below the answer (the delay's phase d·Δθ).
+    """
+    if damping_sum > 0 and h[0].imag > 0:
+        return True
+    turn = np.abs(np.angle(h[1:] / h[:-1]))
+    low = ((h.real[:-1] > 0) & (h.real[:-1] < alpha)) | ((h.real[1:] > 0) & (h.real[1:] < alpha))
+    return bool(np.any((turn > math.pi / 2) & low))
 
 
 def _finite(x: float | None) -> float | None:
@@ -167,7 +187,9 @@ def _analyse(device: Device, stiffness: float | None, damping: float, method: st
         if not (10 <= grid_points <= MAX_GRID_POINTS):
             raise ValueError(f"grid_points: must be between 10 and {MAX_GRID_POINTS}")
         kcr, w, crossovers, err = grid_critical_stiffness(device, damping, grid_points)
-        source = f"half the change of K across the bracketing grid interval ({grid_points} log-spaced ω from 1e-3/T to π/T)"
+        source = (f"half the change of K across the bracketing grid interval ({grid_points} log-spaced ω from 1e-3/T "
+                  "to π/T); null (unbounded) when the grid's samples show missed crossovers: Im H > 0 at its lowest "
+                  "ω, or arg H turning > π/2 between samples where Re H is below the answer")
     elif method == "exact":
         res = critical_stiffness(device, damping)
         kcr, w, crossovers, reason, b_max = res.critical_stiffness, res.crossover_frequency, res.crossovers, res.reason, res.max_stable_damping

@@ -44,8 +44,8 @@ class StabilityResponse(BaseModel):
     method: str
     elapsed_ms: float
     error_estimate: float | None = Field(
-        description="relative error bound/estimate of critical_stiffness; null when unbounded (no crossover found "
-                    "on the grid rung's grid)")
+        description="relative error bound/estimate of critical_stiffness; null when unbounded (grid rung: no "
+                    "crossover on its grid, or its samples show crossovers it missed)")
     error_source: str
     reason: str | None
 

@@ -36,6 +36,35 @@ def test_grid_rung_misses_a_crossover_below_its_grid():
     grid = analyse_stability(dev, method="grid")
     assert exact.crossover_frequency * dev.sample_time < 1e-3
     assert grid.critical_stiffness > 1e3 * exact.critical_stiffness
+    # ... and says so: its error estimate is unbounded (∞; null over HTTP), not the 8e-3 of its bracket
+    assert grid.error_estimate == math.inf and "unbounded" in grid.error_source
+
+
+GRID_CASES = [  # (device, B as a fraction of B_max): the accuracy suite's hard and easy corners
+    (Device(mass=5.4, damping=3.5, delay=0.2), 0.0),                      # LHifAM rigid, 200 samples
+    (Device(mass=1.0, damping=1e-6 / 1e-3, delay=0.02), 0.0),             # δ = 1e-6, d = 20: crossover below grid
+    (Device(mass=1.0, damping=1e-9 / 1e-3), 0.0),                         # δ = 1e-9, d = 0: was "error 0"
+    (Device(mass=1.0, damping=1e-12 / 1e-3, delay=0.2), 0.0),
+    (Device(mass=1.0, damping=1e-6 / 1e-3), 0.0),                         # δ = 1e-6, d = 0: resolved, finite
+    (Device(mass=5.4, damping=3.5, delay=0.005), 0.8),                    # curved part of the boundary
+    (Device(preset="lhifam", delay=0.001), 0.3),
+    (Device(preset="lhifam", delay=0.2), 0.0),
+    (Device(preset="lhifam", sample_time=1e-5, delay=1e-4), 0.0),         # δ = 6.5e-6, fast sampling
+    (Device(preset="phantom-1.0", delay=0.0017), 0.0),
+]
+
+
+@pytest.mark.parametrize("device,fraction", GRID_CASES)
+def test_grid_error_estimate_is_honest(device, fraction):
+    """True error of the grid rung (against the exact rung, itself held to the 40-digit reference elsewhere)
+    ≤ 2 × its estimate; an answer the grid cannot vouch for has an unbounded estimate, never a small one."""
+    b = fraction * max_stable_damping(device)
+    exact = analyse_stability(device, None, b).critical_stiffness
+    grid = analyse_stability(device, None, b, method="grid")
+    err = abs(grid.critical_stiffness / exact - 1)
+    assert err <= 2 * grid.error_estimate
+    if err > 0.01:
+        assert grid.error_estimate == math.inf
 
 
 @pytest.mark.parametrize("delta", [1e-5, 1e-3])
