@@ -95,3 +95,12 @@ def test_bad_rungs_and_caps_raise_naming_the_field():
     far = _dev(LHIFAM_RIGID, (MAX_REFERENCE_DELAY_SAMPLES + 1) * 1e-3)
     with pytest.raises(ValueError, match="^device.delay"):
         analyse_force_feedforward(far, method="reference")
+
+
+@pytest.mark.parametrize("dev, filt", CASES + [(_dev(LHIFAM_CABLE, 0.05), F30), (_dev(LHIFAM_CABLE, 0.05), None)])
+def test_grid_error_estimate_is_honest(dev, filt):
+    """The grid rung's true error (against the exact rung, held to the 40-digit reference elsewhere) ≤ 2 × its
+    estimate; the cable, 30 Hz, 50-sample case is the one where half the bracket's change understated it 2.7×."""
+    exact = critical_force_gain(dev, filt).critical_force_gain
+    grid = analyse_force_feedforward(dev, filt, method="grid")
+    assert abs(grid.critical_force_gain / exact - 1) <= 2 * grid.error_estimate
