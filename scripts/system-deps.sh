@@ -3,6 +3,8 @@
 # Called by scripts/test.sh.  Fails loudly if a package cannot be installed: the tests that need it must not be
 # skipped silently in CI.
 #   chromium: the offline-docs end-to-end test (tests/service/test_docs_offline.py).
+#   postgresql (server binaries initdb/pg_ctl): the study store's PostgreSQL test starts a throw-away server
+#     (tests/service/test_studies_postgres.py).
 #   octave-cli (package octave), curl, gnuplot-nox, fonts-freefont-otf: the MATLAB/Octave client's tests
 #     (tests/clients/test_matlab.py).  Octave's webwrite cannot send a JSON body, so the client uses curl under
 #     Octave; gnuplot-nox and the font let the example script draw its figure headless.
@@ -10,6 +12,7 @@ set -euo pipefail
 # "binary-or-file:package" pairs.
 NEEDS=(
     "/usr/bin/chromium:chromium"
+    "/usr/lib/postgresql:postgresql"
     "/usr/bin/octave-cli:octave"
     "/usr/bin/curl:curl"
     "/usr/bin/gnuplot:gnuplot-nox"

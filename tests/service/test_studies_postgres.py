@@ -1,7 +1,8 @@
 """The study store on PostgreSQL (by URL): a throw-away server from the local PostgreSQL binaries.
 
-Skipped when initdb/pg_ctl or the psycopg driver are not installed.  PostgreSQL refuses to run as
-root, so as root the server runs as ``nobody``.
+Skipped when initdb/pg_ctl or the psycopg driver are not installed; scripts/test.sh installs both
+(psycopg with the test extras, the server binaries by scripts/system-deps.sh), so CI runs it.  PostgreSQL
+refuses to run as root, so as root the server runs as ``nobody``.
 """
 
 from __future__ import annotations
@@ -23,7 +24,16 @@ from service.studies.store import StudyStore, metadata
 from tests.service.studies_helpers import small_study
 
 pytest.importorskip("psycopg")
-INITDB, PG_CTL = shutil.which("initdb"), shutil.which("pg_ctl")
+def _binary(name: str) -> str | None:
+    """On PATH, else Debian's versioned directory (the postgresql package does not put initdb on PATH)."""
+    found = shutil.which(name)
+    if found:
+        return found
+    candidates = sorted(Path("/usr/lib/postgresql").glob(f"*/bin/{name}"), key=lambda p: int(p.parts[-3]))
+    return str(candidates[-1]) if candidates else None
+
+
+INITDB, PG_CTL = _binary("initdb"), _binary("pg_ctl")
 pytestmark = [pytest.mark.e2e, pytest.mark.skipif(not (INITDB and PG_CTL), reason="PostgreSQL binaries not installed")]
 
 
