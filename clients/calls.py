@@ -111,6 +111,10 @@ def _image(response: httpx.Response) -> Plot:
     return Plot(content=response.content, media_type=response.headers.get("content-type", "").split(";")[0])
 
 
+def _export(response: httpx.Response) -> Export:
+    return Export(**dataclasses.asdict(_image(response)))
+
+
 _PRESETS = TypeAdapter(dict[str, Device])
 
 
@@ -196,9 +200,9 @@ def plot_robust(device: DeviceLike, requirements: PartLike, *, x: str | None = N
                 points: int | None = None, format: ImageFormat = "png") -> Call[Plot]:  # noqa: A002
     """``POST /v1/plots/robust?format=``: the robust stiffness design's margin over a two-parameter slice of the
     box (``requirements.uncertainty``), the worst case marked."""
-    body = _body(device=device, requirements=requirements)
-    body.update({k: v for k, v in (("x", x), ("y", y), ("points", points)) if v is not None})
-    return Call("POST", "/v1/plots/robust", "plot", _image, json=body, params={"format": format})
+    return Call("POST", "/v1/plots/robust", "plot", _image,
+                json=_body(device=device, requirements=requirements, x=x, y=y, points=points),
+                params={"format": format})
 
 
 def plot_hardware(device: DeviceLike, free: str, *, stiffness: float | None = None, force_gain: float | None = None,
@@ -280,10 +284,7 @@ def export_study(study_id: str, format: Literal["csv", "parquet"] = "csv") -> Ca
     if format not in ("csv", "parquet"):
         raise ValueError("format: must be csv or parquet (the json pages come from study_results)")
 
-    def parse(response: httpx.Response) -> Export:
-        return Export(response.content, response.headers.get("content-type", "").split(";")[0])
-
-    return Call("GET", f"/v1/studies/{_id(study_id)}/results", "results", parse, params={"format": format})
+    return Call("GET", f"/v1/studies/{_id(study_id)}/results", "results", _export, params={"format": format})
 
 
 def study_results(study_id: str, *, offset: int | None = None, limit: int | None = None) -> Call[StudyResults]:

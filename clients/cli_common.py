@@ -35,7 +35,7 @@ from .errors import APIError, ProtocolError, TransportError, ValidationFailed, Z
 
 __all__ = ["EXIT_OK", "EXIT_NO", "EXIT_USAGE", "EXIT_SERVICE", "EXIT_CODES_HELP", "Remote", "Local", "Url",
            "Token", "AsJson", "Preset", "Sets", "DeviceFile", "SceneFile", "scene_root", "client_with_status", "Connection", "open_client", "handle_errors",
-           "assemble", "emit", "table", "fmt", "out", "err", "usage_error", "progress_status"]
+           "assemble", "emit", "table", "fmt", "out", "err", "usage_error", "progress_status", "exit_unless_optimal"]
 
 EXIT_OK, EXIT_NO, EXIT_USAGE, EXIT_SERVICE = 0, 1, 2, 3
 EXIT_CODES_HELP = ("Exit codes: 0 ok; 1 the answer is no (design infeasible or failed, wall unstable, simulation "
@@ -91,6 +91,12 @@ def open_client(conn: Connection) -> Iterator[ZwidthClient]:
 
 
 # ------------------------------------------------------------------------------------------------ errors
+def exit_unless_optimal(status: str) -> None:
+    """A design that is not ``optimal`` (infeasible or failed: no safe design delivered) ends with exit code 1."""
+    if status != "optimal":
+        raise typer.Exit(EXIT_NO)
+
+
 def usage_error(message: str) -> typer.Exit:
     err.print(f"[bold red]error:[/] {escape(message)}")
     return typer.Exit(EXIT_USAGE)

@@ -29,11 +29,6 @@ def _requirements(margin: float | None, **extra: Any) -> dict[str, Any]:
     return req
 
 
-def _finish(status: str) -> None:
-    if status != "optimal":
-        raise typer.Exit(c.EXIT_NO)
-
-
 @app.command("stiffness")
 @c.handle_errors
 def stiffness(preset: Preset = None, sets: Sets = None, device_file: DeviceFile = None,
@@ -61,7 +56,7 @@ def stiffness(preset: Preset = None, sets: Sets = None, device_file: DeviceFile 
         rows += [(f"sensitivity: {s.parameter}", s.statement, "") for s in r.sensitivities]
         out.print(c.table("stiffness design", rows))
     emit(r, as_json, human)
-    _finish(r.status)
+    c.exit_unless_optimal(r.status)
 
 
 @app.command("inertia")
@@ -89,4 +84,4 @@ def inertia(preset: Preset = None, sets: Sets = None, device_file: DeviceFile = 
         rows += [("note", n, "") for n in r.notes]
         out.print(c.table("inertia design (force feedforward)", rows))
     emit(r, as_json, human)
-    _finish(r.status)
+    c.exit_unless_optimal(r.status)

@@ -72,11 +72,6 @@ def _worst(worst: dict[str, Any] | None) -> str:
     return ", ".join(f"{k} = {v:.6g}" for k, v in values.items()) or "the nominal device"
 
 
-def _finish(status: str) -> None:
-    if status != "optimal":
-        raise typer.Exit(c.EXIT_NO)
-
-
 @robust_app.command("stiffness")
 @c.handle_errors
 def stiffness(preset: Preset = None, sets: Sets = None, device_file: DeviceFile = None, rigid: Rigid = False,
@@ -102,7 +97,7 @@ def stiffness(preset: Preset = None, sets: Sets = None, device_file: DeviceFile 
         rows += [("ignored paths", ", ".join(r.ignored_paths), "")] if r.ignored_paths else []
         out.print(c.table("robust stiffness design", rows))
     emit(r, as_json, human)
-    _finish(r.status)
+    c.exit_unless_optimal(r.status)
 
 
 @robust_app.command("inertia")
@@ -130,7 +125,7 @@ def inertia(preset: Preset = None, sets: Sets = None, device_file: DeviceFile = 
         rows += [("note", n, "") for n in r.notes]
         out.print(c.table("robust inertia design (force feedforward)", rows))
     emit(r, as_json, human)
-    _finish(r.status)
+    c.exit_unless_optimal(r.status)
 
 
 def _targets(stiffness, force_gain, apparent_mass, margin, max_damping, points) -> dict[str, Any]:
@@ -177,7 +172,7 @@ def hardware(preset: Preset = None, sets: Sets = None, device_file: DeviceFile =
         rows += [("note", r.note, "")] if r.note else []
         out.print(c.table("hardware design", rows))
     emit(r, as_json, human)
-    _finish(r.status)
+    c.exit_unless_optimal(r.status)
 
 
 @robust_app.command("plot")

@@ -25,14 +25,14 @@ from models.device import Device
 from .margins import gain_margin_db, linear_estimate
 from .robust.batch import batch_critical_stiffness
 
-__all__ = ["evaluate_batch", "evaluate_one", "by_delay_class", "row"]
+__all__ = ["evaluate_batch", "evaluate_one", "by_delay_class", "one_point", "row", "finite_or_none"]
 
 _NO_DAMPING = ("no physical or virtual damping: no positive stiffness is stable "
                "(linear condition α < 2(δ+β)/(1+2d) with δ = β = 0)")
 _NO_CROSSOVER = "no phase crossover: every positive stiffness is stable"
 
 
-def _finite(x: float) -> float | None:
+def finite_or_none(x: float) -> float | None:
     return float(x) if math.isfinite(x) else None
 
 
@@ -50,10 +50,10 @@ def row(dev: Device, req: Mapping[str, Any], kcr: float, angle: float, bmax: flo
     elif math.isinf(kcr):
         reason = _NO_CROSSOVER
     out: dict[str, Any] = {
-        "critical_stiffness": _finite(kcr),
-        "crossover_frequency": _finite(angle / dev.sample_time) if kcr > 0 and math.isfinite(kcr) else None,
-        "max_stable_damping": _finite(bmax),
-        "linear_estimate": _finite(linear_estimate(dev, b)),
+        "critical_stiffness": finite_or_none(kcr),
+        "crossover_frequency": finite_or_none(angle / dev.sample_time) if kcr > 0 and math.isfinite(kcr) else None,
+        "max_stable_damping": finite_or_none(bmax),
+        "linear_estimate": finite_or_none(linear_estimate(dev, b)),
     }
     if k is not None:
         # as optim.analysis: stable iff K < K_cr; the margin only where K_cr is a positive finite number
@@ -120,7 +120,12 @@ def _evaluate_same_class(devices: Sequence[Device], requirements: Sequence[Mappi
 
 def evaluate_one(device: Device, requirements: Mapping[str, Any]) -> dict[str, Any]:
     """One point (``evaluate_point``): a batch of one; raises ValueError with the reason when it fails."""
-    result, error = evaluate_batch([device], [requirements])[0]
+    return one_point(evaluate_batch, device, requirements)
+
+
+def one_point(batch: Batch, device: Device, requirements: Mapping[str, Any]) -> dict[str, Any]:
+    """``batch`` on one point: its results, or ValueError with the reason the point failed."""
+    result, error = batch([device], [requirements])[0]
     if error is not None:
         raise ValueError(error)
     return result

@@ -5,10 +5,11 @@ gain K_f,t or the apparent mass m_t = m/(1 + K_f) (eq. 28).  For a value q of th
 controller is the stiffness design of optim.stiffness (B free up to the optional max_damping, the requested
 gain margin), giving the achievable stiffness K*(q), and the inertia design of optim.inertia (the largest K_f
 with the same margin, best over its filter-cutoff band), giving K_f*(q).  The targets hold where every
-relative excess (K*/K_t − 1, K_f*/K_f,t − 1, m_t/m_app* − 1) is ≥ 0.  The smallest excess is scanned on a grid
-around the device's own value (the trade-off curve), every change of feasibility between grid points is
-refined by Brent's method on it, and the loosest value is the edge of the feasible set in the direction that
-makes the hardware cheaper:
+relative excess (K*/K_t − 1, K_f*/K_f,t − 1, m_t/m_app* − 1) is ≥ 0.  The excesses are scanned on a grid
+around the device's own value (the trade-off curve); each target's changes of feasibility between grid points
+are refined by Brent's method on its own excess, the targets' feasible sets are intersected (a window between
+two targets narrower than a grid step is kept), and the loosest value is the edge of the feasible set in the
+direction that makes the hardware cheaper:
 
     sample_time: larger   delay: larger   damping: smaller
     cable.stiffness: smaller   mass: smaller (a lighter device), except for an apparent-mass target alone:

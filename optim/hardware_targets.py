@@ -229,9 +229,6 @@ class Probe:
             return f.force_gain / t.force_gain - 1.0
         return t.apparent_mass * (1.0 + f.force_gain) / f.mass - 1.0
 
-    def excesses(self, q: float) -> dict[str, float]:
-        return {name: self.excess(name, q) for name in self.target.names}
-
     def curve_entry(self, q: float) -> dict:
         k, b = self.stiffness(q)[:2] if self.target.stiffness is not None else (None, None)
         f = self.force(q) if self.target.feedforward is not None else None

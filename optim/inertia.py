@@ -37,7 +37,7 @@ from .feedforward import critical_force_gain_of_plant, resolve_human
 from .inertia_nlp import modal_plant, solve_crossover_nlp
 
 __all__ = ["InertiaRequirements", "ParetoPoint", "RigidComparison", "InertiaDesign", "design_inertia",
-           "upper_cutoff_hz", "RIGID_OPTIMISM_FLAG"]
+           "upper_cutoff_hz", "pareto_points", "RIGID_OPTIMISM_FLAG"]
 
 #: Flag the rigid model when its critical K_f exceeds the cable model's by more than this.
 RIGID_OPTIMISM_FLAG = 0.20
@@ -115,6 +115,13 @@ class InertiaDesign:
     solver: dict = field(default_factory=dict)
     reason: str | None = None
     elapsed_ms: float = 0.0
+
+
+def pareto_points(cutoffs_hz: np.ndarray, kcrs: np.ndarray, rho: float, mass: float) -> tuple[ParetoPoint, ...]:
+    """The exact scan of the band as Pareto points: K_f,cr per cutoff, the K_f it allows with the margin
+    ρ = 10^{GM/20}, and the apparent mass m/(1 + K_f)."""
+    return tuple(ParetoPoint(float(c), float(k), float(k / rho), float(mass / (1 + k / rho)))
+                 for c, k in zip(cutoffs_hz, kcrs))
 
 
 def upper_cutoff_hz(device: Device, cutoff_max_hz: float | None = None) -> tuple[float, str]:
@@ -264,8 +271,7 @@ def _design(device: Device, req: InertiaRequirements, humans: list[Human], human
     cutoffs = np.geomspace(lo_hz, hi_hz, max(2, req.pareto_points))
     scan = [loop.exact(c * t_of) for c in cutoffs]
     kcrs = np.array([s[0] for s in scan])
-    pareto = tuple(ParetoPoint(float(c), float(k), float(k / rho), float(m / (1 + k / rho)))
-                   for c, k in zip(cutoffs, kcrs))
+    pareto = pareto_points(cutoffs, kcrs, rho, m)
     objective = "target_apparent_mass" if req.target_apparent_mass is not None else "min_apparent_mass"
     common = dict(objective=objective, filter_order=req.filter_order, cutoff_band_hz=(lo_hz, hi_hz),
                   cutoff_max_source=hi_src, pareto=pareto, humans=tuple(humans), human_source=human_src)
@@ -288,7 +294,7 @@ def _design(device: Device, req: InertiaRequirements, humans: list[Human], human
     for plant in loop.plants:
         mp, err = modal_plant(plant)
         if not err <= _MODAL_RTOL:
-            info["return_status"] = f"modal form of G_1 off by {err:.2g} (ill-conditioned Φ)"
+            info["return_status"] = f"modal form of G_1 off by {err:.2g} (ill-conditioned eigenvectors of A)"
             return _failed(info, common, "the crossover model could not be built accurately")
         modal.append(mp)
     j_best = int(np.argmax(kcrs))

@@ -16,8 +16,8 @@ every crossover"; optim/inertia.py adds crossovers the exact analysis finds
 (exchange method) and re-verifies the answer.  G_1 enters in modal form
 G_1(z) = z^{-d}·Σ_i (r0_i + r1_i z⁻¹)/(z - λ_i) + D_dir·z^{-d-1}, exact for the
 diagonalisable Φ of a damped device (checked against the exact response).  Plants
-with fewer modes than the largest (a fractional delay adds states) are padded
-with modes of zero residue, which add exactly 0.
+with fewer modes than the largest (a device without a force-sensor filter, T_f = 0,
+has one state fewer) are padded with modes of zero residue, which add exactly 0.
 
 Solvers are built once per structure (modes, filter order, crossovers, objective)
 and per thread (CasADi/Ipopt objects are not thread-safe); numbers go in as p.

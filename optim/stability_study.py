@@ -24,16 +24,12 @@ import numpy as np
 from models.device import Device
 from models.plants import Q_criterion
 
-from .critical_study import by_delay_class, row
+from .analysis import EXACT_REL_ERROR, MODE_MATTERS_RTOL
+from .critical_study import by_delay_class, finite_or_none, one_point, row
 from .passivity import batch_required_damping, passivity_samples
 from .robust.batch import batch_critical_stiffness
 
-__all__ = ["evaluate_batch", "evaluate_one", "EXACT_REL_ERROR", "MODE_MATTERS_RTOL"]
-
-#: as optim.analysis's exact rung: agreement with the 40-digit reference on the test suite
-EXACT_REL_ERROR = 1e-12
-#: the cable mode matters when it moves K_cr by more than this (as optim.analysis)
-MODE_MATTERS_RTOL = 0.05
+__all__ = ["evaluate_batch", "evaluate_one"]
 
 
 def evaluate_batch(devices: Sequence[Device], requirements: Sequence[Mapping[str, Any]]
@@ -44,10 +40,7 @@ def evaluate_batch(devices: Sequence[Device], requirements: Sequence[Mapping[str
 
 def evaluate_one(device: Device, requirements: Mapping[str, Any]) -> dict[str, Any]:
     """One point: a batch of one; raises ValueError with the reason when it fails."""
-    result, error = evaluate_batch([device], [requirements])[0]
-    if error is not None:
-        raise ValueError(error)
-    return result
+    return one_point(evaluate_batch, device, requirements)
 
 
 def _same_class(devices: Sequence[Device], requirements: Sequence[Mapping[str, Any]]
@@ -78,10 +71,6 @@ def _same_class(devices: Sequence[Device], requirements: Sequence[Mapping[str, A
     return out
 
 
-def _finite(x: float) -> float | None:
-    return float(x) if math.isfinite(x) else None
-
-
 def _full(dev: Device, req: Mapping[str, Any], base: dict, kcr: float, rigid_k: float, required: float,
           d_used: tuple[int, bool] | None) -> dict[str, Any]:
     k = req.get("stiffness")
@@ -89,7 +78,7 @@ def _full(dev: Device, req: Mapping[str, Any], base: dict, kcr: float, rigid_k: 
     q = mode = rigid_out = None
     if dev.cable is not None:
         q = Q_criterion(dev)
-        rigid_out = _finite(rigid_k)
+        rigid_out = finite_or_none(rigid_k)
         if math.isfinite(kcr) and rigid_k and math.isfinite(rigid_k):
             mode = abs(kcr / rigid_k - 1) > MODE_MATTERS_RTOL
     return {

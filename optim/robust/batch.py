@@ -64,9 +64,9 @@ class _Evaluator:
         self.rigid = isinstance(plants[0], RigidZOH)
         self.d = np.array([p.d for p in plants], float)
         if self.rigid:
-            coef = np.array([p.coefficients() for p in plants])          # (1−p, Φ12, g0p, g0v, g1p, g1v, 1−f)
+            coef = np.array([p.coefficients() for p in plants])      # (1−p, Φ12, g0p, g0v, g1p, g1v, 1−f)
             self.coef = [coef[:, k] for k in range(coef.shape[1])]
-            c0 = np.array([p.f0_numerator() for p in plants])                          # (φ₂(δ), c(δ)) of the f = 0 form
+            c0 = np.array([p.f0_numerator() for p in plants])        # (φ₂(δ), c(δ)) of the f = 0 form
             self.a0, self.c0 = c0[:, 0], c0[:, 1]
             self.whole = np.array([p.f == 0.0 for p in plants])
             return

@@ -40,7 +40,8 @@ import numpy as np
 from models.device import Device
 from models.feedforward import feedforward_plant
 from optim.feedforward import resolve_human
-from optim.inertia import InertiaRequirements, ParetoPoint, RigidComparison, _band, _bisect, _Loop, _refine, _rigid
+from optim.inertia import (InertiaRequirements, ParetoPoint, RigidComparison, _band, _bisect, _Loop, _refine, _rigid,
+                           pareto_points)
 from optim.inertia_nlp import modal_plant
 
 from .box import UncertaintyBox
@@ -184,8 +185,7 @@ def _design(loop: _ScenarioLoop, req, rho, lo_hz, hi_hz, t_of, mass, objective, 
     if not np.all(np.isfinite(kcrs)):
         return RobustInertiaDesign(status="infeasible", objective=objective,
                                    reason="no phase crossover at some cutoff: the model bounds no force gain there")
-    pareto = tuple(ParetoPoint(float(c), float(k), float(k / rho), float(mass / (1 + k / rho)))
-                   for c, k in zip(cutoffs, kcrs))
+    pareto = pareto_points(cutoffs, kcrs, rho, mass)
     j_best = int(np.argmax(kcrs))
     if objective == "target_apparent_mass":
         kf = mass / req.target_apparent_mass - 1.0
@@ -212,7 +212,7 @@ def _design(loop: _ScenarioLoop, req, rho, lo_hz, hi_hz, t_of, mass, objective, 
         mp, err = modal_plant(plant)
         if not err <= _MODAL_RTOL:
             return RobustInertiaDesign(status="failed", objective=objective, pareto=pareto,
-                                       reason=f"modal form of G_1 off by {err:.2g} (ill-conditioned Φ)")
+                                       reason=f"modal form of G_1 off by {err:.2g} (ill-conditioned eigenvectors of A)")
         modal.append(mp)
     lo_j, hi_j = max(j_best - 1, 0), min(j_best + 1, len(t) - 1)
     here = loop.structure(t[j_best])

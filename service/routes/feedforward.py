@@ -100,12 +100,17 @@ def inertia(req: InertiaRequest, compute: Compute) -> InertiaResponse:
         critical_force_gain=_finite(d.critical_force_gain), gain_margin_db=_finite(d.gain_margin_db),
         crossover_frequency=d.crossover_frequency, cutoff_band_hz=d.cutoff_band_hz,
         cutoff_max_source=d.cutoff_max_source,
-        pareto=[{"filter_cutoff_hz": p.filter_cutoff_hz, "critical_force_gain": _finite(p.critical_force_gain),
-                 "force_gain": _finite(p.force_gain), "apparent_mass": _finite(p.apparent_mass)} for p in d.pareto],
+        pareto=_pareto_out(d),
         humans=[h.model_dump() for h in d.humans],
         worst_human=d.worst_human.model_dump() if d.worst_human else None, human_source=d.human_source,
         rigid_model=rigid, solver={k: v for k, v in d.solver.items()}, reason=d.reason, notes=notes,
         elapsed_ms=d.elapsed_ms, **rung_fields(rung))
+
+
+def _pareto_out(d) -> list[dict]:
+    """The design's exact scan of the band, non-finite values as null."""
+    return [{"filter_cutoff_hz": p.filter_cutoff_hz, "critical_force_gain": _finite(p.critical_force_gain),
+             "force_gain": _finite(p.force_gain), "apparent_mass": _finite(p.apparent_mass)} for p in d.pareto]
 
 
 def _rigid_out(d, notes: list[str], who: str) -> dict | None:
@@ -146,8 +151,7 @@ def _robust_inertia(req: InertiaRequest, spec: InertiaRequirements, compute: Com
         cutoff_band_hz=d.cutoff_band_hz or (spec.cutoff_min_hz, spec.cutoff_min_hz),
         cutoff_max_source="requirements" if spec.cutoff_max_hz is not None else
         "lowest first cable mode (eq. 24) or 0.4 × Nyquist over the box's corners",
-        pareto=[{"filter_cutoff_hz": p.filter_cutoff_hz, "critical_force_gain": _finite(p.critical_force_gain),
-                 "force_gain": _finite(p.force_gain), "apparent_mass": _finite(p.apparent_mass)} for p in d.pareto],
+        pareto=_pareto_out(d),
         humans=[human.model_dump()], worst_human=None, human_source=source, rigid_model=rigid,
         solver=dict(d.solver), reason=d.reason, notes=notes, elapsed_ms=d.elapsed_ms, robust=True,
         worst_case=d.worst_case, nominal_gain_margin_db=_finite(d.nominal_gain_margin_db),

@@ -3,7 +3,7 @@
 Independent method: ``optim.analysis.analyse_stability`` / ``optim.margins`` evaluate one device at
 a time with their own scan grid (optim.crossovers.scan_grid) and refinement; the problem evaluates a
 whole chunk in the arrays of ``optim.robust.batch``.  rtol=1e-12 is the accuracy the exact rung
-claims (optim.analysis._EXACT_REL_ERROR); measured agreement is ~1e-15 (different arithmetic order).
+claims (optim.analysis.EXACT_REL_ERROR); measured agreement is ~1e-15 (different arithmetic order).
 """
 
 from __future__ import annotations
