@@ -383,19 +383,19 @@
     }
   }
 
-  function stiffnessRows(r) {
+  function stiffnessRows(r, prefix = "stiffness") {
     return [
-      ["status", statusBadge(r.status), "stiffness-status"],
-      ["wall stiffness K", withUnit(r.stiffness, "N/m"), "stiffness-K"],
-      ["virtual damping B", withUnit(r.damping, "N·s/m"), "stiffness-B"],
+      ["status", statusBadge(r.status), `${prefix}-status`],
+      ["wall stiffness K", withUnit(r.stiffness, "N/m"), `${prefix}-K`],
+      ["virtual damping B", withUnit(r.damping, "N·s/m"), `${prefix}-B`],
       ["K_cr at this B", withUnit(r.critical_stiffness, "N/m")],
       ["gain margin", withUnit(r.gain_margin_db, "dB", 4)],
       ["crossover ω", withUnit(r.crossover_frequency, "rad/s")],
-      ["limited by", escapeText(words(r.active_constraints)), "stiffness-limit"],
+      ["limited by", escapeText(words(r.active_constraints)), `${prefix}-limit`],
       r.reason ? ["reason", escapeText(r.reason)] : null,
       r.passivity_note ? ["passivity", escapeText(r.passivity_note)] : null,
       ...(r.sensitivities || []).slice(0, 4).map((s) => ["sensitivity", escapeText(s.statement)]),
-      ["elapsed", withUnit(r.elapsed_ms, "ms", 4), "stiffness-elapsed"],
+      ["elapsed", withUnit(r.elapsed_ms, "ms", 4), `${prefix}-elapsed`],
       ...verificationRows(r.verification),
     ];
   }
@@ -461,10 +461,12 @@
       const r = await api("/v1/design/stiffness", { method: "POST", body });
       const worst = r.worst_case ? Object.entries(r.worst_case).filter(([, v]) => typeof v !== "object")
         .map(([k, v]) => `${escapeText(k)} = ${num(v)}`).join(", ") : "—";
-      $("robust-result").innerHTML = table([...stiffnessRows(r), ["worst device", worst],
+      $("robust-result").innerHTML = table([...stiffnessRows(r, "robust"), ["worst device", worst],
         ["nominal margin", withUnit(r.nominal_gain_margin_db, "dB", 4)]]);
     });
   }
+
+  const FREE_UNITS = { delay: "s", sample_time: "s", damping: "N·s/m", mass: "kg", "cable.stiffness": "N/m" };
 
   async function designHardware(ev) {
     ev.preventDefault();
@@ -474,7 +476,7 @@
       const r = await api("/v1/design/hardware", { method: "POST", body });
       $("hardware-result").innerHTML = table([
         ["status", statusBadge(r.status), "hardware-status"],
-        [`loosest ${escapeText(r.free)}`, `${num(r.value)} (SI)`, "hardware-value"],
+        [`loosest ${escapeText(r.free)}`, withUnit(r.value, FREE_UNITS[r.free] || "(SI)"), "hardware-value"],
         ["direction", escapeText(r.direction)],
         ["feasible set", (r.intervals || []).map(([a, b]) => `[${num(a)}, ${num(b)}]`).join(" ∪ ") || "—"],
         ["limiting effect", escapeText(r.limiting_effect || "—")],
@@ -486,7 +488,7 @@
       if (curve.some(([, k]) => Number.isFinite(k))) {
         lineChart($("hardware-chart"), {
           series: [{ label: "achievable stiffness", points: curve }],
-          xLabel: `${r.free} (SI units)`, yLabel: "achievable stiffness [N/m]",
+          xLabel: `${r.free} [${FREE_UNITS[r.free] || "SI"}]`, yLabel: "achievable stiffness [N/m]",
           vlines: r.value !== null ? [{ x: r.value, label: "answer" }] : [],
         });
       } else {
@@ -597,7 +599,7 @@
         $("id-robust").onclick = () => runPanel($("id-robust"), $("id-robust-result"), async () => {
           const d = await api("/v1/design/stiffness", { method: "POST", body: {
             device: identified.device, requirements: { min_gain_margin_db: 6, uncertainty: identified.uncertainty } } });
-          $("id-robust-result").innerHTML = table(stiffnessRows(d));
+          $("id-robust-result").innerHTML = table(stiffnessRows(d, "id-robust"));
         });
         try {
           await showImage($("identify-plot"), await api("/v1/plots/identify?format=svg", { method: "POST", body, raw: true }));
