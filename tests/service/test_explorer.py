@@ -136,6 +136,13 @@ def test_explorer_end_to_end(tmp_path):
                 page.locator("#study-table tbody tr").first.get_by_role("button", name="heatmap").click()
                 expect(page.locator("#study-plot")).to_be_visible(timeout=60_000)
 
+                # A tablet in portrait: one column, nothing wider than the screen.
+                page.set_viewport_size({"width": 820, "height": 1180})
+                page.click("#tab-boundary")
+                assert page.evaluate("document.documentElement.scrollWidth") <= 820
+                form, work = page.locator("#device-form").bounding_box(), page.locator(".work").bounding_box()
+                assert work["y"] >= form["y"] + form["height"] - 1          # stacked, not squeezed side by side
+
                 assert not b.errors, b.errors
                 assert not b.blocked, b.blocked
                 paths = b.api_paths()
