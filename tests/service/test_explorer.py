@@ -1,0 +1,190 @@
+"""The design explorer (GET /) in a real headless Chromium against a live uvicorn, with every host but loopback
+unreachable: the page loads, reads the exact answers from the API, shows the API's field errors, follows a study
+to the end, asks for a token when the server needs one, and calls nothing but /v1 (plus its own files).
+
+Reference values: K_cr of the rigid LHifAM, 7000.76 N/m (tests/data/seed_cases.json: the exact rigid K_cr, 7000.756
+N/m; chapter Table 3 prints 76.9 dB); the 6 dB stiffness design of the LHifAM (cable) at 1 ms of delay, 12241.4 N/m,
+is zwidth's own exact design (tests/service/test_design_stiffness.py holds the same request against the exact
+analysis), read here from the rendered page.
+"""
+
+from __future__ import annotations
+
+import ast
+import shutil
+from pathlib import Path
+from urllib.parse import urlparse
+
+import pytest
+
+from .conftest import start_live_server
+
+CHROMIUM = "/usr/bin/chromium"
+ROOT = Path(__file__).resolve().parents[2]
+ALLOWED_PATHS = ("/", "/favicon.ico", "/healthz")
+
+
+def test_page_and_assets_are_served_and_nothing_else(client):
+    page = client.get("/")
+    assert page.status_code == 200 and page.headers["content-type"].startswith("text/html")
+    assert "default-src 'self'" in page.headers["content-security-policy"]
+    for asset, kind in (("explorer.js", "text/javascript"), ("explorer.css", "text/css")):
+        r = client.get(f"/explorer/{asset}")
+        assert r.status_code == 200 and r.headers["content-type"].startswith(kind), asset
+        text = r.text.replace("http://www.w3.org/2000/svg", "")        # the SVG namespace is a name, not a fetch
+        assert "http://" not in text and "https://" not in text, asset
+    assert client.get("/explorer/../app.py").status_code == 404
+    assert client.get("/explorer/secret.txt").status_code == 404
+
+
+def test_the_explorer_route_computes_nothing():
+    """The page's route imports no numerics: every number the page shows comes from a /v1 call."""
+    tree = ast.parse((ROOT / "service" / "routes" / "explorer.py").read_text())
+    imported = {n.module or "" for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)}
+    imported |= {a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names}
+    assert not {m for m in imported if m.split(".")[0] in ("optim", "models")}, imported
+
+
+def _require_browser():
+    if not Path(CHROMIUM).exists():
+        pytest.fail(f"{CHROMIUM} is missing (which: {shutil.which('chromium')}); run scripts/system-deps.sh")
+    return pytest.importorskip("playwright.sync_api", reason="playwright is in the test extras")
+
+
+class _Browser:
+    """A Chromium page on a live server that can reach loopback only, recording every request it makes."""
+
+    def __init__(self, playwright, url: str) -> None:
+        self.url = url
+        self.browser = playwright.chromium.launch(
+            executable_path=CHROMIUM,
+            args=["--no-sandbox", "--disable-gpu", "--disable-quic", "--disable-background-networking",
+                  "--disable-component-update", "--disable-sync", "--disable-dev-shm-usage",
+                  "--host-resolver-rules=MAP * ~NOTFOUND, EXCLUDE 127.0.0.1"])
+        self.context = self.browser.new_context(viewport={"width": 1280, "height": 900})
+        self.requests: list[str] = []
+        self.blocked: list[str] = []
+        self.errors: list[str] = []
+        self.context.route("**/*", self._route)
+        self.page = self.context.new_page()
+        self.page.on("pageerror", lambda e: self.errors.append(str(e)))
+
+    def _route(self, route) -> None:
+        url = route.request.url
+        host = urlparse(url).hostname
+        if host in ("127.0.0.1", "localhost") or url.startswith(("blob:", "data:")):
+            self.requests.append(url)
+            route.continue_()
+        else:
+            self.blocked.append(url)
+            route.abort()
+
+    def close(self) -> None:
+        self.browser.close()
+
+    def api_paths(self) -> set[str]:
+        return {urlparse(u).path for u in self.requests if not u.startswith(("blob:", "data:"))}
+
+
+@pytest.mark.e2e
+@pytest.mark.slow
+def test_explorer_end_to_end(tmp_path):
+    sync_api = _require_browser()
+    expect = sync_api.expect
+    server = start_live_server({"ZWIDTH_PRESTART_WORKERS": "false",
+                                "ZWIDTH_DATABASE_URL": f"sqlite:///{tmp_path / 'studies.db'}"})
+    try:
+        with sync_api.sync_playwright() as p:
+            b = _Browser(p, server.url)
+            try:
+                page = b.page
+                page.goto(server.url + "/")
+                # The LHifAM preset is the default; choose it explicitly as a user would.
+                page.select_option("#preset", "lhifam")
+                expect(page.locator("#kcr-rigid")).to_have_text("7000.76 N/m", timeout=60_000)
+                expect(page.locator("#bmax")).to_contain_text("N·s/m")
+                assert page.locator("#boundary-chart svg path").count() >= 2
+
+                # 1 ms of delay, then the 6 dB wall.
+                page.fill("#delay_ms", "1")
+                expect(page.locator("#kcr")).not_to_have_text("8848.71 N/m", timeout=60_000)
+                page.click("#tab-stiffness")
+                page.fill("#st-margin", "6")
+                page.click("#st-run")
+                expect(page.locator("#stiffness-K")).to_have_text("12241.4 N/m", timeout=60_000)
+                expect(page.locator("#stiffness-status")).to_contain_text("optimal")
+                expect(page.locator("#stiffness-limit")).to_contain_text("gain margin")
+
+                # A negative mass: the API's message appears next to the field.
+                page.click("#tab-boundary")
+                page.check("#model-rigid")
+                page.fill("#mass", "-1")
+                expect(page.locator("#err-mass")).not_to_be_empty(timeout=30_000)
+                assert page.get_attribute("#mass", "aria-invalid") == "true"
+                assert "0" in page.inner_text("#err-mass")      # the rule names its bound
+                page.fill("#mass", "5.4")
+                expect(page.locator("#err-mass")).to_be_empty(timeout=30_000)
+                expect(page.locator("#kcr")).to_contain_text("N/m")
+
+                # A 16-point study, followed to the end.
+                page.click("#tab-studies")
+                page.fill("#sd-mass-num", "4")
+                page.fill("#sd-delay-num", "4")
+                page.click("#sd-run")
+                expect(page.locator("#study-table tbody tr").first.locator(".progress-text")).to_have_text(
+                    "16/16", timeout=120_000)
+                page.locator("#study-table tbody tr").first.get_by_role("button", name="heatmap").click()
+                expect(page.locator("#study-plot")).to_be_visible(timeout=60_000)
+
+                # A tablet in portrait: one column, nothing wider than the screen.
+                page.set_viewport_size({"width": 820, "height": 1180})
+                page.click("#tab-boundary")
+                assert page.evaluate("document.documentElement.scrollWidth") <= 820
+                form, work = page.locator("#device-form").bounding_box(), page.locator(".work").bounding_box()
+                assert work["y"] >= form["y"] + form["height"] - 1          # stacked, not squeezed side by side
+
+                assert not b.errors, b.errors
+                assert not b.blocked, b.blocked
+                paths = b.api_paths()
+                assert {"/v1/presets", "/v1/analysis/stability", "/v1/analysis/boundary", "/v1/design/stiffness",
+                        "/v1/studies"} <= paths
+                strays = {q for q in paths if q not in ALLOWED_PATHS and not q.startswith(("/v1/", "/explorer/"))}
+                assert not strays, strays
+            finally:
+                b.close()
+    finally:
+        server.stop()
+
+
+@pytest.mark.e2e
+@pytest.mark.slow
+def test_explorer_asks_for_the_token(tmp_path):
+    sync_api = _require_browser()
+    expect = sync_api.expect
+    server = start_live_server({"ZWIDTH_PRESTART_WORKERS": "false", "ZWIDTH_API_TOKEN": "s3cret-lab-token",
+                                "ZWIDTH_DATABASE_URL": f"sqlite:///{tmp_path / 'studies.db'}"})
+    try:
+        with sync_api.sync_playwright() as p:
+            b = _Browser(p, server.url)
+            try:
+                page = b.page
+                page.goto(server.url + "/")
+                expect(page.locator("#token-dialog")).to_be_visible(timeout=30_000)
+                page.fill("#token-input", "wrong")
+                page.click("#token-submit")
+                expect(page.locator("#token-error")).to_contain_text("refused", timeout=30_000)
+                expect(page.locator("#token-dialog")).to_be_visible()
+                assert page.locator("#kcr").inner_text() == "—"
+                page.fill("#token-input", "s3cret-lab-token")
+                page.click("#token-submit")
+                expect(page.locator("#token-dialog")).to_be_hidden(timeout=30_000)
+                expect(page.locator("#kcr-rigid")).to_have_text("7000.76 N/m", timeout=60_000)
+                # Kept for the session only: sessionStorage, not localStorage or a cookie.
+                assert page.evaluate("sessionStorage.getItem('zwidth.token')") == "s3cret-lab-token"
+                assert page.evaluate("localStorage.length") == 0
+                assert not b.context.cookies()
+                assert not b.errors, b.errors
+            finally:
+                b.close()
+    finally:
+        server.stop()
