@@ -61,10 +61,10 @@ def presets(local: Local = False, url: Url = DEFAULT_URL, token: Token = None, a
 def _stability_rows(r) -> list[tuple]:
     rows = [("critical stiffness K_cr", r.critical_stiffness, "N/m"),
             ("crossover frequency", r.crossover_frequency, "rad/s"),
-            ("virtual damping B", r.damping, "N·s/m"),
-            ("gain margin", r.gain_margin_db, "dB"),
-            ("stable", r.stable, ""), ("passive", r.passive, ""),
-            ("linear estimate (eq. 10)", r.linear_estimate, "N/m"),
+            ("virtual damping B", r.damping, "N·s/m")]
+    if r.stable is not None:     # a wall was given: its margin, stability and passivity (else they mean nothing)
+        rows += [("gain margin", r.gain_margin_db, "dB"), ("stable", r.stable, ""), ("passive", r.passive, "")]
+    rows += [("linear estimate (eq. 10)", r.linear_estimate, "N/m"),
             ("linear estimate error", r.linear_error, ""),
             ("rigid-model K_cr", r.rigid_critical_stiffness, "N/m"),
             ("cable mode matters", r.mode_matters, ""),
