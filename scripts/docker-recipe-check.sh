@@ -123,6 +123,18 @@ assert status["status"] == "done" and status["done"] == 4, status
 print("docker-recipe-check: a 4-point study ran to the end on the configured store", file=sys.stderr)
 PYEOF
         fi
+        # The installed CLI: `zwidth bench` explains that benchmarks need a source checkout (exit 2), never a
+        # traceback; its help works.
+        (cd "$WORK/run" && env -u PYTHONPATH "$WORK/venv/bin/zwidth" bench --help >/dev/null)
+        set +e
+        BENCH_OUT=$(cd "$WORK/run" && env -u PYTHONPATH "$WORK/venv/bin/zwidth" bench core 2>&1)
+        BENCH_RC=$?
+        set -e
+        if [ "$BENCH_RC" -ne 2 ] || ! tr -s "\n " "  " <<<"$BENCH_OUT" | grep -q "source checkout"; then
+            echo "docker-recipe-check: zwidth bench core in the installed copy: exit $BENCH_RC: $BENCH_OUT" >&2
+            exit 1
+        fi
+        echo "docker-recipe-check: zwidth bench --help works in the installed copy" >&2
         echo "docker-recipe-check: HEALTHCHECK passed on port $PORT" >&2
         exit 0
     fi

@@ -48,4 +48,5 @@ def test_docker_recipe_installs_and_serves_in_a_fresh_venv():
     log = out.stderr.decode(errors="replace")
     assert out.returncode == 0, log[-4000:]
     assert "HEALTHCHECK passed" in log
+    assert "zwidth bench --help works in the installed copy" in log
     assert "a 4-point study ran to the end on the configured store" in log
