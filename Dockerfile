@@ -11,7 +11,8 @@ COPY optim ./optim
 COPY service ./service
 COPY clients ./clients
 RUN python -m venv /opt/zwidth
-RUN /opt/zwidth/bin/pip install -c constraints.txt .
+# The postgres extra: the same image stores studies in SQLite or, by ZWIDTH_DATABASE_URL, in PostgreSQL.
+RUN /opt/zwidth/bin/pip install -c constraints.txt ".[postgres]"
 
 # --- runtime stage: the environment only, run as an unprivileged user --------------------------------
 FROM python:3.11-slim

@@ -61,10 +61,10 @@ def presets(local: Local = False, url: Url = DEFAULT_URL, token: Token = None, a
 def _stability_rows(r) -> list[tuple]:
     rows = [("critical stiffness K_cr", r.critical_stiffness, "N/m"),
             ("crossover frequency", r.crossover_frequency, "rad/s"),
-            ("virtual damping B", r.damping, "N·s/m"),
-            ("gain margin", r.gain_margin_db, "dB"),
-            ("stable", r.stable, ""), ("passive", r.passive, ""),
-            ("linear estimate (eq. 10)", r.linear_estimate, "N/m"),
+            ("virtual damping B", r.damping, "N·s/m")]
+    if r.stable is not None:     # a wall was given: its margin, stability and passivity (else they mean nothing)
+        rows += [("gain margin", r.gain_margin_db, "dB"), ("stable", r.stable, ""), ("passive", r.passive, "")]
+    rows += [("linear estimate (eq. 10)", r.linear_estimate, "N/m"),
             ("linear estimate error", r.linear_error, ""),
             ("rigid-model K_cr", r.rigid_critical_stiffness, "N/m"),
             ("cable mode matters", r.mode_matters, ""),
@@ -231,13 +231,30 @@ def serve(host: str = typer.Option("127.0.0.1", help="interface to bind (0.0.0.0
     import uvicorn
 
     from service.logs import uvicorn_log_config
+    from service.settings import Settings, describe_store
+
+    c.err.print(f"zwidth: studies are stored in {describe_store(Settings().database_url)} "
+                "(ZWIDTH_DATABASE_URL to change)")
 
     uvicorn.run("service.app:app", host=host, port=port, workers=workers, log_level=log_level,
                 log_config=uvicorn_log_config(log_level), access_log=False, proxy_headers=False)
 
 
-bench_app = typer.Typer(help="Benchmarks that write their tables into docs/.", no_args_is_help=True)
+bench_app = typer.Typer(help="Benchmarks that write their tables into docs/ (from a source checkout of zwidth: "
+                             "bench/ and tests/ are not installed with the package).", no_args_is_help=True)
 app.add_typer(bench_app, name="bench")
+
+
+def _bench_module(name: str):
+    """bench/<name>.py of a source checkout; a usage error (exit 2) saying so in an installed copy."""
+    import importlib
+
+    try:
+        return importlib.import_module(f"bench.{name}")
+    except ImportError as exc:
+        raise c.usage_error(f"zwidth bench runs from a source checkout of zwidth (bench/ and tests/ are not "
+                            f"installed with the package): run `python -m bench.{name}` in the checkout "
+                            f"({exc})") from None
 
 
 @bench_app.command("accuracy")
@@ -245,17 +262,13 @@ def bench_accuracy(quick: bool = typer.Option(False, help="the 5-case version"),
                    repeats: int = typer.Option(7, min=1),
                    out: str = typer.Option("docs/accuracy.md")) -> None:
     """What accuracy costs in time: the ladder and python-control on one suite (docs/accuracy.md, .png)."""
-    from bench import accuracy_vs_time
-
-    accuracy_vs_time.main((["--quick"] if quick else []) + ["--repeats", str(repeats), "--out", out])
+    _bench_module("accuracy_vs_time").main((["--quick"] if quick else []) + ["--repeats", str(repeats), "--out", out])
 
 
 @bench_app.command("core")
 def bench_core(repeats: int = typer.Option(30, min=1), out: str = typer.Option("docs/bench_core.md")) -> None:
     """Exact K_cr against python-control's stability_margins (docs/bench_core.md)."""
-    from bench import bench_core as core
-
-    core.main(["--repeats", str(repeats), "--out", out])
+    _bench_module("bench_core").main(["--repeats", str(repeats), "--out", out])
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -4,7 +4,10 @@
 # environment, then starts the ENTRYPOINT (`zwidth serve`, on a free loopback port instead of
 # 0.0.0.0:8000) from an empty directory and runs the HEALTHCHECK command against it.
 # Exit 0 only if the health check passes.  Uses pip's cache and the machine's configured indexes.
-#   Usage: scripts/docker-recipe-check.sh [Dockerfile]
+# With ZWIDTH_DATABASE_URL set (e.g. a PostgreSQL URL, as docker-compose.yml gives the service), the server
+# uses that store and a 4-point study must run to the end through it: the image's install (the `postgres`
+# extra) reaches PostgreSQL without a rebuild.
+#   Usage: [ZWIDTH_DATABASE_URL=postgresql+psycopg://…] scripts/docker-recipe-check.sh [Dockerfile]
 set -euo pipefail
 ROOT="$(cd "$(dirname "$0")/.." && pwd)"
 DOCKERFILE="${1:-$ROOT/Dockerfile}"
@@ -83,7 +86,9 @@ print("\n".join(a.replace(":8000", ":" + sys.argv[2]) for a in json.load(open(sy
 
 echo "docker-recipe-check: ${ENTRY[*]}" >&2
 # exec: the background job's PID is the server's own, so the EXIT trap stops the server itself.
+STORE="${ZWIDTH_DATABASE_URL:-sqlite:///$WORK/run/zwidth.db}"
 (cd "$WORK/run" && exec env -u PYTHONPATH PATH="$WORK/venv/bin:$PATH" ZWIDTH_PRESTART_WORKERS=false \
+    ZWIDTH_DATABASE_URL="$STORE" \
     "${ENTRY[@]}" >"$WORK/server.log" 2>&1) &
 SERVER_PID=$!
 for _ in $(seq 1 300); do
@@ -98,7 +103,38 @@ req = urllib.request.Request(f"http://127.0.0.1:{port}/v1/analysis/stability",
 answer = json.load(urllib.request.urlopen(req, timeout=30))
 assert answer["method"] == "exact" and answer["critical_stiffness"] > 0, answer
 assert urllib.request.urlopen(f"http://127.0.0.1:{port}/docs", timeout=10).status == 200
+assert urllib.request.urlopen(f"http://127.0.0.1:{port}/", timeout=10).status == 200      # the explorer page
 PYEOF
+        if [ -n "${ZWIDTH_DATABASE_URL:-}" ]; then
+            "$WORK/venv/bin/python" - "$PORT" <<'PYEOF'
+import json, sys, time, urllib.request
+base = f"http://127.0.0.1:{sys.argv[1]}/v1/studies"
+body = {"problem": "critical_stiffness", "base": {"device": {"mass": 5.4, "damping": 3.5}},
+        "sweep": {"device.delay": [0.0, 0.001, 0.002, 0.003]}}
+req = urllib.request.Request(base, data=json.dumps(body).encode(), headers={"Content-Type": "application/json"})
+study = json.load(urllib.request.urlopen(req, timeout=30))
+deadline = time.monotonic() + 120
+while time.monotonic() < deadline:
+    status = json.load(urllib.request.urlopen(f"{base}/{study['id']}", timeout=10))
+    if status["status"] in ("done", "failed", "cancelled"):
+        break
+    time.sleep(0.2)
+assert status["status"] == "done" and status["done"] == 4, status
+print("docker-recipe-check: a 4-point study ran to the end on the configured store", file=sys.stderr)
+PYEOF
+        fi
+        # The installed CLI: `zwidth bench` explains that benchmarks need a source checkout (exit 2), never a
+        # traceback; its help works.
+        (cd "$WORK/run" && env -u PYTHONPATH "$WORK/venv/bin/zwidth" bench --help >/dev/null)
+        set +e
+        BENCH_OUT=$(cd "$WORK/run" && env -u PYTHONPATH "$WORK/venv/bin/zwidth" bench core 2>&1)
+        BENCH_RC=$?
+        set -e
+        if [ "$BENCH_RC" -ne 2 ] || ! tr -s "\n " "  " <<<"$BENCH_OUT" | grep -q "source checkout"; then
+            echo "docker-recipe-check: zwidth bench core in the installed copy: exit $BENCH_RC: $BENCH_OUT" >&2
+            exit 1
+        fi
+        echo "docker-recipe-check: zwidth bench --help works in the installed copy" >&2
         echo "docker-recipe-check: HEALTHCHECK passed on port $PORT" >&2
         exit 0
     fi

@@ -29,7 +29,17 @@ from .settings import Settings
 
 __all__ = ["create_app", "app", "VERSION"]
 
-VERSION = "0.1.0"
+def _version() -> str:
+    """The installed distribution's version (pyproject.toml is the one place it is written)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("zwidth")
+    except PackageNotFoundError:  # run from a source tree that was never installed
+        return "0+unknown"
+
+
+VERSION = _version()
 
 _DESCRIPTION = """Controller design for haptic interfaces (Díaz, Gil & Hulin, "Stability Boundary and
 Transparency for Haptic Rendering"). SI units throughout; every analysis says which rung of the accuracy

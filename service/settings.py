@@ -13,7 +13,25 @@ from pydantic import Field, SecretStr, field_validator, model_validator
 from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
 from typing_extensions import Annotated
 
-__all__ = ["Settings"]
+__all__ = ["Settings", "default_database_url", "describe_store"]
+
+
+def default_database_url() -> str:
+    """SQLite in the platform's user data directory (e.g. ~/.local/share/zwidth/studies.db on Linux), so a
+    study store never lands in whatever directory the server happened to start from."""
+    from platformdirs import user_data_path
+
+    return f"sqlite:///{user_data_path('zwidth', appauthor=False) / 'studies.db'}"
+
+
+def describe_store(url: str) -> str:
+    """The store's URL as it may be printed: the password hidden."""
+    from sqlalchemy.engine import make_url
+
+    try:
+        return make_url(url).render_as_string(hide_password=True)
+    except Exception:  # noqa: BLE001 - an unparsable URL is reported by the store itself
+        return "<unparsable database URL>"
 
 
 class Settings(BaseSettings):
@@ -34,7 +52,8 @@ class Settings(BaseSettings):
                                    description="start the compute workers when the app starts (else on first use)")
     cors_origins: Annotated[list[str], NoDecode] = Field(
         default_factory=list, description="allowed CORS origins, comma-separated (none by default: CORS off)")
-    database_url: str = Field(default="sqlite:///zwidth.db", description="study store (SQLAlchemy URL)")
+    database_url: str = Field(default_factory=default_database_url,
+                              description="study store (SQLAlchemy URL); default SQLite in the user data directory")
     dask_scheduler: str | None = Field(default=None, description="Dask scheduler address for studies")
     log_level: str = Field(default="info", description="logging level of the zwidth loggers")
     access_log: bool = Field(default=True, description="one JSON line per request on the zwidth.access logger")

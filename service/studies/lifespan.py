@@ -15,6 +15,7 @@ from typing import AsyncIterator
 from fastapi import FastAPI
 from starlette.concurrency import run_in_threadpool
 
+from ..settings import default_database_url, describe_store
 from .config import StudySettings
 from .executors import make_executor
 from .runner import StudyRunner
@@ -34,13 +35,14 @@ def _service_setting(app: FastAPI, name: str, default):
 
 @asynccontextmanager
 async def study_lifespan(app: FastAPI) -> AsyncIterator[None]:
-    url = _service_setting(app, "database_url", "sqlite:///zwidth.db")
+    url = _service_setting(app, "database_url", None) or default_database_url()
     scheduler = _service_setting(app, "dask_scheduler", None)
     cfg = StudySettings()
     runner = None
     try:
         store = StudyStore(url)
         await run_in_threadpool(store.migrate)
+        log.info("study store: %s", describe_store(url))
         runner = StudyRunner(store, lambda: make_executor(scheduler, cfg.workers), chunk_size=cfg.chunk_size)
         runner.start()
         app.state.study_runner = runner

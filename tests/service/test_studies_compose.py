@@ -15,15 +15,20 @@ ROOT = Path(__file__).resolve().parents[2]
 def test_compose_runs_service_scheduler_and_workers():
     spec = yaml.safe_load((ROOT / "docker-compose.yml").read_text())
     svc = spec["services"]
-    assert set(svc) == {"zwidth", "scheduler", "worker"}
+    assert set(svc) == {"zwidth", "postgres", "scheduler", "worker"}
     env = svc["zwidth"]["environment"]
     port = svc["scheduler"]["entrypoint"][svc["scheduler"]["entrypoint"].index("--port") + 1]
     assert env["ZWIDTH_DASK_SCHEDULER"] == f"tcp://scheduler:{port}"
     worker = svc["worker"]["entrypoint"]
     assert worker[:3] == ["dask", "worker", env["ZWIDTH_DASK_SCHEDULER"]]
     assert worker[worker.index("--nthreads") + 1] == "1" and svc["worker"]["deploy"]["replicas"] >= 2
-    assert {s.get("image") for s in svc.values()} == {"zwidth:latest"}
+    assert {svc[s].get("image") for s in ("zwidth", "scheduler", "worker")} == {"zwidth:latest"}
     # the variables are the ones the service reads
     fields = Settings.model_fields
     assert {"dask_scheduler", "database_url"} <= set(fields)
-    assert env["ZWIDTH_DATABASE_URL"].startswith("sqlite:////home/zwidth/")
+    # the store: the PostgreSQL service, reached once its healthcheck passes
+    pg = svc["postgres"]
+    assert env["ZWIDTH_DATABASE_URL"].startswith("postgresql+psycopg://zwidth:")
+    assert env["ZWIDTH_DATABASE_URL"].endswith("@postgres:5432/" + pg["environment"]["POSTGRES_DB"])
+    assert svc["zwidth"]["depends_on"]["postgres"] == {"condition": "service_healthy"}
+    assert "pg_isready" in pg["healthcheck"]["test"]

@@ -1,18 +1,13 @@
 """The study store on PostgreSQL (by URL): a throw-away server from the local PostgreSQL binaries.
 
-Skipped when initdb/pg_ctl or the psycopg driver are not installed; scripts/test.sh installs both
-(psycopg with the test extras, the server binaries by scripts/system-deps.sh), so CI runs it.  PostgreSQL
-refuses to run as root, so as root the server runs as ``nobody``.
+Skipped when initdb/pg_ctl or the psycopg driver are not installed (tests/service/postgres_server.py);
+scripts/test.sh installs both (psycopg with the test extras, the server binaries by scripts/system-deps.sh),
+so CI runs it.
 """
 
 from __future__ import annotations
 
-import os
-import shutil
-import subprocess
-import tempfile
 import uuid
-from pathlib import Path
 
 import pytest
 from alembic.autogenerate import compare_metadata
@@ -21,48 +16,18 @@ from alembic.migration import MigrationContext
 from service.studies.executors import LocalExecutor
 from service.studies.runner import StudyRunner, plan_from_request
 from service.studies.store import StudyStore, metadata
+from tests.service import postgres_server
 from tests.service.studies_helpers import small_study
 
 pytest.importorskip("psycopg")
-def _binary(name: str) -> str | None:
-    """On PATH, else Debian's versioned directory (the postgresql package does not put initdb on PATH)."""
-    found = shutil.which(name)
-    if found:
-        return found
-    candidates = sorted(Path("/usr/lib/postgresql").glob(f"*/bin/{name}"), key=lambda p: int(p.parts[-3]))
-    return str(candidates[-1]) if candidates else None
-
-
-INITDB, PG_CTL = _binary("initdb"), _binary("pg_ctl")
-pytestmark = [pytest.mark.e2e, pytest.mark.skipif(not (INITDB and PG_CTL), reason="PostgreSQL binaries not installed")]
-
-
-def _as_server_user(cmd: list[str]) -> list[str]:
-    return ["runuser", "-u", "nobody", "--", *cmd] if os.geteuid() == 0 else cmd
+pytestmark = [pytest.mark.e2e, pytest.mark.skipif(not postgres_server.available(),
+                                                   reason="PostgreSQL binaries not installed")]
 
 
 @pytest.fixture(scope="module")
 def pg_url():
-    import socket
-
-    root = Path(tempfile.mkdtemp(prefix="zwidth-pg-"))
-    if os.geteuid() == 0:
-        shutil.chown(root, "nobody")
-    data = root / "data"
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
-    subprocess.run(_as_server_user([INITDB, "-D", str(data), "-U", "zwidth", "--auth=trust", "-E", "UTF8"]),
-                   check=True, capture_output=True, timeout=120)
-    subprocess.run(_as_server_user([PG_CTL, "-D", str(data), "-l", str(root / "log"), "-w", "start", "-o",
-                                    f"-p {port} -k {root} -c listen_addresses=''"]),
-                   check=True, capture_output=True, timeout=60)
-    try:
-        yield f"postgresql+psycopg://zwidth@/postgres?host={root}&port={port}"
-    finally:
-        subprocess.run(_as_server_user([PG_CTL, "-D", str(data), "-m", "immediate", "stop"]), capture_output=True,
-                       timeout=60)
-        shutil.rmtree(root, ignore_errors=True)
+    with postgres_server.postgres_url() as url:
+        yield url
 
 
 def test_postgres_store_schema_and_idempotent_writes(pg_url):
