@@ -209,9 +209,8 @@ def simulate(preset: Preset = None, sets: Sets = None, device_file: DeviceFile =
             rows += [("disagreement", v.disagreement, "")]
         if v.poles is not None:
             p = v.poles
-            rows += [("spectral radius" + (" (linear part)" if p.linearised else ""), p.spectral_radius, ""),
-                     ("dominant pole |z|, ω", f"{p.dominant_pole.modulus:.9g}, {p.dominant_pole.frequency:.6g}",
-                      "rad/s")]
+            rows += [("spectral radius, its ω" + (" (linear part)" if p.linearised else ""),
+                      f"{p.dominant_pole.modulus:.9g}, {p.dominant_pole.frequency:.6g} rad/s", "")]
         elif v.poles_note:
             rows += [("no poles", v.poles_note, "")]
         if v.measured is not None and v.decided_by != "trajectory":

@@ -9,6 +9,11 @@ dominant oscillation (FFT of the settled second half), with the chunk peaks P_j:
     ≥ MIN_CHUNKS chunks, each of its last GROWING_CHUNKS chunks is larger than the
     one before, the last is the largest of the settled half, and the envelope
     grows by more than 1 + GROWTH_TOL over it (least squares through log P_j);
+    or one spectral line grows on its own (``_growing_mode``: the mode may hide
+    under a larger decaying transient);
+    Neither claim is made while the settled half is dominated by a motion it does
+    not resolve (its best quadratic varies more than the rest): a fraction of a slow
+    period looks like growth or decay, and its leakage like a growing line;
   * ``stable``: decay of every mode the record shows is shown: the motion stopped
     exactly (a stuck device), or the last chunk is below REST_FRACTION of the
     run's largest increment (a growing mode excited at more than that fraction of
@@ -42,7 +47,7 @@ import numpy as np
 from .sim_loop import Record
 
 __all__ = ["Verdict", "VerdictState", "analyse_oscillation", "energy_generated", "GROWTH_TOL", "NONLINEAR_TOL",
-           "REST_FRACTION", "MIN_CHUNKS", "GROWING_CHUNKS"]
+           "REST_FRACTION", "MIN_CHUNKS", "GROWING_CHUNKS", "SPECTRAL_WINDOWS", "LINE_FLOOR"]
 
 VerdictState = Literal["stable", "unstable", "undetermined", "limit_cycle"]
 
@@ -51,6 +56,10 @@ NONLINEAR_TOL = 0.1
 REST_FRACTION = 1e-8
 MIN_CHUNKS = 6
 GROWING_CHUNKS = 4
+SPECTRAL_WINDOWS = 8
+LINE_FLOOR = 1e-6
+MIN_LINE_BIN = 3
+PROMINENCE = 10.0
 
 
 @dataclass(frozen=True)
@@ -85,6 +94,60 @@ def _frequency(v: np.ndarray, t: float) -> float | None:
     return 2 * math.pi * (i + shift) / (nfft * t)
 
 
+def _slow_and_fast(window: np.ndarray) -> tuple[float, float]:
+    """[m] peak-to-peak of the best quadratic through the settled positions (a motion slower than the window:
+    a fraction of a period, or a slow approach to an offset) and of what is left (the oscillation)."""
+    s = np.linspace(-1.0, 1.0, len(window))
+    basis = np.vander(s, 3)
+    trend = basis @ np.linalg.lstsq(basis, window, rcond=None)[0]
+    return float(np.ptp(trend - trend.mean()) if len(trend) else 0.0), float(np.ptp(window - trend))
+
+
+def _growing_mode(v: np.ndarray, t: float) -> tuple[float, float] | None:
+    """(ω [rad/s], growth over the window) of the strongest spectral line that grows on its own, or None.
+
+    The settled increments are cut into SPECTRAL_WINDOWS windows; in each, the Hann-windowed amplitude of
+    every frequency bin (after removing a quadratic trend).  A line (≥ MIN_LINE_BIN periods per window) grows when it is a local peak of the last window above LINE_FLOOR of the
+    largest amplitude, rises over each of the last GROWING_CHUNKS windows, is largest in the last one, and
+    its least-squares log-slope over all windows gives more than 1 + GROWTH_TOL.  A decaying mode decays
+    in every bin, so a fast mode growing under a slow decaying transient is seen here.
+    """
+    length = len(v) // SPECTRAL_WINDOWS
+    if length < 16:
+        return None
+    frames = v[:SPECTRAL_WINDOWS * length].reshape(SPECTRAL_WINDOWS, length)
+    # A motion slower than the window (a fraction of a period) is not a line but leaks into every bin
+    # with its own phase-driven trend: remove a quadratic per window first.
+    basis = np.vander(np.linspace(-1.0, 1.0, length), 3)
+    frames = frames - (basis @ np.linalg.lstsq(basis, frames.T, rcond=None)[0]).T
+    amp = np.abs(np.fft.rfft(frames * np.hanning(length), axis=1))
+    top = float(amp.max())
+    if top == 0.0:
+        return None
+    last = amp[-1]
+    peak = np.zeros_like(last, dtype=bool)
+    peak[1:-1] = (last[1:-1] >= last[:-2]) & (last[1:-1] >= last[2:])
+    peak[:MIN_LINE_BIN] = False                 # at least MIN_LINE_BIN periods per window
+    # a line stands PROMINENCE× above the bins 3 away (Hann: main lobe ±2 bins, side lobes < -31 dB);
+    # leakage of a motion the window does not resolve is broad and does not
+    side = np.full_like(last, np.inf)
+    side[3:-3] = np.maximum(last[:-6], last[6:])
+    peak &= last >= PROMINENCE * side
+    cand = peak & (last >= LINE_FLOOR * top) & (last >= amp.max(axis=0))
+    cand &= np.all(np.diff(amp[-GROWING_CHUNKS - 1:], axis=0) > 0, axis=0)
+    if not cand.any():
+        return None
+    idx = np.flatnonzero(cand)
+    x = np.arange(SPECTRAL_WINDOWS) * length * t
+    slopes = np.polyfit(x, np.log(np.maximum(amp[:, idx], 1e-300)), 1)[0]
+    growth = np.exp(np.minimum(slopes * x[-1], 700.0))
+    ok = growth > 1 + GROWTH_TOL
+    if not ok.any():
+        return None
+    best = int(np.argmax(np.where(ok, last[idx], -np.inf)))
+    return 2 * math.pi * idx[best] / (length * t), float(growth[best])
+
+
 def _undetermined(omega, amp, gamma, why: str, duration: float | None) -> Verdict:
     tail = f"; a run of about {duration:.3g} s would decide" if duration is not None else ""
     return Verdict("undetermined", omega, amp, gamma, why + tail, duration)
@@ -117,6 +180,17 @@ def analyse_oscillation(xr: np.ndarray, sample_time: float, linear: bool, diverg
         return Verdict("stable", omega, amp_last, None,
                        f"the motion decayed to {last / peak:.2g} of its largest step (below {REST_FRACTION:g}): "
                        "every mode the record shows decays")
+    slow, fast = _slow_and_fast(window)
+    if slow > fast:
+        need = 2 * n * t * max(2.0, math.sqrt(slow / max(fast, 1e-300)))
+        return _undetermined(omega, amp_last, None, f"the settled half is dominated by a motion slower than it "
+                             f"resolves (a quadratic trend of {slow:.3g} m against {fast:.3g} m of oscillation); "
+                             "growth or decay not measured", need)
+    line = _growing_mode(v, t)
+    if line is not None:
+        return Verdict("unstable", line[0], amp_last, math.log(line[1]) / (len(v) * t),
+                       f"a spectral line at {line[0]:.4g} rad/s grows by {line[1]:.4g}× over the settled half "
+                       f"and rises over its last {GROWING_CHUNKS} windows")
     if m < MIN_CHUNKS:
         need = 2 * MIN_CHUNKS * chunk * t
         return _undetermined(omega, amp_last, None, f"the settled half holds {m} oscillation chunks of "
