@@ -12,7 +12,7 @@ each |z_i| is known to within n·ε·‖A‖_F / s_i (s_i = |y_iᴴx_i|/(‖y_i�
 eigenvalue's condition).  A pole is outside the circle only when its whole
 interval is.  The loop is stable when every interval is inside, or, when some
 poles near 0 are too ill-conditioned for the first-order bound (a delay line is
-nearly a Jordan block), when the dominant pole's interval is inside and a
+nearly a Jordan block, or every pole is near 0), when a
 Lyapunov function V = xᵀPx (AᵀPA - P = -I) decreases beyond rounding.
 Otherwise the answer is ``marginal``, never a guess.
 
@@ -100,10 +100,14 @@ def closed_loop_poles(a: np.ndarray, sample_time: float, translation_invariant: 
     width = np.maximum(n * np.finfo(float).eps * np.linalg.norm(ab) / np.maximum(cond, 1e-300), POLE_FLOOR)
     keep = np.ones(n, dtype=bool)
     free = False
+    deflated = ab
     if translation_invariant:
         i = _free_position_pole(w)
         if i is not None:
             keep[i], free = False, True
+            # Wielandt deflation (for the Lyapunov check only): the pole at 1 moves to 0, the others stay
+            r, l = vr[:, i], vl[:, i]
+            deflated = np.real(ab - w[i] * np.outer(r, l.conj()) / (l.conj() @ r))
     w, width = w[keep], width[keep]
     if w.size == 0:
         return ScenePoles("stable", 0.0, 0.0, 0.0, 0.0, -math.inf, 0.0, n, free,
@@ -120,9 +124,9 @@ def closed_loop_poles(a: np.ndarray, sample_time: float, translation_invariant: 
                                      f"(± {width[j]:.1e}) at {abs(np.angle(w[j])) / sample_time:.6g} rad/s")
     elif np.all(mod + width < 1.0):
         state, reason = "stable", f"every closed-loop pole lies inside the unit circle: spectral radius {rho:.9g}"
-    elif rho + width[dom] < 1.0 and _lyapunov_certificate(ab):
+    elif rho < 1.0 and _lyapunov_certificate(deflated):
         state, reason = "stable", (f"every closed-loop pole lies inside the unit circle: spectral radius {rho:.9g} "
-                                   "(certified by a Lyapunov function, as some poles near 0 are ill-conditioned)")
+                                   "(certified by a Lyapunov function, as some poles are too ill-conditioned for the rounding bound)")
     else:
         j = int(np.argmax(mod + width))
         state, reason = "marginal", (f"a closed-loop pole lies on the unit circle within rounding: |z| = "

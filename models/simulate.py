@@ -148,7 +148,12 @@ def scene_poles(device: Device, scene: Scene) -> tuple[ScenePoles | None, str | 
         spec = LoopSpec(sampled=spec.sampled, stiffness=spec.stiffness, damping=spec.damping, ff_gain=spec.ff_gain,
                         ff_filter=spec.ff_filter)
     a = closed_loop_matrices(spec, np.zeros(spec.sampled.phi.shape[0]), 0.0)[0]
-    poles = closed_loop_poles(a, device.sample_time, _translation_invariant(device, scene))
+    if not np.all(np.isfinite(a)):
+        return None, "the closed-loop matrix is not finite in floating point (extreme parameters)"
+    try:
+        poles = closed_loop_poles(a, device.sample_time, _translation_invariant(device, scene))
+    except (np.linalg.LinAlgError, ValueError) as exc:
+        return None, f"the eigenvalue computation failed ({type(exc).__name__})"
     if poles is None:
         return None, (f"the closed loop has {a.shape[0]} states (a delay line of {spec.sampled.d} samples); "
                       f"dense eigenvalues are limited to {MAX_EXACT_STATES} states")

@@ -1,8 +1,9 @@
 """The verdict of a scene: the exact one from the closed-loop poles when the scene is linear, the
 measured one (models/oscillation.py) otherwise, and any disagreement between them said aloud.
 
-A linear scene is decided by its poles (models/scene_poles.py): ``stable`` / ``unstable``, or
-``undetermined`` when a pole sits on the unit circle within rounding.  The measured verdict is kept
+A linear scene is decided by its poles (models/scene_poles.py): ``stable`` / ``unstable``; when a pole
+sits on the unit circle within rounding the poles cannot decide, and the measured verdict stands (most
+often ``undetermined``), with the poles' reason beside it.  The measured verdict is kept
 beside it; when the two disagree (measured stable or unstable against the poles), the answer says so
 in ``disagreement`` and the poles decide.  A nonlinear scene keeps its measured verdict; the poles of
 its linear part, when computed, are information only.
@@ -53,6 +54,12 @@ def decide(measured: Verdict, poles: ScenePoles | None, linear: bool, poles_note
             measured = Verdict(measured.state, measured.frequency, measured.amplitude, measured.growth_rate,
                                f"{measured.reason} (no exact verdict: {note})", measured.decisive_duration)
         return SceneVerdict(measured, measured, poles, not linear and poles is not None, note, "trajectory", None)
+    if poles.state == "marginal":
+        # the poles cannot decide (a pole on the circle within rounding): what the record shows stands, said
+        top = Verdict(measured.state, measured.frequency, measured.amplitude, measured.growth_rate,
+                      f"{measured.reason}; the closed-loop poles cannot decide: {poles.reason}",
+                      measured.decisive_duration)
+        return SceneVerdict(top, measured, poles, False, None, "trajectory", None)
     state = _FROM_POLES[poles.state]
     top = Verdict(state, poles.dominant_frequency, measured.amplitude, poles.growth_rate, poles.reason, None)
     return SceneVerdict(top, measured, poles, False, None, "closed-loop poles", _disagreement(measured, poles))

@@ -88,7 +88,7 @@ def _measured(m) -> dict:
 def _poles(p, linearised: bool) -> dict:
     dom = {"modulus": p.dominant_modulus, "angle": p.dominant_angle, "frequency": p.dominant_frequency,
            "growth_rate": _finite(p.growth_rate)}
-    return {"state": p.state, "spectral_radius": p.spectral_radius, "dominant_pole": dom, "rounding": p.rounding,
+    return {"state": p.state, "spectral_radius": p.spectral_radius, "dominant_pole": dom, "rounding": _finite(p.rounding),
             "states": p.states, "free_position_pole": p.free_position_pole, "linearised": linearised,
             "method": p.method, "reason": p.reason}
 

@@ -61,7 +61,8 @@ class PolesOut(BaseModel):
         description="every pole inside the unit circle, one outside, or one on it within rounding")
     spectral_radius: float = Field(description="max |z| of the closed-loop poles [-]")
     dominant_pole: DominantPoleOut = Field(description="the pole of largest modulus")
-    rounding: float = Field(description="[-] half-width of the interval known to hold |z| of the dominant pole")
+    rounding: float | None = Field(description="[-] half-width of the interval known to hold |z| of the dominant "
+                                               "pole (null when not finite: an ill-conditioned pole)")
     states: int = Field(description="size of the closed-loop state matrix")
     free_position_pole: bool = Field(description="the exact pole z = 1 of a wall without stiffness was set aside")
     linearised: bool = Field(description="true: the poles of the scene without its nonlinear effects "

@@ -97,6 +97,7 @@ def test_a_pole_on_the_circle_is_undetermined_not_a_guess():
     k_cr = critical_stiffness(dev).critical_stiffness
     res = simulate(dev, _release(dev, k_cr, 5.0))
     assert res.judgement.poles.state == "marginal" and res.verdict.state == "undetermined"
+    assert res.judgement.decided_by == "trajectory" and "poles cannot decide" in res.verdict.reason
     # just off K_cr on either side, decided
     assert simulate(dev, _release(dev, k_cr * (1 - 1e-6), 1.0)).verdict.state == "stable"
     assert simulate(dev, _release(dev, k_cr * (1 + 1e-6), 1.0)).verdict.state == "unstable"
