@@ -57,7 +57,8 @@ def render(outs: list[Outcome], seconds: float, skipped: int, seed: int) -> str:
               "reference stable": [o for o in outs if o.reference == "stable"],
               "reference unstable": [o for o in outs if o.reference == "unstable"]}
     for lo, hi in ((0.3, 1.0), (1.0, 5.0), (5.0, 20.0)):
-        groups[f"{lo:g}–{hi:g} s"] = [o for o in outs if lo <= o.case.duration < hi or (hi == 20.0 and o.case.duration == hi)]
+        groups[f"{lo:g}–{hi:g} s"] = [o for o in outs
+                                      if lo <= o.case.duration < hi or (hi == 20.0 and o.case.duration == hi)]
     head = "| cases | n | agree | undetermined | contradictions |\n|---|---|---|---|---|"
     answer = "\n".join(_row(k, v, "verdict") for k, v in groups.items())
     measured = "\n".join(_row(k, v, "measured") for k, v in groups.items())

@@ -107,7 +107,8 @@ def _growing_mode(v: np.ndarray, t: float) -> tuple[float, float] | None:
     """(ω [rad/s], growth over the window) of the strongest spectral line that grows on its own, or None.
 
     The settled increments are cut into SPECTRAL_WINDOWS windows; in each, the Hann-windowed amplitude of
-    every frequency bin (after removing a quadratic trend).  A line (≥ MIN_LINE_BIN periods per window) grows when it is a local peak of the last window above LINE_FLOOR of the
+    every frequency bin (after removing a quadratic trend).  A line (≥ MIN_LINE_BIN periods per window)
+    grows when it is a local peak of the last window, PROMINENCE× above the bins 3 away and above LINE_FLOOR of the
     largest amplitude, rises over each of the last GROWING_CHUNKS windows, is largest in the last one, and
     its least-squares log-slope over all windows gives more than 1 + GROWTH_TOL.  A decaying mode decays
     in every bin, so a fast mode growing under a slow decaying transient is seen here.
@@ -168,7 +169,7 @@ def analyse_oscillation(xr: np.ndarray, sample_time: float, linear: bool, diverg
     window = xr[n // 2:]
     v = np.diff(window)
     if not np.any(v):
-        what = "decayed to exactly zero" if linear else "stopped exactly (the device stuck)"
+        what = "decayed to exactly zero" if linear else "stopped exactly (stuck, or at rest inside a dead band)"
         return Verdict("stable", None, 0.0, None, f"the motion {what} in the settled half")
     omega = _frequency(v, t)
     period = (2 * math.pi / omega / t) if omega else len(v)

@@ -7,7 +7,8 @@ names them), exact ZOH, the delay line with its fractional part, the wall
 controller and the feedforward filter.  Its free motion decays iff every
 eigenvalue of A is inside the unit circle, whatever the trajectory shows.
 
-Rounding: LAPACK's eigenvalues (of A balanced by an exact diagonal scaling) are exact for a matrix within ~n·ε·‖A‖ of A, so
+Rounding: LAPACK's eigenvalues (of A balanced by an exact diagonal scaling) are
+exact for a matrix within ~n·ε·‖A‖ of A, so
 each |z_i| is known to within n·ε·‖A‖_F / s_i (s_i = |y_iᴴx_i|/(‖y_i‖‖x_i‖), the
 eigenvalue's condition).  A pole is outside the circle only when its whole
 interval is.  The loop is stable when every interval is inside, or, when some
@@ -106,8 +107,8 @@ def closed_loop_poles(a: np.ndarray, sample_time: float, translation_invariant: 
         if i is not None:
             keep[i], free = False, True
             # Wielandt deflation (for the Lyapunov check only): the pole at 1 moves to 0, the others stay
-            r, l = vr[:, i], vl[:, i]
-            deflated = np.real(ab - w[i] * np.outer(r, l.conj()) / (l.conj() @ r))
+            right, left = vr[:, i], vl[:, i].conj()
+            deflated = np.real(ab - w[i] * np.outer(right, left) / (left @ right))
     w, width = w[keep], width[keep]
     if w.size == 0:
         return ScenePoles("stable", 0.0, 0.0, 0.0, 0.0, -math.inf, 0.0, n, free,
@@ -126,7 +127,8 @@ def closed_loop_poles(a: np.ndarray, sample_time: float, translation_invariant: 
         state, reason = "stable", f"every closed-loop pole lies inside the unit circle: spectral radius {rho:.9g}"
     elif rho < 1.0 and _lyapunov_certificate(deflated):
         state, reason = "stable", (f"every closed-loop pole lies inside the unit circle: spectral radius {rho:.9g} "
-                                   "(certified by a Lyapunov function, as some poles are too ill-conditioned for the rounding bound)")
+                                   "(certified by a Lyapunov function, as some poles are too ill-conditioned "
+                                   "for the rounding bound)")
     else:
         j = int(np.argmax(mod + width))
         state, reason = "marginal", (f"a closed-loop pole lies on the unit circle within rounding: |z| = "

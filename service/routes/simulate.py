@@ -107,7 +107,7 @@ def verdict_out(res: SimulationResult) -> dict:
 def simulate_scene(req: SimulateRequest, compute: Compute) -> SimulateResponse:
     start = time.perf_counter()
     res, relay = run_scene(req.device, req.scene, compute)
-    tr, v = res.trajectory, res.verdict
+    tr = res.trajectory
     return SimulateResponse(
         effects_simulated=list(res.effects_simulated), not_simulated=list(res.not_simulated), method=res.method,
         sample_time=res.sample_time, samples=res.samples, samples_run=res.samples_run, diverged_at=res.diverged_at,

@@ -6,7 +6,6 @@ and optim.margins.critical_stiffness (stable iff K < K_cr(B)); models/scene_pole
 
 from __future__ import annotations
 
-import math
 import time
 
 import numpy as np
