@@ -82,7 +82,9 @@ class VerdictOut(BaseModel):
     growth_rate: float | None = Field(description="γ [1/s]: ln|z|/T of the dominant pole when the poles decide, "
                                                   "else of the measured envelope")
     reason: str
-    decided_by: Literal["closed-loop poles", "trajectory"] = "trajectory"
+    decided_by: Literal["closed-loop poles", "critical stiffness", "trajectory"] = Field(
+        default="trajectory", description="closed-loop poles (linear scene); critical stiffness (a linear wall "
+                                          "scene beyond the poles' 600-state limit: K against K_cr(B)); trajectory")
     measured: MeasuredVerdictOut | None = None
     poles: PolesOut | None = Field(default=None, description="closed-loop poles (null for a relay, or a loop "
                                                              "larger than the exact check's limit)")
