@@ -7,4 +7,4 @@ def test_bench_simulate_verdicts_quick(tmp_path):
     out = tmp_path / "v.md"
     assert main(["--quick", "--out", str(out)]) == 0
     text = out.read_text()
-    assert "| all | 40 |" in text and "contradictions" in text
+    assert "| all | 41 |" in text and "contradictions" in text

@@ -25,6 +25,7 @@ from models.device import Device
 from models.scene import Scene
 from models.simulate import simulate
 from optim.margins import critical_stiffness, max_stable_damping
+from optim.scene_verdict import with_margin_verdict
 from tests.optim.independent import spectral_radius
 
 __all__ = ["VerdictCase", "Outcome", "random_case", "run_case", "FACTORS", "DURATIONS"]
@@ -71,9 +72,12 @@ class Outcome:
         return self.measured in ("stable", "unstable") and self.measured != self.reference
 
 
-def random_case(rng: np.random.Generator, cable: bool) -> VerdictCase:
+def random_case(rng: np.random.Generator, cable: bool, long_delay: bool = False) -> VerdictCase:
+    """``long_delay``: 600–1200 samples, beyond the poles' limit (decided by K_cr(B), optim/scene_verdict.py)."""
     t = float(10 ** rng.uniform(-4, math.log10(2e-3)))
     delay = float(rng.uniform(0.0, 6.0) * t) if rng.random() < 0.8 else float(rng.integers(0, 40) * t)
+    if long_delay:
+        delay = float(rng.uniform(600.0, 1200.0) * t)
     if cable:
         m_r, m_d = float(10 ** rng.uniform(-1.3, 0.5)), float(10 ** rng.uniform(-0.5, 1.2))
         c = {"motor_mass": m_r, "body_mass": m_d, "motor_damping": float(10 ** rng.uniform(-2, 1)),
@@ -88,6 +92,7 @@ def random_case(rng: np.random.Generator, cable: bool) -> VerdictCase:
     k_cr = critical_stiffness(dev, b).critical_stiffness
     factor = float(rng.uniform(*FACTORS))
     duration = float(10 ** rng.uniform(math.log10(DURATIONS[0]), math.log10(DURATIONS[1])))
+    duration = max(duration, 2 * delay)               # a release must outlast its delay to say anything
     return VerdictCase(dev, b, factor * k_cr, factor, duration)
 
 
@@ -104,7 +109,8 @@ def run_case(case: VerdictCase) -> Outcome | None:
     if reference != by_kcr:
         raise AssertionError(f"the two references disagree on {case}: radius {radius!r}, factor {case.factor}")
     start = time.perf_counter()
-    res = simulate(dev, case.scene())
+    scene = case.scene()
+    res = with_margin_verdict(dev, scene, simulate(dev, scene))      # what the route answers (service/jobs.py)
     j = res.judgement
     return Outcome(case, reference, radius, res.verdict.state, j.measured.state, j.decided_by, j.disagreement,
                    time.perf_counter() - start)
