@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
+from rich.markup import escape
 from rich.progress import Progress
 from rich.table import Table
 from rich.text import Text
@@ -191,7 +192,8 @@ def simulate(preset: Preset = None, sets: Sets = None, device_file: DeviceFile =
              as_json: AsJson = False) -> None:
     """Simulate a scene on the device (POST /v1/simulate) and give its verdict.
 
-    Exit 1 when the run is unstable (diverged or growing).
+    Exit 1 when the verdict is unstable (poles outside the unit circle, diverged or growing) or undetermined
+    (the reason says why and what would decide it).
     """
     body = c.assemble({"device": c.device_root(preset, device_file, sets),
                        "scene": scene_root(experiment, duration, stiffness, damping, position, velocity,
@@ -202,7 +204,18 @@ def simulate(preset: Preset = None, sets: Sets = None, device_file: DeviceFile =
 
     def human() -> None:
         v = r.verdict
-        rows = [("verdict", v.state, ""), ("why", v.reason, ""), ("oscillation frequency", v.frequency, "rad/s"),
+        rows = [("verdict", v.state, ""), ("decided by", v.decided_by, ""), ("why", v.reason, "")]
+        if v.disagreement:
+            rows += [("disagreement", v.disagreement, "")]
+        if v.poles is not None:
+            p = v.poles
+            rows += [("spectral radius, its ω" + (" (linear part)" if p.linearised else ""),
+                      f"{p.dominant_pole.modulus:.9g}, {p.dominant_pole.frequency:.6g} rad/s", "")]
+        elif v.poles_note:
+            rows += [("no poles", v.poles_note, "")]
+        if v.measured is not None and v.decided_by != "trajectory":
+            rows += [("measured", f"{v.measured.state}: {v.measured.reason}", "")]
+        rows += [("oscillation frequency", v.frequency, "rad/s"),
                 ("amplitude at the end", v.amplitude, "m"), ("growth rate", v.growth_rate, "1/s"),
                 ("diverged at", r.diverged_at, "s"), ("energy generated", r.energy_generated, "J"),
                 ("effects simulated", ", ".join(r.effects_simulated), ""),
@@ -217,7 +230,9 @@ def simulate(preset: Preset = None, sets: Sets = None, device_file: DeviceFile =
         out.print(c.table("simulation", rows))
 
     emit(r, as_json, human)
-    if r.verdict.state == "unstable":
+    if r.verdict.state in ("unstable", "undetermined"):
+        if r.verdict.state == "undetermined" and not as_json:
+            c.err.print(f"[bold yellow]undetermined:[/] {escape(r.verdict.reason)}")
         raise typer.Exit(c.EXIT_NO)
 
 

@@ -5,7 +5,8 @@ Exit codes (also in ``zwidth --help`` and docs/clients.md):
 ====  =====================================================================================
 0     the command worked and the answer is "yes" (or is plain information)
 1     the answer is "no": a design is infeasible or failed, the given wall is unstable or
-      no positive stiffness is stable, a simulation diverged
+      no positive stiffness is stable, a simulation is unstable or undetermined (its verdict
+      does not show the wall stable)
 2     usage or validation error: a bad option, an unknown preset, a 422 from the service
       (the message names the field)
 3     the service could not answer: connection refused or timed out (after retries),
@@ -39,7 +40,7 @@ __all__ = ["EXIT_OK", "EXIT_NO", "EXIT_USAGE", "EXIT_SERVICE", "EXIT_CODES_HELP"
 
 EXIT_OK, EXIT_NO, EXIT_USAGE, EXIT_SERVICE = 0, 1, 2, 3
 EXIT_CODES_HELP = ("Exit codes: 0 ok; 1 the answer is no (design infeasible or failed, wall unstable, simulation "
-                   "diverged); 2 usage or validation error (422 names the field); 3 service or transport error.")
+                   "unstable or undetermined); 2 usage or validation error (422 names the field); 3 service or transport error.")
 
 # A pipe or a log file gets 132 columns rather than rich's 80, so that tables are not truncated.
 out = Console(highlight=False, soft_wrap=True, width=None if sys.stdout.isatty() else 132)

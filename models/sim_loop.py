@@ -25,7 +25,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import butter, zpk2ss
+from scipy.signal import butter, tf2ss
 
 from .sim_plant import SampledPlant
 
@@ -73,8 +73,20 @@ def feedforward_filter(cutoff_hz: float | None, order: int, sample_time: float):
     if not cutoff_hz < fs / 2:
         raise ValueError(f"scene.effects.force_feedforward.cutoff_hz: must be below the Nyquist frequency "
                          f"{fs / 2:g} Hz")
-    a, b, c, d = zpk2ss(*butter(order, cutoff_hz, btype="low", output="zpk", fs=fs))
-    return a, b[:, 0], c[0], float(d[0, 0])
+    # A cascade of second-order sections, not one companion form: at a low cutoff the poles cluster near
+    # z = 1 and a companion matrix's eigenvalues (and its powers) lose ~all digits (a 1.24 Hz 4th-order
+    # filter at 5 kHz put a pole at |z| = 1.00002 where the exact one is 0.99996, and the run diverged).
+    sections = butter(order, cutoff_hz, btype="low", output="sos", fs=fs)
+    a, b, c, d = np.zeros((0, 0)), np.zeros(0), np.zeros(0), 1.0
+    for sec in sections:
+        a2, b2, c2, d2 = tf2ss(sec[:3], sec[3:])
+        b2, c2, d2 = b2[:, 0], c2[0], float(d2[0, 0])
+        n, m = a.shape[0], a2.shape[0]
+        big = np.zeros((n + m, n + m))      # this section is driven by the output of the ones before
+        big[:n, :n], big[n:, n:] = a, a2
+        big[n:, :n] = np.outer(b2, c)
+        a, b, c, d = big, np.concatenate([b, b2 * d]), np.concatenate([d2 * c, c2]), d2 * d
+    return a, b, c, d
 
 
 def _sizes(spec: LoopSpec) -> tuple[int, int, int]:

@@ -21,13 +21,15 @@ import numpy as np
 from .device import Device
 from .friction import FrictionStepper
 from .oscillation import Verdict, analyse_oscillation, energy_generated
+from .scene_poles import MAX_EXACT_STATES, ScenePoles, closed_loop_poles
 from .propagate import linear_outputs
 from .scene import (MAX_SAMPLES_EVENT_INTEGRATOR, MAX_SAMPLES_LINEAR, MAX_SAMPLES_SAMPLED_LOOP, Scene)
 from .sim_loop import LoopSpec, Record, closed_loop_matrices, feedforward_filter, linear_step, run_sampled_loop
 from .sim_plant import SceneModelError, build_plant, sample_plant
+from .verdict import SceneVerdict, decide
 
 __all__ = ["Trajectory", "SimulationResult", "simulate", "propagation_method", "sample_count",
-           "check_cost", "SceneModelError", "loop_spec", "DIVERGENCE_FACTOR"]
+           "check_cost", "SceneModelError", "loop_spec", "DIVERGENCE_FACTOR", "scene_poles"]
 
 #: A run stops as diverged when |x_r| exceeds this factor times its free-motion scale (_scale).
 DIVERGENCE_FACTOR = 1e6
@@ -68,6 +70,9 @@ class SimulationResult:
     record: Record
     """every sample of the run (not serialised; the relay analysis reads it)."""
     verdict: Verdict
+    """the answer (models/verdict.py): the closed-loop poles decide a linear scene, the trajectory otherwise."""
+    judgement: SceneVerdict
+    """the measured verdict, the poles and any disagreement behind ``verdict``."""
     energy_generated: float
     """E_gen at the end [J]."""
     energy_generated_max: float
@@ -126,6 +131,35 @@ def loop_spec(device: Device, scene: Scene) -> LoopSpec:
     )
 
 
+def _translation_invariant(device: Device, scene: Scene) -> bool:
+    """No force depends on where the device is (K = 0, no grasp stiffness): z = 1 is an exact pole."""
+    k = scene.controller.stiffness if scene.controller else 0.0
+    k_h = device.human.stiffness if (scene.effects.human is not None and device.human is not None) else 0.0
+    return k == 0.0 and k_h == 0.0
+
+
+def scene_poles(device: Device, scene: Scene) -> tuple[ScenePoles | None, str | None]:
+    """Closed-loop poles of the scene's linear part (the scene itself when linear); (None, why) when there
+    is no linear part (relay) or the loop is too large for dense eigenvalues."""
+    if scene.experiment == "relay":
+        return None, "a relay loop has no linearisation (its gain is unbounded at y = 0)"
+    spec = loop_spec(device, scene)
+    if spec.quantization is not None or spec.max_force is not None:
+        spec = LoopSpec(sampled=spec.sampled, stiffness=spec.stiffness, damping=spec.damping, ff_gain=spec.ff_gain,
+                        ff_filter=spec.ff_filter)
+    a = closed_loop_matrices(spec, np.zeros(spec.sampled.phi.shape[0]), 0.0)[0]
+    if not np.all(np.isfinite(a)):
+        return None, "the closed-loop matrix is not finite in floating point (extreme parameters)"
+    try:
+        poles = closed_loop_poles(a, device.sample_time, _translation_invariant(device, scene))
+    except (np.linalg.LinAlgError, ValueError) as exc:
+        return None, f"the eigenvalue computation failed ({type(exc).__name__})"
+    if poles is None:
+        return None, (f"the closed loop has {a.shape[0]} states (a delay line of {spec.sampled.d} samples); "
+                      f"dense eigenvalues are limited to {MAX_EXACT_STATES} states")
+    return poles, None
+
+
 def _user_force(device: Device, scene: Scene, n: int) -> np.ndarray:
     if scene.push is None:
         return np.zeros(n)
@@ -179,13 +213,16 @@ def simulate(device: Device, scene: Scene) -> SimulationResult:
     diverged = run < n
     energy = energy_generated(rec, spec.stiffness)
     linear = method == "exact-linear-recursion"
-    verdict = analyse_oscillation(rec.motor_position, t, linear=linear, diverged=diverged)
+    measured = analyse_oscillation(rec.motor_position, t, linear=linear, diverged=diverged)
+    poles, note = scene_poles(device, scene)
+    judgement = decide(measured, poles, linear, note)
     named = scene.effects.named()
     return SimulationResult(
         effects_simulated=("zoh", "sampling") + named + (("relay",) if scene.experiment == "relay" else ()),
         not_simulated=_not_simulated(device, scene), method=method, sample_time=t, samples=n, samples_run=run,
         diverged_at=run * t if diverged else None,
-        trajectory=_downsample(rec, energy, t, scene.output_points), record=rec, verdict=verdict,
+        trajectory=_downsample(rec, energy, t, scene.output_points), record=rec, verdict=judgement.verdict,
+        judgement=judgement,
         energy_generated=float(energy[-1]), energy_generated_max=float(np.max(energy)),
         energy_generated_second_half=float(energy[-1] - energy[len(energy) // 2]),
         elapsed_ms=1e3 * (time.perf_counter() - start))

@@ -121,4 +121,7 @@ def simulation_cost_ms(device: Device, scene) -> float:
     from models.simulate import propagation_method, sample_count
 
     ms = 1.0 + _SIM_MS_PER_SAMPLE[propagation_method(scene)] * sample_count(device, scene)
+    # the verdict's closed-loop poles: dense eigenvalues of ~(delay line + 8) states (≤ 600), O(n³)
+    states = 8 + (device.delay_samples if scene.effects.delay is not None else 0.0)
+    ms += 3e-6 * min(states, 600.0) ** 3 if scene.experiment != "relay" else 0.0
     return ms + (100.0 if scene.experiment == "relay" else 0.0)

@@ -18,6 +18,7 @@ from models.simulate import SimulationResult, simulate
 from optim.feedforward import critical_force_gain
 from optim.feedforward_ladder import ForceFeedforwardAnalysis, analyse_force_feedforward
 from optim.relay import RelayReport, relay_experiment
+from optim.scene_verdict import with_margin_verdict
 from optim.robust.box import UncertaintyBox
 from optim.robust.stiffness import robust_design_stiffness
 from optim.stiffness import StiffnessRequirements
@@ -41,7 +42,7 @@ def force_feedforward_job(device: Device, filt: ButterworthLowPass | None, metho
 def simulate_job(device: Device, scene: Scene) -> tuple[SimulationResult, RelayReport | None]:
     """Simulate the scene and, for a relay, read it like a lab.  The per-sample record (large, never
     serialised) is dropped before the result travels back from the worker."""
-    result = simulate(device, scene)
+    result = with_margin_verdict(device, scene, simulate(device, scene))
     relay = relay_experiment(device, scene, result) if scene.experiment == "relay" else None
     return dataclasses.replace(result, record=None), relay
 

@@ -34,7 +34,7 @@ def plot_simulation(res: SimulationResult, fmt: str = "png", title: str | None =
     ax3.set_xlabel("time [s]")
     v = res.verdict
     freq = f", ω = {v.frequency:.4g} rad/s" if v.frequency else ""
-    fig.suptitle(title or f"{v.state}{freq} — {res.method}", fontsize=10)
+    fig.suptitle(title or f"{v.state} ({res.judgement.decided_by}){freq} — {res.method}", fontsize=10)
     fig.tight_layout()
     buf = io.BytesIO()
     fig.savefig(buf, format=fmt)

@@ -79,19 +79,42 @@ def _relay_out(rep: RelayReport) -> dict:
             "notes": list(rep.notes)}
 
 
+def _measured(m) -> dict:
+    return {"state": m.state, "frequency": _finite(m.frequency), "amplitude": float(m.amplitude),
+            "growth_rate": _finite(m.growth_rate), "reason": m.reason,
+            "decisive_duration": _finite(m.decisive_duration)}
+
+
+def _poles(p, linearised: bool) -> dict:
+    dom = {"modulus": p.dominant_modulus, "angle": p.dominant_angle, "frequency": p.dominant_frequency,
+           "growth_rate": _finite(p.growth_rate)}
+    return {"state": p.state, "spectral_radius": p.spectral_radius, "dominant_pole": dom, "rounding": _finite(p.rounding),
+            "states": p.states, "free_position_pole": p.free_position_pole, "linearised": linearised,
+            "method": p.method, "reason": p.reason}
+
+
+def verdict_out(res: SimulationResult) -> dict:
+    """The verdict block: the answer (its old fields unchanged) plus the measured verdict, the poles and any
+    disagreement (models/verdict.py)."""
+    j, v = res.judgement, res.verdict
+    return {"state": v.state, "frequency": _finite(v.frequency), "amplitude": float(v.amplitude),
+            "growth_rate": _finite(v.growth_rate), "reason": v.reason, "decided_by": j.decided_by,
+            "measured": _measured(j.measured), "poles": _poles(j.poles, j.poles_linearised) if j.poles else None,
+            "poles_note": j.poles_note, "disagreement": j.disagreement}
+
+
 @router.post("/v1/simulate", response_model=SimulateResponse)
 def simulate_scene(req: SimulateRequest, compute: Compute) -> SimulateResponse:
     start = time.perf_counter()
     res, relay = run_scene(req.device, req.scene, compute)
-    tr, v = res.trajectory, res.verdict
+    tr = res.trajectory
     return SimulateResponse(
         effects_simulated=list(res.effects_simulated), not_simulated=list(res.not_simulated), method=res.method,
         sample_time=res.sample_time, samples=res.samples, samples_run=res.samples_run, diverged_at=res.diverged_at,
         trajectory={"time": tr.time.tolist(), "motor_position": tr.motor_position.tolist(),
                     "body_position": tr.body_position.tolist(), "force": tr.force.tolist(),
                     "energy_generated": tr.energy_generated.tolist()},
-        verdict={"state": v.state, "frequency": _finite(v.frequency), "amplitude": float(v.amplitude),
-                 "growth_rate": _finite(v.growth_rate), "reason": v.reason},
+        verdict=verdict_out(res),
         energy_generated=res.energy_generated, energy_generated_max=res.energy_generated_max,
         energy_generated_second_half=res.energy_generated_second_half,
         relay=_relay_out(relay) if relay else None, elapsed_ms=1e3 * (time.perf_counter() - start))

@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+from typing import Literal
+
 from pydantic import BaseModel, Field
 
 from models.scene import Scene
 
 from .common import STRICT, CrossoverOut, Device
 
-__all__ = ["SimulateRequest", "SimulateResponse", "TrajectoryOut", "VerdictOut", "CycleOut", "SettledOut",
+__all__ = ["SimulateRequest", "SimulateResponse", "TrajectoryOut", "VerdictOut", "MeasuredVerdictOut", "PolesOut",
+           "DominantPoleOut", "CycleOut", "SettledOut",
            "RelayOut"]
 
 
@@ -32,12 +35,62 @@ class TrajectoryOut(BaseModel):
     energy_generated: list[float] = Field(description="energy the virtual wall generated so far [J]")
 
 
-class VerdictOut(BaseModel):
-    state: str = Field(description="stable, unstable or limit_cycle")
-    frequency: float | None = Field(description="ω of the dominant oscillation [rad/s]")
+class MeasuredVerdictOut(BaseModel):
+    state: Literal["stable", "unstable", "undetermined", "limit_cycle"] = Field(
+        description="what the trajectory alone shows: unstable when growth is measured, stable only when every "
+                    "mode the record shows decayed (below 1e-8 of the largest step, or stuck), limit_cycle "
+                    "(nonlinear scenes) for a sustained oscillation, else undetermined")
+    frequency: float | None = Field(description="ω of the dominant oscillation in the settled half [rad/s]")
     amplitude: float = Field(description="[m] half peak-to-peak of x_r at the end")
-    growth_rate: float | None = Field(description="γ of the oscillation envelope [1/s]")
+    growth_rate: float | None = Field(description="γ of the measured envelope [1/s]")
     reason: str
+    decisive_duration: float | None = Field(
+        description="[s] undetermined only: a run about this long would decide, extrapolating the measured trend "
+                    "(null when no trend is measured)")
+
+
+class DominantPoleOut(BaseModel):
+    modulus: float = Field(description="|z| [-]")
+    angle: float = Field(description="arg z [rad per sample], 0..π")
+    frequency: float = Field(description="arg z / T [rad/s]")
+    growth_rate: float | None = Field(description="ln|z| / T [1/s] (null when z = 0)")
+
+
+class PolesOut(BaseModel):
+    state: Literal["stable", "unstable", "marginal"] = Field(
+        description="every pole inside the unit circle, one outside, or one on it within rounding")
+    spectral_radius: float = Field(description="max |z| of the closed-loop poles [-]")
+    dominant_pole: DominantPoleOut = Field(description="the pole of largest modulus")
+    rounding: float | None = Field(description="[-] half-width of the interval known to hold |z| of the dominant "
+                                               "pole (null when not finite: an ill-conditioned pole)")
+    states: int = Field(description="size of the closed-loop state matrix")
+    free_position_pole: bool = Field(description="the exact pole z = 1 of a wall without stiffness was set aside")
+    linearised: bool = Field(description="true: the poles of the scene without its nonlinear effects "
+                                         "(information; the measured verdict decides)")
+    method: str
+    reason: str
+
+
+class VerdictOut(BaseModel):
+    state: Literal["stable", "unstable", "undetermined", "limit_cycle"] = Field(
+        description="the answer: for a linear scene the closed-loop poles decide (undetermined: a pole on the "
+                    "unit circle within rounding, or the loop too large for the exact check); for a nonlinear "
+                    "scene the measured verdict")
+    frequency: float | None = Field(description="ω [rad/s]: of the dominant pole when the poles decide, else of "
+                                                "the dominant measured oscillation")
+    amplitude: float = Field(description="[m] half peak-to-peak of x_r at the end")
+    growth_rate: float | None = Field(description="γ [1/s]: ln|z|/T of the dominant pole when the poles decide, "
+                                                  "else of the measured envelope")
+    reason: str
+    decided_by: Literal["closed-loop poles", "critical stiffness", "trajectory"] = Field(
+        default="trajectory", description="closed-loop poles (linear scene); critical stiffness (a linear wall "
+                                          "scene beyond the poles' 600-state limit: K against K_cr(B)); trajectory")
+    measured: MeasuredVerdictOut | None = None
+    poles: PolesOut | None = Field(default=None, description="closed-loop poles (null for a relay, or a loop "
+                                                             "larger than the exact check's limit)")
+    poles_note: str | None = Field(default=None, description="why there are no poles")
+    disagreement: str | None = Field(default=None, description="the measured verdict contradicts the poles "
+                                                               "(said, and the poles decide)")
 
 
 class CycleOut(BaseModel):

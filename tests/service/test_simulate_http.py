@@ -76,3 +76,30 @@ def test_plot(client, fmt, magic):
     r = client.post(f"/v1/plots/simulation?format={fmt}", json={"device": RIGID, "scene": {
         "experiment": "release", "duration": 1.0, "controller": {"stiffness": 3000}, "initial": {"position": 1e-3}}})
     assert r.status_code == 200 and r.content.startswith(magic)
+
+
+def test_verdict_block_carries_the_poles_and_the_measured_verdict(client):
+    """Issue 17's example (2.9 × K_cr, 1 s): the poles decide unstable; the measured verdict is beside it."""
+    r = client.post("/v1/simulate", json={"device": {"preset": "lhifam", "cable": None}, "scene": {
+        "experiment": "release", "duration": 1.0, "controller": {"stiffness": 20000}, "initial": {"position": 1e-3}}})
+    assert r.status_code == 200, r.text
+    v = r.json()["verdict"]
+    assert v["state"] == "unstable" and v["decided_by"] == "closed-loop poles" and v["disagreement"] is None
+    p = v["poles"]
+    assert p["state"] == "unstable" and not p["linearised"] and p["states"] == 4
+    assert p["spectral_radius"] == p["dominant_pole"]["modulus"] and 1.0005 < p["spectral_radius"] < 1.0007
+    assert v["frequency"] == pytest.approx(p["dominant_pole"]["frequency"]) and v["growth_rate"] > 0
+    assert v["measured"]["state"] in ("unstable", "undetermined") and v["measured"]["reason"]
+    assert _finite_everywhere(r.json())
+
+
+def test_openapi_examples_give_a_verdict_the_poles_agree_with(client):
+    """The request examples of /docs: the stable wall (0.93 × K_cr, poles) and the relay (measured)."""
+    from service.schemas.simulate import SimulateRequest
+
+    stable, relay = SimulateRequest.model_config["json_schema_extra"]["examples"]
+    v = client.post("/v1/simulate", json=stable).json()["verdict"]
+    assert v["state"] == "stable" and v["decided_by"] == "closed-loop poles"
+    v = client.post("/v1/simulate", json=relay).json()["verdict"]
+    assert v["decided_by"] == "trajectory" and v["poles"] is None and "relay" in v["poles_note"]
+    assert v["state"] == "limit_cycle"
