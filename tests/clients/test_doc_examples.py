@@ -44,6 +44,10 @@ SKIPPED_BLOCKS = {
 }
 
 
+#: The statuses an answer can carry (designs, identification, studies).
+STATUSES = ("optimal", "infeasible", "failed", "identified", "queued", "running", "done", "cancelled")
+
+
 @dataclass(frozen=True)
 class Example:
     doc: str
@@ -86,7 +90,7 @@ def examples() -> list[Example]:
                     continue
                 tail = re.search(r"\s#\s*([^#]*)$", command)
                 said = tail.group(1) if tail else ""
-                status = re.match(r"\s*([a-z_]+)\s*(?:,|$)", said)     # one word, then ", exit n" or nothing
+                status = re.match(rf"\s*({'|'.join(STATUSES)})\b", said)
                 code = re.search(r"\bexit (\d)\b", said)
                 found.append(Example(doc.name, command, answer,
                                      status.group(1) if status and status.group(1) != "exit" else None,
