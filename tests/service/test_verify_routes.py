@@ -1,0 +1,57 @@
+"""``verify: true`` over HTTP: the verification record, its absence by default, its input rule."""
+
+from __future__ import annotations
+
+import pytest
+
+from .conftest import LHIFAM_RIGID
+
+
+def test_stability_verify_confirms_and_is_absent_by_default(client):
+    body = {"device": {**LHIFAM_RIGID, "delay": 0.0015}}
+    plain = client.post("/v1/analysis/stability", json=body).json()
+    assert plain.get("verification") is None
+    r = client.post("/v1/analysis/stability", json={**body, "verify": True})
+    assert r.status_code == 200
+    v = r.json()["verification"]
+    assert v["verdict"] == "confirmed", v
+    assert v["epsilon"] == 1e-6 and v["elapsed_ms"] > 0 and v["method"]
+    k = r.json()["critical_stiffness"]
+    assert v["gain_below"] == pytest.approx(k * (1 - 1e-6)) and v["gain_above"] == pytest.approx(k * (1 + 1e-6))
+    assert v["radius_below"] < 1 < v["radius_above"]
+
+
+def test_stability_verify_checks_the_walls_labels(client):
+    body = {"device": {"preset": "lhifam", "delay": 0.001}, "controller": {"stiffness": 3500, "damping": 5},
+            "verify": True}
+    v = client.post("/v1/analysis/stability", json=body).json()["verification"]
+    assert v["verdict"] == "confirmed", v
+    assert v["design_radius"] < 1
+    assert v["passivity"]["verdict"] == "confirmed"
+
+
+def test_long_delay_uses_the_argument_principle(client):
+    body = {"device": {**LHIFAM_RIGID, "delay": 2.0}, "verify": True}   # 2,000 samples of delay
+    v = client.post("/v1/analysis/stability", json=body).json()["verification"]
+    assert v["verdict"] == "confirmed", v
+    assert v["method"].startswith("argument principle")
+    assert v["unstable_poles_below"] == 0 and v["unstable_poles_above"] >= 1
+
+
+def test_verify_must_be_a_boolean(client):
+    r = client.post("/v1/analysis/stability", json={"device": LHIFAM_RIGID, "verify": "yes"})
+    assert r.status_code == 422 and "verify" in r.text
+
+
+@pytest.mark.slow
+def test_stiffness_design_verify(client):
+    r = client.post("/v1/design/stiffness", json={"device": {**LHIFAM_RIGID, "delay": 0.001},
+                                                  "requirements": {"passivity": True}, "verify": True})
+    assert r.status_code == 200
+    out = r.json()
+    assert out["status"] == "optimal"
+    v = out["verification"]
+    assert v["verdict"] in ("confirmed", "not_checkable"), v   # never contradicted
+    assert v["design_radius"] < 1
+    assert v["passivity"] is not None
+    assert client.post("/v1/design/stiffness", json={"device": LHIFAM_RIGID}).json().get("verification") is None
