@@ -242,13 +242,25 @@ def unstable_count(device: Device, plant: SampledPlant, alpha: float, beta: floa
         cuts += [ang - rho, ang + rho]
     cuts.append(math.pi)
     n_uniform = max(2048, 16 * (d + plant.e.shape[0] + 2))
+    # An open-loop pole just inside the circle swings arg F by −π within an arc of its distance; a closed-loop
+    # pole just outside beside it swings −π too: together −2π, invisible between coarse samples.  So sample
+    # geometrically towards every such pole, down to a thousandth of its distance: its swing is then resolved
+    # and a closed-loop pole's own swing stands out (and is refined).
+    ol = 1.0 + np.linalg.eigvals(plant.e)
+    near = []
+    for z in ol:
+        ang, dist = abs(float(np.angle(z))), 1.0 - abs(z)
+        if 1e-12 < ang < math.pi and 0.0 < dist < 0.1:
+            steps = np.geomspace(max(dist, 1e-300) * 1e-3, 0.2, 300)
+            near.append(np.concatenate([ang - steps, ang + steps]))
+    near_pts = np.concatenate(near) if near else np.zeros(0)
     total = 0.0
     evaluated = 0
     for a, b in zip(cuts[0::2], cuts[1::2]):
         # uniform for the delay's rotation, logarithmic towards each end for what happens near a pole
         th = np.unique(np.concatenate([np.linspace(a, b, n_uniform), np.geomspace(a, b, 1500),
                                        a + (b - a) * np.geomspace(1e-13, 1.0, 800),
-                                       b - (b - a) * np.geomspace(1e-13, 1.0, 800)]))
+                                       b - (b - a) * np.geomspace(1e-13, 1.0, 800), near_pts]))
         th = th[(th >= a) & (th <= b)]
         vals = _return_difference(plant, alpha, beta, th)
         evaluated += th.size
