@@ -130,15 +130,17 @@ def presets() -> Call[dict[str, Device]]:
 
 def stability(device: DeviceLike, controller: PartLike | None = None, *,
               method: Literal["linear", "grid", "exact", "reference"] | None = None,
-              grid_points: int | None = None) -> Call[StabilityResponse]:
+              grid_points: int | None = None, verify: bool = False) -> Call[StabilityResponse]:
     """``POST /v1/analysis/stability``: K_cr(B) [N/m], every crossover, margin and passivity of a wall.
 
     ``controller`` is ``{"stiffness": K [N/m], "damping": B [N·s/m]}``; without it
     the analysis is at B = 0 and has no margin.  ``method`` is the rung of the
-    accuracy ladder (server default ``exact``).
+    accuracy ladder (server default ``exact``).  ``verify=True`` adds ``.verification``:
+    the closed loop just below and above the answer, checked independently (docs/verification.md).
     """
     return Call("POST", "/v1/analysis/stability", "analysis", _model(StabilityResponse),
-                json=_body(device=device, controller=controller, method=method, grid_points=grid_points))
+                json=_body(device=device, controller=controller, method=method, grid_points=grid_points,
+                           verify=verify or None))
 
 
 def boundary(device: DeviceLike, *, damping_max: float | None = None,
@@ -159,10 +161,13 @@ def force_feedforward(device: DeviceLike, filter: PartLike | None = None) -> Cal
                 json=_body(device=device, filter=filter))
 
 
-def design_stiffness(device: DeviceLike, requirements: PartLike | None = None) -> Call[StiffnessDesignResponse]:
-    """``POST /v1/design/stiffness``: the stiffest safe wall K [N/m] with its damping B [N·s/m]."""
+def design_stiffness(device: DeviceLike, requirements: PartLike | None = None, *,
+                     verify: bool = False) -> Call[StiffnessDesignResponse]:
+    """``POST /v1/design/stiffness``: the stiffest safe wall K [N/m] with its damping B [N·s/m].
+
+    ``verify=True`` adds ``.verification``: the margin and passivity checked on the closed loop."""
     return Call("POST", "/v1/design/stiffness", "design", _model(StiffnessDesignResponse),
-                json=_body(device=device, requirements=requirements))
+                json=_body(device=device, requirements=requirements, verify=verify or None))
 
 
 def design_inertia(device: DeviceLike, requirements: PartLike | None = None) -> Call[InertiaResponse]:

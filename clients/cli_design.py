@@ -36,13 +36,13 @@ def stiffness(preset: Preset = None, sets: Sets = None, device_file: DeviceFile 
               passivity: Annotated[bool | None, typer.Option("--passivity/--no-passivity",
                                                              help="require passivity (delayed form)",
                                                              show_default=False)] = None,
-              local: Local = False, url: Url = DEFAULT_URL, token: Token = None, as_json: AsJson = False) -> None:
+              verify: c.Verify = False, local: Local = False, url: Url = DEFAULT_URL, token: Token = None, as_json: AsJson = False) -> None:
     """The stiffest wall K with its damping B that keeps the margin (and passivity, limits)."""
     body = c.assemble({"device": c.device_root(preset, device_file, sets),
                        "requirements": _requirements(margin, passivity=passivity)},
                       sets, files={"requirements": requirements_file})
     with c.client_with_status(Connection(local, url, token), "designing the wall…", as_json) as zw:
-        r = zw.design_stiffness(body["device"], body["requirements"])
+        r = zw.design_stiffness(body["device"], body["requirements"], verify=verify)
 
     def human() -> None:
         rows = [("status", r.status, ""), ("stiffness K", r.stiffness, "N/m"), ("damping B", r.damping, "N·s/m"),
@@ -54,8 +54,10 @@ def stiffness(preset: Preset = None, sets: Sets = None, device_file: DeviceFile 
                 ("elapsed", r.elapsed_ms, "ms")]
         rows += [("reason", r.reason, "")] if r.reason else []
         rows += [(f"sensitivity: {s.parameter}", s.statement, "") for s in r.sensitivities]
+        rows += c.verification_rows(r.verification)
         out.print(c.table("stiffness design", rows))
     emit(r, as_json, human)
+    c.exit_if_contradicted(r.verification)
     c.exit_unless_optimal(r.status)
 
 
