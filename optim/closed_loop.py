@@ -26,7 +26,8 @@ from scipy.linalg import eig, expm, matrix_balance
 
 from models.device import Device
 
-__all__ = ["SampledPlant", "sampled_plant", "stiffness_closed_loop", "RadiusExcess", "radius_excess"]
+__all__ = ["SampledPlant", "sampled_plant", "stiffness_closed_loop", "RadiusExcess", "radius_excess",
+           "UnstableCount", "unstable_count", "count_outside", "discretise"]
 
 
 @dataclass(frozen=True)
@@ -83,18 +84,24 @@ def _psi(a: np.ndarray, sigma: float) -> tuple[np.ndarray, np.ndarray]:
     return ex[:n, :n], ex[:n, n:]
 
 
-def sampled_plant(device: Device) -> SampledPlant:
+def discretise(a: np.ndarray, b: np.ndarray, c: np.ndarray, delay_samples: float) -> SampledPlant:
     """Zero-order hold with a delay (d + f)·T: Γ0 acts over the last 1 − f of a period, Γ1 over the first f."""
-    a, b, c = _continuous(device)
-    d, f = _split(device.delay / device.sample_time)
+    d, f = _split(delay_samples)
     _, psi1 = _psi(a, 1.0)
     e = a @ psi1
-    e[:, 0] = 0.0   # nothing depends on the motor position itself (A's first column is zero)
     if f == 0.0:
         return SampledPlant(e, psi1 @ b, np.zeros_like(b), c, d, 0.0)
     ex_late, psi_late = _psi(a, 1.0 - f)
     _, psi_early = _psi(a, f)
     return SampledPlant(e, psi_late @ b, ex_late @ psi_early @ b, c, d, f)
+
+
+def sampled_plant(device: Device) -> SampledPlant:
+    """The stiffness loop's plant (force to motor-side position), sampled."""
+    a, b, c = _continuous(device)
+    p = discretise(a, b, c, device.delay / device.sample_time)
+    p.e[:, 0] = 0.0   # nothing depends on the motor position itself (A's first column is zero)
+    return p
 
 
 def stiffness_closed_loop(plant: SampledPlant, alpha: float, beta: float) -> np.ndarray:
@@ -214,24 +221,30 @@ def _return_difference(plant: SampledPlant, alpha: float, beta: float, theta: np
 
 
 def unstable_count(device: Device, plant: SampledPlant, alpha: float, beta: float) -> UnstableCount:
+    """Number of closed-loop poles outside the unit circle of the stiffness loop (see :func:`count_outside`)."""
+    m1, pair_angles = _circle_poles(device)
+    return count_outside(lambda th: _return_difference(plant, alpha, beta, th), 1.0 + np.linalg.eigvals(plant.e),
+                         plant.d, m1, pair_angles)
+
+
+def count_outside(ret_diff, open_loop_poles: np.ndarray, d: int, m1: int,
+                  pair_angles: tuple[float, ...] = ()) -> UnstableCount:
     """Number of closed-loop poles outside the unit circle: Z_out = m_on − wind(F).
 
-    F = 1 + C·G has the open-loop poles as its poles; those strictly inside do not count, those on the
-    circle (the integrator at z = 1, an undamped cable mode) are passed on the inside by small
-    indentations, each adding +π per multiplicity to arg F.  Real coefficients: the lower half circle
-    mirrors the upper, so wind(F)·2π = 2·Δarg over the upper arcs + π·(m at z = 1) + 2π·(m at a pair).
+    F = 1 + L (``ret_diff(θ)`` = F(e^{jθ})) has the open-loop poles as its poles; those strictly inside do not
+    count, those on the circle (``m1`` at z = 1, an undamped pair at ``pair_angles``) are passed on the inside
+    by small indentations, each adding +π per multiplicity to arg F.  Real coefficients: the lower half
+    circle mirrors the upper, so wind(F)·2π = 2·Δarg over the upper arcs + π·m1 + 2π·(pairs).
     The samples are refined by bisection wherever arg F turns by more than π/3 between neighbours.
     """
-    m1, pair_angles = _circle_poles(device)
-    d = plant.d
-    eigs = np.abs(np.linalg.eigvals(plant.e))
-    small = [v for v in eigs if v > 0.0]
+    dist0 = np.abs(open_loop_poles - 1.0)
+    small = [float(v) for v in dist0 if v > 0.0]
     scale = min([1.0 / (1.0 + d)] + small)
     lo = 1e-3 * scale
-    # the indentation's +π per multiplicity holds where the pole dominates F (|C·G| ≫ 1): a small gain
+    # the indentation's +π per multiplicity holds where the pole dominates F (|L| ≫ 1): a small gain
     # pushes that region towards z = 1
-    for _ in range(60):
-        if abs(_return_difference(plant, alpha, beta, np.array([lo]))[0] - 1.0) > 1e8 or lo < 1e-280:
+    for _ in range(60 if m1 else 0):
+        if abs(ret_diff(np.array([lo]))[0] - 1.0) > 1e8 or lo < 1e-280:
             break
         lo *= 1e-2
     cuts = [lo]
@@ -241,14 +254,13 @@ def unstable_count(device: Device, plant: SampledPlant, alpha: float, beta: floa
         rho = 1e-9 * ang
         cuts += [ang - rho, ang + rho]
     cuts.append(math.pi)
-    n_uniform = max(2048, 16 * (d + plant.e.shape[0] + 2))
+    n_uniform = max(2048, 16 * (d + open_loop_poles.size + 2))
     # An open-loop pole just inside the circle swings arg F by −π within an arc of its distance; a closed-loop
     # pole just outside beside it swings −π too: together −2π, invisible between coarse samples.  So sample
     # geometrically towards every such pole, down to a thousandth of its distance: its swing is then resolved
     # and a closed-loop pole's own swing stands out (and is refined).
-    ol = 1.0 + np.linalg.eigvals(plant.e)
     near = []
-    for z in ol:
+    for z in open_loop_poles:
         ang, dist = abs(float(np.angle(z))), 1.0 - abs(z)
         if 1e-12 < ang < math.pi and 0.0 < dist < 0.1:
             steps = np.geomspace(max(dist, 1e-300) * 1e-3, 0.2, 300)
@@ -262,7 +274,7 @@ def unstable_count(device: Device, plant: SampledPlant, alpha: float, beta: floa
                                        a + (b - a) * np.geomspace(1e-13, 1.0, 800),
                                        b - (b - a) * np.geomspace(1e-13, 1.0, 800), near_pts]))
         th = th[(th >= a) & (th <= b)]
-        vals = _return_difference(plant, alpha, beta, th)
+        vals = ret_diff(th)
         evaluated += th.size
         for _ in range(_MAX_ROUNDS):
             step = np.angle(vals[1:] / vals[:-1])
@@ -274,7 +286,7 @@ def unstable_count(device: Device, plant: SampledPlant, alpha: float, beta: floa
                 return UnstableCount(None, evaluated, "arg F turns faster than double precision resolves: a pole "
                                                       "lies within rounding of the unit circle")
             mid = 0.5 * (th[bad] + th[bad + 1])
-            new = _return_difference(plant, alpha, beta, mid)
+            new = ret_diff(mid)
             evaluated += mid.size
             th = np.insert(th, bad + 1, mid)
             vals = np.insert(vals, bad + 1, new)

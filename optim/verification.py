@@ -29,7 +29,8 @@ from models.device import Device
 from .closed_loop import (SampledPlant, radius_excess, sampled_plant, stiffness_closed_loop, unstable_count)
 
 __all__ = ["Verification", "PassivityVerification", "verify_critical_stiffness", "verify_stiffness_design",
-           "verify_passivity", "verify_analysis", "DEFAULT_EPSILON", "EIG_MAX_STATES", "Verdict"]
+           "verify_passivity", "verify_analysis", "verify_critical_force_gain",
+           "verify_force_feedforward", "DEFAULT_EPSILON", "EIG_MAX_STATES", "Verdict"]
 
 Verdict = Literal["confirmed", "contradicted", "not_checkable"]
 
@@ -285,3 +286,77 @@ def verify_analysis(device: Device, analysis) -> Verification:
     if analysis.stiffness is None:
         return v
     return _with_labels(v, device, analysis.stiffness, analysis.damping, analysis.stable, analysis.passive, t0)
+
+
+# --- force feedforward: K_f,cr of 1 + K_f·D·G_1 --------------------------------------------------------------
+
+def _ff_point(loop, force_gain: float) -> _Point:
+    from .closed_loop_feedforward import feedforward_closed_loop, feedforward_unstable_count
+
+    if loop.states <= EIG_MAX_STATES:
+        ex = radius_excess(feedforward_closed_loop(loop, force_gain))
+        if ex.decided_stable or ex.decided_unstable:
+            return _Point(ex.decided_stable, 1.0 + ex.excess, None, EIGEN, None)
+    cnt = feedforward_unstable_count(loop, force_gain)
+    if cnt.count is None:
+        return _Point(None, None, None, ARGUMENT, cnt.reason)
+    return _Point(cnt.count == 0, None, cnt.count, ARGUMENT, None)
+
+
+def verify_critical_force_gain(device: Device, human, critical: float | None, order: int | None = None,
+                               cutoff_hz: float | None = None, epsilon: float = DEFAULT_EPSILON,
+                               next_crossing: float | None = None, design_gain: float | None = None) -> Verification:
+    """Is 1 + K_f·D·G_1 stable at K_f,cr·(1 − ε) and unstable at K_f,cr·(1 + ε)?  ``design_gain``: a
+    designed K_f, checked stable too (its spectral radius is reported as design_radius)."""
+    from .closed_loop_feedforward import feedforward_loop
+
+    t0 = time.perf_counter()
+    loop = feedforward_loop(device, human, order, cutoff_hz)
+    design = _ff_point(loop, design_gain) if design_gain is not None else None
+    if critical is None or math.isinf(critical):
+        probe = 1e3 * (1.0 + device.mass / human.mass)
+        p = _ff_point(loop, probe)
+        if p.stable is False:
+            return Verification("contradicted", p.method, None, None, probe, None, p.radius, None, p.count,
+                                (time.perf_counter() - t0) * 1e3, "every K_f was said stable, but this K_f is not")
+        return _not_checkable(t0, "no finite set of gains proves that every K_f > 0 is stable", method=p.method,
+                              gain_above=probe)
+    eps = epsilon
+    if next_crossing is not None and math.isfinite(next_crossing) and next_crossing > critical:
+        eps = min(eps, 0.5 * (next_crossing / critical - 1.0))
+    k_lo = critical * (1.0 - eps) if eps < 0.5 else critical / (1.0 + eps)
+    k_hi = critical * (1.0 + eps)
+    lo, hi = _ff_point(loop, k_lo), _ff_point(loop, k_hi)
+    out = Verification("not_checkable", _methods(lo, hi), eps, k_lo, k_hi, lo.radius, hi.radius, lo.count, hi.count,
+                       0.0, lo.reason or hi.reason)
+    reasons = []
+    if lo.stable is False:
+        reasons.append(f"unstable at K_f = {k_lo:.9g} below the answer")
+    if hi.stable is True:
+        reasons.append(f"stable at K_f = {k_hi:.9g} above the answer")
+    verdict: Verdict = ("contradicted" if reasons else
+                        "confirmed" if (lo.stable is True and hi.stable is False) else "not_checkable")
+    if design is not None:
+        if design.stable is False:
+            verdict, reasons = "contradicted", reasons + ["the designed force gain itself is unstable"]
+        elif design.stable is None and verdict == "confirmed":
+            verdict, reasons = "not_checkable", reasons + [f"the designed force gain: {design.reason}"]
+        out = replace(out, design_radius=design.radius, design_unstable_poles=design.count)
+    return replace(out, verdict=verdict, reason="; ".join(reasons) or out.reason if verdict != "confirmed" else None,
+                   elapsed_ms=(time.perf_counter() - t0) * 1e3)
+
+
+def verify_force_feedforward(device: Device, analysis, order: int | None, cutoff_hz: float | None) -> Verification:
+    """Verify an optim.feedforward_ladder.ForceFeedforwardAnalysis on its rung (ε as for the stiffness rungs)."""
+    t0 = time.perf_counter()
+    if analysis.method in ("exact", "reference"):
+        eps = DEFAULT_EPSILON
+    else:
+        est = analysis.error_estimate
+        if est is None or not math.isfinite(est):
+            return _not_checkable(t0, f"the {analysis.method} rung states no error bound: there is no claim to check")
+        eps = max(float(est), DEFAULT_EPSILON)
+    kcr = analysis.critical_force_gain
+    above = [c.force_gain for c in analysis.crossovers if math.isfinite(kcr) and c.force_gain > kcr * (1 + 1e-9)]
+    return verify_critical_force_gain(device, analysis.human, kcr, order, cutoff_hz, eps,
+                                      next_crossing=min(above) if above else None)

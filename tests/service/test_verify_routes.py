@@ -55,3 +55,20 @@ def test_stiffness_design_verify(client):
     assert v["design_radius"] < 1
     assert v["passivity"] is not None
     assert client.post("/v1/design/stiffness", json={"device": LHIFAM_RIGID}).json().get("verification") is None
+
+
+def test_force_feedforward_verify(client):
+    body = {"device": {"preset": "lhifam", "delay": 0.0025}, "filter": {"cutoff_hz": 30, "order": 2}}
+    assert client.post("/v1/analysis/force-feedforward", json=body).json().get("verification") is None
+    v = client.post("/v1/analysis/force-feedforward", json={**body, "verify": True}).json()["verification"]
+    assert v["verdict"] == "confirmed", v
+    assert v["radius_below"] < 1 < v["radius_above"]
+
+
+@pytest.mark.slow
+def test_inertia_design_verify(client):
+    r = client.post("/v1/design/inertia", json={"device": {"preset": "lhifam"}, "verify": True}).json()
+    assert r["status"] == "optimal"
+    v = r["verification"]
+    assert v["verdict"] == "confirmed", v
+    assert v["design_radius"] < 1
