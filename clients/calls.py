@@ -150,15 +150,17 @@ def boundary(device: DeviceLike, *, damping_max: float | None = None,
                 json=_body(device=device, damping_max=damping_max, points=points))
 
 
-def force_feedforward(device: DeviceLike, filter: PartLike | None = None) -> Call[ForceFeedforwardResponse]:  # noqa: A002
+def force_feedforward(device: DeviceLike, filter: PartLike | None = None, *,  # noqa: A002
+                      verify: bool = False) -> Call[ForceFeedforwardResponse]:
     """``POST /v1/analysis/force-feedforward``: critical force gain K_f,cr (chapter §5, eq. 32-34).
 
-    ``filter`` is the Butterworth D(z), ``{"cutoff_hz": f_c [Hz], "order": n}``.
+    ``filter`` is the Butterworth D(z), ``{"cutoff_hz": f_c [Hz], "order": n}``.  ``verify=True`` adds
+    ``.verification`` (docs/verification.md).
     """
     from service.schemas.feedforward import ForceFeedforwardResponse
 
     return Call("POST", "/v1/analysis/force-feedforward", "analysis", _model(ForceFeedforwardResponse),
-                json=_body(device=device, filter=filter))
+                json=_body(device=device, filter=filter, verify=verify or None))
 
 
 def design_stiffness(device: DeviceLike, requirements: PartLike | None = None, *,
@@ -170,12 +172,15 @@ def design_stiffness(device: DeviceLike, requirements: PartLike | None = None, *
                 json=_body(device=device, requirements=requirements, verify=verify or None))
 
 
-def design_inertia(device: DeviceLike, requirements: PartLike | None = None) -> Call[InertiaResponse]:
-    """``POST /v1/design/inertia``: force-feedforward gain K_f, filter cutoff [Hz] and apparent mass [kg]."""
+def design_inertia(device: DeviceLike, requirements: PartLike | None = None, *,
+                   verify: bool = False) -> Call[InertiaResponse]:
+    """``POST /v1/design/inertia``: force-feedforward gain K_f, filter cutoff [Hz] and apparent mass [kg].
+
+    ``verify=True`` adds ``.verification``: the margin and K_f checked on the closed loop."""
     from service.schemas.feedforward import InertiaResponse
 
     return Call("POST", "/v1/design/inertia", "design", _model(InertiaResponse),
-                json=_body(device=device, requirements=requirements))
+                json=_body(device=device, requirements=requirements, verify=verify or None))
 
 
 def _hardware_body(device: DeviceLike, free: str, stiffness: float | None, force_gain: float | None,

@@ -148,7 +148,7 @@ def analyze(preset: Annotated[str | None, typer.Argument(help="preset name, or '
 def feedforward(preset: Preset = None, sets: Sets = None, device_file: DeviceFile = None,
                 cutoff_hz: Annotated[float | None, typer.Option(help="Butterworth D(z) cutoff [Hz]")] = None,
                 order: Annotated[int | None, typer.Option(help="Butterworth order")] = None,
-                local: Local = False, url: Url = DEFAULT_URL, token: Token = None, as_json: AsJson = False) -> None:
+                verify: c.Verify = False, local: Local = False, url: Url = DEFAULT_URL, token: Token = None, as_json: AsJson = False) -> None:
     """Critical force-feedforward gain K_f,cr (chapter §5; POST /v1/analysis/force-feedforward)."""
     filt = None
     if cutoff_hz is not None:
@@ -157,7 +157,7 @@ def feedforward(preset: Preset = None, sets: Sets = None, device_file: DeviceFil
         raise c.usage_error("--order needs --cutoff-hz")
     body = c.assemble({"device": c.device_root(preset, device_file, sets), "filter": filt}, sets)
     with c.client_with_status(Connection(local, url, token), "analysing the force feedforward…", as_json) as zw:
-        r = zw.force_feedforward(body["device"], body.get("filter"))
+        r = zw.force_feedforward(body["device"], body.get("filter"), verify=verify)
 
     def human() -> None:
         rows = [("critical force gain K_f,cr", r.critical_force_gain, ""),
@@ -168,8 +168,10 @@ def feedforward(preset: Preset = None, sets: Sets = None, device_file: DeviceFil
                 ("method", r.method, ""), ("elapsed", r.elapsed_ms, "ms")]
         rows += [("reason", r.reason, "")] if r.reason else []
         rows += [("note", n, "") for n in r.notes]
+        rows += c.verification_rows(r.verification)
         out.print(c.table("force feedforward", rows))
     emit(r, as_json, human)
+    c.exit_if_contradicted(r.verification)
 
 
 # ------------------------------------------------------------------------------------------------ simulate

@@ -31,3 +31,9 @@ def test_client_passes_verify_and_exposes_the_record():
         assert plain.verification is None
         checked = zw.stability({"mass": 5.4, "damping": 3.5}, verify=True)
         assert checked.verification is not None and checked.verification.verdict == "confirmed"
+
+
+def test_feedforward_verify_local():
+    r = runner.invoke(app, ["feedforward", "lhifam", "--cutoff-hz", "30", "--local", "--verify", "--json"])
+    assert r.exit_code == 0, r.stdout
+    assert json.loads(r.stdout)["verification"]["verdict"] == "confirmed"
