@@ -37,3 +37,15 @@ def test_feedforward_verify_local():
     r = runner.invoke(app, ["feedforward", "lhifam", "--cutoff-hz", "30", "--local", "--verify", "--json"])
     assert r.exit_code == 0, r.stdout
     assert json.loads(r.stdout)["verification"]["verdict"] == "confirmed"
+
+
+def test_the_documented_example_runs():
+    import re
+    import shlex
+    from pathlib import Path
+
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "verification.md").read_text(encoding="utf-8")
+    (cmd,) = re.findall(r"```\n(zwidth .*?)\n```", doc, flags=re.DOTALL)
+    r = runner.invoke(app, shlex.split(cmd)[1:] + ["--json"])
+    assert r.exit_code == 0, r.stdout
+    assert json.loads(r.stdout)["verification"]["verdict"] == "confirmed"
