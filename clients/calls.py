@@ -144,10 +144,10 @@ def stability(device: DeviceLike, controller: PartLike | None = None, *,
 
 
 def boundary(device: DeviceLike, *, damping_max: float | None = None,
-             points: int | None = None) -> Call[BoundaryResponse]:
+             points: int | None = None, verify: bool = False) -> Call[BoundaryResponse]:
     """``POST /v1/analysis/boundary``: K_cr(B) [N/m] from B = 0 to ``damping_max`` [N·s/m] and its optimum."""
     return Call("POST", "/v1/analysis/boundary", "analysis", _model(BoundaryResponse),
-                json=_body(device=device, damping_max=damping_max, points=points))
+                json=_body(device=device, damping_max=damping_max, points=points, verify=verify or None))
 
 
 def force_feedforward(device: DeviceLike, filter: PartLike | None = None, *,  # noqa: A002

@@ -30,7 +30,7 @@ from .closed_loop import (SampledPlant, radius_excess, sampled_plant, stiffness_
 
 __all__ = ["Verification", "PassivityVerification", "verify_critical_stiffness", "verify_stiffness_design",
            "verify_passivity", "verify_analysis", "verify_critical_force_gain",
-           "verify_force_feedforward", "DEFAULT_EPSILON", "EIG_MAX_STATES", "Verdict"]
+           "verify_force_feedforward", "verify_boundary", "DEFAULT_EPSILON", "EIG_MAX_STATES", "Verdict"]
 
 Verdict = Literal["confirmed", "contradicted", "not_checkable"]
 
@@ -360,3 +360,29 @@ def verify_force_feedforward(device: Device, analysis, order: int | None, cutoff
     above = [c.force_gain for c in analysis.crossovers if math.isfinite(kcr) and c.force_gain > kcr * (1 + 1e-9)]
     return verify_critical_force_gain(device, analysis.human, kcr, order, cutoff_hz, eps,
                                       next_crossing=min(above) if above else None)
+
+
+# --- the stability boundary: every point, the optimum's record -----------------------------------------------
+
+def verify_boundary(device: Device, boundary, epsilon: float = DEFAULT_EPSILON) -> Verification:
+    """Verify every K_cr(B) of an optim.boundary.Boundary; the record is the optimum's, the verdict the worst
+    over the points, and the reason counts them (a contradicted point is named)."""
+    t0 = time.perf_counter()
+    counts = {"confirmed": 0, "contradicted": 0, "not_checkable": 0}
+    bad: list[str] = []
+    for p in boundary.points:
+        k = p.critical_stiffness if math.isfinite(p.critical_stiffness) else None
+        v = verify_critical_stiffness(device, p.damping, k, epsilon)
+        counts[v.verdict] += 1
+        if v.verdict != "confirmed" and len(bad) < 3:
+            bad.append(f"B = {p.damping:.6g}: {v.verdict} ({v.reason})")
+    opt = boundary.optimum
+    best = verify_critical_stiffness(device, opt.damping,
+                                     opt.critical_stiffness if math.isfinite(opt.critical_stiffness) else None, epsilon)
+    counts[best.verdict] += 1
+    verdict: Verdict = ("contradicted" if counts["contradicted"] else
+                        "not_checkable" if counts["not_checkable"] else "confirmed")
+    n = sum(counts.values())
+    reason = (f"{n} points (the optimum included): {counts['confirmed']} confirmed, {counts['contradicted']} "
+              f"contradicted, {counts['not_checkable']} not checkable" + ("; " + "; ".join(bad) if bad else ""))
+    return replace(best, verdict=verdict, reason=reason, elapsed_ms=(time.perf_counter() - t0) * 1e3)

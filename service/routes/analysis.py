@@ -11,7 +11,7 @@ from pydantic import ValidationError
 
 from optim.analysis import analyse_stability
 from optim.boundary import stability_boundary
-from optim.verification import verify_analysis
+from optim.verification import verify_analysis, verify_boundary
 
 from ..cost import boundary_cost_ms, check_reference_cost, stability_cost_ms, verify_cost_ms
 from ..errors import NumericInputError
@@ -86,5 +86,10 @@ def boundary(req: Annotated[BoundaryRequest, Body(openapi_examples=device_exampl
         if d["critical_stiffness"] is not None and not math.isfinite(d["critical_stiffness"]):
             d["critical_stiffness"] = None
         return d
+    verification = None
+    if req.verify:
+        verification = verification_out(compute.run(verify_boundary, req.device, res,
+                                                    cost_ms=(req.points + 1) * verify_cost_ms(req.device)))
     return BoundaryResponse(points=[clean(p) for p in res.points], optimum=clean(res.optimum),
-                            max_stable_damping=res.max_stable_damping, method="exact", elapsed_ms=res.elapsed_ms)
+                            max_stable_damping=res.max_stable_damping, method="exact", elapsed_ms=res.elapsed_ms,
+                            verification=verification)

@@ -60,6 +60,7 @@ class BoundaryRequest(BaseModel):
     device: Device
     damping_max: float | None = Field(default=None, gt=0, le=1e15, description="largest B [N·s/m]; default B_max")
     points: int = Field(default=50, ge=2, le=MAX_BOUNDARY_POINTS)
+    verify: bool = VerifyField()
 
 
 class BoundaryPointOut(BaseModel):
@@ -75,3 +76,5 @@ class BoundaryResponse(BaseModel):
     max_stable_damping: float | None = Field(description="B_max [N·s/m]")
     method: str
     elapsed_ms: float
+    verification: VerificationOut | None = Field(
+        None, description="present when verify was true: every point verified; the optimum's record, the worst verdict")

@@ -72,3 +72,11 @@ def test_inertia_design_verify(client):
     v = r["verification"]
     assert v["verdict"] == "confirmed", v
     assert v["design_radius"] < 1
+
+
+def test_boundary_verify(client):
+    body = {"device": {**LHIFAM_RIGID, "delay": 0.002}, "points": 8}
+    assert client.post("/v1/analysis/boundary", json=body).json().get("verification") is None
+    v = client.post("/v1/analysis/boundary", json={**body, "verify": True}).json()["verification"]
+    assert v["verdict"] in ("confirmed", "not_checkable"), v
+    assert v["reason"].startswith("9 points")
