@@ -45,6 +45,8 @@ def design_stiffness_route(request: StiffnessDesignRequest, compute: Compute) ->
     if request.requirements.uncertainty is not None:
         if request.method != "exact":
             raise NumericInputError("method", "robust designs (requirements.uncertainty) are computed on the exact rung only")
+        if request.verify:
+            raise NumericInputError("verify", "robust designs (requirements.uncertainty) are not verified yet")
         return _robust(request, req, t0, compute)
     try:
         design, rung = compute.run(design_stiffness_on_rung, request.device, req, request.method, request.grid_points,

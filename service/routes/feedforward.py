@@ -88,6 +88,8 @@ def inertia(req: InertiaRequest, compute: Compute) -> InertiaResponse:
     if r.uncertainty is not None:
         if req.method != "exact":
             raise NumericInputError("method", "robust designs (requirements.uncertainty) are computed on the exact rung only")
+        if req.verify:
+            raise NumericInputError("verify", "robust designs (requirements.uncertainty) are not verified yet")
         return _robust_inertia(req, spec, compute)
     try:
         d, rung = compute.run(design_inertia_on_rung, req.device, spec, req.method, req.grid_points,

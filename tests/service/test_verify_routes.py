@@ -80,3 +80,11 @@ def test_boundary_verify(client):
     v = client.post("/v1/analysis/boundary", json={**body, "verify": True}).json()["verification"]
     assert v["verdict"] in ("confirmed", "not_checkable"), v
     assert v["reason"].startswith("9 points")
+
+
+def test_robust_designs_refuse_verify_rather_than_ignore_it(client):
+    body = {"device": LHIFAM_RIGID, "requirements": {"uncertainty": {"device.mass": {"min": 5, "max": 6}}},
+            "verify": True}
+    for path in ("/v1/design/stiffness", "/v1/design/inertia"):
+        r = client.post(path, json=body)
+        assert r.status_code == 422 and "verify" in r.text, (path, r.text)
