@@ -2,11 +2,18 @@
 
 import math
 
+import pytest
+
 from bench import accuracy_vs_time as acc
 
 
-def test_accuracy_quick_suite(tmp_path):
-    results, details = acc.measure(acc.QUICK, repeats=1)
+@pytest.fixture(scope="module")
+def quick():
+    return acc.measure(acc.QUICK, repeats=1)
+
+
+def test_accuracy_quick_suite(tmp_path, quick):
+    results, details = quick
     assert len(details) == 5
     # exact within 1e-9 of the 40-digit reference on every case
     assert max(results["exact"].errors) <= 1e-9
@@ -34,8 +41,8 @@ def test_accuracy_quick_feedforward():
     assert "## Force feedforward" in text and "| reference |" in text
 
 
-def test_accuracy_verify_column_and_readme_headline(tmp_path):
-    results, details = acc.measure(acc.QUICK, repeats=1)
+def test_accuracy_verify_column_and_readme_headline(tmp_path, quick):
+    results, details = quick
     # verify confirms every exact and reference answer of the suite, and its cost has its own column
     for rung in ("exact", "reference"):
         assert results[rung].verdicts and set(results[rung].verdicts) == {"confirmed"}

@@ -19,7 +19,8 @@ from optim.analysis import analyse_stability
 from optim.closed_loop import radius_excess, sampled_plant, stiffness_closed_loop, unstable_count
 from optim.margins import critical_stiffness, max_stable_damping
 from optim.passivity import passivity_margin
-from optim.verification import verify_analysis, verify_critical_stiffness, verify_passivity
+from optim.verification import (verify_analysis, verify_critical_stiffness, verify_passivity,
+                                 verify_stiffness_design)
 
 from .independent import eq12_roots_mp, spectral_radius
 from .verify_cases import random_device, undamped_cable
@@ -128,8 +129,8 @@ def run_property(n: int, seed: int) -> dict:
             if g.error_estimate is None or not math.isfinite(g.error_estimate):
                 out["grid_unbounded"] += 1
             elif verify_analysis(dev, g).verdict == "contradicted":
-                out["grid_contradicted"].append((dev.model_dump(exclude_none=True), b, g.critical_stiffness,
-                                                 g.error_estimate))
+                out["grid_contradicted"].append((dev.model_dump(exclude_none=True), b, float(g.critical_stiffness),
+                                                 float(g.error_estimate)))
     return out
 
 
@@ -160,3 +161,53 @@ def test_verify_undamped_cables(property_run):
 @pytest.mark.xfail(strict=False, reason="grid estimate fix in branch stiffedge")
 def test_grid_answers_within_their_estimate(property_run):
     assert not property_run["grid_contradicted"], property_run["grid_contradicted"][:3]
+
+
+def run_designs(n: int, seed: int) -> dict:
+    """Exact stiffness designs on random devices (delays ≤ 3,000 samples: design cost), verified."""
+    from optim.design_ladder import design_stiffness_on_rung
+    from optim.stiffness import StiffnessRequirements
+
+    rng = np.random.default_rng(seed)
+    out = {"designs": 0, "confirmed": 0, "contradicted": [], "not_checkable": [], "boundary_labels": 0,
+           "not_optimal": 0, "ms": []}
+    while out["designs"] < n:
+        dev = random_device(rng)
+        if dev.delay_samples > 3000 or undamped_cable(dev):
+            continue
+        req = StiffnessRequirements(min_gain_margin_db=float(rng.choice([0.0, 3.0, 6.0, 12.0])),
+                                    passivity=bool(rng.random() < 0.3))
+        try:
+            d, _ = design_stiffness_on_rung(dev, req, "exact")
+        except (ValueError, RuntimeError, ArithmeticError):
+            out["not_optimal"] += 1
+            continue
+        if d.status != "optimal":
+            out["not_optimal"] += 1
+            continue
+        out["designs"] += 1
+        t0 = time.perf_counter()
+        v = verify_stiffness_design(dev, d.stiffness, d.damping, d.gain_margin_db, True if req.passivity else None)
+        out["ms"].append((time.perf_counter() - t0) * 1e3)
+        case = (dev.model_dump(exclude_none=True), req.min_gain_margin_db, req.passivity, v.reason)
+        if v.verdict == "confirmed":
+            out["confirmed"] += 1
+        elif v.verdict == "contradicted":
+            out["contradicted"].append(case)
+        else:
+            out["not_checkable"].append(case)
+            # a design sitting exactly on its constraint (0 dB: K = K_cr; passivity: b = the requirement) cannot
+            # be decided; the issue asks designs to back off by a stated, tiny amount
+            if req.min_gain_margin_db == 0.0 or req.passivity:
+                out["boundary_labels"] += 1
+    return out
+
+
+@pytest.mark.slow
+def test_verify_never_contradicts_a_stiffness_design():
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        r = run_designs(10, seed=5)
+    assert not r["contradicted"], r["contradicted"][:3]
+    # undecidable only where the design sits exactly on a constraint (0 dB or passivity)
+    assert r["boundary_labels"] == len(r["not_checkable"]), r["not_checkable"]
