@@ -147,10 +147,14 @@ def verify_critical_stiffness(device: Device, damping: float, critical: float | 
                               gain_above=probe)
     if not (math.isfinite(critical) and critical > 0 and math.isfinite(epsilon) and epsilon > 0):
         return _not_checkable(t0, "no finite positive answer or step to check")
-    eps = epsilon
+    cap = math.inf
     if next_crossing is not None and math.isfinite(next_crossing) and next_crossing > critical:
-        eps = min(eps, 0.5 * (next_crossing / critical - 1.0))
-    tries = [eps] if epsilon != DEFAULT_EPSILON else [eps, min(1e3 * eps, 1e-3, eps * 1e3)]
+        cap = 0.5 * (next_crossing / critical - 1.0)
+    eps = min(epsilon, cap)
+    # an exact answer whose ±1e-6 is below double precision's reach (tiny δ on the eigenvalue path) gets a
+    # second, larger step: still far inside any use, still below the next crossover
+    wider = min(1e-3, cap)
+    tries = [eps, wider] if epsilon == DEFAULT_EPSILON and wider > eps else [eps]
     last = None
     for e in tries:
         k_lo = critical * (1.0 - e) if e < 0.5 else critical / (1.0 + e)
