@@ -195,15 +195,19 @@ def _hardware_body(device: DeviceLike, free: str, stiffness: float | None, force
 def design_hardware(device: DeviceLike, free: str, *, stiffness: float | None = None, force_gain: float | None = None,
                     apparent_mass: float | None = None, min_gain_margin_db: float | None = None,
                     max_damping: float | None = None, cutoff_min_hz: float | None = None,
-                    filter_order: int | None = None, points: int | None = None) -> Call[HardwareDesignResponse]:
+                    filter_order: int | None = None, points: int | None = None,
+                    verify: bool = False) -> Call[HardwareDesignResponse]:
     """``POST /v1/design/hardware``: the loosest value of ``free`` (sample_time, delay, damping, mass,
     cable.stiffness) that still renders a wall ``stiffness`` K [N/m] and/or a force-feedforward ``force_gain``
-    K_f or ``apparent_mass`` [kg], with the controller and the trade-off curve."""
+    K_f or ``apparent_mass`` [kg], with the controller and the trade-off curve.  ``verify=True`` adds
+    ``.verification``: the controller checked on the closed loop at the answer's value."""
     from service.schemas.design_hardware import HardwareDesignResponse
 
-    return Call("POST", "/v1/design/hardware", "design", _model(HardwareDesignResponse),
-                json=_hardware_body(device, free, stiffness, force_gain, apparent_mass, min_gain_margin_db,
-                                    max_damping, cutoff_min_hz, filter_order, points))
+    body = _hardware_body(device, free, stiffness, force_gain, apparent_mass, min_gain_margin_db, max_damping,
+                          cutoff_min_hz, filter_order, points)
+    if verify:
+        body["verify"] = True
+    return Call("POST", "/v1/design/hardware", "design", _model(HardwareDesignResponse), json=body)
 
 
 def plot_robust(device: DeviceLike, requirements: PartLike, *, x: str | None = None, y: str | None = None,

@@ -88,3 +88,17 @@ def test_robust_designs_refuse_verify_rather_than_ignore_it(client):
     for path in ("/v1/design/stiffness", "/v1/design/inertia"):
         r = client.post(path, json=body)
         assert r.status_code == 422 and "verify" in r.text, (path, r.text)
+
+
+@pytest.mark.slow
+def test_hardware_design_verify(client):
+    body = {"device": {"mass": 5.4, "damping": 3.5, "delay": 0.001}, "target": {"stiffness": 3000},
+            "free": "sample_time", "points": 9, "verify": True}
+    r = client.post("/v1/design/hardware", json=body)
+    assert r.status_code == 200, r.text
+    out = r.json()
+    assert out["status"] == "optimal"
+    v = out["verification"]
+    assert v["verdict"] == "confirmed", v
+    assert v["design_radius"] < 1
+    assert client.post("/v1/plots/hardware", json=body).status_code == 422
