@@ -26,8 +26,17 @@ from scipy.linalg import eig, expm, matrix_balance
 
 from models.device import Device
 
-__all__ = ["SampledPlant", "sampled_plant", "stiffness_closed_loop", "RadiusExcess", "radius_excess",
-           "UnstableCount", "unstable_count", "count_outside", "discretise"]
+__all__ = [
+    "RadiusExcess",
+    "SampledPlant",
+    "UnstableCount",
+    "count_outside",
+    "discretise",
+    "radius_excess",
+    "sampled_plant",
+    "stiffness_closed_loop",
+    "unstable_count",
+]
 
 
 @dataclass(frozen=True)

@@ -17,7 +17,7 @@ from models.feedforward import feedforward_state_space
 
 from .closed_loop import SampledPlant, UnstableCount, count_outside, discretise
 
-__all__ = ["FeedforwardLoop", "feedforward_loop", "feedforward_closed_loop", "feedforward_unstable_count"]
+__all__ = ["FeedforwardLoop", "feedforward_closed_loop", "feedforward_loop", "feedforward_unstable_count"]
 
 
 class FeedforwardLoop:

@@ -26,11 +26,28 @@ from scipy.optimize import minimize_scalar
 
 from models.device import Device
 
-from .closed_loop import (SampledPlant, radius_excess, sampled_plant, stiffness_closed_loop, unstable_count)
+from .closed_loop import (
+    SampledPlant,
+    radius_excess,
+    sampled_plant,
+    stiffness_closed_loop,
+    unstable_count,
+)
 
-__all__ = ["Verification", "PassivityVerification", "verify_critical_stiffness", "verify_stiffness_design",
-           "verify_passivity", "verify_analysis", "verify_critical_force_gain",
-           "verify_force_feedforward", "verify_boundary", "DEFAULT_EPSILON", "EIG_MAX_STATES", "Verdict"]
+__all__ = [
+    "DEFAULT_EPSILON",
+    "EIG_MAX_STATES",
+    "PassivityVerification",
+    "Verdict",
+    "Verification",
+    "verify_analysis",
+    "verify_boundary",
+    "verify_critical_force_gain",
+    "verify_critical_stiffness",
+    "verify_force_feedforward",
+    "verify_passivity",
+    "verify_stiffness_design",
+]
 
 Verdict = Literal["confirmed", "contradicted", "not_checkable"]
 
@@ -295,7 +312,10 @@ def verify_analysis(device: Device, analysis) -> Verification:
 # --- force feedforward: K_f,cr of 1 + K_f·D·G_1 --------------------------------------------------------------
 
 def _ff_point(loop, force_gain: float) -> _Point:
-    from .closed_loop_feedforward import feedforward_closed_loop, feedforward_unstable_count
+    from .closed_loop_feedforward import (
+        feedforward_closed_loop,
+        feedforward_unstable_count,
+    )
 
     if loop.states <= EIG_MAX_STATES:
         ex = radius_excess(feedforward_closed_loop(loop, force_gain))

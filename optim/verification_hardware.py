@@ -16,7 +16,11 @@ from models.device import Device
 
 from .feedforward import resolve_human
 from .hardware_targets import device_with
-from .verification import Verification, verify_critical_force_gain, verify_stiffness_design
+from .verification import (
+    Verification,
+    verify_critical_force_gain,
+    verify_stiffness_design,
+)
 
 __all__ = ["verify_hardware_design"]
 

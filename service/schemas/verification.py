@@ -8,10 +8,10 @@ from typing import Literal
 
 from pydantic import BaseModel, Field
 
-__all__ = ["VerifyField", "VerificationOut", "verification_out"]
+__all__ = ["VerificationOut", "VerifyField", "verification_out"]
 
 
-def VerifyField():  # noqa: N802  (a Field factory, used like a type in the request models)
+def VerifyField():
     return Field(default=False, strict=True,
                  description="add `verification`: the closed loop at the critical gain ·(1 ∓ ε) by a method "
                              "independent of the answer (closed-loop eigenvalues or an argument-principle count)")

@@ -16,11 +16,20 @@ import pytest
 
 from models.device import Device
 from optim.analysis import analyse_stability
-from optim.closed_loop import radius_excess, sampled_plant, stiffness_closed_loop, unstable_count
+from optim.closed_loop import (
+    radius_excess,
+    sampled_plant,
+    stiffness_closed_loop,
+    unstable_count,
+)
 from optim.margins import critical_stiffness, max_stable_damping
 from optim.passivity import passivity_margin
-from optim.verification import (verify_analysis, verify_critical_stiffness, verify_passivity,
-                                 verify_stiffness_design)
+from optim.verification import (
+    verify_analysis,
+    verify_critical_stiffness,
+    verify_passivity,
+    verify_stiffness_design,
+)
 
 from .independent import eq12_roots_mp, spectral_radius
 from .verify_cases import random_device, undamped_cable

@@ -10,7 +10,11 @@ from models.device import Device, Human
 from models.feedforward import feedforward_plant
 from models.filters import ButterworthLowPass
 from optim.closed_loop import radius_excess
-from optim.closed_loop_feedforward import feedforward_closed_loop, feedforward_loop, feedforward_unstable_count
+from optim.closed_loop_feedforward import (
+    feedforward_closed_loop,
+    feedforward_loop,
+    feedforward_unstable_count,
+)
 from optim.feedforward_ladder import analyse_force_feedforward
 from optim.verification import verify_critical_force_gain, verify_force_feedforward
 
