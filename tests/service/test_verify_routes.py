@@ -30,6 +30,7 @@ def test_stability_verify_checks_the_walls_labels(client):
     assert v["passivity"]["verdict"] == "confirmed"
 
 
+@pytest.mark.slow
 def test_long_delay_uses_the_argument_principle(client):
     body = {"device": {**LHIFAM_RIGID, "delay": 2.0}, "verify": True}   # 2,000 samples of delay
     v = client.post("/v1/analysis/stability", json=body).json()["verification"]
