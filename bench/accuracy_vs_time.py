@@ -30,6 +30,7 @@ import numpy as np
 from models.device import Device
 from models.plants import stiffness_loop_plant
 from optim.analysis import analyse_stability, linear_error_estimate
+from optim.verification import verify_analysis, verify_force_feedforward
 
 RUNGS = ("linear", "grid", "exact", "reference")
 EXPERIMENT = "experiment (relay, 3 starts)"
@@ -97,6 +98,9 @@ class Measure:
     errors: list[float] = field(default_factory=list)
     estimates: list[float] = field(default_factory=list)
     cases: list[str] = field(default_factory=list)
+    verify_times: list[float] = field(default_factory=list)
+    """the cost of ``verify`` on each answer [ms] (optim.verification; its own column)"""
+    verdicts: list[str] = field(default_factory=list)
 
 
 def _control_loop(dev: Device, damping: float):
@@ -167,6 +171,9 @@ def measure(names: tuple[str, ...] | None = None, repeats: int = 7) -> tuple[dic
                 res, times = _timed(lambda r=rung: analyse_stability(dev, damping=b, method=r), repeats)
             m = results[rung]
             m.times += times
+            v, vt = _timed(lambda r=res: verify_analysis(dev, r), 1)
+            m.verify_times += vt
+            m.verdicts.append(v.verdict)
             m.errors.append(_rel(res.critical_stiffness, truth))
             m.estimates.append(res.error_estimate)
             m.cases.append(name)
@@ -220,6 +227,10 @@ def measure_feedforward(names: tuple[str, ...] | None = None,
                 res, times = _timed(lambda r=rung: analyse_force_feedforward(dev, f, method=r), repeats)
             m = results[rung]
             m.times += times
+            v, vt = _timed(lambda r=res: verify_force_feedforward(dev, r, filt[1] if filt else None,
+                                                                  filt[0] if filt else None), 1)
+            m.verify_times += vt
+            m.verdicts.append(v.verdict)
             m.errors.append(_rel(res.critical_force_gain, truth))
             m.estimates.append(res.error_estimate)
             m.cases.append(name)
@@ -238,8 +249,49 @@ def _summary_rows(results: dict[str, Measure], keys) -> list[str]:
         errs = np.array(m.errors)
         lines.append(
             f"| {key} | {statistics.median(m.times):.3g} | {np.percentile(m.times, 95):.3g} | "
-            f"{np.median(errs):.1e} | {np.max(errs):.1e} | {len(wrong)}/{len(m.errors)} | {wrong[0] if wrong else '—'} |")
+            f"{np.median(errs):.1e} | {np.max(errs):.1e} | {len(wrong)}/{len(m.errors)} | {wrong[0] if wrong else '—'} | "
+            f"{_verify_cells(m)} |")
     return lines
+
+
+def _verify_cells(m: Measure) -> str:
+    """verify's median cost and its verdicts (confirmed / contradicted / not checkable), or — for a peer."""
+    if not m.verify_times:
+        return "— | —"
+    n = len(m.verdicts)
+    return (f"{statistics.median(m.verify_times):.3g} | {m.verdicts.count('confirmed')}/{m.verdicts.count('contradicted')}"
+            f"/{m.verdicts.count('not_checkable')} of {n}")
+
+
+HEADER = ("| method | median ms | p95 ms | median rel. error | max rel. error | wrong > 1 % | first wrong case | "
+          "verify median ms | verify confirmed/contradicted/not checkable |")
+RULE = "|---|---|---|---|---|---|---|---|---|"
+README_START, README_END = "<!-- accuracy-headline:start -->", "<!-- accuracy-headline:end -->"
+
+
+def headline(results: dict[str, Measure]) -> str:
+    """The README's headline table (written between its markers by main, so it cannot go stale)."""
+    names = {"linear": "linear (eq. 10)", "python-control default": "python-control `stability_margins`"}
+    lines = ["| method | median ms | max rel. error | wrong > 1 % | verify median ms |", "|---|---|---|---|---|"]
+    for key in (*RUNGS, PEERS[0]):
+        m = results.get(key)
+        if m is None or not m.errors:
+            continue
+        wrong = sum(1 for e in m.errors if e > 0.01)
+        err = "— (truth)" if key == "reference" else f"{max(m.errors):.1e}"
+        ver = f"{statistics.median(m.verify_times):.3g}" if m.verify_times else "—"
+        lines.append(f"| {names.get(key, key)} | {statistics.median(m.times):.2g} | {err} | {wrong}/{len(m.errors)} | "
+                     f"{ver} |")
+    return "\n".join(lines)
+
+
+def write_readme_headline(readme: Path, table: str) -> None:
+    text = readme.read_text()
+    if README_START not in text or README_END not in text:
+        raise SystemExit(f"{readme}: the markers {README_START} … {README_END} are missing")
+    head, rest = text.split(README_START, 1)
+    _, tail = rest.split(README_END, 1)
+    readme.write_text(f"{head}{README_START}\n{table}\n{README_END}{tail}")
 
 
 def render_feedforward(results: dict[str, Measure], details: list[dict]) -> str:
@@ -255,8 +307,7 @@ def render_feedforward(results: dict[str, Measure], details: list[dict]) -> str:
         "filter and with the chapter's 2nd-order 30 Hz Butterworth, delays 0, 1, 5, 50 and 2.37 samples. Truth: the "
         "`reference` rung (40-digit mpmath residue z-transform, optim/feedforward_reference.py). `linear` is eq. 33, "
         "K_f,cr ≈ 1 + m/m_h (a large-delay limit; its time includes its error estimate).", "",
-        "| method | median ms | p95 ms | median rel. error | max rel. error | wrong > 1 % | first wrong case |",
-        "|---|---|---|---|---|---|---|",
+        HEADER, RULE,
         *_summary_rows(results, RUNGS), "",
         f"The linear rung's reported error estimate: true error / estimate ≤ {ratio:.2f} on this suite (an honest "
         f"estimate stays ≤ 2); the grid rung's: ≤ {g_ratio:.2f}. Median time reference / linear: {span:.3g}×.", "",
@@ -282,10 +333,13 @@ def render(results: dict[str, Measure], details: list[dict]) -> str:
         "python-control is given the loop as a lab would build it (`c2d(G, 'zoh')·z^-d`, the damper closed with "
         "`feedback`); it has no fractional delay, so those cases count only for zwidth's rungs.",
         "",
-        "| method | median ms | p95 ms | median rel. error | max rel. error | wrong > 1 % | first wrong case |",
-        "|---|---|---|---|---|---|---|",
+        HEADER, RULE,
     ]
     lines += _summary_rows(results, (*RUNGS, EXPERIMENT, *PEERS))
+    lines += ["", "`verify` (docs/verification.md) checks each answer on the closed loop at its own claim: ±1e-6 for "
+              "exact and reference, ± the error estimate for grid, ± twice the estimate for linear (its documented "
+              "honesty); an unbounded estimate is not checkable.  A contradiction there is the rung's estimate "
+              "failing, shown rather than hidden."]
     lin = results["linear"]
     ratio = [e / est for e, est in zip(lin.errors, lin.estimates) if math.isfinite(e) and est > 0]
     spreads = [f"{r['case']}: {r[EXPERIMENT][0]:.5g}–{r[EXPERIMENT][1]:.5g} (exact {r['exact']:.5g})"
@@ -347,6 +401,7 @@ def main(argv: list[str] | None = None) -> str:
     ap.add_argument("--quick", action="store_true", help="the 5-case version")
     ap.add_argument("--repeats", type=int, default=7)
     ap.add_argument("--out", default="docs/accuracy.md")
+    ap.add_argument("--readme", default="README.md", help="README whose headline table is rewritten ('' to skip)")
     args = ap.parse_args(argv)
     results, details = measure(QUICK if args.quick else None, args.repeats)
     ff_results, ff_details = measure_feedforward(QUICK_FF if args.quick else None, args.repeats)
@@ -355,6 +410,8 @@ def main(argv: list[str] | None = None) -> str:
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(text)
     plot(results, out.with_suffix(".png"))
+    if args.readme and not args.quick:
+        write_readme_headline(Path(args.readme), headline(results))
     print(text)
     return text
 

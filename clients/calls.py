@@ -130,47 +130,57 @@ def presets() -> Call[dict[str, Device]]:
 
 def stability(device: DeviceLike, controller: PartLike | None = None, *,
               method: Literal["linear", "grid", "exact", "reference"] | None = None,
-              grid_points: int | None = None) -> Call[StabilityResponse]:
+              grid_points: int | None = None, verify: bool = False) -> Call[StabilityResponse]:
     """``POST /v1/analysis/stability``: K_cr(B) [N/m], every crossover, margin and passivity of a wall.
 
     ``controller`` is ``{"stiffness": K [N/m], "damping": B [N·s/m]}``; without it
     the analysis is at B = 0 and has no margin.  ``method`` is the rung of the
-    accuracy ladder (server default ``exact``).
+    accuracy ladder (server default ``exact``).  ``verify=True`` adds ``.verification``:
+    the closed loop just below and above the answer, checked independently (docs/verification.md).
     """
     return Call("POST", "/v1/analysis/stability", "analysis", _model(StabilityResponse),
-                json=_body(device=device, controller=controller, method=method, grid_points=grid_points))
+                json=_body(device=device, controller=controller, method=method, grid_points=grid_points,
+                           verify=verify or None))
 
 
 def boundary(device: DeviceLike, *, damping_max: float | None = None,
-             points: int | None = None) -> Call[BoundaryResponse]:
+             points: int | None = None, verify: bool = False) -> Call[BoundaryResponse]:
     """``POST /v1/analysis/boundary``: K_cr(B) [N/m] from B = 0 to ``damping_max`` [N·s/m] and its optimum."""
     return Call("POST", "/v1/analysis/boundary", "analysis", _model(BoundaryResponse),
-                json=_body(device=device, damping_max=damping_max, points=points))
+                json=_body(device=device, damping_max=damping_max, points=points, verify=verify or None))
 
 
-def force_feedforward(device: DeviceLike, filter: PartLike | None = None) -> Call[ForceFeedforwardResponse]:  # noqa: A002
+def force_feedforward(device: DeviceLike, filter: PartLike | None = None, *,  # noqa: A002
+                      verify: bool = False) -> Call[ForceFeedforwardResponse]:
     """``POST /v1/analysis/force-feedforward``: critical force gain K_f,cr (chapter §5, eq. 32-34).
 
-    ``filter`` is the Butterworth D(z), ``{"cutoff_hz": f_c [Hz], "order": n}``.
+    ``filter`` is the Butterworth D(z), ``{"cutoff_hz": f_c [Hz], "order": n}``.  ``verify=True`` adds
+    ``.verification`` (docs/verification.md).
     """
     from service.schemas.feedforward import ForceFeedforwardResponse
 
     return Call("POST", "/v1/analysis/force-feedforward", "analysis", _model(ForceFeedforwardResponse),
-                json=_body(device=device, filter=filter))
+                json=_body(device=device, filter=filter, verify=verify or None))
 
 
-def design_stiffness(device: DeviceLike, requirements: PartLike | None = None) -> Call[StiffnessDesignResponse]:
-    """``POST /v1/design/stiffness``: the stiffest safe wall K [N/m] with its damping B [N·s/m]."""
+def design_stiffness(device: DeviceLike, requirements: PartLike | None = None, *,
+                     verify: bool = False) -> Call[StiffnessDesignResponse]:
+    """``POST /v1/design/stiffness``: the stiffest safe wall K [N/m] with its damping B [N·s/m].
+
+    ``verify=True`` adds ``.verification``: the margin and passivity checked on the closed loop."""
     return Call("POST", "/v1/design/stiffness", "design", _model(StiffnessDesignResponse),
-                json=_body(device=device, requirements=requirements))
+                json=_body(device=device, requirements=requirements, verify=verify or None))
 
 
-def design_inertia(device: DeviceLike, requirements: PartLike | None = None) -> Call[InertiaResponse]:
-    """``POST /v1/design/inertia``: force-feedforward gain K_f, filter cutoff [Hz] and apparent mass [kg]."""
+def design_inertia(device: DeviceLike, requirements: PartLike | None = None, *,
+                   verify: bool = False) -> Call[InertiaResponse]:
+    """``POST /v1/design/inertia``: force-feedforward gain K_f, filter cutoff [Hz] and apparent mass [kg].
+
+    ``verify=True`` adds ``.verification``: the margin and K_f checked on the closed loop."""
     from service.schemas.feedforward import InertiaResponse
 
     return Call("POST", "/v1/design/inertia", "design", _model(InertiaResponse),
-                json=_body(device=device, requirements=requirements))
+                json=_body(device=device, requirements=requirements, verify=verify or None))
 
 
 def _hardware_body(device: DeviceLike, free: str, stiffness: float | None, force_gain: float | None,
@@ -185,15 +195,19 @@ def _hardware_body(device: DeviceLike, free: str, stiffness: float | None, force
 def design_hardware(device: DeviceLike, free: str, *, stiffness: float | None = None, force_gain: float | None = None,
                     apparent_mass: float | None = None, min_gain_margin_db: float | None = None,
                     max_damping: float | None = None, cutoff_min_hz: float | None = None,
-                    filter_order: int | None = None, points: int | None = None) -> Call[HardwareDesignResponse]:
+                    filter_order: int | None = None, points: int | None = None,
+                    verify: bool = False) -> Call[HardwareDesignResponse]:
     """``POST /v1/design/hardware``: the loosest value of ``free`` (sample_time, delay, damping, mass,
     cable.stiffness) that still renders a wall ``stiffness`` K [N/m] and/or a force-feedforward ``force_gain``
-    K_f or ``apparent_mass`` [kg], with the controller and the trade-off curve."""
+    K_f or ``apparent_mass`` [kg], with the controller and the trade-off curve.  ``verify=True`` adds
+    ``.verification``: the controller checked on the closed loop at the answer's value."""
     from service.schemas.design_hardware import HardwareDesignResponse
 
-    return Call("POST", "/v1/design/hardware", "design", _model(HardwareDesignResponse),
-                json=_hardware_body(device, free, stiffness, force_gain, apparent_mass, min_gain_margin_db,
-                                    max_damping, cutoff_min_hz, filter_order, points))
+    body = _hardware_body(device, free, stiffness, force_gain, apparent_mass, min_gain_margin_db, max_damping,
+                          cutoff_min_hz, filter_order, points)
+    if verify:
+        body["verify"] = True
+    return Call("POST", "/v1/design/hardware", "design", _model(HardwareDesignResponse), json=body)
 
 
 def plot_robust(device: DeviceLike, requirements: PartLike, *, x: str | None = None, y: str | None = None,

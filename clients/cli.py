@@ -92,7 +92,7 @@ def analyze(preset: Annotated[str | None, typer.Argument(help="preset name, or '
             damping: Annotated[float | None, typer.Option(help="B of the wall [N·s/m] (K_cr is for this B)")] = None,
             method: Annotated[str | None, typer.Option(help="linear | grid | exact | reference")] = None,
             grid_points: Annotated[int | None, typer.Option(help="frequencies for method=grid")] = None,
-            local: Local = False, url: Url = DEFAULT_URL, token: Token = None, as_json: AsJson = False) -> None:
+            verify: c.Verify = False, local: Local = False, url: Url = DEFAULT_URL, token: Token = None, as_json: AsJson = False) -> None:
     """Critical stiffness K_cr(B), every crossover, margin and passivity (POST /v1/analysis/stability).
 
     Exit 1 when the given wall is unstable or no K > 0 is stable.
@@ -112,18 +112,20 @@ def analyze(preset: Annotated[str | None, typer.Argument(help="preset name, or '
                 for name in names:
                     body = c.assemble({"device": {"preset": name}, "controller": controller}, sets)
                     results[name] = zw.stability(body["device"], body.get("controller"), method=method,
-                                                 grid_points=grid_points)
+                                                 grid_points=grid_points, verify=verify)
                     bar.advance(task)
         else:
             body = c.assemble({"device": c.device_root(preset, device_file, sets), "controller": controller}, sets)
             with c.progress_status("analysing…", as_json):
-                result = zw.stability(body["device"], body.get("controller"), method=method, grid_points=grid_points)
+                result = zw.stability(body["device"], body.get("controller"), method=method, grid_points=grid_points,
+                                      verify=verify)
             results = {preset or "device": result}
 
     def human() -> None:
         if len(results) == 1 and preset != "all":
             r = next(iter(results.values()))
-            out.print(c.table(f"stability of {preset or 'the device'}", _stability_rows(r)))
+            out.print(c.table(f"stability of {preset or 'the device'}",
+                              _stability_rows(r) + c.verification_rows(r.verification)))
             return
         t = Table(title="stability of every preset", title_justify="left")
         t.add_column("preset", no_wrap=True)
@@ -136,7 +138,8 @@ def analyze(preset: Annotated[str | None, typer.Argument(help="preset name, or '
         out.print(t)
 
     emit(results if preset == "all" else next(iter(results.values())), as_json, human)
-    if any(_says_no(r) for r in results.values()):
+    if any(_says_no(r) or (r.verification is not None and r.verification.verdict == "contradicted")
+           for r in results.values()):
         raise typer.Exit(c.EXIT_NO)
 
 
@@ -146,7 +149,7 @@ def analyze(preset: Annotated[str | None, typer.Argument(help="preset name, or '
 def feedforward(preset: Preset = None, sets: Sets = None, device_file: DeviceFile = None,
                 cutoff_hz: Annotated[float | None, typer.Option(help="Butterworth D(z) cutoff [Hz]")] = None,
                 order: Annotated[int | None, typer.Option(help="Butterworth order")] = None,
-                local: Local = False, url: Url = DEFAULT_URL, token: Token = None, as_json: AsJson = False) -> None:
+                verify: c.Verify = False, local: Local = False, url: Url = DEFAULT_URL, token: Token = None, as_json: AsJson = False) -> None:
     """Critical force-feedforward gain K_f,cr (chapter §5; POST /v1/analysis/force-feedforward)."""
     filt = None
     if cutoff_hz is not None:
@@ -155,7 +158,7 @@ def feedforward(preset: Preset = None, sets: Sets = None, device_file: DeviceFil
         raise c.usage_error("--order needs --cutoff-hz")
     body = c.assemble({"device": c.device_root(preset, device_file, sets), "filter": filt}, sets)
     with c.client_with_status(Connection(local, url, token), "analysing the force feedforward…", as_json) as zw:
-        r = zw.force_feedforward(body["device"], body.get("filter"))
+        r = zw.force_feedforward(body["device"], body.get("filter"), verify=verify)
 
     def human() -> None:
         rows = [("critical force gain K_f,cr", r.critical_force_gain, ""),
@@ -166,8 +169,10 @@ def feedforward(preset: Preset = None, sets: Sets = None, device_file: DeviceFil
                 ("method", r.method, ""), ("elapsed", r.elapsed_ms, "ms")]
         rows += [("reason", r.reason, "")] if r.reason else []
         rows += [("note", n, "") for n in r.notes]
+        rows += c.verification_rows(r.verification)
         out.print(c.table("force feedforward", rows))
     emit(r, as_json, human)
+    c.exit_if_contradicted(r.verification)
 
 
 # ------------------------------------------------------------------------------------------------ simulate

@@ -98,6 +98,32 @@ def exit_unless_optimal(status: str) -> None:
         raise typer.Exit(EXIT_NO)
 
 
+Verify = Annotated[bool, typer.Option("--verify", help="add an independent closed-loop check of the answer "
+                                                      "(docs/verification.md); exit 1 if it is contradicted")]
+
+
+def verification_rows(v: Any) -> list[tuple[str, Any, str]]:
+    """Table rows of a ``verification`` record (none when it was not asked for)."""
+    if v is None:
+        return []
+    rows = [("verification", v.verdict, ""), ("verified by", v.method, ""), ("verification ε", v.epsilon, ""),
+            ("radius below / above", f"{fmt(v.radius_below, 12)} / {fmt(v.radius_above, 12)}"
+             if v.radius_below is not None or v.radius_above is not None else
+             f"{fmt(v.unstable_poles_below)} / {fmt(v.unstable_poles_above)} unstable poles", ""),
+            ("verification time", v.elapsed_ms, "ms")]
+    if v.passivity is not None:
+        rows.append(("passivity verified", v.passivity.verdict, ""))
+    if v.reason:
+        rows.append(("verification note", v.reason, ""))
+    return rows
+
+
+def exit_if_contradicted(v: Any) -> None:
+    """A contradicted answer never exits 0."""
+    if v is not None and v.verdict == "contradicted":
+        raise typer.Exit(EXIT_NO)
+
+
 def usage_error(message: str) -> typer.Exit:
     err.print(f"[bold red]error:[/] {escape(message)}")
     return typer.Exit(EXIT_USAGE)

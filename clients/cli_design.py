@@ -36,13 +36,13 @@ def stiffness(preset: Preset = None, sets: Sets = None, device_file: DeviceFile 
               passivity: Annotated[bool | None, typer.Option("--passivity/--no-passivity",
                                                              help="require passivity (delayed form)",
                                                              show_default=False)] = None,
-              local: Local = False, url: Url = DEFAULT_URL, token: Token = None, as_json: AsJson = False) -> None:
+              verify: c.Verify = False, local: Local = False, url: Url = DEFAULT_URL, token: Token = None, as_json: AsJson = False) -> None:
     """The stiffest wall K with its damping B that keeps the margin (and passivity, limits)."""
     body = c.assemble({"device": c.device_root(preset, device_file, sets),
                        "requirements": _requirements(margin, passivity=passivity)},
                       sets, files={"requirements": requirements_file})
     with c.client_with_status(Connection(local, url, token), "designing the wall…", as_json) as zw:
-        r = zw.design_stiffness(body["device"], body["requirements"])
+        r = zw.design_stiffness(body["device"], body["requirements"], verify=verify)
 
     def human() -> None:
         rows = [("status", r.status, ""), ("stiffness K", r.stiffness, "N/m"), ("damping B", r.damping, "N·s/m"),
@@ -54,8 +54,10 @@ def stiffness(preset: Preset = None, sets: Sets = None, device_file: DeviceFile 
                 ("elapsed", r.elapsed_ms, "ms")]
         rows += [("reason", r.reason, "")] if r.reason else []
         rows += [(f"sensitivity: {s.parameter}", s.statement, "") for s in r.sensitivities]
+        rows += c.verification_rows(r.verification)
         out.print(c.table("stiffness design", rows))
     emit(r, as_json, human)
+    c.exit_if_contradicted(r.verification)
     c.exit_unless_optimal(r.status)
 
 
@@ -65,13 +67,13 @@ def inertia(preset: Preset = None, sets: Sets = None, device_file: DeviceFile = 
             requirements_file: ReqFile = None, margin: Margin = None,
             target_mass: Annotated[float | None, typer.Option(
                 "--target-mass", help="apparent mass to reach [kg] (requirements.target_apparent_mass)")] = None,
-            local: Local = False, url: Url = DEFAULT_URL, token: Token = None, as_json: AsJson = False) -> None:
+            verify: c.Verify = False, local: Local = False, url: Url = DEFAULT_URL, token: Token = None, as_json: AsJson = False) -> None:
     """Force-feedforward gain K_f and filter cutoff for the lightest safe feel (chapter §5)."""
     body = c.assemble({"device": c.device_root(preset, device_file, sets),
                        "requirements": _requirements(margin, target_apparent_mass=target_mass)},
                       sets, files={"requirements": requirements_file})
     with c.client_with_status(Connection(local, url, token), "designing the force feedforward…", as_json) as zw:
-        r = zw.design_inertia(body["device"], body["requirements"])
+        r = zw.design_inertia(body["device"], body["requirements"], verify=verify)
 
     def human() -> None:
         rows = [("status", r.status, ""), ("objective", r.objective, ""), ("force gain K_f", r.force_gain, ""),
@@ -82,6 +84,8 @@ def inertia(preset: Preset = None, sets: Sets = None, device_file: DeviceFile = 
                 ("grasp", r.human_source, ""), ("elapsed", r.elapsed_ms, "ms")]
         rows += [("reason", r.reason, "")] if r.reason else []
         rows += [("note", n, "") for n in r.notes]
+        rows += c.verification_rows(r.verification)
         out.print(c.table("inertia design (force feedforward)", rows))
     emit(r, as_json, human)
+    c.exit_if_contradicted(r.verification)
     c.exit_unless_optimal(r.status)

@@ -52,6 +52,12 @@ def stability_cost_ms(device: Device, method: str, damping: float, grid_points: 
     return _exact_ms(device, damping) * (2.0 if device.cable is not None else 1.0)  # cable adds the rigid K_cr
 
 
+def verify_cost_ms(device: Device) -> float:
+    """Estimated cost [ms] of one ``verify`` (optim.verification): two or three closed loops, by eigenvalues up to
+    160 states (≈ 1-10 ms), by the argument principle beyond (≈ 20 ms + 0.03 ms per sample of delay)."""
+    return 5.0 + (20.0 + 0.03 * device.delay_samples if device.delay_samples > 150 else 10.0)
+
+
 def boundary_cost_ms(device: Device, points: int) -> float:
     """Estimated cost [ms] of one ``stability_boundary`` call (B_max, the points, the refined optimum)."""
     return (points + 25) * _exact_ms(device, 1.0)

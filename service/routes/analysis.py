@@ -11,12 +11,14 @@ from pydantic import ValidationError
 
 from optim.analysis import analyse_stability
 from optim.boundary import stability_boundary
+from optim.verification import verify_analysis, verify_boundary
 
-from ..cost import boundary_cost_ms, check_reference_cost, stability_cost_ms
+from ..cost import boundary_cost_ms, check_reference_cost, stability_cost_ms, verify_cost_ms
 from ..errors import NumericInputError
 from ..executor import Compute
 from ..schemas.analysis import BoundaryRequest, BoundaryResponse, StabilityRequest, StabilityResponse
 from ..schemas.common import device_examples
+from ..schemas.verification import verification_out
 
 router = APIRouter(prefix="/v1/analysis", tags=["analysis"])
 
@@ -62,7 +64,11 @@ def stability(req: Annotated[StabilityRequest, Body(openapi_examples=_STABILITY_
                           cost_ms=stability_cost_ms(req.device, req.method, b, req.grid_points))
     except ValueError as exc:
         raise field_error(exc) from exc
-    return StabilityResponse(**_finite_or_null(asdict(res)))
+    out = _finite_or_null(asdict(res))
+    if req.verify:   # only when asked: the fast path does no extra work
+        out["verification"] = verification_out(compute.run(verify_analysis, req.device, res,
+                                                           cost_ms=verify_cost_ms(req.device)))
+    return StabilityResponse(**out)
 
 
 @router.post("/boundary", response_model=BoundaryResponse, operation_id="stability_boundary",
@@ -80,5 +86,10 @@ def boundary(req: Annotated[BoundaryRequest, Body(openapi_examples=device_exampl
         if d["critical_stiffness"] is not None and not math.isfinite(d["critical_stiffness"]):
             d["critical_stiffness"] = None
         return d
+    verification = None
+    if req.verify:
+        verification = verification_out(compute.run(verify_boundary, req.device, res,
+                                                    cost_ms=(req.points + 1) * verify_cost_ms(req.device)))
     return BoundaryResponse(points=[clean(p) for p in res.points], optimum=clean(res.optimum),
-                            max_stable_damping=res.max_stable_damping, method="exact", elapsed_ms=res.elapsed_ms)
+                            max_stable_damping=res.max_stable_damping, method="exact", elapsed_ms=res.elapsed_ms,
+                            verification=verification)

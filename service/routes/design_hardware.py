@@ -8,9 +8,11 @@ import dataclasses
 from fastapi import APIRouter
 
 from optim.hardware import HardwareDesign, HardwareTarget, design_hardware
+from optim.verification_hardware import verify_hardware_design
 from service.errors import NumericInputError
 from service.executor import BoundedExecutor, Compute
 from service.schemas.design_hardware import HardwareDesignRequest, HardwareDesignResponse
+from service.schemas.verification import verification_out
 
 from .design_stiffness import _finite
 
@@ -34,4 +36,10 @@ def run_hardware(request: HardwareDesignRequest, compute: BoundedExecutor) -> Ha
 
 @router.post("/v1/design/hardware", response_model=HardwareDesignResponse, tags=["design"])
 def design_hardware_route(request: HardwareDesignRequest, compute: Compute) -> HardwareDesignResponse:
-    return HardwareDesignResponse(**_finite(dataclasses.asdict(run_hardware(request, compute))))
+    design = run_hardware(request, compute)
+    data = _finite(dataclasses.asdict(design))
+    if request.verify and design.status == "optimal":
+        v = compute.run(verify_hardware_design, request.device, request.free, design.value, design.controller,
+                        cost_ms=None)
+        data["verification"] = verification_out(v) if v is not None else None
+    return HardwareDesignResponse(**data)

@@ -13,11 +13,13 @@ from optim.design_ladder import design_stiffness_on_rung
 from optim.robust.box import UncertaintyBox
 from optim.robust.stiffness import robust_design_stiffness
 from optim.stiffness import StiffnessRequirements
-from service.cost import stiffness_design_cost_ms
+from optim.verification import verify_stiffness_design
+from service.cost import stiffness_design_cost_ms, verify_cost_ms
 from service.errors import NumericInputError
 from service.executor import Compute
 from service.schemas.design_stiffness import StiffnessDesignRequest, StiffnessDesignResponse
 from service.schemas.ladder import rung_fields
+from service.schemas.verification import verification_out
 
 router = APIRouter()
 
@@ -43,6 +45,8 @@ def design_stiffness_route(request: StiffnessDesignRequest, compute: Compute) ->
     if request.requirements.uncertainty is not None:
         if request.method != "exact":
             raise NumericInputError("method", "robust designs (requirements.uncertainty) are computed on the exact rung only")
+        if request.verify:
+            raise NumericInputError("verify", "robust designs (requirements.uncertainty) are not verified yet")
         return _robust(request, req, t0, compute)
     try:
         design, rung = compute.run(design_stiffness_on_rung, request.device, req, request.method, request.grid_points,
@@ -51,6 +55,12 @@ def design_stiffness_route(request: StiffnessDesignRequest, compute: Compute) ->
         return StiffnessDesignResponse(status="failed", reason=f"solver trouble: {exc}",
                                        elapsed_ms=(time.perf_counter() - t0) * 1e3)
     data = _finite(dataclasses.asdict(design))
+    if request.verify and design.stiffness is not None and design.damping is not None:
+        # the margin and (when required) the passivity the design claims, checked by the closed loop
+        passive = True if req.passivity else None
+        data["verification"] = verification_out(compute.run(
+            verify_stiffness_design, request.device, design.stiffness, design.damping, design.gain_margin_db, passive,
+            cost_ms=verify_cost_ms(request.device)))
     return StiffnessDesignResponse(**data, **rung_fields(rung))
 
 

@@ -11,12 +11,14 @@ from models.filters import ButterworthLowPass
 from optim.design_ladder import design_inertia_on_rung
 from optim.feedforward import apparent_mass, resolve_human
 from optim.inertia import RIGID_OPTIMISM_FLAG, InertiaRequirements
+from optim.verification import verify_critical_force_gain, verify_force_feedforward
 
-from ..cost import force_feedforward_cost_ms, inertia_design_cost_ms
+from ..cost import force_feedforward_cost_ms, inertia_design_cost_ms, verify_cost_ms
 from ..errors import NumericInputError
 from ..executor import Compute
 from ..jobs import force_feedforward_job
 from ..schemas.ladder import rung_fields
+from ..schemas.verification import verification_out
 from ..schemas.feedforward import (ForceFeedforwardRequest, ForceFeedforwardResponse, InertiaRequest,
                                    InertiaResponse)
 
@@ -58,6 +60,11 @@ def force_feedforward(req: ForceFeedforwardRequest, compute: Compute) -> ForceFe
         if optimistic:
             notes.append(f"the rigid model is optimistic: it claims K_f,cr = {rigid:.4g}, "
                          f"{100 * (rigid / res.critical_force_gain - 1):.0f} % above the cable model's {kcr:.4g}")
+    verification = None
+    if req.verify:   # only when asked: the fast path does no extra work
+        verification = verification_out(compute.run(
+            verify_force_feedforward, dev, res, filt.order if filt else None, filt.cutoff_hz if filt else None,
+            cost_ms=verify_cost_ms(dev)))
     return ForceFeedforwardResponse(
         critical_force_gain=kcr, crossover_frequency=res.crossover_frequency,
         crossovers=[{"frequency": c.frequency, "force_gain": c.force_gain} for c in res.crossovers],
@@ -67,7 +74,7 @@ def force_feedforward(req: ForceFeedforwardRequest, compute: Compute) -> ForceFe
         human=res.human.model_dump(), human_source=res.human_source,
         force_sensor_time_constant=dev.force_sensor.time_constant if dev.force_sensor else 0.0,
         method=res.method, elapsed_ms=(time.perf_counter() - start) * 1e3, error_estimate=_finite(res.error_estimate),
-        error_source=res.error_source, reason=res.reason, notes=notes)
+        error_source=res.error_source, reason=res.reason, notes=notes, verification=verification)
 
 
 @router.post("/v1/design/inertia", response_model=InertiaResponse)
@@ -81,6 +88,8 @@ def inertia(req: InertiaRequest, compute: Compute) -> InertiaResponse:
     if r.uncertainty is not None:
         if req.method != "exact":
             raise NumericInputError("method", "robust designs (requirements.uncertainty) are computed on the exact rung only")
+        if req.verify:
+            raise NumericInputError("verify", "robust designs (requirements.uncertainty) are not verified yet")
         return _robust_inertia(req, spec, compute)
     try:
         d, rung = compute.run(design_inertia_on_rung, req.device, spec, req.method, req.grid_points,
@@ -94,6 +103,15 @@ def inertia(req: InertiaRequest, compute: Compute) -> InertiaResponse:
         notes.append(f"K_f,cr jumps between {jump[0]:.4g} and {jump[1]:.4g} Hz, where two phase crossovers merge and "
                      "vanish; a design next to that jump is sensitive to model error (the lower crossover can return)")
     rigid = _rigid_out(d, notes, "the rigid model")
+    verification = None
+    if req.verify and d.force_gain is not None and math.isfinite(d.force_gain) and d.filter_cutoff_hz is not None:
+        # the margin claims K_f,cr = K_f·10^(GM/20) for the worst grasp: check it and K_f itself on the closed loop
+        human = d.worst_human or (d.humans[0] if d.humans else resolve_human(req.device)[0])
+        gm = d.gain_margin_db
+        critical = d.force_gain * 10 ** (gm / 20) if gm is not None and math.isfinite(gm) else d.critical_force_gain
+        verification = verification_out(compute.run(
+            verify_critical_force_gain, req.device, human, critical, d.filter_order, d.filter_cutoff_hz,
+            design_gain=d.force_gain, cost_ms=verify_cost_ms(req.device)))
     return InertiaResponse(
         status=d.status, objective=d.objective, force_gain=_finite(d.force_gain),
         filter_cutoff_hz=d.filter_cutoff_hz, filter_order=d.filter_order, apparent_mass=_finite(d.apparent_mass),
@@ -104,7 +122,7 @@ def inertia(req: InertiaRequest, compute: Compute) -> InertiaResponse:
         humans=[h.model_dump() for h in d.humans],
         worst_human=d.worst_human.model_dump() if d.worst_human else None, human_source=d.human_source,
         rigid_model=rigid, solver={k: v for k, v in d.solver.items()}, reason=d.reason, notes=notes,
-        elapsed_ms=d.elapsed_ms, **rung_fields(rung))
+        elapsed_ms=d.elapsed_ms, verification=verification, **rung_fields(rung))
 
 
 def _pareto_out(d) -> list[dict]:

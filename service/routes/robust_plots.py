@@ -62,5 +62,7 @@ def robust_plot(req: RobustPlotRequest, compute: Compute,
 @router.post("/v1/plots/hardware", response_class=Response, responses=_IMAGE)
 def hardware_plot(req: HardwareDesignRequest, compute: Compute,
                   format: Literal["png", "svg"] = Query("png")) -> Response:  # noqa: A002
+    if req.verify:
+        raise NumericInputError("verify", "a plot carries no verification: use POST /v1/design/hardware")
     design = run_hardware(req, compute)
     return Response(content=plot_hardware(design, hardware_target(req), format), media_type=MEDIA_TYPES[format])

@@ -10,6 +10,7 @@ from optim.analysis import DEFAULT_GRID_POINTS, MAX_GRID_POINTS
 from optim.boundary import MAX_BOUNDARY_POINTS
 
 from .common import LHIFAM_RIGID, STRICT, Controller, CrossoverOut, Device
+from .verification import VerificationOut, VerifyField
 
 
 class StabilityRequest(BaseModel):
@@ -23,6 +24,7 @@ class StabilityRequest(BaseModel):
         default="exact", description="rung of the accuracy ladder")
     grid_points: int = Field(default=DEFAULT_GRID_POINTS, ge=10, le=MAX_GRID_POINTS,
                              description="frequency samples for method=grid")
+    verify: bool = VerifyField()
 
 
 class StabilityResponse(BaseModel):
@@ -48,6 +50,7 @@ class StabilityResponse(BaseModel):
                     "crossover on its grid, or its samples show crossovers it missed)")
     error_source: str
     reason: str | None
+    verification: VerificationOut | None = Field(None, description="present when verify was true")
 
 
 class BoundaryRequest(BaseModel):
@@ -57,6 +60,7 @@ class BoundaryRequest(BaseModel):
     device: Device
     damping_max: float | None = Field(default=None, gt=0, le=1e15, description="largest B [N·s/m]; default B_max")
     points: int = Field(default=50, ge=2, le=MAX_BOUNDARY_POINTS)
+    verify: bool = VerifyField()
 
 
 class BoundaryPointOut(BaseModel):
@@ -72,3 +76,5 @@ class BoundaryResponse(BaseModel):
     max_stable_damping: float | None = Field(description="B_max [N·s/m]")
     method: str
     elapsed_ms: float
+    verification: VerificationOut | None = Field(
+        None, description="present when verify was true: every point verified; the optimum's record, the worst verdict")

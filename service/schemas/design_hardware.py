@@ -11,6 +11,7 @@ from optim.domain import check_controller_domain, check_cutoff_domain
 from optim.hardware_targets import HardwareTarget
 
 from .common import Device  # the numerics' validated domain (optim.domain) applies
+from .verification import VerificationOut, VerifyField
 
 __all__ = ["HardwareTargetIn", "HardwareDesignRequest", "HardwareDesignResponse", "CurvePoint", "EdgeOut",
            "ControllerOut"]
@@ -54,6 +55,7 @@ class HardwareDesignRequest(BaseModel):
     free: Literal["sample_time", "delay", "damping", "mass", "cable.stiffness"] = Field(
         description="the hardware parameter to find (the others are the device's)")
     points: int = Field(41, ge=9, le=201, description="points of the trade-off curve")
+    verify: bool = VerifyField()
 
     @model_validator(mode="after")
     def _in_domain(self) -> "HardwareDesignRequest":
@@ -130,3 +132,5 @@ class HardwareDesignResponse(BaseModel):
     note: str | None = None
     limiting_effect: str | None = None
     elapsed_ms: float
+    verification: VerificationOut | None = Field(None, description="present when verify was true: the target "
+                                                                   "controller checked at the answer's value")

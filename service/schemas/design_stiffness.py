@@ -11,6 +11,7 @@ from optim.domain import check_controller_domain
 from .common import Device  # the numerics' validated domain (optim.domain) applies
 
 from .ladder import ExactCheckOut, GridPointsField, Method, MethodField
+from .verification import VerificationOut, VerifyField
 
 __all__ = ["StiffnessRequirementsIn", "StiffnessDesignRequest", "SensitivityOut", "StiffnessDesignResponse",
            "RangeIn", "WorstCaseOut", "PassivityWorstCaseOut"]
@@ -70,6 +71,7 @@ class StiffnessDesignRequest(BaseModel):
     requirements: StiffnessRequirementsIn = Field(default_factory=StiffnessRequirementsIn)
     method: Method = MethodField()
     grid_points: int = GridPointsField()
+    verify: bool = VerifyField()
 
     @model_validator(mode="after")
     def _in_domain(self) -> "StiffnessDesignRequest":
@@ -149,3 +151,4 @@ class StiffnessDesignResponse(BaseModel):
     error_estimate: float | None = Field(None, description="relative error bound/estimate of critical_stiffness")
     error_source: str | None = None
     exact_check: ExactCheckOut | None = Field(None, description="exact margin of a linear or grid design")
+    verification: VerificationOut | None = Field(None, description="present when verify was true")

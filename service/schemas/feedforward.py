@@ -13,6 +13,7 @@ from optim.domain import check_cutoff_domain, check_human_domain, check_human_ma
 
 from .common import STRICT, Device
 from .design_stiffness import RangeIn
+from .verification import VerificationOut, VerifyField
 from .ladder import ExactCheckOut, GridPointsField, Method, MethodField
 
 _LHIFAM_FF = {"mass": 5.4, "damping": 3.5, "sample_time": 0.001,
@@ -36,6 +37,7 @@ class ForceFeedforwardRequest(BaseModel):
                                      "grid = fixed log grid, exact, reference = 40-digit mpmath (slow)")
     grid_points: int = Field(default=DEFAULT_GRID_POINTS, ge=10, le=MAX_GRID_POINTS,
                              description="frequency samples for method=grid")
+    verify: bool = VerifyField()
 
     @model_validator(mode="after")
     def _in_domain(self) -> "ForceFeedforwardRequest":
@@ -74,6 +76,7 @@ class ForceFeedforwardResponse(BaseModel):
     error_source: str | None = None
     reason: str | None
     notes: list[str]
+    verification: VerificationOut | None = Field(None, description="present when verify was true")
 
 
 class MassRange(BaseModel):
@@ -128,6 +131,7 @@ class InertiaRequest(BaseModel):
     requirements: InertiaRequirementsIn = Field(default_factory=InertiaRequirementsIn)
     method: Method = MethodField()
     grid_points: int = GridPointsField()
+    verify: bool = VerifyField()
 
     @model_validator(mode="after")
     def _in_domain(self) -> "InertiaRequest":
@@ -192,3 +196,4 @@ class InertiaResponse(BaseModel):
     error_estimate: float | None = Field(None, description="relative error bound/estimate of critical_force_gain")
     error_source: str | None = None
     exact_check: ExactCheckOut | None = Field(None, description="exact margin of a linear or grid design")
+    verification: VerificationOut | None = Field(None, description="present when verify was true")

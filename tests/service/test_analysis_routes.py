@@ -27,6 +27,7 @@ _TIMING = {"elapsed_ms"}
 def expected_stability(device_json: dict, stiffness=None, damping=0.0, method="exact", grid_points=1000) -> dict:
     res = asdict(analyse_stability(Device(**device_json), stiffness, damping, method, grid_points))
     res.pop("stiffness")  # the request's own K, not part of the answer
+    res["verification"] = None  # only with verify: true (tests/service/test_verify_routes.py)
     return res
 
 

@@ -1,0 +1,412 @@
+"""``verify: true``: an independent proof of a critical gain, a design's margin and its passivity.
+
+The check shares no code with the crossover scan (optim.crossovers, optim.margins, models.discretize):
+it closes the loop in optim.closed_loop, built again from the device's physical parameters, and asks
+whether the loop is stable just below the answer and unstable just above it:
+
+* ``eigenvalues``: the spectral radius of the closed-loop state matrix (whole-sample delay as a shift
+  register, the fractional part through the augmented discretisation), used while the state count is at
+  most :data:`EIG_MAX_STATES` and the radius is decided beyond its own rounding bound;
+* ``argument principle``: otherwise, the number of closed-loop poles outside the unit circle, from the
+  winding of the return difference 1 + C·G around the unit circle (any delay up to the 10,000-sample
+  limit; no radius, a count).
+
+A contradiction is a verdict, never an exception: the caller returns it as ``contradicted``.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, replace
+from typing import Literal
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+
+from models.device import Device
+
+from .closed_loop import (
+    SampledPlant,
+    radius_excess,
+    sampled_plant,
+    stiffness_closed_loop,
+    unstable_count,
+)
+
+__all__ = [
+    "DEFAULT_EPSILON",
+    "EIG_MAX_STATES",
+    "PassivityVerification",
+    "Verdict",
+    "Verification",
+    "verify_analysis",
+    "verify_boundary",
+    "verify_critical_force_gain",
+    "verify_critical_stiffness",
+    "verify_force_feedforward",
+    "verify_passivity",
+    "verify_stiffness_design",
+]
+
+Verdict = Literal["confirmed", "contradicted", "not_checkable"]
+
+#: relative step around an exact (or reference) answer: far above its claimed 1e-12, far below any use
+DEFAULT_EPSILON = 1e-6
+#: closed-loop states up to which the dense eigenvalue method is tried (cost ~ n³; ≈ 5 ms at 160)
+EIG_MAX_STATES = 160
+
+EIGEN = "eigenvalues of the closed-loop state matrix (optim.closed_loop)"
+ARGUMENT = "argument principle: winding of 1 + C·G on the unit circle (optim.closed_loop)"
+
+
+@dataclass(frozen=True)
+class PassivityVerification:
+    """The delayed Colgate–Schenkel condition evaluated again from its frequency-domain form."""
+
+    verdict: Verdict
+    required_damping: float | None
+    """sup over θ of (T/2)·Re[(1 − e^{−jθ})·e^{−jdθ}·C(e^{jθ})]/(1 − cos θ) [N·s/m]."""
+    physical_damping: float
+    """b [N·s/m]."""
+    reason: str | None
+
+
+@dataclass(frozen=True)
+class Verification:
+    """The closed loop just below and just above a critical gain, by a method independent of the answer."""
+
+    verdict: Verdict
+    method: str | None
+    epsilon: float | None
+    """the relative step: the loop is checked at gain·(1 − ε) and gain·(1 + ε)."""
+    gain_below: float | None
+    """the gain checked below (K [N/m] or K_f)."""
+    gain_above: float | None
+    radius_below: float | None
+    """spectral radius of the closed loop at gain_below (eigenvalue method; null for the argument principle)."""
+    radius_above: float | None
+    unstable_poles_below: int | None
+    """closed-loop poles outside the unit circle at gain_below (argument principle; null for eigenvalues)."""
+    unstable_poles_above: int | None
+    elapsed_ms: float
+    reason: str | None
+    design_radius: float | None = None
+    """designs: spectral radius at the designed gain itself (must be < 1)."""
+    design_unstable_poles: int | None = None
+    passivity: PassivityVerification | None = None
+
+
+@dataclass(frozen=True)
+class _Point:
+    stable: bool | None           # None: not decided
+    radius: float | None
+    count: int | None
+    method: str | None
+    reason: str | None
+
+
+def _check_point(device: Device, plant: SampledPlant, alpha: float, beta: float) -> _Point:
+    n = plant.e.shape[0] + 1 + plant.d + (1 if plant.f > 0 else 0)
+    if n <= EIG_MAX_STATES:
+        ex = radius_excess(stiffness_closed_loop(plant, alpha, beta))
+        if ex.decided_stable or ex.decided_unstable:
+            return _Point(ex.decided_stable, 1.0 + ex.excess, None, EIGEN, None)
+    cnt = unstable_count(device, plant, alpha, beta)
+    if cnt.count is None:
+        return _Point(None, None, None, ARGUMENT, cnt.reason)
+    return _Point(cnt.count == 0, None, cnt.count, ARGUMENT, None)
+
+
+def _not_checkable(t0: float, reason: str, eps: float | None = None, **kw) -> Verification:
+    return Verification("not_checkable", kw.pop("method", None), eps, kw.pop("gain_below", None),
+                        kw.pop("gain_above", None), None, None, None, None, (time.perf_counter() - t0) * 1e3, reason, **kw)
+
+
+def _methods(*points: _Point) -> str:
+    used = []
+    for p in points:
+        if p.method and p.method not in used:
+            used.append(p.method)
+    return "; ".join(used)
+
+
+def verify_critical_stiffness(device: Device, damping: float, critical: float | None,
+                              epsilon: float = DEFAULT_EPSILON, next_crossing: float | None = None) -> Verification:
+    """Is the loop with this B stable at K_cr·(1 − ε) and unstable at K_cr·(1 + ε)?
+
+    ``critical``: the answer to check [N/m]; 0 (no positive K stable) is checked as instability at a small
+    K; None or inf (every K stable) is not checkable at finitely many gains, but a K that is unstable
+    contradicts it.  ``next_crossing``: the next larger crossover's K, when the answer lists one: ε is
+    kept below half the gap, so that the point above stays below it.  ``epsilon`` ≥ 0.5 (an approximate
+    rung's own error estimate) checks K/(1 + ε) below instead of a non-positive K.
+    """
+    t0 = time.perf_counter()
+    m, t = device.mass, device.sample_time
+    to_alpha, beta = t * t / m, damping * t / m
+    plant = sampled_plant(device)
+    if critical is not None and critical == 0.0:
+        # no positive K is stable: the loop must be unstable already at a small K
+        k_small = min(1e-6 * (device.damping + damping) / (t / 2 + device.delay), 1e-9 / to_alpha) or 1e-9 / to_alpha
+        p = _check_point(device, plant, k_small * to_alpha, beta)
+        verdict: Verdict = "confirmed" if p.stable is False else ("contradicted" if p.stable else "not_checkable")
+        reason = ("K_cr = 0: the loop is unstable at a small K" if p.stable is False else
+                  "K_cr = 0 but the loop is stable at a small K" if p.stable else p.reason)
+        return Verification(verdict, p.method, None, None, k_small, None, p.radius, None, p.count,
+                            (time.perf_counter() - t0) * 1e3, reason)
+    if critical is None or math.isinf(critical):
+        probe = 100.0 * (device.damping + damping) / (t / 2 + device.delay) or 1.0 / to_alpha
+        p = _check_point(device, plant, probe * to_alpha, beta)
+        if p.stable is False:
+            return Verification("contradicted", p.method, None, None, probe, None, p.radius, None, p.count,
+                                (time.perf_counter() - t0) * 1e3, "every K was said stable, but this K is not")
+        return _not_checkable(t0, "no finite set of gains proves that every K > 0 is stable", method=p.method,
+                              gain_above=probe)
+    if not (math.isfinite(critical) and critical > 0 and math.isfinite(epsilon) and epsilon > 0):
+        return _not_checkable(t0, "no finite positive answer or step to check")
+    cap = math.inf
+    if next_crossing is not None and math.isfinite(next_crossing) and next_crossing > critical:
+        cap = 0.5 * (next_crossing / critical - 1.0)
+    eps = min(epsilon, cap)
+    # an exact answer whose ±1e-6 is below double precision's reach (tiny δ on the eigenvalue path) gets a
+    # second, larger step: still far inside any use, still below the next crossover
+    wider = min(1e-3, cap)
+    tries = [eps, wider] if epsilon == DEFAULT_EPSILON and wider > eps else [eps]
+    last = None
+    for e in tries:
+        k_lo = critical * (1.0 - e) if e < 0.5 else critical / (1.0 + e)
+        k_hi = critical * (1.0 + e)
+        lo = _check_point(device, plant, k_lo * to_alpha, beta)
+        hi = _check_point(device, plant, k_hi * to_alpha, beta)
+        out = Verification("not_checkable", _methods(lo, hi), e, k_lo, k_hi, lo.radius, hi.radius, lo.count,
+                           hi.count, 0.0, None)
+        if lo.stable is False or hi.stable is True:
+            what = []
+            if lo.stable is False:
+                what.append(f"unstable at K = {k_lo:.9g} below the answer")
+            if hi.stable is True:
+                what.append(f"stable at K = {k_hi:.9g} above the answer")
+            return replace(out, verdict="contradicted", reason="; ".join(what),
+                           elapsed_ms=(time.perf_counter() - t0) * 1e3)
+        if lo.stable is True and hi.stable is False:
+            return replace(out, verdict="confirmed", elapsed_ms=(time.perf_counter() - t0) * 1e3)
+        last = replace(out, reason=lo.reason or hi.reason or "not decided")
+    return replace(last, elapsed_ms=(time.perf_counter() - t0) * 1e3)
+
+
+# --- passivity: the Colgate–Schenkel condition written as a frequency response -----------------------------
+
+def _required_damping(device: Device, stiffness: float, damping: float, whole: int) -> tuple[float, float]:
+    """sup over θ ∈ (0, π] of (T/2)·Re[(1 − e^{−jθ})·e^{−jdθ}·C(e^{jθ})]/(1 − cos θ), and its θ.
+
+    The same theorem as optim.passivity but evaluated from the complex form (no Dirichlet kernel):
+    a dense grid (≥ 64 points per period of the delay's phase) and a bounded refinement of its best cells.
+    """
+    t = device.sample_time
+
+    def f(theta: np.ndarray) -> np.ndarray:
+        theta = np.asarray(theta, dtype=float)
+        one_m = -np.expm1(-1j * theta)
+        c = stiffness + damping * one_m / t
+        num = (one_m * np.exp(-1j * whole * theta) * c).real
+        return (t / 2) * num / (2.0 * np.sin(theta / 2) ** 2)
+
+    n = max(4096, 64 * (whole + 1))
+    grid = np.concatenate([np.geomspace(1e-7, 1e-2, 200), np.linspace(1e-2, math.pi, n)])
+    vals = f(grid)
+    best_t, best_v = float(grid[int(np.argmax(vals))]), float(np.max(vals))
+    for i in np.argsort(vals)[-3:]:
+        a, b = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
+        if b > a:
+            r = minimize_scalar(lambda x: -float(f(np.array([x]))[0]), bounds=(a, b), method="bounded",
+                                options={"xatol": 1e-13 * max(a, 1e-12)})
+            if -r.fun > best_v:
+                best_t, best_v = float(r.x), float(-r.fun)
+    # θ → 0⁺: the limit K(T/2 + t_d) − … of the kernel; the grid's lowest point approximates it
+    return best_v, best_t
+
+
+def verify_passivity(device: Device, stiffness: float, damping: float, claimed: bool) -> PassivityVerification:
+    """The claimed passivity of (K, B) against the condition recomputed from its complex form.
+
+    Decided only when b differs from the requirement by more than 1e-9 relative (the condition is strict,
+    and a design sits on it by construction otherwise: then not_checkable, with the two numbers)."""
+    whole = math.ceil(device.delay / device.sample_time - 1e-9)
+    req, _ = _required_damping(device, stiffness, damping, whole)
+    b = device.damping
+    tol = 1e-9 * max(abs(b), abs(req), 1e-300)
+    if abs(b - req) <= tol:
+        return PassivityVerification("not_checkable", req, b,
+                                     "b equals the damping passivity requires to within 1e-9 (relative)")
+    passive = b > req
+    if passive == claimed:
+        return PassivityVerification("confirmed", req, b, None)
+    return PassivityVerification("contradicted", req, b,
+                                 f"said {'passive' if claimed else 'not passive'}, but b = {b:.9g} "
+                                 f"{'>' if passive else '≤'} required {req:.9g} N·s/m")
+
+
+def _with_labels(v: Verification, device: Device, stiffness: float, damping: float, stable: bool | None,
+                 passive: bool | None, t0: float) -> Verification:
+    """Add the checks of a wall's own labels: the closed loop at K itself, and its passivity."""
+    plant = sampled_plant(device)
+    m, t = device.mass, device.sample_time
+    p = _check_point(device, plant, stiffness * t * t / m, damping * t / m)
+    pas = verify_passivity(device, stiffness, damping, passive) if passive is not None else None
+    verdicts = [v.verdict]
+    reasons = [v.reason] if v.reason else []
+    if p.stable is None:
+        verdicts.append("not_checkable")
+        reasons.append(f"the wall itself: {p.reason}")
+    elif stable is not None and p.stable != stable:
+        verdicts.append("contradicted")
+        reasons.append(f"the wall itself is {'stable' if p.stable else 'unstable'}, but was said "
+                       f"{'stable' if stable else 'unstable'}")
+    if pas is not None:
+        verdicts.append(pas.verdict)
+        if pas.reason:
+            reasons.append(f"passivity: {pas.reason}")
+    verdict: Verdict = ("contradicted" if "contradicted" in verdicts else
+                        "not_checkable" if "not_checkable" in verdicts else "confirmed")
+    return replace(v, verdict=verdict, reason="; ".join(reasons) or None, design_radius=p.radius,
+                   design_unstable_poles=p.count, passivity=pas, elapsed_ms=(time.perf_counter() - t0) * 1e3,
+                   method=v.method or p.method)
+
+
+def verify_stiffness_design(device: Device, stiffness: float, damping: float, gain_margin_db: float | None,
+                            passive: bool | None = None, epsilon: float = DEFAULT_EPSILON,
+                            critical: float | None = None) -> Verification:
+    """A design (K, B): its margin says the critical gain is K·10^(GM/20): check that gain like K_cr, check
+    that K itself is stable (a design is always said stable), and, when the design states it, its passivity."""
+    t0 = time.perf_counter()
+    kc = stiffness * 10.0 ** (gain_margin_db / 20.0) if gain_margin_db is not None else critical
+    v = verify_critical_stiffness(device, damping, kc, epsilon)
+    return _with_labels(v, device, stiffness, damping, True, passive, t0)
+
+
+def verify_analysis(device: Device, analysis) -> Verification:
+    """Verify an optim.analysis.StabilityAnalysis on whatever rung produced it.
+
+    Exact and reference answers are checked at ±:data:`DEFAULT_EPSILON`; an approximate rung (linear, grid)
+    at ± its own error estimate (its claim), and not at all when it claims no bound.  The labels of a given
+    wall (stable, passive) are checked too."""
+    t0 = time.perf_counter()
+    if analysis.method in ("exact", "reference"):
+        eps = DEFAULT_EPSILON
+    else:
+        est = analysis.error_estimate
+        if est is None or not math.isfinite(est):
+            return _not_checkable(t0, f"the {analysis.method} rung states no error bound (its estimate is unbounded): "
+                                      "there is no claim to check")
+        # the linear rung documents its estimate as within 2× of the true error (optim.analysis): check that claim
+        eps = max(float(est) * (2.0 if analysis.method == "linear" else 1.0), DEFAULT_EPSILON)
+    kcr = analysis.critical_stiffness
+    above = [c.stiffness for c in analysis.crossovers
+             if kcr is not None and c.stiffness > kcr * (1 + 1e-9)] if analysis.method != "linear" else []
+    v = verify_critical_stiffness(device, analysis.damping, kcr, eps, next_crossing=min(above) if above else None)
+    if analysis.stiffness is None:
+        return v
+    return _with_labels(v, device, analysis.stiffness, analysis.damping, analysis.stable, analysis.passive, t0)
+
+
+# --- force feedforward: K_f,cr of 1 + K_f·D·G_1 --------------------------------------------------------------
+
+def _ff_point(loop, force_gain: float) -> _Point:
+    from .closed_loop_feedforward import (
+        feedforward_closed_loop,
+        feedforward_unstable_count,
+    )
+
+    if loop.states <= EIG_MAX_STATES:
+        ex = radius_excess(feedforward_closed_loop(loop, force_gain))
+        if ex.decided_stable or ex.decided_unstable:
+            return _Point(ex.decided_stable, 1.0 + ex.excess, None, EIGEN, None)
+    cnt = feedforward_unstable_count(loop, force_gain)
+    if cnt.count is None:
+        return _Point(None, None, None, ARGUMENT, cnt.reason)
+    return _Point(cnt.count == 0, None, cnt.count, ARGUMENT, None)
+
+
+def verify_critical_force_gain(device: Device, human, critical: float | None, order: int | None = None,
+                               cutoff_hz: float | None = None, epsilon: float = DEFAULT_EPSILON,
+                               next_crossing: float | None = None, design_gain: float | None = None) -> Verification:
+    """Is 1 + K_f·D·G_1 stable at K_f,cr·(1 − ε) and unstable at K_f,cr·(1 + ε)?  ``design_gain``: a
+    designed K_f, checked stable too (its spectral radius is reported as design_radius)."""
+    from .closed_loop_feedforward import feedforward_loop
+
+    t0 = time.perf_counter()
+    loop = feedforward_loop(device, human, order, cutoff_hz)
+    design = _ff_point(loop, design_gain) if design_gain is not None else None
+    if critical is None or math.isinf(critical):
+        probe = 1e3 * (1.0 + device.mass / human.mass)
+        p = _ff_point(loop, probe)
+        if p.stable is False:
+            return Verification("contradicted", p.method, None, None, probe, None, p.radius, None, p.count,
+                                (time.perf_counter() - t0) * 1e3, "every K_f was said stable, but this K_f is not")
+        return _not_checkable(t0, "no finite set of gains proves that every K_f > 0 is stable", method=p.method,
+                              gain_above=probe)
+    eps = epsilon
+    if next_crossing is not None and math.isfinite(next_crossing) and next_crossing > critical:
+        eps = min(eps, 0.5 * (next_crossing / critical - 1.0))
+    k_lo = critical * (1.0 - eps) if eps < 0.5 else critical / (1.0 + eps)
+    k_hi = critical * (1.0 + eps)
+    lo, hi = _ff_point(loop, k_lo), _ff_point(loop, k_hi)
+    out = Verification("not_checkable", _methods(lo, hi), eps, k_lo, k_hi, lo.radius, hi.radius, lo.count, hi.count,
+                       0.0, lo.reason or hi.reason)
+    reasons = []
+    if lo.stable is False:
+        reasons.append(f"unstable at K_f = {k_lo:.9g} below the answer")
+    if hi.stable is True:
+        reasons.append(f"stable at K_f = {k_hi:.9g} above the answer")
+    verdict: Verdict = ("contradicted" if reasons else
+                        "confirmed" if (lo.stable is True and hi.stable is False) else "not_checkable")
+    if design is not None:
+        if design.stable is False:
+            verdict, reasons = "contradicted", reasons + ["the designed force gain itself is unstable"]
+        elif design.stable is None and verdict == "confirmed":
+            verdict, reasons = "not_checkable", reasons + [f"the designed force gain: {design.reason}"]
+        out = replace(out, design_radius=design.radius, design_unstable_poles=design.count)
+    return replace(out, verdict=verdict, reason="; ".join(reasons) or out.reason if verdict != "confirmed" else None,
+                   elapsed_ms=(time.perf_counter() - t0) * 1e3)
+
+
+def verify_force_feedforward(device: Device, analysis, order: int | None, cutoff_hz: float | None) -> Verification:
+    """Verify an optim.feedforward_ladder.ForceFeedforwardAnalysis on its rung (ε as for the stiffness rungs)."""
+    t0 = time.perf_counter()
+    if analysis.method in ("exact", "reference"):
+        eps = DEFAULT_EPSILON
+    else:
+        est = analysis.error_estimate
+        if est is None or not math.isfinite(est):
+            return _not_checkable(t0, f"the {analysis.method} rung states no error bound: there is no claim to check")
+        eps = max(float(est), DEFAULT_EPSILON)
+    kcr = analysis.critical_force_gain
+    above = [c.force_gain for c in analysis.crossovers if math.isfinite(kcr) and c.force_gain > kcr * (1 + 1e-9)]
+    return verify_critical_force_gain(device, analysis.human, kcr, order, cutoff_hz, eps,
+                                      next_crossing=min(above) if above else None)
+
+
+# --- the stability boundary: every point, the optimum's record -----------------------------------------------
+
+def verify_boundary(device: Device, boundary, epsilon: float = DEFAULT_EPSILON) -> Verification:
+    """Verify every K_cr(B) of an optim.boundary.Boundary; the record is the optimum's, the verdict the worst
+    over the points, and the reason counts them (a contradicted point is named)."""
+    t0 = time.perf_counter()
+    counts = {"confirmed": 0, "contradicted": 0, "not_checkable": 0}
+    bad: list[str] = []
+    for p in boundary.points:
+        k = p.critical_stiffness if math.isfinite(p.critical_stiffness) else None
+        v = verify_critical_stiffness(device, p.damping, k, epsilon)
+        counts[v.verdict] += 1
+        if v.verdict != "confirmed" and len(bad) < 3:
+            bad.append(f"B = {p.damping:.6g}: {v.verdict} ({v.reason})")
+    opt = boundary.optimum
+    best = verify_critical_stiffness(device, opt.damping,
+                                     opt.critical_stiffness if math.isfinite(opt.critical_stiffness) else None, epsilon)
+    counts[best.verdict] += 1
+    verdict: Verdict = ("contradicted" if counts["contradicted"] else
+                        "not_checkable" if counts["not_checkable"] else "confirmed")
+    n = sum(counts.values())
+    reason = (f"{n} points (the optimum included): {counts['confirmed']} confirmed, {counts['contradicted']} "
+              f"contradicted, {counts['not_checkable']} not checkable" + ("; " + "; ".join(bad) if bad else ""))
+    return replace(best, verdict=verdict, reason=reason, elapsed_ms=(time.perf_counter() - t0) * 1e3)

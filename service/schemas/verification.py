@@ -1,0 +1,53 @@
+"""The ``verification`` record of an answer asked with ``verify: true`` (optim.verification)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict
+from typing import Literal
+
+from pydantic import BaseModel, Field
+
+__all__ = ["VerificationOut", "VerifyField", "verification_out"]
+
+
+def VerifyField():
+    return Field(default=False, strict=True,
+                 description="add `verification`: the closed loop at the critical gain ·(1 ∓ ε) by a method "
+                             "independent of the answer (closed-loop eigenvalues or an argument-principle count)")
+
+
+class PassivityVerificationOut(BaseModel):
+    verdict: Literal["confirmed", "contradicted", "not_checkable"]
+    required_damping: float | None = Field(description="the delayed Colgate–Schenkel bound recomputed from its "
+                                                       "complex form [N·s/m]")
+    physical_damping: float = Field(description="b [N·s/m]")
+    reason: str | None
+
+
+class VerificationOut(BaseModel):
+    verdict: Literal["confirmed", "contradicted", "not_checkable"] = Field(
+        description="confirmed: stable below and unstable above the answer; contradicted: the closed loop says "
+                    "otherwise (never silent); not_checkable: the reason says why")
+    method: str | None = Field(description="eigenvalues of the closed-loop state matrix, or the argument principle")
+    epsilon: float | None = Field(description="relative step ε of the two checked gains")
+    gain_below: float | None = Field(description="gain checked below the answer, K_cr·(1 − ε) [N/m]")
+    gain_above: float | None = Field(description="gain checked above the answer, K_cr·(1 + ε) [N/m]")
+    radius_below: float | None = Field(description="closed-loop spectral radius at gain_below (eigenvalue method)")
+    radius_above: float | None = Field(description="closed-loop spectral radius at gain_above (eigenvalue method)")
+    unstable_poles_below: int | None = Field(description="poles outside the unit circle at gain_below (argument principle)")
+    unstable_poles_above: int | None = Field(description="poles outside the unit circle at gain_above (argument principle)")
+    design_radius: float | None = Field(None, description="spectral radius at the wall itself (designs, or a given controller)")
+    design_unstable_poles: int | None = Field(None, description="poles outside the unit circle at the wall itself")
+    passivity: PassivityVerificationOut | None = Field(None, description="independent check of a passivity label")
+    elapsed_ms: float = Field(description="time the verification took [ms]")
+    reason: str | None
+
+
+def verification_out(v) -> dict:
+    """An optim.verification.Verification as JSON-safe data (no inf/NaN)."""
+    def clean(x):
+        if isinstance(x, dict):
+            return {k: clean(val) for k, val in x.items()}
+        return None if isinstance(x, float) and not math.isfinite(x) else x
+    return clean(asdict(v))

@@ -1,0 +1,105 @@
+"""``verify: true`` over HTTP: the verification record, its absence by default, its input rule."""
+
+from __future__ import annotations
+
+import pytest
+
+from .conftest import LHIFAM_RIGID
+
+
+def test_stability_verify_confirms_and_is_absent_by_default(client):
+    body = {"device": {**LHIFAM_RIGID, "delay": 0.0015}}
+    plain = client.post("/v1/analysis/stability", json=body).json()
+    assert plain.get("verification") is None
+    r = client.post("/v1/analysis/stability", json={**body, "verify": True})
+    assert r.status_code == 200
+    v = r.json()["verification"]
+    assert v["verdict"] == "confirmed", v
+    assert v["epsilon"] == 1e-6 and v["elapsed_ms"] > 0 and v["method"]
+    k = r.json()["critical_stiffness"]
+    assert v["gain_below"] == pytest.approx(k * (1 - 1e-6)) and v["gain_above"] == pytest.approx(k * (1 + 1e-6))
+    assert v["radius_below"] < 1 < v["radius_above"]
+
+
+def test_stability_verify_checks_the_walls_labels(client):
+    body = {"device": {"preset": "lhifam", "delay": 0.001}, "controller": {"stiffness": 3500, "damping": 5},
+            "verify": True}
+    v = client.post("/v1/analysis/stability", json=body).json()["verification"]
+    assert v["verdict"] == "confirmed", v
+    assert v["design_radius"] < 1
+    assert v["passivity"]["verdict"] == "confirmed"
+
+
+@pytest.mark.slow
+def test_long_delay_uses_the_argument_principle(client):
+    body = {"device": {**LHIFAM_RIGID, "delay": 2.0}, "verify": True}   # 2,000 samples of delay
+    v = client.post("/v1/analysis/stability", json=body).json()["verification"]
+    assert v["verdict"] == "confirmed", v
+    assert v["method"].startswith("argument principle")
+    assert v["unstable_poles_below"] == 0 and v["unstable_poles_above"] >= 1
+
+
+def test_verify_must_be_a_boolean(client):
+    r = client.post("/v1/analysis/stability", json={"device": LHIFAM_RIGID, "verify": "yes"})
+    assert r.status_code == 422 and "verify" in r.text
+
+
+@pytest.mark.slow
+def test_stiffness_design_verify(client):
+    r = client.post("/v1/design/stiffness", json={"device": {**LHIFAM_RIGID, "delay": 0.001},
+                                                  "requirements": {"passivity": True}, "verify": True})
+    assert r.status_code == 200
+    out = r.json()
+    assert out["status"] == "optimal"
+    v = out["verification"]
+    assert v["verdict"] in ("confirmed", "not_checkable"), v   # never contradicted
+    assert v["design_radius"] < 1
+    assert v["passivity"] is not None
+    assert client.post("/v1/design/stiffness", json={"device": LHIFAM_RIGID}).json().get("verification") is None
+
+
+def test_force_feedforward_verify(client):
+    body = {"device": {"preset": "lhifam", "delay": 0.0025}, "filter": {"cutoff_hz": 30, "order": 2}}
+    assert client.post("/v1/analysis/force-feedforward", json=body).json().get("verification") is None
+    v = client.post("/v1/analysis/force-feedforward", json={**body, "verify": True}).json()["verification"]
+    assert v["verdict"] == "confirmed", v
+    assert v["radius_below"] < 1 < v["radius_above"]
+
+
+@pytest.mark.slow
+def test_inertia_design_verify(client):
+    r = client.post("/v1/design/inertia", json={"device": {"preset": "lhifam"}, "verify": True}).json()
+    assert r["status"] == "optimal"
+    v = r["verification"]
+    assert v["verdict"] == "confirmed", v
+    assert v["design_radius"] < 1
+
+
+def test_boundary_verify(client):
+    body = {"device": {**LHIFAM_RIGID, "delay": 0.002}, "points": 8}
+    assert client.post("/v1/analysis/boundary", json=body).json().get("verification") is None
+    v = client.post("/v1/analysis/boundary", json={**body, "verify": True}).json()["verification"]
+    assert v["verdict"] in ("confirmed", "not_checkable"), v
+    assert v["reason"].startswith("9 points")
+
+
+def test_robust_designs_refuse_verify_rather_than_ignore_it(client):
+    body = {"device": LHIFAM_RIGID, "requirements": {"uncertainty": {"device.mass": {"min": 5, "max": 6}}},
+            "verify": True}
+    for path in ("/v1/design/stiffness", "/v1/design/inertia"):
+        r = client.post(path, json=body)
+        assert r.status_code == 422 and "verify" in r.text, (path, r.text)
+
+
+@pytest.mark.slow
+def test_hardware_design_verify(client):
+    body = {"device": {"mass": 5.4, "damping": 3.5, "delay": 0.001}, "target": {"stiffness": 3000},
+            "free": "sample_time", "points": 9, "verify": True}
+    r = client.post("/v1/design/hardware", json=body)
+    assert r.status_code == 200, r.text
+    out = r.json()
+    assert out["status"] == "optimal"
+    v = out["verification"]
+    assert v["verdict"] == "confirmed", v
+    assert v["design_radius"] < 1
+    assert client.post("/v1/plots/hardware", json=body).status_code == 422
