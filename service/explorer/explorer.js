@@ -115,7 +115,7 @@
 
   function verificationRows(v) {
     if (!v) return [];
-    const rows = [["verification", statusBadge(v.verdict || v.status || "unknown"), "verification-verdict"]];
+    const rows = [["verification", statusBadge(v.verdict || v.status || "unknown")]];
     for (const [k, val] of Object.entries(v)) {
       if (k === "verdict" || k === "status" || (val !== null && typeof val === "object")) continue;
       rows.push([`verification ${escapeText(k)}`, escapeText(typeof val === "number" ? num(val) : val)]);

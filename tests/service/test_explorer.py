@@ -114,6 +114,11 @@ def test_explorer_end_to_end(tmp_path):
                 expect(page.locator("#stiffness-K")).to_have_text("12241.4 N/m", timeout=60_000)
                 expect(page.locator("#stiffness-status")).to_contain_text("optimal")
                 expect(page.locator("#stiffness-limit")).to_contain_text("gain margin")
+                # Asked with verify: the answer's independent proof is shown with it.
+                page.check("#st-verify")
+                page.click("#st-run")
+                expect(page.locator("#stiffness-result .status[data-status=confirmed]")).to_be_visible(timeout=60_000)
+                expect(page.locator("#stiffness-K")).to_have_text("12241.4 N/m")
 
                 # A negative mass: the API's message appears next to the field.
                 page.click("#tab-boundary")
