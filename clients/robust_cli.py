@@ -6,7 +6,8 @@ design is infeasible or failed, 2 usage or a 422 naming the field, 3 the service
 
     zwidth robust stiffness lhifam --rigid --range device.mass=4:7 --range device.delay=0:0.002
     zwidth robust inertia lhifam --rigid --range device.human.mass=0.5:3 --target-mass 1.0
-    zwidth robust hardware lhifam --rigid --free delay --stiffness 2e5 --force-gain 5
+    zwidth robust hardware lhifam --rigid --free delay --stiffness 2e5 --force-gain 5   # optimal
+    zwidth robust hardware lhifam --free delay --stiffness 2e5 --force-gain 5   # infeasible: the sampling binds
     zwidth robust plot lhifam --rigid --range device.mass=4:7 --range device.delay=0:0.002 -o slice.png
     zwidth robust plot lhifam --rigid --free delay --stiffness 2e5 -o tradeoff.svg
 """

@@ -150,7 +150,12 @@ def _widen(probe: Probe, qs: np.ndarray) -> tuple[np.ndarray, dict[int, str]]:
         combined = np.array([_combined(probe, q) for q in qs])
         if (combined >= 0.0).any():
             break
-        rising = {0: combined[0] > combined[1], -1: combined[-1] > combined[-2]}
+        # an end is widened when it is the best value, or when the excess still rises towards it by more
+        # than 1 % of its spread over the scan (not a wiggle: K* is not monotone at long delays)
+        best = int(np.argmax(combined))
+        spread = float(combined.max() - combined.min())
+        rising = {0: best == 0 or combined[0] - combined[1] > 0.01 * spread,
+                  -1: best == len(qs) - 1 or combined[-1] - combined[-2] > 0.01 * spread}
         ends = [side for side in (0, -1) if side not in stops and rising[side]]
         if not ends:
             break
