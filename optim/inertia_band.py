@@ -11,8 +11,9 @@ The profile therefore:
 
 1. samples the Pareto scan plus the geometric midpoints (``_DENSITY`` samples per Pareto interval);
 2. compares the crossover structure (how many crossovers each grasp's loop has) of neighbouring samples; where
-   it differs, bisects the structure to a relative width ``_JUMP_RTOL`` (recursively, for several changes in
-   one interval) and keeps the samples on both sides of each change;
+   it differs, bisects the structure (recursively, for several changes in one interval) to a relative width
+   1e-4, and to ``JUMP_RTOL`` = 1e-9 next to a sample within 10 % of the best, and keeps the samples on both
+   sides of each change (a target's boundary at a jump is then bisected on the exact verdict to a few ulp);
 3. splits the samples into *pieces* of constant structure, inside which K_f,cr is continuous.  Each piece's
    local maxima are refined with the crossover NLP inside the piece (optim.inertia._refine); a piece's edge
    next to a jump is a sample of its own, so the higher side of every jump is examined.
@@ -39,7 +40,8 @@ __all__ = ["BandProfile", "BandAnswer", "band_profile", "refine_peaks", "maximis
 _MAX_EXCHANGE_ROUNDS = 6
 
 _DENSITY = 2            # base samples per interval of the Pareto scan
-JUMP_RTOL = 1e-9        # relative width in θ_c to which a change of crossover structure is bracketed
+JUMP_RTOL = 1e-9        # relative width in θ_c to which a change of crossover structure is bracketed ...
+_COARSE_RTOL = 1e-4     # ... first to this, then to JUMP_RTOL where the band's maximum may be
 _MAX_CHANGES = 16       # structure changes located per base interval (beyond: the rest are left unsplit)
 _PEAK_FRACTION = 0.9    # local maxima refined: those within this fraction of the best sample (or the target)
 _MAX_PEAKS = 4          # ... at most this many, best first
@@ -86,14 +88,23 @@ class BandProfile:
 
 
 def band_profile(loop, scan_thetas: np.ndarray) -> BandProfile:
-    """The profile of ``loop`` (optim.inertia._Loop: exact(θ) and structure(θ)) over the scan's band."""
+    """The profile of ``loop`` (optim.inertia._Loop: exact(θ) and structure(θ)) over the scan's band.
+
+    Every change is first bracketed to _COARSE_RTOL; those next to a sample within _PEAK_FRACTION of the best
+    (where the band's maximum may sit, at the higher side of a jump) are then narrowed to JUMP_RTOL."""
     scan = np.asarray(scan_thetas, dtype=float)
     base = [float(scan[0])]
     for a, b in zip(scan[:-1], scan[1:]):
         base += [float(a * (b / a) ** (j / _DENSITY)) for j in range(1, _DENSITY)] + [float(b)]
-    thetas, jumps = [base[0]], []
+    brackets = {}                                   # base interval → its changes
     for a, b in zip(base[:-1], base[1:]):
-        for lo, hi in _changes(loop.structure, a, b):
+        brackets[(a, b)] = _changes(loop.structure, a, b, _COARSE_RTOL)
+    top = max(loop.exact(t)[0] for t in base + [t for c in brackets.values() for pair in c for t in pair])
+    thetas, jumps = [base[0]], []
+    for (a, b), changes in brackets.items():
+        for lo, hi in changes:
+            if max(loop.exact(lo)[0], loop.exact(hi)[0]) >= _PEAK_FRACTION * top:
+                lo, hi = _changes(loop.structure, lo, hi, JUMP_RTOL)[0]
             thetas += [lo, hi]
             jumps.append((lo, hi))
         thetas.append(b)
@@ -104,12 +115,12 @@ def band_profile(loop, scan_thetas: np.ndarray) -> BandProfile:
     return BandProfile(thetas, kcrs, pieces, tuple(jumps))
 
 
-def _changes(structure: Callable[[float], tuple], a: float, b: float) -> list[tuple[float, float]]:
-    """Brackets (lo, hi), hi − lo ≤ JUMP_RTOL·hi, of the structure changes between a and b, left to right."""
+def _changes(structure: Callable[[float], tuple], a: float, b: float, rtol: float) -> list[tuple[float, float]]:
+    """Brackets (lo, hi), hi − lo ≤ rtol·hi, of the structure changes between a and b, left to right."""
     out: list[tuple[float, float]] = []
     while structure(a) != structure(b) and len(out) < _MAX_CHANGES:
         s_a, lo, hi = structure(a), a, b
-        while hi - lo > JUMP_RTOL * hi:
+        while hi - lo > rtol * hi:
             mid = 0.5 * (lo + hi)
             if structure(mid) == s_a:
                 lo = mid

@@ -122,3 +122,14 @@ def test_documented_hardware_examples_run_as_documented(command, status):
         assert body["limiting_effect"].startswith("sampling")
     else:
         assert body["limiting_target"] == "stiffness" and body["value"] == pytest.approx(1.768e-3, rel=1e-3)
+
+
+def test_hardware_scan_range():
+    """--scan MIN:MAX is the request's range (scanned as given); a malformed one is a usage error (exit 2)."""
+    body = json.loads(run("hardware", "lhifam", "--rigid", "--free", "delay", "--stiffness", "2e5", "--points", "9",
+                          "--scan", "0:0.01", "--json").output)
+    assert body["range_source"] == "request" and body["scanned_range"] == [0, 0.01]
+    assert "--scan" in run("hardware", "lhifam", "--free", "delay", "--stiffness", "2e5", "--scan", "0.01",
+                           code=2).output
+    assert "range.min" in run("hardware", "lhifam", "--free", "delay", "--stiffness", "2e5", "--scan", "0.01:0.001",
+                              code=2).output
