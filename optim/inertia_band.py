@@ -101,7 +101,7 @@ def band_profile(loop, scan_thetas: np.ndarray) -> BandProfile:
         brackets[(a, b)] = _changes(loop.structure, a, b, _COARSE_RTOL)
     top = max(loop.exact(t)[0] for t in base + [t for c in brackets.values() for pair in c for t in pair])
     thetas, jumps = [base[0]], []
-    for (a, b), changes in brackets.items():
+    for (_, b), changes in brackets.items():
         for lo, hi in changes:
             if max(loop.exact(lo)[0], loop.exact(hi)[0]) >= _PEAK_FRACTION * top:
                 lo, hi = _changes(loop.structure, lo, hi, JUMP_RTOL)[0]
@@ -171,7 +171,7 @@ class BandAnswer:
         return float(self.profile.thetas[j]), float(self.profile.kcrs[j])
 
 
-def _nlp(loop, modal, log_rho: float, info: dict):
+def _nlp(loop, modal, log_rho: float):
     """The max-gain NLP as ``refine_peaks`` wants it, keeping each solve's statistics by its answer."""
     stats: dict = {}
 
@@ -185,7 +185,7 @@ def _nlp(loop, modal, log_rho: float, info: dict):
 
 def maximise(loop, profile: BandProfile, modal, log_rho: float, info: dict) -> BandAnswer:
     """The cutoff of the largest K_f,cr: every promising local maximum of every piece refined."""
-    local, stats = _nlp(loop, modal, log_rho, info)
+    local, stats = _nlp(loop, modal, log_rho)
     top = float(np.max(profile.kcrs))
     start = float(profile.thetas[int(np.argmax(profile.kcrs))])
     out, failed = refine_peaks(loop, profile, local, _PEAK_FRACTION * top)
@@ -201,7 +201,7 @@ def maximise(loop, profile: BandProfile, modal, log_rho: float, info: dict) -> B
 def highest_feasible(loop, profile: BandProfile, modal, log_rho: float, need: float, info: dict) -> BandAnswer:
     """The highest cutoff with K_f,cr ≥ ``need`` (theta None when no cutoff reaches it: then the profile's
     largest K_f,cr is the band's maximum, refined)."""
-    local, stats = _nlp(loop, modal, log_rho, info)
+    local, _ = _nlp(loop, modal, log_rho)
     top = float(np.max(profile.kcrs))
     # only maxima that could reach the need are refined; with none feasible, the best (the reason's maximum)
     lo_k, hi_k = (_PEAK_FRACTION * need, need) if top >= need else (_PEAK_FRACTION * top, math.inf)

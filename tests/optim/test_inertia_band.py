@@ -59,7 +59,7 @@ def test_min_apparent_mass_takes_the_high_side_of_the_jump(name):
     assert d.critical_force_gain >= k_above and d.critical_force_gain > k_scan * 1.01
     assert d.filter_cutoff_hz == pytest.approx(jump_hz, rel=1e-4)
     assert any(lo <= d.filter_cutoff_hz <= hi * (1 + 1e-12) for lo, hi in d.solver["crossover_structure_changes_hz"])
-    cs, ks = dense(dev, order, 300)
+    _, ks = dense(dev, order, 300)
     assert d.critical_force_gain >= ks.max() * (1 - 1e-9)
     # eigenvalues: the design is stable and its K_f,cr is where the loop goes unstable; 1e-6 below the jump
     # the vanishing pair sets a K_f,cr 25-65 % lower, and the poles confirm it destabilises there too (in a narrow
@@ -95,13 +95,13 @@ def test_target_reached_only_past_the_jump_is_feasible(name):
 
 @pytest.mark.parametrize("name", JUMPS)
 def test_unreachable_target_states_the_true_maximum(name):
-    dev, order, gm, jump_hz, k_above, k_scan = JUMPS[name]
+    dev, order, gm, _, k_above, _ = JUMPS[name]
     rho = 10 ** (gm / 20)
     target = dev.mass / (1 + 1.01 * k_above / rho)
     d = design_inertia(dev, InertiaRequirements(filter_order=order, min_gain_margin_db=gm, target_apparent_mass=target))
     assert d.status == "infeasible"
     best = design_inertia(dev, InertiaRequirements(filter_order=order, min_gain_margin_db=gm))
-    assert f"the largest K_f,cr in [10, " in d.reason and f"is {best.critical_force_gain:.6g} at " in d.reason
+    assert "the largest K_f,cr in [10, " in d.reason and f"is {best.critical_force_gain:.6g} at " in d.reason
     assert d.critical_force_gain == pytest.approx(best.critical_force_gain, rel=1e-9)
 
 
