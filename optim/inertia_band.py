@@ -218,7 +218,10 @@ def highest_feasible(loop, profile: BandProfile, modal, log_rho: float, need: fl
         # the boundary is a change of crossover structure (a jump of K_f,cr): no crossover condition
         # describes it, so the exact verdict is bisected
         info.update(return_status="exact bisection (crossover branches change in the bracket)", exchange_rounds=0)
-        return BandAnswer(bisect_verdict(lambda th: loop.exact(th)[0] >= need, a, b), out)
+        theta = bisect_verdict(lambda th: loop.exact(th)[0] >= need, a, b)
+        # 1e-12 back from the jump: the cutoff in Hz, converted back to an angle, must not round across it
+        back = max(a, theta * (1 - 1e-12))
+        return BandAnswer(back if loop.exact(back)[0] >= need else theta, out)
     theta = refine(loop, modal, log_rho, a, (a, b), "max_cutoff", math.log(need) - log_rho, info)
     if theta is None:
         return BandAnswer(None, out, failed=True)
