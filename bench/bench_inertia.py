@@ -1,7 +1,7 @@
 """Benchmark: time per inertia design (K_f and filter cutoff), rigid and cable LHifAM.
 
 Writes docs/bench_inertia.md: median and p95 per design of ``optim.inertia.design_inertia``
-(exact Pareto scan + CasADi crossover NLP + exchange + exact re-check), and side by side in
+(exact Pareto scan with its jumps bracketed + CasADi crossover NLP + exchange + exact re-check), and side by side in
 the same run a dense-scan comparator (the exact K_f,cr at 200 cutoffs, best grid point),
 with the time ratio and how far the comparator's answer is from the design's.
 
@@ -43,6 +43,13 @@ CASES = {
     "cable, target 0.9 kg": (Device(preset="lhifam"), InertiaRequirements(target_apparent_mass=0.9)),
     "cable, 4th order, interior optimum": (Device(preset="lhifam"),
                                            InertiaRequirements(filter_order=4, cutoff_min_hz=20.0)),
+    # tests/optim/test_inertia_band.py: the maximum sits just past a jump of K_f,cr (issue 17)
+    "cable, 3rd order, optimum at a jump": (Device(
+        sample_time=0.001, delay=0.005, cable={"motor_mass": 0.13083075775577963, "motor_damping": 0.1,
+                                               "body_mass": 1.2976995679619583, "body_damping": 3.4,
+                                               "stiffness": 40337.893360381364, "damping": 3.670580004984369},
+        human={"mass": 0.3249975817141055, "damping": 0.8204500601562204, "stiffness": 207.4975656200832},
+        force_sensor={"time_constant": 0.0}), InertiaRequirements(filter_order=3)),
 }
 DENSE_POINTS = 200
 GOAL_P50_MS = 80.0

@@ -185,26 +185,30 @@ def design_inertia(device: DeviceLike, requirements: PartLike | None = None, *,
 
 def _hardware_body(device: DeviceLike, free: str, stiffness: float | None, force_gain: float | None,
                    apparent_mass: float | None, min_gain_margin_db: float | None, max_damping: float | None,
-                   cutoff_min_hz: float | None, filter_order: int | None, points: int | None) -> dict[str, Any]:
+                   cutoff_min_hz: float | None, filter_order: int | None, points: int | None,
+                   value_range: tuple[float, float] | None = None) -> dict[str, Any]:
     target = _body(stiffness=stiffness, force_gain=force_gain, apparent_mass=apparent_mass,
                    min_gain_margin_db=min_gain_margin_db, max_damping=max_damping, cutoff_min_hz=cutoff_min_hz,
                    filter_order=filter_order)
-    return _body(device=device, target=target, free=free, points=points)
+    scan = None if value_range is None else {"min": value_range[0], "max": value_range[1]}
+    return _body(device=device, target=target, free=free, points=points, range=scan)
 
 
 def design_hardware(device: DeviceLike, free: str, *, stiffness: float | None = None, force_gain: float | None = None,
                     apparent_mass: float | None = None, min_gain_margin_db: float | None = None,
                     max_damping: float | None = None, cutoff_min_hz: float | None = None,
                     filter_order: int | None = None, points: int | None = None,
+                    value_range: tuple[float, float] | None = None,
                     verify: bool = False) -> Call[HardwareDesignResponse]:
     """``POST /v1/design/hardware``: the loosest value of ``free`` (sample_time, delay, damping, mass,
     cable.stiffness) that still renders a wall ``stiffness`` K [N/m] and/or a force-feedforward ``force_gain``
-    K_f or ``apparent_mass`` [kg], with the controller and the trade-off curve.  ``verify=True`` adds
-    ``.verification``: the controller checked on the closed loop at the answer's value."""
+    K_f or ``apparent_mass`` [kg], with the controller and the trade-off curve.  ``value_range`` (min, max)
+    scans exactly that range of ``free`` (the request's ``range``); by default the span is widened as needed.
+    ``verify=True`` adds ``.verification``: the controller checked on the closed loop at the answer's value."""
     from service.schemas.design_hardware import HardwareDesignResponse
 
     body = _hardware_body(device, free, stiffness, force_gain, apparent_mass, min_gain_margin_db, max_damping,
-                          cutoff_min_hz, filter_order, points)
+                          cutoff_min_hz, filter_order, points, value_range)
     if verify:
         body["verify"] = True
     return Call("POST", "/v1/design/hardware", "design", _model(HardwareDesignResponse), json=body)

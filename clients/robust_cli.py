@@ -6,7 +6,8 @@ design is infeasible or failed, 2 usage or a 422 naming the field, 3 the service
 
     zwidth robust stiffness lhifam --rigid --range device.mass=4:7 --range device.delay=0:0.002
     zwidth robust inertia lhifam --rigid --range device.human.mass=0.5:3 --target-mass 1.0
-    zwidth robust hardware lhifam --rigid --free delay --stiffness 2e5 --force-gain 5
+    zwidth robust hardware lhifam --rigid --free delay --stiffness 2e5 --force-gain 5   # optimal
+    zwidth robust hardware lhifam --free delay --stiffness 2e5 --force-gain 5   # infeasible: the sampling binds
     zwidth robust plot lhifam --rigid --range device.mass=4:7 --range device.delay=0:0.002 -o slice.png
     zwidth robust plot lhifam --rigid --free delay --stiffness 2e5 -o tradeoff.svg
 """
@@ -139,28 +140,44 @@ TargetKf = Annotated[float | None, typer.Option("--force-gain", help="target for
 TargetM = Annotated[float | None, typer.Option("--apparent-mass", help="target apparent mass m/(1 + K_f) [kg]")]
 MaxB = Annotated[float | None, typer.Option("--max-damping", help="cap on the virtual damping B [N·s/m]")]
 Points = Annotated[int | None, typer.Option("--points", help="points of the trade-off curve")]
+Scan = Annotated[str | None, typer.Option("--scan", help="scan exactly MIN:MAX of the free parameter [SI] "
+                                                         "(default: value/30 … value·30, widened as needed)")]
+
+
+def _scan_range(scan: str | None) -> tuple[float, float] | None:
+    if scan is None:
+        return None
+    lo, sep, hi = scan.partition(":")
+    try:
+        if not sep:
+            raise ValueError
+        return float(lo), float(hi)
+    except ValueError:
+        raise c.usage_error(f"--scan: expected MIN:MAX, got {scan!r}") from None
 
 
 @robust_app.command("hardware")
 @c.handle_errors
 def hardware(preset: Preset = None, sets: Sets = None, device_file: DeviceFile = None, rigid: Rigid = False,
              free: Free = None, stiffness: TargetK = None, force_gain: TargetKf = None, apparent_mass: TargetM = None,
-             margin: Margin = None, max_damping: MaxB = None, points: Points = None,
+             margin: Margin = None, max_damping: MaxB = None, points: Points = None, scan: Scan = None,
              local: Local = False, url: Url = DEFAULT_URL, token: Token = None, as_json: AsJson = False) -> None:
     """The loosest value of one hardware parameter that still renders the target(s)."""
+    value_range = _scan_range(scan)
     if free is None:
         raise c.usage_error("--free is required: sample_time | delay | damping | mass | cable.stiffness")
     body = c.assemble({"device": _device(preset, device_file, sets, rigid)}, sets)
     with c.client_with_status(Connection(local, url, token), "scanning the hardware…", as_json) as zw:
         r = zw.design_hardware(body["device"], free, **_targets(stiffness, force_gain, apparent_mass, margin,
-                                                                 max_damping, points))
+                                                                 max_damping, points), value_range=value_range)
 
     def human() -> None:
         ctl = r.controller
         rows = [("status", r.status, ""), (f"loosest {r.free} ({r.direction})", r.value, ""),
                 ("bounded in the scanned range", r.bounded, ""),
                 ("feasible set", "; ".join(f"[{a:.6g}, {b:.6g}]" for a, b in r.intervals) or "—", ""),
-                ("limiting target", r.limiting_target, ""), ("limiting effect", r.limiting_effect, "")]
+                ("limiting target", r.limiting_target, ""), ("limiting effect", r.limiting_effect, ""),
+                ("scanned range", r.range_source, "")]
         if ctl is not None:
             rows += [("controller K", ctl.stiffness, "N/m"), ("controller B", ctl.damping, "N·s/m"),
                      ("wall margin", ctl.gain_margin_db, "dB"), ("force gain K_f", ctl.force_gain, ""),

@@ -34,10 +34,12 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import brentq
 
-from models.device import MAX_DELAY_SAMPLES, Device
+from models.device import Device
 
+from .hardware_binding import binding_effect
+from .hardware_range import check_range, default_grid, range_grid, widen_end
 from .hardware_targets import (DesignFailed, HardwareTarget, Probe, achievable_force_gain, achievable_stiffness,
-                               current_value, device_with, limiting_effect)
+                               device_with, limiting_effect)
 
 __all__ = ["FREE_PARAMETERS", "HardwareTarget", "HardwareDesign", "design_hardware", "device_with",
            "achievable_stiffness", "achievable_force_gain", "loose_direction"]
@@ -47,7 +49,7 @@ FREE_PARAMETERS: dict[str, tuple[str, str]] = {
     "sample_time": ("max", "s"), "delay": ("max", "s"), "damping": ("min", "N·s/m"),
     "mass": ("min", "kg"), "cable.stiffness": ("min", "N/m"),
 }
-_SPAN = 30.0            # the curve spans value/30 … value·30 (log scale)
+_MAX_WIDENINGS = 12     # ×30 steps of one end (optim/hardware_range.py): 30^12 spans any input limit
 _FLAT_RTOL = 1e-3       # achievable values varying less than this over the span: the parameter does not matter
 _WHAT = {"stiffness": ("achievable_stiffness", "achievable stiffness"),
          "force_gain": ("achievable_force_gain", "achievable force gain"),
@@ -91,6 +93,12 @@ class HardwareDesign:
     reason: str | None = None
     note: str | None = None
     limiting_effect: str | None = None
+    """the physical effect that sets the answer; for an infeasible answer measured at best_value
+    (optim/hardware_binding.py), since the free parameter has reached a bound there."""
+    scanned_range: tuple[float, float] | None = None
+    """the range of the free parameter actually scanned [SI]."""
+    range_source: str | None = None
+    """"request", "default span" or how the default span was widened and what stopped it."""
     elapsed_ms: float = 0.0
 
 
@@ -101,25 +109,12 @@ def loose_direction(free: str, target: HardwareTarget) -> str:
     return FREE_PARAMETERS[free][0]
 
 
-def _grid(device: Device, free: str, points: int) -> np.ndarray:
-    v = current_value(device, free)
-    if free == "delay":
-        hi = max(30 * device.sample_time, 30 * v)
-        hi = min(hi, 0.5 * MAX_DELAY_SAMPLES * device.sample_time)
-        return np.linspace(0.0, hi, points)
-    if free == "sample_time":
-        hi = min(_SPAN * v, 1.0)
-        if device.delay > 0:
-            hi = min(hi, 1.0)
-        lo = max(v / _SPAN, device.delay / MAX_DELAY_SAMPLES * 2)
-        return np.geomspace(lo, hi, points)
-    if v <= 0:
-        raise ValueError(f"free: the device's {free} is 0; give a positive value to scan around")
-    return np.geomspace(v / _SPAN, v * _SPAN, points)
+def design_hardware(device: Device, target: HardwareTarget, free: str, points: int = 41,
+                    value_range: tuple[float, float] | None = None) -> HardwareDesign:
+    """The loosest value of ``free`` that still renders ``target`` with the best controller.
 
-
-def design_hardware(device: Device, target: HardwareTarget, free: str, points: int = 41) -> HardwareDesign:
-    """The loosest value of ``free`` that still renders ``target`` with the best controller."""
+    ``value_range`` (min, max) [SI] is scanned as given; without it the default span is widened while the
+    target is out of reach and the best value is at an end (optim/hardware_range.py)."""
     t0 = time.perf_counter()
     if free not in FREE_PARAMETERS:
         raise ValueError(f"free: must be one of {', '.join(FREE_PARAMETERS)}")
@@ -131,20 +126,59 @@ def design_hardware(device: Device, target: HardwareTarget, free: str, points: i
     def done(**kw) -> HardwareDesign:
         return HardwareDesign(free=free, direction=direction, elapsed_ms=(time.perf_counter() - t0) * 1e3, **kw)
 
+    if value_range is not None:
+        check_range(device, free, target, *value_range)
+        qs = range_grid(free, *value_range, points)
+    else:
+        qs = default_grid(device, free, points)
     try:
-        return _design(Probe(device, free, target), _grid(device, free, points), direction, done)
+        return _design(Probe(device, free, target), qs, direction, done, widen=value_range is None)
     except DesignFailed as exc:
         return done(status="failed", reason=str(exc))
 
 
-def _design(probe: Probe, qs: np.ndarray, direction: str, done) -> HardwareDesign:
+def _combined(probe: Probe, q: float) -> float:
+    return min(probe.excess(name, q) for name in probe.target.names)
+
+
+def _widen(probe: Probe, qs: np.ndarray) -> tuple[np.ndarray, dict[int, str]]:
+    """The grid widened while no value meets the target, at an end towards which the combined excess still
+    grows (the better one first), and what stopped each end (0: lower, -1: upper → reason);
+    optim/hardware_range.py."""
+    stops: dict[int, str] = {}
+    for _ in range(_MAX_WIDENINGS):
+        combined = np.array([_combined(probe, q) for q in qs])
+        if (combined >= 0.0).any():
+            break
+        # an end is widened when it is the best value, or when the excess still rises towards it by more
+        # than 1 % of its spread over the scan (not a wiggle: K* is not monotone at long delays)
+        best = int(np.argmax(combined))
+        spread = float(combined.max() - combined.min())
+        rising = {0: best == 0 or combined[0] - combined[1] > 0.01 * spread,
+                  -1: best == len(qs) - 1 or combined[-1] - combined[-2] > 0.01 * spread}
+        ends = [side for side in (0, -1) if side not in stops and rising[side]]
+        if not ends:
+            break
+        side = max(ends, key=lambda e: combined[e])
+        new, stop = widen_end(probe.device, probe.free, probe.target, float(qs[side]), 1 if side else -1,
+                              lambda q: _combined(probe, q))
+        if stop is not None:
+            stops[side] = stop
+        qs = np.concatenate([qs, new]) if side else np.concatenate([new[::-1], qs])
+    return qs, stops
+
+
+def _design(probe: Probe, qs: np.ndarray, direction: str, done, widen: bool) -> HardwareDesign:
     target, free = probe.target, probe.free
+    span = (float(qs[0]), float(qs[-1]))
+    qs, stops = _widen(probe, qs) if widen else (qs, {})
     curve = tuple(probe.curve_entry(q) for q in qs)
     excess = {name: np.array([probe.excess(name, q) for q in qs]) for name in target.names}
     combined = np.min(np.vstack(list(excess.values())), axis=0)
     i_best = int(np.argmax(combined))
     matters, flat = _matters(curve, target)
-    common = dict(curve=curve, best_value=float(qs[i_best]), matters=matters,
+    common = dict(curve=curve, best_value=float(qs[i_best]), matters=matters, scanned_range=(float(qs[0]),
+                  float(qs[-1])), range_source=_range_source(span, qs, stops, widen),
                   best_achievable_stiffness=curve[i_best]["achievable_stiffness"],
                   best_achievable_force_gain=curve[i_best]["achievable_force_gain"],
                   best_apparent_mass=curve[i_best]["apparent_mass"])
@@ -156,8 +190,11 @@ def _design(probe: Probe, qs: np.ndarray, direction: str, done) -> HardwareDesig
         intervals = _intersect(intervals, own)
     if not intervals:
         limiting = _infeasible_limit(alone, excess, i_best)
-        return done(status="infeasible", reason=_unreachable(probe, qs, i_best, alone, limiting),
-                    limiting_target=limiting, limiting_effect=limiting_effect(limiting, free), **common)
+        # widened, the free parameter's best is at a bound (physics, input limits, no improvement) or inside
+        # the range: moving it cannot help, so its own effect is not the limit; a requested range may be
+        effect = binding_effect(probe.device, free, target, float(qs[i_best]), limiting, free_can_move=not widen)
+        return done(status="infeasible", reason=_unreachable(probe, qs, i_best, alone, limiting, stops),
+                    limiting_target=limiting, limiting_effect=effect, **common)
     edges = sorted(({"value": v, "limiting_target": tag} for lo, hi, tlo, thi in intervals
                     for v, tag in ((lo, tlo), (hi, thi)) if tag is not None), key=lambda e: e["value"])
     loose_end, limiting = (intervals[-1][1], intervals[-1][3]) if direction == "max" else \
@@ -248,7 +285,18 @@ def _controller(probe: Probe, q: float) -> dict:
     return out
 
 
-def _unreachable(probe: Probe, qs: np.ndarray, i_best: int, alone: dict, limiting: str) -> str:
+def _range_source(span: tuple[float, float], qs: np.ndarray, stops: dict[int, str], widen: bool) -> str:
+    if not widen:
+        return "request"
+    text = f"default span [{span[0]:g}, {span[1]:g}]"
+    if (float(qs[0]), float(qs[-1])) != span:
+        text += f" widened to [{qs[0]:g}, {qs[-1]:g}]"
+    return text + "".join(f"; the {'lower' if side == 0 else 'upper'} end stopped by {why}"
+                          for side, why in sorted(stops.items()))
+
+
+def _unreachable(probe: Probe, qs: np.ndarray, i_best: int, alone: dict, limiting: str,
+                 stops: dict[int, str]) -> str:
     target, free, q = probe.target, probe.free, float(qs[i_best])
     asked, got = [], []
     if target.stiffness is not None:
@@ -264,8 +312,11 @@ def _unreachable(probe: Probe, qs: np.ndarray, i_best: int, alone: dict, limitin
     why = (f"{limiting} is not reachable on its own" if not alone[limiting] else
            "each target is reachable alone, but not at the same value: " + "; ".join(
                f"{n} in " + ", ".join(f"[{lo:g}, {hi:g}]" for lo, hi, _, _ in own) for n, own in alone.items()))
+    side = 0 if i_best == 0 else -1 if i_best == len(qs) - 1 else None
+    where = (f"; {free} cannot go further: {stops[side]}" if side in stops else
+             f"; the best {free} lies inside the range" if side is None else "")
     return (f"the target {' and '.join(asked)} is not reachable for any {free} in [{qs[0]:g}, {qs[-1]:g}]: the best "
-            f"achievable is {', '.join(got)} at {free} = {q:g}; {why}")
+            f"achievable is {', '.join(got)} at {free} = {q:g}; {why}{where}")
 
 
 def _intervals(qs: np.ndarray, feasible: np.ndarray, edges: list[float]) -> list[tuple[float, float]]:

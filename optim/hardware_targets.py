@@ -25,6 +25,11 @@ from models.filters import MAX_FILTER_ORDER
 from optim.inertia import InertiaDesign, InertiaRequirements, design_inertia, upper_cutoff_hz
 from optim.stiffness import StiffnessDesign, StiffnessRequirements, design_stiffness
 
+#: Cutoffs of the inertia design's Pareto scan at each value of the free parameter: its band search
+#: (optim/inertia_band.py) doubles them and brackets every jump, so 9 find the same maximum as the
+#: default 17 (tests/optim/test_hardware_feedforward.py checks it against a dense exact scan) at half the cost.
+_PARETO_POINTS = 9
+
 __all__ = ["HardwareTarget", "ForceGainAt", "Probe", "DesignFailed", "achievable_stiffness", "achievable_force_gain",
            "device_with", "current_value", "limiting_effect"]
 
@@ -64,7 +69,7 @@ class HardwareTarget:
     def inertia_requirements(self) -> InertiaRequirements:
         given = {k: v for k, v in (("cutoff_min_hz", self.cutoff_min_hz), ("filter_order", self.filter_order))
                  if v is not None}
-        return InertiaRequirements(min_gain_margin_db=self.min_gain_margin_db, **given)
+        return InertiaRequirements(min_gain_margin_db=self.min_gain_margin_db, pareto_points=_PARETO_POINTS, **given)
 
     def required_force_gain(self, mass: float) -> float:
         """K_f the transparency target needs on a device of this mass [dimensionless]; ≤ 0: met without it."""

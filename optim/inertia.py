@@ -9,10 +9,14 @@ margin 20·log10(K_f,cr(f_c)/K_f) ≥ min_gain_margin_db:
   the margin (the chapter matched 0.9 kg with K_f = 5 at 30 Hz).
 
 Method: an exact scan of K_f,cr over the band (the Pareto curve "best K_f for
-each cutoff") brackets the optimum; a CasADi/Ipopt solve of the crossover
-conditions (optim/inertia_nlp.py) refines it inside the bracket; every
-crossover the exact analysis finds at the solve's cutoff joins the tracked set
-and the solve is repeated until the exact analysis agrees (exchange method).
+each cutoff"), densified and with every change of the crossover structure
+bracketed on both sides (optim/inertia_band.py: K_f,cr jumps where a crossover
+pair appears tangentially), brackets the optimum; a CasADi/Ipopt solve of the
+crossover conditions (optim/inertia_nlp.py) refines each promising local maximum
+inside its piece of constant structure; every crossover the exact analysis
+finds at the solve's cutoff joins the tracked set and the solve is repeated
+until the exact analysis agrees (exchange method).  A target's boundary at a
+jump is bisected on the exact verdict.
 The reported K_f,cr, margin and crossover are the exact analysis's.  With a
 range of grasps the design holds for the worst of them: the masses evaluated
 are refined by the same exchange (a dense exact check over the range adds the
@@ -27,21 +31,19 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import brentq
-
 from models.device import Device, Human
 from models.feedforward import feedforward_plant
 from models.filters import MAX_FILTER_ORDER
 
 from .feedforward import critical_force_gain_of_plant, resolve_human
-from .inertia_nlp import modal_plant, solve_crossover_nlp
+from .inertia_band import band_profile, highest_feasible, maximise
+from .inertia_nlp import modal_plant
 
 __all__ = ["InertiaRequirements", "ParetoPoint", "RigidComparison", "InertiaDesign", "design_inertia",
            "upper_cutoff_hz", "pareto_points", "RIGID_OPTIMISM_FLAG"]
 
 #: Flag the rigid model when its critical K_f exceeds the cable model's by more than this.
 RIGID_OPTIMISM_FLAG = 0.20
-_MAX_EXCHANGE_ROUNDS = 6
 _MAX_HUMAN_ROUNDS = 3
 _RANGE_START_MASSES = 5      # grasp masses a range starts with (geometric, ends included)
 _RANGE_CHECK_MASSES = 33     # dense exact check of the final design over the range
@@ -193,37 +195,6 @@ class _Loop:
         return best, where, who, found
 
 
-def _merge(tracked: list[tuple[int, float]], new: list[tuple[int, float]]) -> list[tuple[int, float]]:
-    out = list(tracked)
-    for j, a in new:
-        if not any(j == jj and abs(a - aa) <= 1e-6 * a for jj, aa in out):
-            out.append((j, a))
-    return out
-
-
-def _refine(loop: _Loop, modal, log_rho: float, t0: float, bounds: tuple[float, float],
-            objective: str, y_fixed: float, info: dict) -> float | None:
-    """Exchange method: local NLP solves until the exact analysis agrees; returns θ_c or None (failed)."""
-    k0, _, _, tracked = loop.exact(t0)
-    y0 = math.log(k0) - log_rho if objective == "max_gain" else y_fixed
-    for rounds in range(1, _MAX_EXCHANGE_ROUNDS + 1):
-        res = solve_crossover_nlp(modal, tracked, loop.order, log_rho, t0, bounds, y0, objective, y_fixed,
-                                  cutoff_scales=loop.cutoff_scales)
-        info.update(return_status=res.return_status, exchange_rounds=rounds,
-                    tracked_crossovers=len(tracked))
-        if not res.success:
-            return None
-        # Ipopt may relax a bound by ~1e-8 (bound_relax_factor): the band is a hard limit.
-        theta = min(max(res.cutoff_angle, bounds[0]), bounds[1])
-        kcr, _, _, found = loop.exact(theta)
-        gain = math.exp(res.log_gain + log_rho)
-        if gain <= kcr * (1 + 1e-8):
-            return theta
-        tracked = _merge(tracked, found)
-    info["return_status"] = "exchange did not settle"
-    return None
-
-
 def design_inertia(device: Device, req: InertiaRequirements | None = None) -> InertiaDesign:
     """Design K_f and the filter cutoff (see module docstring); ValueError names a bad requirement."""
     start = time.perf_counter()
@@ -269,16 +240,19 @@ def _design(device: Device, req: InertiaRequirements, humans: list[Human], human
     rho = 10 ** (req.min_gain_margin_db / 20)
     log_rho, m = math.log(rho), device.mass
     cutoffs = np.geomspace(lo_hz, hi_hz, max(2, req.pareto_points))
-    scan = [loop.exact(c * t_of) for c in cutoffs]
-    kcrs = np.array([s[0] for s in scan])
+    kcrs = np.array([loop.exact(c * t_of)[0] for c in cutoffs])
     pareto = pareto_points(cutoffs, kcrs, rho, m)
     objective = "target_apparent_mass" if req.target_apparent_mass is not None else "min_apparent_mass"
     common = dict(objective=objective, filter_order=req.filter_order, cutoff_band_hz=(lo_hz, hi_hz),
                   cutoff_max_source=hi_src, pareto=pareto, humans=tuple(humans), human_source=human_src)
     info: dict = {"name": "ipopt (CasADi), exchange method, exact re-check"}
 
-    def answer(status: str, kf: float, cutoff_hz: float, reason: str | None = None) -> InertiaDesign:
-        kcr, th, who, _ = loop.exact(cutoff_hz * t_of)
+    t_lo, t_hi = cutoffs[0] * t_of, cutoffs[-1] * t_of
+
+    def answer(status: str, kf: float, theta: float, reason: str | None = None) -> InertiaDesign:
+        # at θ itself: a cutoff next to a jump of K_f,cr must not round across it
+        kcr, th, who, _ = loop.exact(theta)
+        cutoff_hz = {t_lo: lo_hz, t_hi: hi_hz}.get(theta, theta / t_of)   # the band's edges as given
         return InertiaDesign(status=status, force_gain=kf, filter_cutoff_hz=cutoff_hz, apparent_mass=m / (1 + kf),
                              critical_force_gain=kcr, gain_margin_db=20 * math.log10(kcr / kf) if kf > 0 else None,
                              crossover_frequency=None if th is None else th / device.sample_time,
@@ -286,10 +260,7 @@ def _design(device: Device, req: InertiaRequirements, humans: list[Human], human
                              solver=info, reason=reason, **common)
 
     if not np.all(np.isfinite(kcrs)):
-        return InertiaDesign(status="infeasible", force_gain=None, filter_cutoff_hz=None, apparent_mass=None,
-                             critical_force_gain=None, gain_margin_db=None, crossover_frequency=None,
-                             worst_human=None, rigid_model=None, solver=info,
-                             reason="no phase crossover at some cutoff: the model bounds no force gain there", **common)
+        return _no_crossover(info, common)
     modal = []
     for plant in loop.plants:
         mp, err = modal_plant(plant)
@@ -297,31 +268,17 @@ def _design(device: Device, req: InertiaRequirements, humans: list[Human], human
             info["return_status"] = f"modal form of G_1 off by {err:.2g} (ill-conditioned eigenvectors of A)"
             return _failed(info, common, "the crossover model could not be built accurately")
         modal.append(mp)
-    j_best = int(np.argmax(kcrs))
-    t = cutoffs * t_of
+    profile = band_profile(loop, cutoffs * t_of)
+    if profile.jumps:
+        info["crossover_structure_changes_hz"] = [[lo / t_of, hi / t_of] for lo, hi in profile.jumps]
+    if not np.all(np.isfinite(profile.kcrs)):
+        return _no_crossover(info, common)
 
     if objective == "min_apparent_mass":
-        # The NLP tracks crossover branches; it may only move where the branches are the
-        # same as at its start (a pair of crossovers can merge and vanish, making K_f,cr
-        # jump: no local condition describes that, so the bracket stops there).
-        lo_j, hi_j = max(j_best - 1, 0), min(j_best + 1, len(t) - 1)
-        here = loop.structure(t[j_best])
-        if loop.structure(t[lo_j]) != here:
-            lo_j = j_best
-            info["crossover_structure_changes_hz"] = [float(cutoffs[j_best - 1]), float(cutoffs[j_best])]
-        if loop.structure(t[hi_j]) != here:
-            hi_j = j_best
-            info["crossover_structure_changes_hz"] = [float(cutoffs[j_best]), float(cutoffs[j_best + 1])]
-        theta = t[j_best]
-        if lo_j < hi_j:
-            theta = _refine(loop, modal, log_rho, t[j_best], (t[lo_j], t[hi_j]), "max_gain", 0.0, info)
-            if theta is None:
-                return _failed(info, common, "Ipopt did not converge on the crossover conditions")
-        else:
-            info.update(return_status="scan point kept: crossover branches change on both sides", exchange_rounds=0)
-        if loop.exact(theta)[0] < kcrs[j_best]:       # never worse than the exact scan's best point
-            theta = t[j_best]
-        return answer("optimal", loop.exact(theta)[0] / rho, theta / t_of)
+        found = maximise(loop, profile, modal, log_rho, info)
+        if found.failed:
+            return _failed(info, common, "Ipopt did not converge on the crossover conditions")
+        return answer("optimal", loop.exact(found.theta)[0] / rho, found.theta)
 
     kf = m / req.target_apparent_mass - 1.0
     if kf <= 0.0:
@@ -330,55 +287,25 @@ def _design(device: Device, req: InertiaRequirements, humans: list[Human], human
                              worst_human=None, rigid_model=None, solver=info,
                              reason=f"target_apparent_mass {req.target_apparent_mass:g} is not below the device's "
                                     f"mass {m:g}: force feedforward only lowers the apparent mass", **common)
-    feasible = np.nonzero(kcrs >= rho * kf)[0]
-    if feasible.size == 0:
-        best = kcrs[j_best] / rho
-        return answer("infeasible", best, cutoffs[j_best],
+    found = highest_feasible(loop, profile, modal, log_rho, rho * kf, info)
+    if found.failed:
+        return _failed(info, common, "Ipopt did not converge on the crossover conditions")
+    if found.theta is None:
+        th_best, k_best = found.best
+        best = k_best / rho
+        return answer("infeasible", best, th_best,
                       f"K_f = {kf:.6g} (apparent mass {req.target_apparent_mass:g}) needs K_f,cr ≥ {rho * kf:.6g} "
                       f"for {req.min_gain_margin_db:g} dB, but the largest K_f,cr in [{lo_hz:g}, {hi_hz:g}] Hz is "
-                      f"{kcrs[j_best]:.6g} at {cutoffs[j_best]:.4g} Hz; the best reachable with the margin is "
+                      f"{k_best:.6g} at {th_best / t_of:.4g} Hz; the best reachable with the margin is "
                       f"K_f = {best:.6g}, apparent mass {m / (1 + best):.6g}")
-    j_hi = int(feasible[-1])
-    if j_hi == len(t) - 1:
-        info.update(return_status="upper cutoff bound feasible (exact)", exchange_rounds=0)
-        return answer("optimal", kf, hi_hz)
-    feasible_at = lambda th: loop.exact(th)[0] >= rho * kf  # noqa: E731
-    if loop.structure(t[j_hi]) != loop.structure(t[j_hi + 1]):
-        # A crossover branch is born or dies in the bracket: the boundary may be a jump of
-        # K_f,cr, which no crossover condition describes; bisect the exact verdict instead.
-        theta = _bisect(feasible_at, t[j_hi], t[j_hi + 1])
-        info.update(return_status="exact bisection (crossover branches change in the bracket)", exchange_rounds=0)
-        return answer("optimal", kf, theta / t_of)
-    theta = _refine(loop, modal, log_rho, t[j_hi], (t[j_hi], t[j_hi + 1]), "max_cutoff", math.log(kf), info)
-    if theta is None:
-        return _failed(info, common, "Ipopt did not converge on the crossover conditions")
-    theta = _exact_boundary(lambda th: math.log(loop.exact(th)[0] / (rho * kf)), t[j_hi], theta, info)
-    return answer("optimal", kf, theta / t_of)
+    return answer("optimal", kf, found.theta)
 
 
-def _bisect(feasible_at, good: float, bad: float) -> float:
-    """The last feasible θ before ``bad`` to a few ulp (the exact verdict decides each step)."""
-    while bad - good > 8 * np.finfo(float).eps * bad:
-        mid = 0.5 * (good + bad)
-        if feasible_at(mid):
-            good = mid
-        else:
-            bad = mid
-    return good
-
-
-def _exact_boundary(margin, feasible: float, theta: float, info: dict) -> float:
-    """θ itself when the exact margin holds there; else the exact boundary between the
-    last feasible scan point and θ (Brent on the exact log-margin), on its feasible side."""
-    if margin(theta) >= 0.0:
-        return theta
-    root = brentq(margin, feasible, theta, xtol=1e-15, rtol=4 * np.finfo(float).eps)
-    for _ in range(60):
-        if margin(root) >= 0.0:
-            break
-        root = feasible + (root - feasible) * (1 - 1e-12)
-    info["polished"] = "exact bracketing (Brent) of the margin boundary"
-    return root
+def _no_crossover(info: dict, common: dict) -> InertiaDesign:
+    return InertiaDesign(status="infeasible", force_gain=None, filter_cutoff_hz=None, apparent_mass=None,
+                         critical_force_gain=None, gain_margin_db=None, crossover_frequency=None,
+                         worst_human=None, rigid_model=None, solver=info,
+                         reason="no phase crossover at some cutoff: the model bounds no force gain there", **common)
 
 
 def _failed(info: dict, common: dict, reason: str) -> InertiaDesign:

@@ -40,8 +40,8 @@ import numpy as np
 from models.device import Device
 from models.feedforward import feedforward_plant
 from optim.feedforward import resolve_human
-from optim.inertia import (InertiaRequirements, ParetoPoint, RigidComparison, _band, _bisect, _Loop, _refine, _rigid,
-                           pareto_points)
+from optim.inertia import InertiaRequirements, ParetoPoint, RigidComparison, _band, _Loop, _rigid, pareto_points
+from optim.inertia_band import band_profile, highest_feasible, maximise
 from optim.inertia_nlp import modal_plant
 
 from .box import UncertaintyBox
@@ -177,36 +177,20 @@ def _with(d: RobustInertiaDesign, t0, it, evals, box, points, lo_hz, hi_hz) -> R
 
 
 def _design(loop: _ScenarioLoop, req, rho, lo_hz, hi_hz, t_of, mass, objective, info):
-    """A _Step (K_f, θ_ref, the scan) over the current scenarios (optim.inertia's method), or a finished design
-    (infeasible/failed)."""
+    """A _Step (K_f, θ_ref, the scan) over the current scenarios (optim.inertia's method and band search,
+    optim/inertia_band.py), or a finished design (infeasible/failed)."""
     cutoffs = np.geomspace(lo_hz, hi_hz, max(2, req.pareto_points))
     t = cutoffs * t_of
     kcrs = np.array([loop.exact(th)[0] for th in t])
+    no_crossover = "no phase crossover at some cutoff: the model bounds no force gain there"
     if not np.all(np.isfinite(kcrs)):
-        return RobustInertiaDesign(status="infeasible", objective=objective,
-                                   reason="no phase crossover at some cutoff: the model bounds no force gain there")
+        return RobustInertiaDesign(status="infeasible", objective=objective, reason=no_crossover)
     pareto = pareto_points(cutoffs, kcrs, rho, mass)
-    j_best = int(np.argmax(kcrs))
     if objective == "target_apparent_mass":
         kf = mass / req.target_apparent_mass - 1.0
         if kf <= 0.0:
             return RobustInertiaDesign(status="infeasible", objective=objective, pareto=pareto, reason=(
                 f"target_apparent_mass {req.target_apparent_mass:g} is not below the nominal mass {mass:g}"))
-        feasible = np.nonzero(kcrs >= rho * kf)[0]
-        if feasible.size == 0:
-            best = kcrs[j_best] / rho
-            return RobustInertiaDesign(status="infeasible", objective=objective, force_gain=best, pareto=pareto,
-                                       filter_cutoff_hz=float(cutoffs[j_best]), reason=(
-                                           f"K_f = {kf:.6g} needs K_f,cr ≥ {rho * kf:.6g} on every device of the box; "
-                                           f"the best reachable is K_f = {best:.6g} at {cutoffs[j_best]:.4g} Hz"))
-        j_hi = int(feasible[-1])
-        if j_hi == len(t) - 1:
-            info.update(return_status="upper cutoff bound feasible (exact)")
-            return _Step(kf, float(t[-1]), pareto)
-        # the highest cutoff that keeps the margin on every scenario: bisection of the exact verdict
-        theta = _bisect(lambda th: loop.exact(th)[0] >= rho * kf, t[j_hi], t[j_hi + 1])
-        info.update(return_status="exact bisection of the margin boundary")
-        return _Step(kf, theta, pareto)
     modal = []
     for plant in loop.plants:
         mp, err = modal_plant(plant)
@@ -214,17 +198,29 @@ def _design(loop: _ScenarioLoop, req, rho, lo_hz, hi_hz, t_of, mass, objective, 
             return RobustInertiaDesign(status="failed", objective=objective, pareto=pareto,
                                        reason=f"modal form of G_1 off by {err:.2g} (ill-conditioned eigenvectors of A)")
         modal.append(mp)
-    lo_j, hi_j = max(j_best - 1, 0), min(j_best + 1, len(t) - 1)
-    here = loop.structure(t[j_best])
-    if loop.structure(t[lo_j]) != here:
-        lo_j = j_best
-    if loop.structure(t[hi_j]) != here:
-        hi_j = j_best
-    theta = float(t[j_best])
-    if lo_j < hi_j:
-        refined = _refine(loop, modal, math.log(rho), t[j_best], (t[lo_j], t[hi_j]), "max_gain", 0.0, info)
-        if refined is not None and loop.exact(refined)[0] >= kcrs[j_best]:
-            theta = refined
+    profile = band_profile(loop, t)
+    if not np.all(np.isfinite(profile.kcrs)):
+        return RobustInertiaDesign(status="infeasible", objective=objective, pareto=pareto, reason=no_crossover)
+    if profile.jumps:
+        info["crossover_structure_changes_hz"] = [[lo / t_of, hi / t_of] for lo, hi in profile.jumps]
+    if objective == "target_apparent_mass":
+        found = highest_feasible(loop, profile, modal, math.log(rho), rho * kf, info)
+        if found.failed:
+            return RobustInertiaDesign(status="failed", objective=objective, pareto=pareto,
+                                       reason="Ipopt did not converge on the crossover conditions")
+        if found.theta is None:
+            th_best, k_best = found.best
+            best = k_best / rho
+            return RobustInertiaDesign(status="infeasible", objective=objective, force_gain=best, pareto=pareto,
+                                       filter_cutoff_hz=th_best / t_of, reason=(
+                                           f"K_f = {kf:.6g} needs K_f,cr ≥ {rho * kf:.6g} on every scenario device, "
+                                           f"but their largest K_f,cr in [{lo_hz:g}, {hi_hz:g}] Hz is {k_best:.6g} "
+                                           f"at {th_best / t_of:.4g} Hz; the best reachable is K_f = {best:.6g}"))
+        return _Step(kf, found.theta, pareto)
+    found = maximise(loop, profile, modal, math.log(rho), info)
+    if found.failed:   # the scan's best sample, unrefined, is still a valid design: the box search verifies it
+        theta = found.best[0]
+        info.update(return_status="scan point kept: Ipopt did not converge on the crossover conditions")
     else:
-        info.update(return_status="scan point kept: crossover branches change on both sides")
+        theta = found.theta
     return _Step(loop.exact(theta)[0] / rho, theta, pareto)

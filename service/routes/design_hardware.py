@@ -27,8 +27,9 @@ def hardware_target(request: HardwareDesignRequest) -> HardwareTarget:
 def run_hardware(request: HardwareDesignRequest, compute: BoundedExecutor) -> HardwareDesign:
     """The design in a compute worker (tens of exact designs: never inline), under the request time budget."""
     try:
+        value_range = None if request.range is None else (request.range.min, request.range.max)
         return compute.run(design_hardware, request.device, hardware_target(request), request.free,
-                           points=request.points, cost_ms=None)
+                           points=request.points, value_range=value_range, cost_ms=None)
     except ValueError as exc:
         field, _, msg = str(exc).partition(": ")
         raise NumericInputError(field, msg) from None

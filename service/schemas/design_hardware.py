@@ -8,12 +8,13 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from models.filters import MAX_FILTER_ORDER
 from optim.domain import check_controller_domain, check_cutoff_domain
+from optim.hardware_range import check_range
 from optim.hardware_targets import HardwareTarget
 
 from .common import Device  # the numerics' validated domain (optim.domain) applies
 from .verification import VerificationOut, VerifyField
 
-__all__ = ["HardwareTargetIn", "HardwareDesignRequest", "HardwareDesignResponse", "CurvePoint", "EdgeOut",
+__all__ = ["HardwareTargetIn", "ValueRangeIn", "HardwareDesignRequest", "HardwareDesignResponse", "CurvePoint", "EdgeOut",
            "ControllerOut"]
 
 _STRICT = ConfigDict(extra="forbid", allow_inf_nan=False)
@@ -40,6 +41,14 @@ class HardwareTargetIn(BaseModel):
                                                                                   "inertia design (default 2)")
 
 
+class ValueRangeIn(BaseModel):
+    model_config = _STRICT
+
+    min: float = Field(ge=0, description="lowest value of the free parameter to scan [SI]")
+    max: float = Field(gt=0, description="highest value [SI]; above min, both within the input limits "
+                                         "(docs/limits.md)")
+
+
 class HardwareDesignRequest(BaseModel):
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False, json_schema_extra={"examples": [
         {"device": {"preset": "lhifam", "cable": None}, "target": {"stiffness": 20000, "min_gain_margin_db": 6},
@@ -55,6 +64,9 @@ class HardwareDesignRequest(BaseModel):
     free: Literal["sample_time", "delay", "damping", "mass", "cable.stiffness"] = Field(
         description="the hardware parameter to find (the others are the device's)")
     points: int = Field(41, ge=9, le=201, description="points of the trade-off curve")
+    range: ValueRangeIn | None = Field(None, description="scan exactly this range of the free parameter [SI]; by "
+                                                         "default value/30 … value·30 (delay 0 … 30 samples), "
+                                                         "widened while the target is out of reach (docs/robust.md)")
     verify: bool = VerifyField()
 
     @model_validator(mode="after")
@@ -70,6 +82,8 @@ class HardwareDesignRequest(BaseModel):
             check_controller_domain(t.max_damping, self.device, "damping", "target.max_damping")
         if t.cutoff_min_hz is not None:
             check_cutoff_domain(t.cutoff_min_hz, self.device.sample_time, "target.cutoff_min_hz")
+        if self.range is not None:     # optim's rule (empty range, input limits at both ends): one source
+            check_range(self.device, self.free, HardwareTarget(**t.model_dump()), self.range.min, self.range.max)
         return self
 
 
@@ -130,7 +144,13 @@ class HardwareDesignResponse(BaseModel):
         None, description="the target that sets the answer (infeasible: the one furthest from reach at best_value)")
     reason: str | None = None
     note: str | None = None
-    limiting_effect: str | None = None
+    limiting_effect: str | None = Field(None, description="the physical effect that sets the answer; infeasible: "
+                                                          "measured at best_value (which ×2 change of another "
+                                                          "parameter helps most)")
+    scanned_range: tuple[float, float] | None = Field(None, description="the range of the free parameter scanned")
+    range_source: str | None = Field(None, description="request, the default span, or how it was widened and "
+                                                       "what stopped it (a physical bound, an input limit, no "
+                                                       "improvement)")
     elapsed_ms: float
     verification: VerificationOut | None = Field(None, description="present when verify was true: the target "
                                                                    "controller checked at the answer's value")

@@ -86,3 +86,50 @@ def test_zwidth_client_design_hardware_in_process():
         req = {"uncertainty": {"device.mass": {"min": 4, "max": 7}}}
         svg = zw.plot_robust({"preset": "lhifam", "cable": None}, req, points=5, format="svg")
         assert svg.media_type == "image/svg+xml"
+
+
+def _documented_hardware_examples() -> list[tuple[str, str]]:
+    """(command, documented status) of every `zwidth robust hardware` example in docs/robust.md and
+    docs/clients.md."""
+    import re
+
+    from .conftest import ROOT
+    out = []
+    robust = (ROOT / "docs" / "robust.md").read_text(encoding="utf-8")
+    for line in robust.splitlines():
+        m = re.match(r"(zwidth robust hardware [^#]*?)\s+# (optimal|infeasible)", line)
+        if m:
+            out.append((m.group(1), m.group(2)))
+    clients = (ROOT / "docs" / "clients.md").read_text(encoding="utf-8")
+    m = re.search(r"`(zwidth robust hardware [^`]*)`.*?answers `(optimal|infeasible)`", clients, flags=re.DOTALL)
+    assert m, "docs/clients.md: the hardware example and its documented status"
+    out.append((m.group(1), m.group(2)))
+    documented = dict(out)            # one run per command; the same command must have one status
+    assert len(documented) == len(set(out)) and len(documented) >= 2
+    return sorted(documented.items())
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("command,status", _documented_hardware_examples())
+def test_documented_hardware_examples_run_as_documented(command, status):
+    """Issue 17: each documented example answers its documented status (exit 1 when infeasible), and an
+    infeasible one names what binds, not the free parameter at its bound (zero delay)."""
+    args = command.split()[2:]
+    body = json.loads(run(*args, "--json", code=0 if status == "optimal" else 1).output)
+    assert body["status"] == status
+    if status == "infeasible":
+        assert body["best_value"] == 0.0 and "physical bound delay = 0" in body["range_source"]
+        assert body["limiting_effect"].startswith("sampling")
+    else:
+        assert body["limiting_target"] == "stiffness" and body["value"] == pytest.approx(1.768e-3, rel=1e-3)
+
+
+def test_hardware_scan_range():
+    """--scan MIN:MAX is the request's range (scanned as given); a malformed one is a usage error (exit 2)."""
+    body = json.loads(run("hardware", "lhifam", "--rigid", "--free", "delay", "--stiffness", "2e5", "--points", "9",
+                          "--scan", "0:0.01", "--json").output)
+    assert body["range_source"] == "request" and body["scanned_range"] == [0, 0.01]
+    assert "--scan" in run("hardware", "lhifam", "--free", "delay", "--stiffness", "2e5", "--scan", "0.01",
+                           code=2).output
+    assert "range.min" in run("hardware", "lhifam", "--free", "delay", "--stiffness", "2e5", "--scan", "0.01:0.001",
+                              code=2).output

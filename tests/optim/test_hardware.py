@@ -73,10 +73,12 @@ def test_feasible_set_of_two_intervals():
 
 
 def test_infeasible_target_names_best_and_limit():
-    r = design_hardware(RIGID, HardwareTarget(1e12), "sample_time", points=11)
-    assert r.status == "infeasible" and r.value is None
+    # a requested range is scanned as given: 1e12 N/m needs far faster sampling than 33 µs
+    r = design_hardware(RIGID, HardwareTarget(1e12), "sample_time", points=11, value_range=(1e-3 / 30, 0.03))
+    assert r.status == "infeasible" and r.value is None and r.range_source == "request"
     assert r.best_achievable_stiffness < 1e12 and "best achievable" in r.reason
-    assert "sampling" in r.limiting_effect
+    # measured: halving the sample time beyond the range helps most
+    assert "sampling" in r.limiting_effect and "sample_time /2" in r.limiting_effect
     # the best value is the fastest sampling of the scan (K* falls with T)
     assert r.best_value == pytest.approx(min(p["value"] for p in r.curve))
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize_scalar
 
-import optim.inertia as inertia_mod
+import optim.inertia_band as band_mod
 from models.device import Device, Human
 from models.feedforward import feedforward_plant
 from models.filters import ButterworthLowPass
@@ -139,7 +139,7 @@ def test_list_of_grasps_is_no_better_than_any_one():
 def test_solver_failure_is_reported_as_failed(monkeypatch):
     def broken(*args, **kwargs):
         return NLPResult(0.0, 0.1, (), False, "Maximum_Iterations_Exceeded")
-    monkeypatch.setattr(inertia_mod, "solve_crossover_nlp", broken)
+    monkeypatch.setattr(band_mod, "solve_crossover_nlp", broken)
     d = design_inertia(CABLE, InertiaRequirements(filter_order=4, cutoff_min_hz=20.0))
     assert d.status == "failed" and d.force_gain is None
     assert d.solver["return_status"] == "Maximum_Iterations_Exceeded"

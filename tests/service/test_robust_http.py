@@ -77,13 +77,32 @@ def test_hardware(client):
 
 def test_hardware_infeasible_and_bad_free(client):
     body = client.post("/v1/design/hardware", json={"device": LH_RIGID, "target": {"stiffness": 1e12},
-                                                    "free": "sample_time", "points": 9}).json()
+                                                    "free": "delay", "points": 9}).json()
     assert body["status"] == "infeasible" and body["value"] is None and body["limiting_effect"]
+    assert "physical bound delay = 0" in body["range_source"] and not body["limiting_effect"].startswith("loop")
     r = client.post("/v1/design/hardware", json={"device": LH_RIGID, "target": {"stiffness": 1e4},
                                                  "free": "cable.stiffness"})
     assert r.status_code == 422 and r.json()["detail"][0]["loc"][-1] == "free"
     r = client.post("/v1/design/hardware", json={"device": LH_RIGID, "target": {"stiffness": 1e4}, "free": "color"})
     assert r.status_code == 422
+
+
+def test_hardware_range(client):
+    """``range`` is scanned as given; an empty range or one outside the input limits is a 422 naming the field."""
+    dev = {"mass": 1, "damping": 0.1, "sample_time": 0.001, "delay": 0.001}
+    body = client.post("/v1/design/hardware", json={"device": dev, "target": {"stiffness": 75e3}, "free": "damping",
+                                                    "points": 9, "range": {"min": 1, "max": 30}}).json()
+    assert body["status"] == "optimal" and body["range_source"] == "request" and body["scanned_range"] == [1, 30]
+    assert 10 < body["value"] < 10.2                       # b ≈ 10.08 N·s/m (tests/optim/test_hardware_range.py)
+    for rng, field, rule in (({"min": 3, "max": 3}, "min", "must be below range.max"),
+                             ({"min": 1e-4, "max": 2}, "max", "outside the input limits"),
+                             ({"min": -1, "max": 2}, "min", "greater than or equal to 0")):
+        r = client.post("/v1/design/hardware", json={"device": dev, "target": {"stiffness": 75e3},
+                                                     "free": "sample_time", "range": rng})
+        assert r.status_code == 422, r.text
+        detail = r.json()["detail"][0]
+        assert detail["loc"][-2:] == ["range", field] or detail["loc"][-1] == field, detail
+        assert rule in detail["msg"]
 
 
 def test_hardware_force_feedforward_target(client):
