@@ -38,6 +38,7 @@ from models.device import MAX_DELAY_SAMPLES, Device
 
 from .hardware_targets import (DesignFailed, HardwareTarget, Probe, achievable_force_gain, achievable_stiffness,
                                current_value, device_with, limiting_effect)
+from .errors import InputError
 
 __all__ = ["FREE_PARAMETERS", "HardwareTarget", "HardwareDesign", "design_hardware", "device_with",
            "achievable_stiffness", "achievable_force_gain", "loose_direction"]
@@ -114,7 +115,7 @@ def _grid(device: Device, free: str, points: int) -> np.ndarray:
         lo = max(v / _SPAN, device.delay / MAX_DELAY_SAMPLES * 2)
         return np.geomspace(lo, hi, points)
     if v <= 0:
-        raise ValueError(f"free: the device's {free} is 0; give a positive value to scan around")
+        raise InputError("free", f"the device's {free} is 0; give a positive value to scan around")
     return np.geomspace(v / _SPAN, v * _SPAN, points)
 
 
@@ -122,9 +123,9 @@ def design_hardware(device: Device, target: HardwareTarget, free: str, points: i
     """The loosest value of ``free`` that still renders ``target`` with the best controller."""
     t0 = time.perf_counter()
     if free not in FREE_PARAMETERS:
-        raise ValueError(f"free: must be one of {', '.join(FREE_PARAMETERS)}")
+        raise InputError("free", f"must be one of {', '.join(FREE_PARAMETERS)}")
     if free == "cable.stiffness" and device.cable is None:
-        raise ValueError("free: cable.stiffness needs a device with a cable block")
+        raise InputError("free", "cable.stiffness needs a device with a cable block")
     target.check(device, free)
     direction = loose_direction(free, target)
 

@@ -4,11 +4,12 @@ force-feedforward gain (apparent mass)."""
 from __future__ import annotations
 
 import dataclasses
+import time
 
 from fastapi import APIRouter
 
-from optim.hardware import HardwareDesign, HardwareTarget, design_hardware
-from service.errors import NumericInputError
+from optim.errors import InputError
+from optim.hardware import HardwareDesign, HardwareTarget, design_hardware, loose_direction
 from service.executor import BoundedExecutor, Compute
 from service.schemas.design_hardware import HardwareDesignRequest, HardwareDesignResponse
 
@@ -24,14 +25,20 @@ def hardware_target(request: HardwareDesignRequest) -> HardwareTarget:
 
 def run_hardware(request: HardwareDesignRequest, compute: BoundedExecutor) -> HardwareDesign:
     """The design in a compute worker (tens of exact designs: never inline), under the request time budget."""
-    try:
-        return compute.run(design_hardware, request.device, hardware_target(request), request.free,
-                           points=request.points, cost_ms=None)
-    except ValueError as exc:
-        field, _, msg = str(exc).partition(": ")
-        raise NumericInputError(field, msg) from None
+    # An InputError (field, rule) answers 422 by itself (service.errors).
+    return compute.run(design_hardware, request.device, hardware_target(request), request.free,
+                       points=request.points, cost_ms=None)
 
 
 @router.post("/v1/design/hardware", response_model=HardwareDesignResponse, tags=["design"])
 def design_hardware_route(request: HardwareDesignRequest, compute: Compute) -> HardwareDesignResponse:
-    return HardwareDesignResponse(**_finite(dataclasses.asdict(run_hardware(request, compute))))
+    t0 = time.perf_counter()
+    try:
+        design = run_hardware(request, compute)
+    except InputError:
+        raise                   # 422 naming the field, as on every route (service.errors)
+    except (RuntimeError, ArithmeticError, ValueError) as exc:   # numerical trouble: failed, as the other designs
+        return HardwareDesignResponse(status="failed", free=request.free,
+                                      direction=loose_direction(request.free, hardware_target(request)),
+                                      reason=f"solver trouble: {exc}", elapsed_ms=(time.perf_counter() - t0) * 1e3)
+    return HardwareDesignResponse(**_finite(dataclasses.asdict(design)))

@@ -15,7 +15,7 @@ from .ladder import ExactCheckOut, GridPointsField, Method, MethodField
 __all__ = ["StiffnessRequirementsIn", "StiffnessDesignRequest", "SensitivityOut", "StiffnessDesignResponse",
            "RangeIn", "WorstCaseOut", "PassivityWorstCaseOut"]
 
-_STRICT = ConfigDict(extra="forbid", allow_inf_nan=False)
+_STRICT = ConfigDict(extra="forbid", allow_inf_nan=False, strict=True)
 _BIG = 1e12
 
 
@@ -61,7 +61,7 @@ class StiffnessRequirementsIn(BaseModel):
 
 
 class StiffnessDesignRequest(BaseModel):
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, json_schema_extra={"examples": [
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, strict=True, json_schema_extra={"examples": [
         {"device": {"mass": 5.4, "damping": 3.5, "sample_time": 0.001}, "requirements": {"min_gain_margin_db": 6}},
         {"device": {"preset": "lhifam"}, "requirements": {"min_gain_margin_db": 6}},
         {"device": {"preset": "phantom-1.0"}}]})

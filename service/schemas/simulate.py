@@ -4,9 +4,7 @@ from __future__ import annotations
 
 from pydantic import BaseModel, Field
 
-from models.scene import Scene
-
-from .common import STRICT, CrossoverOut, Device
+from .common import STRICT, CrossoverOut, Device, Scene
 
 __all__ = ["SimulateRequest", "SimulateResponse", "TrajectoryOut", "VerdictOut", "CycleOut", "SettledOut",
            "RelayOut"]
