@@ -119,6 +119,16 @@ def flatten_result(result: Any) -> dict[str, Any]:
 _STABILITY_REQUIREMENTS = {"stiffness": "float", "damping": "float"}
 
 
+def _is_finite_number(value: Any) -> bool:
+    """A JSON number that is a finite double (an integer of 400 digits is not: float() overflows)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return False
+    try:
+        return math.isfinite(value)
+    except OverflowError:
+        return False
+
+
 def _check_stability_requirements(req: Mapping[str, Any]) -> None:
     for key, value in req.items():
         if key not in _STABILITY_REQUIREMENTS:
@@ -126,7 +136,7 @@ def _check_stability_requirements(req: Mapping[str, Any]) -> None:
                              f"(known: {', '.join(_STABILITY_REQUIREMENTS)})")
         if value is None:
             continue
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        if not _is_finite_number(value):
             raise InputError(key, "must be a finite number")
     k, b = req.get("stiffness"), req.get("damping")
     if k is not None and not k > 0:
@@ -168,8 +178,8 @@ def _design_problem(name: str, module: str, function: str, requirements: str) ->
         kinds = _dataclass_kinds(req_cls)
         for key, value in req.items():
             # A number is a JSON number: true and "5.4" are refused, not taken as 1 and 5.4.
-            if key in kinds and value is not None and (isinstance(value, bool) or not isinstance(value, (int, float))):
-                raise InputError(key, f"must be a number, got {value!r}")
+            if key in kinds and value is not None and not _is_finite_number(value):
+                raise InputError(key, f"must be a finite number, got {str(value)[:40]!r}")
         try:
             return req_cls(**req)
         except TypeError as exc:  # wrong type for a field
@@ -252,7 +262,7 @@ class Axis:
 def _number(field: str, value: Any) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise StudyInputError(field, f"must be a number, got {value!r}")
-    if not math.isfinite(value):
+    if not _is_finite_number(value):
         raise StudyInputError(field, "must be finite")
     return float(value)
 
@@ -285,7 +295,10 @@ def _axis(path: str, kind: str, spec: Any, design: str) -> Axis:
             return Axis(path, kind, None, start, stop, scale)
         if isinstance(num, bool) or not isinstance(num, int) or not 1 <= num <= MAX_STUDY_POINTS:
             raise StudyInputError(f"{field}.num", f"must be an integer from 1 to {MAX_STUDY_POINTS}")
-        grid = np.geomspace(start, stop, num) if scale == "log" else np.linspace(start, stop, num)
+        with np.errstate(over="ignore", invalid="ignore"):  # a range across ±1.8e308 overflows its step
+            grid = np.geomspace(start, stop, num) if scale == "log" else np.linspace(start, stop, num)
+        if not np.all(np.isfinite(grid)):
+            raise StudyInputError(field, "the range's values overflow double precision")
         values = tuple(float(v) for v in grid)
     else:
         raise StudyInputError(field, "must be a list of values or a range {start, stop, num, scale}")

@@ -103,16 +103,24 @@ def _echo(value: Any) -> Any:
     return f"{text[:MAX_ECHO_CHARS]}… ({len(text)} characters, cut)"
 
 
+def _cut(text: str, limit: int) -> str:
+    return text if len(text) <= limit else f"{text[:limit]}… ({len(text)} characters, cut)"
+
+
 def _errors_body(errors: list[dict[str, Any]]) -> dict[str, Any]:
     clean = []
     for e in errors:
         e = _name_the_field(dict(e))
         e.pop("url", None)
+        # An unknown key is echoed in loc, and a value in some messages: both are cut too.
+        e["loc"] = [_cut(p, MAX_ECHO_CHARS) if isinstance(p, str) else p for p in e.get("loc", ())]
+        e["msg"] = _cut(str(e.get("msg", "")), 4 * MAX_ECHO_CHARS)
         if "input" in e:
             e["input"] = _echo(e["input"])
         ctx = e.get("ctx")
         if isinstance(ctx, dict):
-            e["ctx"] = {k: (str(v) if isinstance(v, Exception) else _echo(v)) for k, v in ctx.items()}
+            e["ctx"] = {k: (_cut(str(v), 4 * MAX_ECHO_CHARS) if isinstance(v, Exception) else _echo(v))
+                        for k, v in ctx.items()}
         clean.append(e)
     return {"detail": json_safe(jsonable_encoder(clean, custom_encoder={float: lambda x: x, bytes: _bytes_echo}))}
 
@@ -180,6 +188,8 @@ def install_error_handlers(app: FastAPI) -> None:
             # Malformed input is a 422 like any other invalid body (e.g. bytes that are not UTF-8).
             return JSONResponse(status_code=422, content={"detail": [
                 {"type": "json_invalid", "loc": ["body"], "msg": "the body is not valid UTF-8 JSON"}]})
+        if isinstance(exc.detail, str) and len(exc.detail) > 4 * MAX_ECHO_CHARS:  # e.g. a 10 kB study id
+            exc = StarletteHTTPException(exc.status_code, _cut(exc.detail, 4 * MAX_ECHO_CHARS), exc.headers)
         return await http_exception_handler(request, exc)
 
     @app.exception_handler(ComputeTimeout)
@@ -195,7 +205,8 @@ def install_error_handlers(app: FastAPI) -> None:
         # The numerics refused a value only they can judge: 422 naming the field (its location in the body).
         _log.info("numerics refused the input", extra={"field": exc.field})
         return SafeJSONResponse(status_code=422, content={"detail": [
-            {"type": "value_error", "loc": ["body", *field_loc(exc.field)], "msg": exc.rule}]})
+            {"type": "value_error", "loc": ["body", *field_loc(_cut(exc.field, MAX_ECHO_CHARS))],
+             "msg": _cut(exc.rule, 4 * MAX_ECHO_CHARS)}]})
 
     @app.exception_handler(StoreUnavailable)
     @app.exception_handler(OperationalError)
