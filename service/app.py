@@ -36,8 +36,8 @@ _DESCRIPTION = """Controller design for haptic interfaces (Díaz, Gil & Hulin, "
 Transparency for Haptic Rendering"). SI units throughout; every analysis says which rung of the accuracy
 ladder produced it (`method`) and what it cost (`elapsed_ms`).
 
-Invalid input answers 422 naming the field and the rule; bodies above the size limit 413; a computation
-past the request time budget 503. Limits: see docs/limits.md."""
+Invalid input answers 422 naming the field and the rule; bodies above the size limit 413, bodies slower
+than ZWIDTH_BODY_TIMEOUT 408; a computation past the request time budget 503. Limits: see docs/limits.md."""
 
 
 def _routers():
