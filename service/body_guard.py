@@ -14,7 +14,8 @@ deadline and checks two things no schema can:
   as UTF-8, so echoing it in a 422, storing it or logging it failed.  They are a 422 too.
 
 The body is then replayed to the app unchanged.  Both checks are byte scans that cost well under a
-millisecond for ordinary bodies (they run only when the body holds enough brackets or a ``\\u`` escape).
+millisecond for ordinary bodies (they run only when the body holds more than 64 brackets or a surrogate
+escape); a body above 64 kB is scanned in a worker thread, so the event loop keeps serving meanwhile.
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ import re
 import time
 from typing import Any, Awaitable, Callable
 
+import anyio.to_thread
 import numpy as np
 
 __all__ = ["BodyGuardMiddleware", "MAX_JSON_DEPTH", "json_depth", "lone_surrogate_at"]
@@ -41,6 +43,9 @@ _STRING = re.compile(rb'"(?:[^"\\]|\\.)*"', re.DOTALL)
 # a surrogate pair, a lone high or low surrogate, or any other escape.
 _ESCAPE = re.compile(rb"\\(?:(u[dD][89abAB][0-9a-fA-F]{2}\\u[dD][c-fC-F][0-9a-fA-F]{2})"
                      rb"|(u[dD][89a-fA-F][0-9a-fA-F]{2})|.)", re.DOTALL)
+_SURROGATE_HINT = re.compile(rb"\\u[dD][89a-fA-F]")
+#: Bodies above this size are checked in a worker thread, so that the event loop keeps serving.
+_THREAD_ABOVE = 64_000
 _OPEN, _CLOSE = (ord("["), ord("{")), (ord("]"), ord("}"))
 
 
@@ -64,7 +69,7 @@ def json_depth(body: bytes, at_most: int = MAX_JSON_DEPTH) -> int:
 
 def lone_surrogate_at(body: bytes) -> int | None:
     """Byte offset of the first ``\\uD800``–``\\uDFFF`` escape that is not part of a surrogate pair."""
-    if b"\\u" not in body:
+    if _SURROGATE_HINT.search(body) is None:  # C-speed: no \uD8..\uDF escape at all (the common case)
         return None
     for m in _ESCAPE.finditer(body):
         if m.group(2) is not None:
@@ -114,16 +119,10 @@ class BodyGuardMiddleware:
             if not message.get("more_body", False):
                 break
         body = b"".join(chunks)
-        refusal = None
-        depth = json_depth(body, self.max_depth)
-        if depth > self.max_depth:
-            refusal = _invalid("json_too_deep", f"the JSON nests {depth} levels of objects and arrays; the limit "
-                                                f"is {self.max_depth} (MAX_JSON_DEPTH, docs/limits.md)")
+        if len(body) > _THREAD_ABOVE:
+            refusal = await anyio.to_thread.run_sync(self._refusal, body)
         else:
-            at = lone_surrogate_at(body)
-            if at is not None:
-                refusal = _invalid("string_unicode", f"a string holds a lone UTF-16 surrogate escape at byte {at}; "
-                                                     "strings must be valid Unicode")
+            refusal = self._refusal(body)
         if refusal is not None:
             for m in refusal:
                 await send(m)
@@ -138,3 +137,14 @@ class BodyGuardMiddleware:
             return await receive()
 
         await self.app(scope, replay, send)
+
+    def _refusal(self, body: bytes) -> tuple[Message, Message] | None:
+        depth = json_depth(body, self.max_depth)
+        if depth > self.max_depth:
+            return _invalid("json_too_deep", f"the JSON nests {depth} levels of objects and arrays; the limit "
+                                             f"is {self.max_depth} (MAX_JSON_DEPTH, docs/limits.md)")
+        at = lone_surrogate_at(body)
+        if at is not None:
+            return _invalid("string_unicode", f"a string holds a lone UTF-16 surrogate escape at byte {at}; "
+                                              "strings must be valid Unicode")
+        return None
