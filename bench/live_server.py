@@ -34,14 +34,15 @@ class LiveServer:
     """
 
     def __init__(self, env: dict[str, str | None] | None = None, workers: int = 1, timeout: float = 60.0,
-                 args: tuple[str, ...] = (), log: Path | None = None, ready_path: str = "/healthz") -> None:
+                 args: tuple[str, ...] = (), log: Path | None = None, ready_path: str = "/healthz",
+                 app: str = "service.app:app") -> None:
         self.port = free_port()
         self.url = f"http://127.0.0.1:{self.port}"
         merged = {**os.environ, "PYTHONPATH": str(ROOT), "ZWIDTH_ACCESS_LOG": "false", **(env or {})}
         full_env = {k: v for k, v in merged.items() if v is not None}       # None removes a variable
         self._out: IO[bytes] = open(log, "a+b") if log is not None else tempfile.TemporaryFile()
         self.proc = subprocess.Popen(
-            [sys.executable, "-m", "uvicorn", "service.app:app", "--host", "127.0.0.1", "--port", str(self.port),
+            [sys.executable, "-m", "uvicorn", app, "--host", "127.0.0.1", "--port", str(self.port),
              "--workers", str(workers), "--log-level", "warning", "--no-access-log", *args],
             cwd=ROOT, env=full_env, stdout=self._out, stderr=subprocess.STDOUT, start_new_session=True)
         deadline = time.monotonic() + timeout

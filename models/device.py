@@ -8,6 +8,7 @@ from decimal import Decimal
 from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
+from .errors import InputError
 
 __all__ = [
     "Cable",
@@ -157,7 +158,7 @@ class Device(BaseModel):
         name = data.get("preset")
         if name is not None:
             if not isinstance(name, str) or name not in PRESETS:
-                raise ValueError(f"preset: unknown preset {name!r}; known presets: {', '.join(preset_names())}")
+                raise InputError("preset", f"unknown preset {name!r}; known presets: {', '.join(preset_names())}")
             base = PRESETS[name]
             if "cable" in data and data["cable"] is None and "mass" not in data and isinstance(base.get("cable"), dict):
                 c = base["cable"]
@@ -178,14 +179,14 @@ class Device(BaseModel):
                     data[key] = total
                 elif isinstance(given, (int, float)) and math.isfinite(given) and math.isfinite(total) \
                         and not _close(float(given), total):
-                    raise ValueError(f"{key}: with a cable block, {key} must equal cable {rule} = {total:g}, got {given:g}")
+                    raise InputError(key, f"with a cable block, {key} must equal cable {rule} = {total:g}, got {given:g}")
         return data
 
     @model_validator(mode="after")
     def _cost_limit(self) -> "Device":
         if self.delay / self.sample_time > MAX_DELAY_SAMPLES:
-            raise ValueError(
-                f"delay: {self.delay:g} s is {self.delay / self.sample_time:.6g} samples; "
+            raise InputError(
+                "delay", f"{self.delay:g} s is {self.delay / self.sample_time:.6g} samples; "
                 f"the limit is {MAX_DELAY_SAMPLES} samples of delay (delay / sample_time)")
         return self
 

@@ -23,6 +23,7 @@ from functools import lru_cache
 
 import numpy as np
 from scipy import signal
+from .errors import InputError
 
 __all__ = ["MAX_FILTER_ORDER", "ButterworthLowPass", "butterworth_polynomial", "butterworth_response",
            "butterworth_denominator"]
@@ -37,7 +38,7 @@ def butterworth_polynomial(order: int) -> tuple[float, ...]:
     From its poles s_k = exp(jπ(2k + n - 1)/(2n)), k = 1..n, on the left half unit circle.
     """
     if not 1 <= order <= MAX_FILTER_ORDER:
-        raise ValueError(f"order: a Butterworth filter of order 1-{MAX_FILTER_ORDER} is supported, got {order}")
+        raise InputError("order", f"a Butterworth filter of order 1-{MAX_FILTER_ORDER} is supported, got {order}")
     k = np.arange(1, order + 1)
     poles = np.exp(1j * np.pi * (2 * k + order - 1) / (2 * order))
     return tuple(float(c) for c in np.real(np.poly(poles)))
@@ -86,7 +87,7 @@ class ButterworthLowPass:
         butterworth_polynomial(self.order)  # validates the order
         nyquist = 0.5 / self.sample_time
         if not (math.isfinite(self.cutoff_hz) and 0.0 < self.cutoff_hz < nyquist):
-            raise ValueError(f"cutoff_hz: must be > 0 and below the Nyquist frequency {nyquist:g} Hz, "
+            raise InputError("cutoff_hz", f"must be > 0 and below the Nyquist frequency {nyquist:g} Hz, "
                              f"got {self.cutoff_hz:g}")
 
     @property

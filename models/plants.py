@@ -8,6 +8,7 @@ import numpy as np
 
 from .device import Device
 from .discretize import RigidZOH, StateSpaceZOH, cable_state_space, split_delay
+from .errors import InputError
 
 __all__ = ["TransferFunction", "rigid_tf", "cable_tfs", "stiffness_loop_plant", "Q_criterion"]
 
@@ -32,7 +33,7 @@ def cable_tfs(device: Device) -> dict[str, TransferFunction]:
     """G_d, G_c, G_r of eq. 15-18 for a device with a cable block."""
     c = device.cable
     if c is None:
-        raise ValueError("cable: this device has no cable block")
+        raise InputError("cable", "this device has no cable block")
     p_r = np.array([c.motor_mass, c.motor_damping + c.damping, c.stiffness])
     p_d = np.array([c.body_mass, c.body_damping + c.damping, c.stiffness])
     link = np.array([c.damping, c.stiffness])
@@ -68,7 +69,7 @@ def Q_criterion(device: Device) -> float:
     """Q ≈ m_r z_n ω_n (eq. 22-24) [N/m]: the resonant peak's distance to 0 dB."""
     c = device.cable
     if c is None:
-        raise ValueError("cable: the Q criterion needs a cable block")
+        raise InputError("cable", "the Q criterion needs a cable block")
     m_r, m_d = c.motor_mass, c.body_mass
     z_n = (c.motor_damping + c.damping) / m_r + (c.body_damping + c.damping) / m_d \
         - (c.motor_damping + c.body_damping) / (m_r + m_d)

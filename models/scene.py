@@ -14,6 +14,7 @@ import math
 from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
+from .errors import InputError
 
 __all__ = [
     "EFFECT_NAMES", "LINEAR_EFFECTS", "SAMPLED_NONLINEAR_EFFECTS", "CONTINUOUS_NONLINEAR_EFFECTS",
@@ -75,11 +76,11 @@ class PushProfile(BaseModel):
     @model_validator(mode="after")
     def _check(self) -> "PushProfile":
         if len(self.times) != len(self.forces):
-            raise ValueError("push.forces: must have as many values as push.times")
+            raise InputError("push.forces", "must have as many values as push.times")
         if any(not math.isfinite(v) or abs(v) > _BIG for v in self.times + self.forces):
-            raise ValueError("push: times and forces must be finite and below 1e12 in magnitude")
+            raise InputError("push", "times and forces must be finite and below 1e12 in magnitude")
         if self.times[0] < 0 or any(b <= a for a, b in zip(self.times, self.times[1:])):
-            raise ValueError("push.times: must be ≥ 0 and strictly increasing")
+            raise InputError("push.times", "must be ≥ 0 and strictly increasing")
         return self
 
 
@@ -157,19 +158,19 @@ class Scene(BaseModel):
     def _consistent(self) -> "Scene":
         if self.experiment == "relay":
             if self.controller is not None:
-                raise ValueError("scene.controller: a relay experiment has no wall controller (the relay is the controller)")
+                raise InputError("scene.controller", "a relay experiment has no wall controller (the relay is the controller)")
             if self.push is not None:
-                raise ValueError("scene.push: only a push experiment takes a force profile")
+                raise InputError("scene.push", "only a push experiment takes a force profile")
         else:
             if self.controller is None:
-                raise ValueError(f"scene.controller: a {self.experiment} experiment needs the wall controller")
+                raise InputError("scene.controller", f"a {self.experiment} experiment needs the wall controller")
             if self.relay is not None:
-                raise ValueError("scene.relay: only a relay experiment takes relay settings")
+                raise InputError("scene.relay", "only a relay experiment takes relay settings")
             if self.experiment == "push" and self.push is None:
-                raise ValueError("scene.push: a push experiment needs the force profile")
+                raise InputError("scene.push", "a push experiment needs the force profile")
             if self.experiment == "release" and self.push is not None:
-                raise ValueError("scene.push: a release experiment takes no force profile (use experiment 'push')")
+                raise InputError("scene.push", "a release experiment takes no force profile (use experiment 'push')")
         if self.effects.force_feedforward is not None and self.effects.force_sensor_filter is None:
-            raise ValueError("scene.effects.force_feedforward: needs force_sensor_filter too (the sampled sensor "
+            raise InputError("scene.effects.force_feedforward", "needs force_sensor_filter too (the sampled sensor "
                              "force must come through G_f, eq. 31; without it the loop is algebraic)")
         return self

@@ -28,6 +28,7 @@ import numpy as np
 from scipy.signal import butter, tf2ss
 
 from .sim_plant import SampledPlant
+from .errors import InputError
 
 __all__ = ["LoopSpec", "Record", "feedforward_filter", "closed_loop_matrices", "run_sampled_loop",
            "linear_step"]
@@ -71,7 +72,7 @@ def feedforward_filter(cutoff_hz: float | None, order: int, sample_time: float):
         return None
     fs = 1.0 / sample_time
     if not cutoff_hz < fs / 2:
-        raise ValueError(f"scene.effects.force_feedforward.cutoff_hz: must be below the Nyquist frequency "
+        raise InputError("scene.effects.force_feedforward.cutoff_hz", f"must be below the Nyquist frequency "
                          f"{fs / 2:g} Hz")
     # A cascade of second-order sections, not one companion form: at a low cutoff the poles cluster near
     # z = 1 and a companion matrix's eigenvalues (and its powers) lose ~all digits (a 1.24 Hz 4th-order
@@ -112,7 +113,7 @@ def closed_loop_matrices(spec: LoopSpec, x0: np.ndarray, v0: float):
     lrow[n + nb] += spec.damping / t
     if spec.ff_gain:
         if pl.sensor is None:
-            raise ValueError("scene.effects.force_feedforward: needs the force sensor state")
+            raise InputError("scene.effects.force_feedforward", "needs the force sensor state")
         if spec.ff_filter is None:
             lrow[pl.sensor] += spec.ff_gain
         else:

@@ -27,6 +27,7 @@ from .scene import (MAX_SAMPLES_EVENT_INTEGRATOR, MAX_SAMPLES_LINEAR, MAX_SAMPLE
 from .sim_loop import LoopSpec, Record, closed_loop_matrices, feedforward_filter, linear_step, run_sampled_loop
 from .sim_plant import SceneModelError, build_plant, sample_plant
 from .verdict import SceneVerdict, decide
+from .errors import InputError
 
 __all__ = ["Trajectory", "SimulationResult", "simulate", "propagation_method", "sample_count",
            "check_cost", "SceneModelError", "loop_spec", "DIVERGENCE_FACTOR", "scene_poles"]
@@ -100,7 +101,7 @@ def check_cost(device: Device, scene: Scene) -> None:
     method = propagation_method(scene)
     n = sample_count(device, scene)
     if n > _LIMITS[method]:
-        raise ValueError(f"scene.duration: {scene.duration:g} s is {n} samples at T = {device.sample_time:g} s; "
+        raise InputError("scene.duration", f"{scene.duration:g} s is {n} samples at T = {device.sample_time:g} s; "
                          f"the limit for method {method} is {_LIMITS[method]} samples")
 
 

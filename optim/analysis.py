@@ -21,6 +21,7 @@ from models.plants import Q_criterion
 from .margins import Crossover, critical_stiffness, gain_margin_db, linear_estimate, loop_plant, max_stable_damping
 from .passivity import passivity_margin
 from .reference import reference_critical_stiffness
+from .errors import InputError
 
 __all__ = ["Method", "METHODS", "StabilityAnalysis", "analyse_stability", "linear_error_estimate",
            "grid_critical_stiffness", "DEFAULT_GRID_POINTS", "MAX_GRID_POINTS", "EXACT_REL_ERROR",
@@ -166,17 +167,17 @@ def analyse_stability(device: Device, stiffness: float | None = None, damping: f
         with np.errstate(over="raise", invalid="raise"):
             return _analyse(device, stiffness, damping, method, grid_points)
     except (FloatingPointError, OverflowError, ZeroDivisionError) as exc:
-        raise ValueError(f"device: the parameters are outside the numerically representable range ({exc})") from exc
+        raise InputError("device", f"the parameters are outside the numerically representable range ({exc})") from exc
 
 
 def _analyse(device: Device, stiffness: float | None, damping: float, method: str,
              grid_points: int) -> StabilityAnalysis:
     if method not in METHODS:
-        raise ValueError(f"method: must be one of {', '.join(METHODS)}")
+        raise InputError("method", f"must be one of {', '.join(METHODS)}")
     if stiffness is not None and not (math.isfinite(stiffness) and stiffness > 0):
-        raise ValueError("stiffness: must be finite and > 0")
+        raise InputError("stiffness", "must be finite and > 0")
     if not (math.isfinite(damping) and damping >= 0):
-        raise ValueError("damping: must be finite and ≥ 0")
+        raise InputError("damping", "must be finite and ≥ 0")
     t0 = time.perf_counter()
     lin = linear_estimate(device, damping)
     reason = None
@@ -189,7 +190,7 @@ def _analyse(device: Device, stiffness: float | None, damping: float, method: st
         source = "first- and second-order terms in (1+d)(δ+β) dropped by the linearisation (eq. 9/10), fitted on the test suite"
     elif method == "grid":
         if not (10 <= grid_points <= MAX_GRID_POINTS):
-            raise ValueError(f"grid_points: must be between 10 and {MAX_GRID_POINTS}")
+            raise InputError("grid_points", f"must be between 10 and {MAX_GRID_POINTS}")
         kcr, w, crossovers, err = grid_critical_stiffness(device, damping, grid_points)
         source = (f"half the change of K across the bracketing grid interval ({grid_points} log-spaced ω from 1e-3/T "
                   "to π/T); null (unbounded) when the grid's samples show missed crossovers: Im H > 0 at its lowest "

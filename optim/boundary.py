@@ -12,6 +12,7 @@ from scipy.optimize import minimize_scalar
 from models.device import Device
 
 from .margins import critical_stiffness, linear_estimate, max_stable_damping
+from .errors import InputError
 
 __all__ = ["BoundaryPoint", "Boundary", "stability_boundary", "MAX_BOUNDARY_POINTS"]
 
@@ -56,19 +57,19 @@ def stability_boundary(device: Device, damping_max: float | None = None, points:
         with np.errstate(over="raise", invalid="raise"):
             return _boundary(device, damping_max, points)
     except (FloatingPointError, OverflowError, ZeroDivisionError) as exc:
-        raise ValueError(f"device: the parameters are outside the numerically representable range ({exc})") from exc
+        raise InputError("device", f"the parameters are outside the numerically representable range ({exc})") from exc
 
 
 def _boundary(device: Device, damping_max: float | None, points: int) -> Boundary:
     if not (2 <= points <= MAX_BOUNDARY_POINTS):
-        raise ValueError(f"points: must be between 2 and {MAX_BOUNDARY_POINTS}")
+        raise InputError("points", f"must be between 2 and {MAX_BOUNDARY_POINTS}")
     if damping_max is not None and not (math.isfinite(damping_max) and damping_max > 0):
-        raise ValueError("damping_max: must be finite and > 0")
+        raise InputError("damping_max", "must be finite and > 0")
     t0 = time.perf_counter()
     b_max = max_stable_damping(device)
     top = damping_max if damping_max is not None else b_max
     if not math.isfinite(top):
-        raise ValueError("damping_max: this device has no finite B_max; give damping_max")
+        raise InputError("damping_max", "this device has no finite B_max; give damping_max")
     grid = np.linspace(0.0, top, points)
     pts = tuple(_point(device, float(b)) for b in grid)
     valid = [p for p in pts if math.isfinite(p.critical_stiffness)]

@@ -41,6 +41,7 @@ from .margins import critical_stiffness, gain_margin_db, linear_estimate, loop_p
 from .passivity import passive_alpha_on_grid, passivity_margin, passivity_samples
 from .reference import reference_critical_stiffness
 from .stiffness import StiffnessDesign, StiffnessRequirements, design_stiffness
+from .errors import InputError
 
 __all__ = ["ExactCheck", "RungInfo", "design_stiffness_on_rung", "design_inertia_on_rung", "DESIGN_SCAN_POINTS"]
 
@@ -77,9 +78,9 @@ class RungInfo:
 
 def _check_method(method: str, grid_points: int) -> None:
     if method not in METHODS:
-        raise ValueError(f"method: must be one of {', '.join(METHODS)}")
+        raise InputError("method", f"must be one of {', '.join(METHODS)}")
     if not 10 <= grid_points <= MAX_GRID_POINTS:
-        raise ValueError(f"grid_points: must be between 10 and {MAX_GRID_POINTS}")
+        raise InputError("grid_points", f"must be between 10 and {MAX_GRID_POINTS}")
 
 
 def _exact_check(critical: float, value: float, required_db: float, what: str, passive: bool | None = None) -> ExactCheck:

@@ -22,6 +22,7 @@ the rule.
 from __future__ import annotations
 
 from models.device import Device, Human
+from .errors import InputError
 
 __all__ = ["DELTA_MIN", "DELTA_MAX", "SCALE_MIN", "SCALE_MAX", "RATIO_MIN", "RATIO_MAX", "CUTOFF_RATIO_MIN",
            "check_device_domain", "check_human_domain", "check_human_mass", "check_cutoff_domain",
@@ -52,7 +53,7 @@ def _ratio(field: str, value: float, scale: float, what: str, zero_ok: bool) -> 
         return
     r = value / scale
     if not (RATIO_MIN <= r <= RATIO_MAX):
-        raise ValueError(f"{field}: {what} = {r:.3g} must be {'0 or ' if zero_ok else ''}within "
+        raise InputError(field, f"{what} = {r:.3g} must be {'0 or ' if zero_ok else ''}within "
                          f"[{RATIO_MIN:g}, {RATIO_MAX:g}] for double-precision analysis")
 
 
@@ -88,7 +89,7 @@ def check_cutoff_domain(cutoff_hz: float, sample_time: float, field: str) -> Non
     frequency (f_c·T < 1/2), is models.filters.ButterworthLowPass's own rule."""
     r = cutoff_hz * sample_time
     if not r >= CUTOFF_RATIO_MIN:
-        raise ValueError(f"{field}: cutoff_hz·sample_time = {r:.3g} must be ≥ {CUTOFF_RATIO_MIN:g} for "
+        raise InputError(field, f"cutoff_hz·sample_time = {r:.3g} must be ≥ {CUTOFF_RATIO_MIN:g} for "
                          f"double-precision analysis (a cutoff of at least {CUTOFF_RATIO_MIN / sample_time:.3g} Hz "
                          f"at this sample time)")
 
@@ -98,13 +99,13 @@ def check_device_domain(device: Device) -> None:
     # m/T/T, not m/T**2: T² of a subnormal T underflows to 0 (a ZeroDivisionError); the quotient overflows to inf.
     scales = (device.mass / device.sample_time / device.sample_time, device.mass / device.sample_time)
     if not all(SCALE_MIN <= s <= SCALE_MAX for s in scales):
-        raise ValueError(f"mass: mass/sample_time² and mass/sample_time must lie within [{SCALE_MIN:g}, "
+        raise InputError("mass", f"mass/sample_time² and mass/sample_time must lie within [{SCALE_MIN:g}, "
                          f"{SCALE_MAX:g}] for double-precision analysis (mass {device.mass:g}, "
                          f"sample_time {device.sample_time:g})")
     delta = device.delta
     # b > 0 with δ underflowing to 0 counts as out of range: the numerics would treat it as undamped.
     if device.damping != 0.0 and not (DELTA_MIN <= delta <= DELTA_MAX):
-        raise ValueError(f"damping: the dimensionless damping δ = damping·sample_time/mass = {delta:.3g} must be 0 or "
+        raise InputError("damping", f"the dimensionless damping δ = damping·sample_time/mass = {delta:.3g} must be 0 or "
                          f"within [{DELTA_MIN:g}, {DELTA_MAX:g}] (chapter Table 1)")
     m, t = device.mass, device.sample_time
     k_scale, b_scale = m / t / t, m / t

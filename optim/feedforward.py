@@ -26,6 +26,7 @@ from models.feedforward import CHAPTER_HUMAN, FeedforwardPlant, feedforward_plan
 from models.filters import ButterworthLowPass, butterworth_denominator
 
 from .crossovers import positive_real_crossings, scan_grid
+from .errors import InputError
 
 __all__ = ["ForceCrossover", "CriticalForceGain", "critical_force_gain", "critical_force_gain_of_plant",
            "worst_case_force_gain", "apparent_mass", "force_gain_margin_db", "resolve_human"]
@@ -144,7 +145,7 @@ def critical_force_gain(device: Device, filter: ButterworthLowPass | None = None
                         human: Human | None = None) -> CriticalForceGain:
     """Exact K_f,cr = Gm{D(z)·G_1(z)} (eq. 32/34) for the device's own model (cable if present)."""
     if filter is not None and not math.isclose(filter.sample_time, device.sample_time, rel_tol=1e-12):
-        raise ValueError("filter: its sample_time must be the device's sample_time")
+        raise InputError("filter", "its sample_time must be the device's sample_time")
     hm, source = resolve_human(device, human)
     plant = feedforward_plant(device, hm)
     kcr, theta, found = critical_force_gain_of_plant(

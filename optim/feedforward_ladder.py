@@ -48,6 +48,7 @@ from models.filters import ButterworthLowPass, butterworth_polynomial
 from .analysis import METHODS, DEFAULT_GRID_POINTS, MAX_GRID_POINTS
 from .feedforward import (ForceCrossover, critical_force_gain, resolve_human, worst_case_force_gain)
 from .feedforward_reference import REFERENCE_DIGITS, reference_critical_force_gain
+from .errors import InputError
 
 __all__ = ["ForceFeedforwardAnalysis", "analyse_force_feedforward", "linear_force_gain_error",
            "grid_critical_force_gain", "EXACT_REL_ERROR"]
@@ -243,11 +244,11 @@ def analyse_force_feedforward(device: Device, filt: ButterworthLowPass | None = 
                               method: str = "exact", grid_points: int = DEFAULT_GRID_POINTS) -> ForceFeedforwardAnalysis:
     """K_f,cr of 1 + K_f·D·G_1 on the chosen rung (ValueError names a bad field)."""
     if method not in METHODS:
-        raise ValueError(f"method: must be one of {', '.join(METHODS)}")
+        raise InputError("method", f"must be one of {', '.join(METHODS)}")
     if method == "grid" and not (10 <= grid_points <= MAX_GRID_POINTS):
-        raise ValueError(f"grid_points: must be between 10 and {MAX_GRID_POINTS}")
+        raise InputError("grid_points", f"must be between 10 and {MAX_GRID_POINTS}")
     if filt is not None and not math.isclose(filt.sample_time, device.sample_time, rel_tol=1e-12):
-        raise ValueError("filter: its sample_time must be the device's sample_time")
+        raise InputError("filter", "its sample_time must be the device's sample_time")
     t0 = time.perf_counter()
     hm, source = resolve_human(device, human)
     worst = worst_case_force_gain(device, hm)

@@ -37,6 +37,7 @@ from dataclasses import dataclass
 import mpmath as mp
 
 from models.device import Device, Human
+from .errors import InputError
 
 __all__ = ["FeedforwardReference", "reference_critical_force_gain", "reference_g1",
            "MAX_REFERENCE_DELAY_SAMPLES", "REFERENCE_DIGITS"]
@@ -203,12 +204,12 @@ def reference_critical_force_gain(device: Device, human: Human, filter_order: in
                                   digits: int = REFERENCE_DIGITS) -> FeedforwardReference:
     """K_f,cr of 1 + K_f·D(z)·G_1(z) at ``digits`` digits (see module doc); no filter when cutoff_hz is None."""
     if device.delay_samples > MAX_REFERENCE_DELAY_SAMPLES:
-        raise ValueError(f"device.delay: the reference rung is capped at {MAX_REFERENCE_DELAY_SAMPLES} samples of delay "
+        raise InputError("device.delay", f"the reference rung is capped at {MAX_REFERENCE_DELAY_SAMPLES} samples of delay "
                          "(its cost grows linearly with the delay)")
     with mp.workdps(digits + _GUARD):
         g1 = _G1(device, human)
         if any(mp.re(p) >= 0 and abs(p) > 0 for p in g1.poles):
-            raise ValueError("device: the reference rung needs a damped device and grasp (a pole of G_1 is not "
+            raise InputError("device", "the reference rung needs a damped device and grasp (a pole of G_1 is not "
                              "in the open left half plane)")
         dz = _butterworth(filter_order, cutoff_hz, device.sample_time) if cutoff_hz is not None else None
         count = [0]

@@ -19,6 +19,7 @@ from models.device import Device
 from models.plants import stiffness_loop_plant
 
 from .margins import critical_stiffness
+from .errors import InputError
 
 __all__ = ["CrossoverPoint", "FrequencyResponse", "plant_response", "loop_frequency_response",
            "MAX_RESPONSE_POINTS"]
@@ -78,7 +79,7 @@ def plant_response(device: Device, omega: np.ndarray) -> tuple[np.ndarray, np.nd
 def loop_frequency_response(device: Device, damping: float = 0.0, points: int = 400) -> FrequencyResponse:
     """Bode data of G on ``points`` log-spaced frequencies, with the crossovers of K_cr(B) marked."""
     if not (10 <= points <= MAX_RESPONSE_POINTS):
-        raise ValueError(f"points: must be between 10 and {MAX_RESPONSE_POINTS}")
+        raise InputError("points", f"must be between 10 and {MAX_RESPONSE_POINTS}")
     t = device.sample_time
     omega = np.geomspace(_THETA_LOW, math.pi, points) / t
     omega[-1] = math.pi / t  # geomspace's last point may differ from π/T by an ulp

@@ -40,6 +40,7 @@ from .hardware_binding import binding_effect
 from .hardware_range import check_range, default_grid, range_grid, widen_end
 from .hardware_targets import (DesignFailed, HardwareTarget, Probe, achievable_force_gain, achievable_stiffness,
                                device_with, limiting_effect)
+from .errors import InputError
 
 __all__ = ["FREE_PARAMETERS", "HardwareTarget", "HardwareDesign", "design_hardware", "device_with",
            "achievable_stiffness", "achievable_force_gain", "loose_direction"]
@@ -117,9 +118,9 @@ def design_hardware(device: Device, target: HardwareTarget, free: str, points: i
     target is out of reach and the best value is at an end (optim/hardware_range.py)."""
     t0 = time.perf_counter()
     if free not in FREE_PARAMETERS:
-        raise ValueError(f"free: must be one of {', '.join(FREE_PARAMETERS)}")
+        raise InputError("free", f"must be one of {', '.join(FREE_PARAMETERS)}")
     if free == "cable.stiffness" and device.cable is None:
-        raise ValueError("free: cable.stiffness needs a device with a cable block")
+        raise InputError("free", "cable.stiffness needs a device with a cable block")
     target.check(device, free)
     direction = loose_direction(free, target)
 

@@ -20,6 +20,7 @@ from pydantic import ValidationError
 from models.device import MAX_DELAY_SAMPLES, Device
 from optim.domain import check_controller_domain, check_cutoff_domain, check_device_domain
 
+from .errors import InputError
 from .hardware_targets import HardwareTarget, current_value, device_with
 
 __all__ = ["default_grid", "range_grid", "check_range", "refusal", "widen_end", "SPAN"]
@@ -64,18 +65,18 @@ def default_grid(device: Device, free: str, points: int) -> np.ndarray:
         lo = max(v / SPAN, device.delay / MAX_DELAY_SAMPLES * 2)
         return np.geomspace(lo, hi, points)
     if v <= 0:
-        raise ValueError(f"free: the device's {free} is 0; give a positive value to scan around, or a range")
+        raise InputError("free", f"the device's {free} is 0; give a positive value to scan around, or a range")
     return np.geomspace(v / SPAN, v * SPAN, points)
 
 
 def check_range(device: Device, free: str, target: HardwareTarget, lo: float, hi: float) -> None:
-    """ValueError("range.<min|max>: rule") for a requested range that is empty or leaves the input limits."""
+    """InputError on range.min / range.max for a requested range that is empty or leaves the input limits."""
     if not lo < hi:
-        raise ValueError(f"range.min: must be below range.max, got min {lo:g} ≥ max {hi:g}")
+        raise InputError("range.min", f"must be below range.max, got min {lo:g} ≥ max {hi:g}")
     for name, v in (("min", lo), ("max", hi)):
         why = refusal(device, free, v, target)
         if why is not None:
-            raise ValueError(f"range.{name}: {free} = {v:g} is outside the input limits ({why})")
+            raise InputError(f"range.{name}", f"{free} = {v:g} is outside the input limits ({why})")
 
 
 def range_grid(free: str, lo: float, hi: float, points: int) -> np.ndarray:

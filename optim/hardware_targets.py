@@ -24,6 +24,7 @@ from models.device import Device
 from models.filters import MAX_FILTER_ORDER
 from optim.inertia import InertiaDesign, InertiaRequirements, design_inertia, upper_cutoff_hz
 from optim.stiffness import StiffnessDesign, StiffnessRequirements, design_stiffness
+from .errors import InputError
 
 #: Cutoffs of the inertia design's Pareto scan at each value of the free parameter: its band search
 #: (optim/inertia_band.py) doubles them and brackets every jump, so 9 find the same maximum as the
@@ -82,27 +83,27 @@ class HardwareTarget:
         def positive(name: str) -> None:
             v = getattr(self, name)
             if v is not None and not (math.isfinite(v) and v > 0):
-                raise ValueError(f"target.{name}: must be a finite number > 0")
+                raise InputError(f"target.{name}", "must be a finite number > 0")
 
         for name in ("stiffness", "force_gain", "apparent_mass", "max_damping", "cutoff_min_hz"):
             positive(name)
         if not (math.isfinite(self.min_gain_margin_db) and self.min_gain_margin_db >= 0):
-            raise ValueError("target.min_gain_margin_db: must be a finite number ≥ 0")
+            raise InputError("target.min_gain_margin_db", "must be a finite number ≥ 0")
         if self.force_gain is not None and self.apparent_mass is not None:
-            raise ValueError("target.apparent_mass: give force_gain or apparent_mass, not both (K_f = m/m_app − 1)")
+            raise InputError("target.apparent_mass", "give force_gain or apparent_mass, not both (K_f = m/m_app − 1)")
         if self.stiffness is None and self.feedforward is None:
-            raise ValueError("target.stiffness: give at least one target: stiffness, force_gain or apparent_mass")
+            raise InputError("target.stiffness", "give at least one target: stiffness, force_gain or apparent_mass")
         if self.max_damping is not None and self.stiffness is None:
-            raise ValueError("target.max_damping: caps the B of the stiffness target; give target.stiffness")
+            raise InputError("target.max_damping", "caps the B of the stiffness target; give target.stiffness")
         for name in ("cutoff_min_hz", "filter_order"):
             if getattr(self, name) is not None and self.feedforward is None:
-                raise ValueError(f"target.{name}: applies to the force-feedforward design; give target.force_gain "
+                raise InputError(f"target.{name}", f"applies to the force-feedforward design; give target.force_gain "
                                  f"or target.apparent_mass")
         if self.filter_order is not None and not 1 <= self.filter_order <= MAX_FILTER_ORDER:
-            raise ValueError(f"target.filter_order: must be 1-{MAX_FILTER_ORDER}")
+            raise InputError("target.filter_order", f"must be 1-{MAX_FILTER_ORDER}")
         # With the mass free the device's own mass is only the centre of the scan: any m_t can bind somewhere.
         if self.apparent_mass is not None and free != "mass" and not self.apparent_mass < device.mass:
-            raise ValueError(f"target.apparent_mass: must be below the device's mass {device.mass:g} kg "
+            raise InputError("target.apparent_mass", f"must be below the device's mass {device.mass:g} kg "
                              f"(force feedforward only lowers the apparent mass m/(1 + K_f))")
 
 

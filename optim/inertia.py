@@ -38,6 +38,7 @@ from models.filters import MAX_FILTER_ORDER
 from .feedforward import critical_force_gain_of_plant, resolve_human
 from .inertia_band import band_profile, highest_feasible, maximise
 from .inertia_nlp import modal_plant
+from .errors import InputError
 
 __all__ = ["InertiaRequirements", "ParetoPoint", "RigidComparison", "InertiaDesign", "design_inertia",
            "upper_cutoff_hz", "pareto_points", "RIGID_OPTIMISM_FLAG"]
@@ -141,9 +142,9 @@ def _band(device: Device, req: InertiaRequirements) -> tuple[float, float, str]:
     nyq = 0.5 / device.sample_time
     hi, src = upper_cutoff_hz(device, req.cutoff_max_hz)
     if not hi < nyq:
-        raise ValueError(f"requirements.cutoff_max_hz: must be below the Nyquist frequency {nyq:g} Hz, got {hi:g}")
+        raise InputError("requirements.cutoff_max_hz", f"must be below the Nyquist frequency {nyq:g} Hz, got {hi:g}")
     if not req.cutoff_min_hz < hi:
-        raise ValueError(f"requirements.cutoff_min_hz: must be below the upper cutoff {hi:g} Hz ({src}), "
+        raise InputError("requirements.cutoff_min_hz", f"must be below the upper cutoff {hi:g} Hz ({src}), "
                          f"got {req.cutoff_min_hz:g}")
     return req.cutoff_min_hz, hi, src
 
@@ -200,7 +201,7 @@ def design_inertia(device: Device, req: InertiaRequirements | None = None) -> In
     start = time.perf_counter()
     req = req or InertiaRequirements()
     if not 1 <= req.filter_order <= MAX_FILTER_ORDER:
-        raise ValueError(f"requirements.filter_order: must be 1-{MAX_FILTER_ORDER}, got {req.filter_order}")
+        raise InputError("requirements.filter_order", f"must be 1-{MAX_FILTER_ORDER}, got {req.filter_order}")
     lo_hz, hi_hz, hi_src = _band(device, req)
     humans, human_src = _humans(device, req)
     for _ in range(_MAX_HUMAN_ROUNDS):

@@ -22,6 +22,7 @@ from models.device import Device
 from models.plants import stiffness_loop_plant
 
 from .crossovers import Crossing, positive_real_crossings, scan_grid
+from .errors import InputError
 
 __all__ = ["Crossover", "CriticalStiffness", "critical_stiffness", "max_stable_damping",
            "linear_estimate", "gain_margin_db", "loop_plant"]
@@ -110,7 +111,7 @@ def critical_stiffness(device: Device, damping: float = 0.0, *, b_max: float | N
     ``b_max``: the caller's ``max_stable_damping(device)`` of this same device, when it has it (a design
     calls this many times on one device); computed here otherwise."""
     if not (math.isfinite(damping) and damping >= 0.0):
-        raise ValueError("damping: virtual damping B must be finite and ≥ 0")
+        raise InputError("damping", "virtual damping B must be finite and ≥ 0")
     plant = loop_plant(device)
     beta = damping / device.damping_scale
     if device.damping + damping <= 0.0:

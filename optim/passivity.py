@@ -29,6 +29,7 @@ from models.device import Device
 from models.discretize import split_delay
 
 from .golden import golden_minimum
+from .errors import InputError
 
 __all__ = ["PassivityCheck", "PassiveStiffness", "passivity_samples", "kernel", "passivity_margin",
            "is_passive", "max_passive_stiffness", "largest_passive_stiffness", "passive_alpha_on_grid",
@@ -123,7 +124,7 @@ def is_passive(device: Device, stiffness: float, damping: float) -> bool:
 def largest_passive_stiffness(device: Device, damping: float) -> PassiveStiffness:
     """sup of the passive K [N/m] at virtual damping B = ``damping`` [N·s/m]."""
     if not (math.isfinite(damping) and damping >= 0.0):
-        raise ValueError("damping: virtual damping B must be finite and ≥ 0")
+        raise InputError("damping", "virtual damping B must be finite and ≥ 0")
     d, conservative = passivity_samples(device)
     b, half_t = device.damping, device.sample_time / 2
     theta = _grid(d)

@@ -17,6 +17,7 @@ import mpmath as mp
 
 from models.device import Device
 from models.discretize import split_delay
+from .errors import InputError
 
 __all__ = ["ReferenceResult", "reference_critical_stiffness", "MAX_REFERENCE_DELAY_SAMPLES"]
 
@@ -142,7 +143,7 @@ def _scan(h, device: Device, beta: float, digits: int) -> list[tuple[float, floa
 def reference_critical_stiffness(device: Device, damping: float = 0.0, digits: int = 40) -> ReferenceResult:
     """K_cr(B) in ``digits``-digit arithmetic (B below B_max is assumed; see optim.margins)."""
     if device.delay_samples > MAX_REFERENCE_DELAY_SAMPLES:
-        raise ValueError(f"delay: the reference rung is capped at {MAX_REFERENCE_DELAY_SAMPLES} samples of delay")
+        raise InputError("delay", f"the reference rung is capped at {MAX_REFERENCE_DELAY_SAMPLES} samples of delay")
     # The rigid closed form cancels like 1/δ² (partial fractions): carry extra digits for it.
     extra = 10 + 2 * max(0, int(-math.log10(max(device.delta, 1e-300))))
     with mp.workdps(digits + extra):

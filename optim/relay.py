@@ -29,6 +29,7 @@ from models.simulate import SimulationResult, loop_spec, simulate
 
 from .margins import CriticalStiffness, Crossover, critical_stiffness
 from .relay_cycles import PeriodicSolution, pattern_solution, relay_loop, symmetric_cycles
+from .errors import InputError
 
 __all__ = ["SettledCycle", "RelayReport", "RelayRung", "analyse_relay_run", "relay_experiment", "relay_rung",
            "analysis_device", "MAX_PATTERN", "MAX_HALF_PERIOD_SEARCH"]
@@ -229,7 +230,7 @@ def _search_limit(crit: CriticalStiffness, t: float) -> int:
 def relay_experiment(device: Device, scene: Scene, result: SimulationResult | None = None) -> RelayReport:
     """Simulate (unless given) and analyse a relay scene."""
     if scene.experiment != "relay" or scene.relay is None:
-        raise ValueError("scene.experiment: relay_experiment needs a relay scene")
+        raise InputError("scene.experiment", "relay_experiment needs a relay scene")
     result = result if result is not None else simulate(device, scene)
     amplitude = scene.relay.amplitude
     loop = relay_loop(loop_spec(device, scene).sampled)

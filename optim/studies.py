@@ -28,6 +28,7 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 
 from models.device import Device
+from .errors import InputError
 
 __all__ = ["MAX_STUDY_POINTS", "PROBLEMS", "StudyInputError", "ProblemUnavailable", "Axis", "StudyPlan",
            "Problem", "get_problem", "plan_study", "device_paths", "evaluate_point", "evaluate_chunk",
@@ -42,13 +43,12 @@ SCALES = ("linear", "log")
 DESIGNS = ("grid", "latin_hypercube")
 
 
-class StudyInputError(ValueError):
+class StudyInputError(InputError):
     """A study request the planner rejects; ``field`` is the dotted location of the bad input."""
 
-    def __init__(self, field: str, msg: str):
-        super().__init__(f"{field}: {msg}")
-        self.field = field
-        self.msg = msg
+    @property
+    def msg(self) -> str:
+        return self.rule
 
 
 class ProblemUnavailable(StudyInputError):
@@ -119,20 +119,30 @@ def flatten_result(result: Any) -> dict[str, Any]:
 _STABILITY_REQUIREMENTS = {"stiffness": "float", "damping": "float"}
 
 
+def _is_finite_number(value: Any) -> bool:
+    """A JSON number that is a finite double (an integer of 400 digits is not: float() overflows)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return False
+    try:
+        return math.isfinite(value)
+    except OverflowError:
+        return False
+
+
 def _check_stability_requirements(req: Mapping[str, Any]) -> None:
     for key, value in req.items():
         if key not in _STABILITY_REQUIREMENTS:
-            raise ValueError(f"{key}: unknown requirement of the stability problem "
+            raise InputError(key, f"unknown requirement of the stability problem "
                              f"(known: {', '.join(_STABILITY_REQUIREMENTS)})")
         if value is None:
             continue
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise ValueError(f"{key}: must be a finite number")
+        if not _is_finite_number(value):
+            raise InputError(key, "must be a finite number")
     k, b = req.get("stiffness"), req.get("damping")
     if k is not None and not k > 0:
-        raise ValueError("stiffness: the wall's K must be > 0 [N/m]")
+        raise InputError("stiffness", "the wall's K must be > 0 [N/m]")
     if b is not None and not b >= 0:
-        raise ValueError("damping: the wall's B must be ≥ 0 [N·s/m]")
+        raise InputError("damping", "the wall's B must be ≥ 0 [N·s/m]")
 
 
 def _dataclass_kinds(cls: type) -> dict[str, str]:
@@ -163,12 +173,17 @@ def _design_problem(name: str, module: str, function: str, requirements: str) ->
     def build(req: Mapping[str, Any]):
         unknown = sorted(set(req) - field_names)
         if unknown:
-            raise ValueError(f"{unknown[0]}: unknown requirement of the {name} problem "
+            raise InputError(unknown[0], f"unknown requirement of the {name} problem "
                              f"(known: {', '.join(sorted(field_names))})")
+        kinds = _dataclass_kinds(req_cls)
+        for key, value in req.items():
+            # A number is a JSON number: true and "5.4" are refused, not taken as 1 and 5.4.
+            if key in kinds and value is not None and not _is_finite_number(value):
+                raise InputError(key, f"must be a finite number, got {str(value)[:40]!r}")
         try:
             return req_cls(**req)
         except TypeError as exc:  # wrong type for a field
-            raise ValueError(f"{next(iter(req), 'requirements')}: {exc}") from None
+            raise InputError(next(iter(req), "requirements"), str(exc)) from None
 
     def evaluate(device: Device, req: Mapping[str, Any]) -> dict[str, Any]:
         return flatten_result(design(device, build(req)))
@@ -247,7 +262,7 @@ class Axis:
 def _number(field: str, value: Any) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise StudyInputError(field, f"must be a number, got {value!r}")
-    if not math.isfinite(value):
+    if not _is_finite_number(value):
         raise StudyInputError(field, "must be finite")
     return float(value)
 
@@ -280,7 +295,10 @@ def _axis(path: str, kind: str, spec: Any, design: str) -> Axis:
             return Axis(path, kind, None, start, stop, scale)
         if isinstance(num, bool) or not isinstance(num, int) or not 1 <= num <= MAX_STUDY_POINTS:
             raise StudyInputError(f"{field}.num", f"must be an integer from 1 to {MAX_STUDY_POINTS}")
-        grid = np.geomspace(start, stop, num) if scale == "log" else np.linspace(start, stop, num)
+        with np.errstate(over="ignore", invalid="ignore"):  # a range across ±1.8e308 overflows its step
+            grid = np.geomspace(start, stop, num) if scale == "log" else np.linspace(start, stop, num)
+        if not np.all(np.isfinite(grid)):
+            raise StudyInputError(field, "the range's values overflow double precision")
         values = tuple(float(v) for v in grid)
     else:
         raise StudyInputError(field, "must be a list of values or a range {start, stop, num, scale}")
@@ -421,14 +439,17 @@ def plan_study(problem: str, device: Mapping[str, Any], requirements: Mapping[st
 def _check_base_and_extremes(plan: StudyPlan, prob: Problem) -> None:
     """The base must be valid, and so must each axis's extreme values applied alone to it."""
     try:
-        Device.model_validate(dict(plan.device))
+        # strict: a number must be a JSON number (true and "5.4" are not 1 and 5.4), as in every request body.
+        Device.model_validate(dict(plan.device), strict=True)
     except ValueError as exc:
-        raise StudyInputError("base.device", _first_error(exc)) from None
+        field, rule = _first_error_at(exc)
+        raise StudyInputError(f"base.device.{field}" if field else "base.device", rule) from None
     try:
         prob.check_requirements(plan.requirements)
+    except InputError as exc:
+        raise StudyInputError(f"base.requirements.{exc.field}", exc.rule) from None
     except ValueError as exc:
-        field, _, msg = str(exc).partition(": ")
-        raise StudyInputError(f"base.requirements.{field}" if msg else "base.requirements", msg or str(exc)) from None
+        raise StudyInputError("base.requirements", str(exc)) from None
     for axis in plan.axes:
         ends = (min(axis.values), max(axis.values)) if axis.values is not None else (axis.start, axis.stop)
         for v in ends:
@@ -441,13 +462,24 @@ def _check_base_and_extremes(plan: StudyPlan, prob: Problem) -> None:
                 raise StudyInputError(f"sweep.{axis.path}", f"value {v:g}: {_first_error(exc)}") from None
 
 
-def _first_error(exc: ValueError) -> str:
+def _first_error_at(exc: ValueError) -> tuple[str, str]:
+    """(dotted field, rule) of the first error of a device validation (pydantic's, or an InputError)."""
     errors = getattr(exc, "errors", None)
     if callable(errors):
         e = errors()[0]
-        loc = ".".join(str(x) for x in e.get("loc", ()))
-        return f"{loc}: {e['msg']}" if loc else e["msg"]
-    return str(exc)
+        loc = [str(x) for x in e.get("loc", ())]
+        cause = (e.get("ctx") or {}).get("error")
+        if isinstance(cause, InputError):
+            return ".".join([*loc, cause.field]), cause.rule
+        return ".".join(loc), e["msg"]
+    if isinstance(exc, InputError):
+        return exc.field, exc.rule
+    return "", str(exc)
+
+
+def _first_error(exc: ValueError) -> str:
+    field, rule = _first_error_at(exc)
+    return f"{field}: {rule}" if field else rule
 
 
 # ------------------------------------------------------------------------------------- evaluation

@@ -1,7 +1,7 @@
 """The zwidth HTTP service: ``service.app:app``, built by :func:`create_app`.
 
-Layers, outermost first: request id + JSON access log, body-size limit (413),
-CORS (only when ZWIDTH_CORS_ORIGINS is set), then the routers found in
+Layers, outermost first: request id + JSON access log, body-size limit (413), body guard (408 for a
+slow body, 422 for JSON nested deeper than 64 or a lone surrogate), CORS (only when ZWIDTH_CORS_ORIGINS is set), then the routers found in
 service/routes (every module with a ``router``), the /v1 ones behind the bearer
 token when ZWIDTH_API_TOKEN is set.  /healthz, /docs, /redoc and /openapi.json
 stay open.
@@ -20,6 +20,7 @@ from fastapi.middleware.cors import CORSMiddleware
 
 from . import routes
 from .auth import UNAUTHORIZED, bearer_auth
+from .body_guard import BodyGuardMiddleware
 from .docs import install_docs
 from .errors import ERROR_RESPONSES, NOT_FOUND, install_error_handlers
 from .executor import BoundedExecutor
@@ -45,8 +46,8 @@ _DESCRIPTION = """Controller design for haptic interfaces (Díaz, Gil & Hulin, "
 Transparency for Haptic Rendering"). SI units throughout; every analysis says which rung of the accuracy
 ladder produced it (`method`) and what it cost (`elapsed_ms`).
 
-Invalid input answers 422 naming the field and the rule; bodies above the size limit 413; a computation
-past the request time budget 503. Limits: see docs/limits.md."""
+Invalid input answers 422 naming the field and the rule; bodies above the size limit 413, bodies slower
+than ZWIDTH_BODY_TIMEOUT 408; a computation past the request time budget 503. Limits: see docs/limits.md."""
 
 
 def _routers():
@@ -109,6 +110,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                                    allow_methods=["GET", "POST", "OPTIONS"],
                                    allow_headers=["Authorization", "Content-Type", "X-Request-ID"],
                                    expose_headers=["X-Request-ID"])
+    application.add_middleware(BodyGuardMiddleware, timeout=settings.body_timeout)
     application.add_middleware(BodyLimitMiddleware, max_body_bytes=settings.max_body_bytes)
     application.add_middleware(RequestContextMiddleware, access_log=settings.access_log)
     return application

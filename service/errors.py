@@ -3,15 +3,17 @@
 FastAPI's default 422 handler echoes the rejected input; a NaN or infinity
 there makes Starlette's JSON renderer raise (allow_nan=False), so a request with
 ``NaN`` or ``1e400`` would answer 500 (FIELD-NOTES.md).  The handler below makes
-the echo JSON-safe; numerics' ValueErrors (whose messages start with the field
-name) become 422 in the same shape.
+the echo JSON-safe and short (at most MAX_ECHO_CHARS of each rejected input); the
+numerics' :class:`optim.errors.InputError` (field + rule) becomes a 422 in the same
+shape.  A study store that cannot be reached is a 503 with a generic message and
+the request id; the driver's text (hosts, ports, paths) goes to the log only.
 """
 
 from __future__ import annotations
 
+import json
 import logging
 import math
-import re
 from typing import Any
 
 from fastapi import FastAPI, Request
@@ -19,17 +21,25 @@ from fastapi.encoders import jsonable_encoder
 from fastapi.exception_handlers import http_exception_handler
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
+from sqlalchemy.exc import InterfaceError, OperationalError
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
-from .executor import ComputeTimeout, ComputeUnavailable
+from optim.errors import InputError
 
-__all__ = ["json_safe", "install_error_handlers", "NumericInputError", "ERROR_RESPONSES", "NOT_FOUND"]
+from .executor import ComputeTimeout, ComputeUnavailable
+from .logs import request_id_var
+
+__all__ = ["json_safe", "install_error_handlers", "NumericInputError", "ERROR_RESPONSES", "NOT_FOUND",
+           "MAX_ECHO_CHARS", "StoreUnavailable",
+           "store_unavailable"]
 
 _log = logging.getLogger("zwidth.errors")
 
 _DETAIL = {"type": "object", "properties": {"detail": {"type": "string"}}, "required": ["detail"]}
 #: Answers every /v1 route may give besides its own (documented in the OpenAPI schema).
 ERROR_RESPONSES: dict[int | str, dict[str, Any]] = {
+    408: {"description": "the request body did not arrive within ZWIDTH_BODY_TIMEOUT",
+          "content": {"application/json": {"schema": _DETAIL}}},
     413: {"description": "request body above ZWIDTH_MAX_BODY_BYTES", "content": {"application/json": {"schema": _DETAIL}}},
     503: {"description": "the computation exceeded the request time budget (ZWIDTH_REQUEST_TIMEOUT) "
                          "or its worker died; the worker was replaced", "content": {"application/json": {"schema": _DETAIL}}},
@@ -40,17 +50,12 @@ NOT_FOUND: dict[str, Any] = {"description": "no resource with this id", "content
 _UNPARSABLE = "There was an error parsing the body"
 
 
-class NumericInputError(ValueError):
-    """A request that validated but that the numerics cannot serve (names the field)."""
+#: A request that validated but that the numerics cannot serve: the one typed input error (field, rule),
+#: with ``field`` located in the request body ("requirements.uncertainty", "device.delay").
+NumericInputError = InputError
 
-    def __init__(self, field: str, msg: str):
-        super().__init__(f"{field}: {msg}")
-        self.field = field
-        self.msg = msg
-
-    def __reduce__(self):
-        # Raised inside a compute worker, it travels back pickled: rebuild it from its two parts.
-        return (NumericInputError, (self.field, self.msg))
+#: Longest echo of a rejected input in a 422 (characters of its JSON); longer ones are cut and say so.
+MAX_ECHO_CHARS = 300
 
 
 def json_safe(value: Any) -> Any:
@@ -64,28 +69,42 @@ def json_safe(value: Any) -> Any:
     return value
 
 
-# A model validator's message "field: rule" (models.device, optim) names the field it is about.
-# A list index is a numeric segment ("requirements.humans.0.mass"); it becomes an int in loc, as FastAPI's own.
-_FIELD_RULE = re.compile(r"(?:Value error, )?([a-z_][a-z0-9_]*(?:\.(?:[a-z_][a-z0-9_]*|[0-9]+))*): (.+)", re.DOTALL)
-
-
 def field_loc(field: str) -> list[str | int]:
     """"requirements.humans.0.mass" → ["requirements", "humans", 0, "mass"]."""
     return [int(p) if p.isdigit() else p for p in field.split(".")]
 
 
 def _name_the_field(e: dict[str, Any]) -> dict[str, Any]:
-    """loc ["body", "device"] + msg "Value error, mass: …" → loc ["body", "device", "mass"], msg "…"."""
-    if e.get("type") != "value_error":
-        return e
-    m = _FIELD_RULE.fullmatch(str(e.get("msg", "")))
-    if m is None:
+    """An InputError raised inside a model validator: loc ["body", "device"] + InputError("delay", rule)
+    → loc ["body", "device", "delay"], msg rule (typed: read from the error, never parsed from its text)."""
+    cause = (e.get("ctx") or {}).get("error")
+    if e.get("type") != "value_error" or not isinstance(cause, InputError):
         return e
     loc = list(e.get("loc", ()))
-    field = field_loc(m.group(1))
+    field = field_loc(cause.field)
     if loc[-len(field):] != field:
         loc += field
-    return {**e, "loc": loc, "msg": m.group(2)}
+    return {**e, "loc": loc, "msg": cause.rule}
+
+
+def _echo(value: Any) -> Any:
+    """The rejected input, or its first MAX_ECHO_CHARS characters when longer (a 60k-point push profile
+    was echoed whole: 995 kB)."""
+    if value is None or isinstance(value, (bool, int, float)):
+        return value
+    if isinstance(value, str) and len(value) <= MAX_ECHO_CHARS:
+        return value
+    try:
+        text = value if isinstance(value, str) else json.dumps(json_safe(value), default=str, ensure_ascii=False)
+    except (TypeError, ValueError, RecursionError):
+        return "(not echoed)"
+    if len(text) <= MAX_ECHO_CHARS:
+        return value
+    return f"{text[:MAX_ECHO_CHARS]}… ({len(text)} characters, cut)"
+
+
+def _cut(text: str, limit: int) -> str:
+    return text if len(text) <= limit else f"{text[:limit]}… ({len(text)} characters, cut)"
 
 
 def _errors_body(errors: list[dict[str, Any]]) -> dict[str, Any]:
@@ -93,11 +112,40 @@ def _errors_body(errors: list[dict[str, Any]]) -> dict[str, Any]:
     for e in errors:
         e = _name_the_field(dict(e))
         e.pop("url", None)
+        # An unknown key is echoed in loc, and a value in some messages: both are cut too.
+        e["loc"] = [_cut(p, MAX_ECHO_CHARS) if isinstance(p, str) else p for p in e.get("loc", ())]
+        e["msg"] = _cut(str(e.get("msg", "")), 4 * MAX_ECHO_CHARS)
+        if "input" in e:
+            e["input"] = _echo(e["input"])
         ctx = e.get("ctx")
         if isinstance(ctx, dict):
-            e["ctx"] = {k: (str(v) if isinstance(v, Exception) else v) for k, v in ctx.items()}
+            e["ctx"] = {k: (_cut(str(v), 4 * MAX_ECHO_CHARS) if isinstance(v, Exception) else _echo(v))
+                        for k, v in ctx.items()}
         clean.append(e)
     return {"detail": json_safe(jsonable_encoder(clean, custom_encoder={float: lambda x: x, bytes: _bytes_echo}))}
+
+
+class SafeJSONResponse(JSONResponse):
+    """JSON that always encodes: a lone surrogate (``"\\ud800"``) in an echoed string is written as its
+    escape instead of failing the UTF-8 encoding (which answered 500)."""
+
+    def render(self, content: Any) -> bytes:
+        try:
+            return super().render(content)
+        except UnicodeEncodeError:
+            return json.dumps(content, ensure_ascii=True, allow_nan=False, separators=(",", ":")).encode("ascii")
+
+
+class StoreUnavailable(Exception):
+    """The study store could not be opened at start-up (the cause was logged then)."""
+
+
+def store_unavailable() -> JSONResponse:
+    """503 for a study store that cannot be reached: generic text and the request id, never the driver's."""
+    rid = request_id_var.get()
+    return JSONResponse(status_code=503, headers={"Retry-After": "5"}, content={
+        "detail": f"the study store is unavailable; the server log has the cause (request id {rid})",
+        "request_id": rid})
 
 
 def _bytes_echo(raw: bytes) -> str:
@@ -131,7 +179,8 @@ def _content_type_errors(request: Request, errors: list[dict[str, Any]]) -> list
 def install_error_handlers(app: FastAPI) -> None:
     @app.exception_handler(RequestValidationError)
     async def _validation(request: Request, exc: RequestValidationError) -> JSONResponse:
-        return JSONResponse(status_code=422, content=_errors_body(_content_type_errors(request, list(exc.errors()))))
+        return SafeJSONResponse(status_code=422,
+                                content=_errors_body(_content_type_errors(request, list(exc.errors()))))
 
     @app.exception_handler(StarletteHTTPException)
     async def _http(request: Request, exc: StarletteHTTPException) -> JSONResponse:
@@ -139,6 +188,8 @@ def install_error_handlers(app: FastAPI) -> None:
             # Malformed input is a 422 like any other invalid body (e.g. bytes that are not UTF-8).
             return JSONResponse(status_code=422, content={"detail": [
                 {"type": "json_invalid", "loc": ["body"], "msg": "the body is not valid UTF-8 JSON"}]})
+        if isinstance(exc.detail, str) and len(exc.detail) > 4 * MAX_ECHO_CHARS:  # e.g. a 10 kB study id
+            exc = StarletteHTTPException(exc.status_code, _cut(exc.detail, 4 * MAX_ECHO_CHARS), exc.headers)
         return await http_exception_handler(request, exc)
 
     @app.exception_handler(ComputeTimeout)
@@ -149,25 +200,29 @@ def install_error_handlers(app: FastAPI) -> None:
     async def _unavailable(_: Request, exc: ComputeUnavailable) -> JSONResponse:
         return JSONResponse(status_code=503, content={"detail": str(exc)}, headers={"Retry-After": "1"})
 
-    @app.exception_handler(NumericInputError)
-    async def _numeric(_: Request, exc: NumericInputError) -> JSONResponse:
-        return JSONResponse(status_code=422, content={"detail": [
-            {"type": "value_error", "loc": ["body", *field_loc(exc.field)], "msg": exc.msg}]})
+    @app.exception_handler(InputError)
+    async def _input(_: Request, exc: InputError) -> JSONResponse:
+        # The numerics refused a value only they can judge: 422 naming the field (its location in the body).
+        _log.info("numerics refused the input", extra={"field": exc.field})
+        return SafeJSONResponse(status_code=422, content={"detail": [
+            {"type": "value_error", "loc": ["body", *field_loc(_cut(exc.field, MAX_ECHO_CHARS))],
+             "msg": _cut(exc.rule, 4 * MAX_ECHO_CHARS)}]})
+
+    @app.exception_handler(StoreUnavailable)
+    @app.exception_handler(OperationalError)
+    @app.exception_handler(InterfaceError)
+    async def _store(_: Request, exc: Exception) -> JSONResponse:
+        if not isinstance(exc, StoreUnavailable):
+            _log.error("study store unavailable", exc_info=exc)
+        return store_unavailable()
 
     @app.exception_handler(ValueError)
     async def _value(request: Request, exc: ValueError) -> JSONResponse:
-        # The numerics' convention (ARCHITECTURE.md): ValueError("field: rule") means the input broke a rule
-        # only they know.  A route that forgot to map one still answers 422 naming the field; any other
-        # ValueError (pydantic's own, a bug) is an internal error.
-        m = _FIELD_RULE.fullmatch(str(exc)) if type(exc) is ValueError else None
-        if m is None:
-            return await _unexpected(request, exc)
-        _log.info("numerics refused the input", extra={"field": m.group(1)})
-        return JSONResponse(status_code=422, content={"detail": [
-            {"type": "value_error", "loc": ["body", *field_loc(m.group(1))], "msg": m.group(2)}]})
+        # Input errors are InputError (above); any other ValueError (pydantic's own, a bug) is internal.
+        return await _unexpected(request, exc)
 
     async def _unexpected(_: Request, exc: Exception) -> JSONResponse:
         # Never leak a stack trace or an internal path: the traceback goes to the log only.  (Other
         # exceptions are answered the same way by service.middleware.RequestContextMiddleware.)
         _log.error("unhandled error", exc_info=exc)
-        return JSONResponse(status_code=500, content={"detail": "internal error"})
+        return JSONResponse(status_code=500, content={"detail": "internal error", "request_id": request_id_var.get()})

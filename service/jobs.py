@@ -3,7 +3,7 @@
 Each job is a module-level function of validated inputs (devices, frozen dataclasses, plain numbers), so
 that it pickles by reference, and returns a picklable result: the numerics' frozen dataclasses or bytes.
 CasADi solvers are never sent: the design code builds and caches its own in each worker process.  A job
-raises what the numerics raise (ValueError "field: rule", NumericInputError); the route maps them.
+raises what the numerics raise (InputError(field, rule), which answers 422 by itself); the route maps the rest.
 A route with a single numerics call passes that function to ``Compute.run`` directly.
 """
 

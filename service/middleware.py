@@ -66,15 +66,17 @@ class RequestContextMiddleware:
         try:
             await self.app(scope, receive, send_with_id)
         except Exception:
-            # Answer the 500 here, with the request id, and without a trace or path; the outer server-error
-            # layer sees a started response and only re-raises, so the server logs the traceback.
+            # Answer the 500 here, with the request id, and without a trace or path (those go to the log).
+            # Swallowed once answered: re-raised, the server would close the connection, and the client's
+            # next request on it would be reset.  Only a response that already started is re-raised (it
+            # cannot be completed; closing the connection is the only honest end).
             _errors.exception("unhandled error")
-            if not started:
-                body = b'{"detail":"internal error"}'
-                await send_with_id({"type": "http.response.start", "status": 500, "headers": [
-                    (b"content-type", b"application/json"), (b"content-length", str(len(body)).encode())]})
-                await send_with_id({"type": "http.response.body", "body": body})
-            raise
+            if started:
+                raise
+            body = json.dumps({"detail": "internal error", "request_id": rid}).encode()
+            await send_with_id({"type": "http.response.start", "status": 500, "headers": [
+                (b"content-type", b"application/json"), (b"content-length", str(len(body)).encode())]})
+            await send_with_id({"type": "http.response.body", "body": body})
         finally:
             if self.access_log:
                 _access.info("request", extra={

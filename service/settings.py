@@ -39,6 +39,8 @@ class Settings(BaseSettings):
 
     max_body_bytes: int = Field(default=1_000_000, gt=0, le=1 << 30,
                                 description="largest accepted request body [bytes]; larger bodies get 413")
+    body_timeout: float = Field(default=10.0, gt=0, le=3600,
+                                description="time to receive a whole request body [s]; a slower body gets 408")
     api_token: SecretStr | None = Field(default=None, description="bearer token required on /v1 routes when set")
     api_token_file: Path | None = Field(default=None, description="file holding the bearer token (read at start)")
     request_timeout: float = Field(default=30.0, gt=0, le=86_400,

@@ -36,6 +36,7 @@ from models.plants import stiffness_loop_plant
 from optim.crossovers import (CLUSTER_GEOM, CLUSTER_HALF_WIDTH, CLUSTER_POINTS, LIN_STEP, LOG_END, LOG_MIN_SAMPLES,
                               LOG_PER_DECADE, STEPS_PER_DELAY_TURN, _solve_brackets)
 from optim.golden import golden_minimum
+from ..errors import InputError
 
 __all__ = ["BatchCritical", "batch_critical_stiffness"]
 
@@ -297,7 +298,7 @@ def batch_critical_stiffness(devices: Sequence[Device], damping: float | np.ndar
     n = len(devices)
     bvec = np.broadcast_to(np.asarray(damping, float), (n,)).copy()
     if not np.all(np.isfinite(bvec) & (bvec >= 0)):
-        raise ValueError("damping: virtual damping B must be finite and ≥ 0")
+        raise InputError("damping", "virtual damping B must be finite and ≥ 0")
     kcr, ang, bmax = np.full(n, np.inf), np.full(n, np.nan), np.full(n, np.inf)
     plants = [stiffness_loop_plant(d) for d in devices]
     groups: dict[tuple, list[int]] = {}

@@ -20,6 +20,7 @@ from pydantic import ValidationError
 from models.device import Device
 
 from ..domain import check_device_domain
+from ..errors import InputError
 
 __all__ = ["PATHS", "STIFFNESS_PATHS", "UncertaintyBox", "MAX_UNCERTAIN"]
 
@@ -61,20 +62,20 @@ class UncertaintyBox:
                     field: str = "requirements.uncertainty") -> "UncertaintyBox":
         """Validate the ranges against the device; errors start with the offending field (for a 422)."""
         if len(ranges) > MAX_UNCERTAIN:
-            raise ValueError(f"{field}: at most {MAX_UNCERTAIN} uncertain parameters, got {len(ranges)}")
+            raise InputError(field, f"at most {MAX_UNCERTAIN} uncertain parameters, got {len(ranges)}")
         for path, (lo, hi) in ranges.items():
             where = f"{field}.{path}"
             if path not in PATHS:
-                raise ValueError(f"{where}: unknown path; known paths: {', '.join(PATHS)}")
+                raise InputError(where, f"unknown path; known paths: {', '.join(PATHS)}")
             if not (math.isfinite(lo) and math.isfinite(hi)):
-                raise ValueError(f"{where}: min and max must be finite")
+                raise InputError(where, "min and max must be finite")
             if lo > hi:
-                raise ValueError(f"{where}: min ({lo:g}) must be ≤ max ({hi:g})")
+                raise InputError(where, f"min ({lo:g}) must be ≤ max ({hi:g})")
             parts = path.split(".")
             if len(parts) == 3 and getattr(nominal, parts[1]) is None:
-                raise ValueError(f"{where}: the device has no {parts[1]} block")
+                raise InputError(where, f"the device has no {parts[1]} block")
             if nominal.cable is not None and path in ("device.mass", "device.damping"):
-                raise ValueError(f"{where}: with a cable block the total {parts[1]} is the sum of the cable block's "
+                raise InputError(where, f"with a cable block the total {parts[1]} is the sum of the cable block's "
                                  f"two; give ranges for device.cable.motor_{parts[1]} and device.cable.body_{parts[1]}")
         paths = tuple(ranges)
         box = cls(paths, np.array([float(ranges[p][0]) for p in paths]),
@@ -90,17 +91,17 @@ class UncertaintyBox:
                     check_device_domain(self._device({path: value}))
                 except ValidationError as exc:
                     msg = exc.errors()[0]["msg"]
-                    raise ValueError(f"{field}.{path}: {value:g} gives an invalid device ({msg})") from None
+                    raise InputError(f"{field}.{path}", f"{value:g} gives an invalid device ({msg})") from None
                 except ValueError as exc:  # optim.domain's dimensionless ranges ("field: rule")
-                    raise ValueError(f"{field}.{path}: {value:g} leaves the validated numeric domain ({exc})") from None
+                    raise InputError(f"{field}.{path}", f"{value:g} leaves the validated numeric domain ({exc})") from None
         try:
             for x in self.corners():
                 check_device_domain(self.device_at(x))
         except ValidationError as exc:
             msg = exc.errors()[0]["msg"]
-            raise ValueError(f"{field}: a corner of the box gives an invalid device ({msg})") from None
+            raise InputError(field, f"a corner of the box gives an invalid device ({msg})") from None
         except ValueError as exc:
-            raise ValueError(f"{field}: a corner of the box leaves the validated numeric domain ({exc})") from None
+            raise InputError(field, f"a corner of the box leaves the validated numeric domain ({exc})") from None
 
     def _device(self, values: Mapping[str, float]) -> Device:
         data = _base_data(self.nominal)

@@ -47,6 +47,7 @@ from optim.inertia_nlp import modal_plant
 from .box import UncertaintyBox
 from .stiffness import TOLERANCE_DB
 from .worst_case import minimise_over_box
+from ..errors import InputError
 
 __all__ = ["RobustInertiaDesign", "robust_design_inertia"]
 
@@ -111,13 +112,13 @@ def _plant(device: Device):
 def robust_design_inertia(nominal: Device, req: InertiaRequirements, box: UncertaintyBox) -> RobustInertiaDesign:
     t0 = time.perf_counter()
     if req.humans is not None or req.human_mass_range is not None:
-        raise ValueError("requirements.uncertainty: give the grasp's range as device.human.mass (with a human "
+        raise InputError("requirements.uncertainty", "give the grasp's range as device.human.mass (with a human "
                          "block), not together with humans or human_mass_range")
     corners = box.devices(box.corners())
     bands = [_band(d, req) for d in [box.device_at(box.nominal_point()), *corners]]
     lo_hz, hi_hz = bands[0][0], min(b[1] for b in bands)
     if not lo_hz < hi_hz:
-        raise ValueError(f"requirements.cutoff_min_hz: must be below the lowest upper cutoff of the box {hi_hz:g} Hz")
+        raise InputError("requirements.cutoff_min_hz", f"must be below the lowest upper cutoff of the box {hi_hz:g} Hz")
     rho = 10 ** (req.min_gain_margin_db / 20)
     t_ref = nominal.sample_time
     t_of = 2 * math.pi * t_ref

@@ -37,6 +37,7 @@ from models.discretize import split_delay
 from optim.passivity import PassivityCheck, largest_passive_stiffness, passivity_margin, passivity_samples
 
 from .box import UncertaintyBox
+from ..errors import InputError
 
 __all__ = ["PASSIVITY_PATHS", "MAX_PASSIVITY_DELAYS", "PassivityCorner", "PassivityWorst", "passivity_corners",
            "worst_passivity", "largest_robust_passive_stiffness", "describe_delays"]
@@ -86,7 +87,7 @@ def passivity_corners(box: UncertaintyBox, field: str = "requirements.uncertaint
     d_lo, d_hi = _range(box, "device.delay", nom.delay)
     n_lo, n_hi = _ceil_samples(d_lo / t_hi), _ceil_samples(d_hi / t_lo)
     if n_hi - n_lo + 1 > MAX_PASSIVITY_DELAYS:
-        raise ValueError(f"{field}: a robust design with passivity checks every whole-sample delay ⌈t_d/T⌉ the box "
+        raise InputError(field, f"a robust design with passivity checks every whole-sample delay ⌈t_d/T⌉ the box "
                          f"allows, here {n_lo} to {n_hi}; at most {MAX_PASSIVITY_DELAYS} (narrow the ranges of "
                          "device.delay or device.sample_time)")
     base = box.nominal_point()

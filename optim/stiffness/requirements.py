@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from ..errors import InputError
 
 __all__ = ["StiffnessRequirements"]
 
 
 def _check_positive(name: str, value: float | None) -> None:
     if value is not None and not (math.isfinite(value) and value > 0):
-        raise ValueError(f"{name}: must be a finite number > 0, got {value!r}")
+        raise InputError(name, f"must be a finite number > 0, got {value!r}")
 
 
 @dataclass(frozen=True)
@@ -37,16 +38,16 @@ class StiffnessRequirements:
     def __post_init__(self) -> None:
         gm = self.min_gain_margin_db
         if not (math.isfinite(gm) and 0.0 <= gm <= 120.0):
-            raise ValueError(f"min_gain_margin_db: must be finite and in [0, 120] dB, got {gm!r}")
+            raise InputError("min_gain_margin_db", f"must be finite and in [0, 120] dB, got {gm!r}")
         for name in ("max_damping", "max_stiffness", "max_force", "max_penetration", "quantization",
                      "max_force_noise"):
             _check_positive(name, getattr(self, name))
         if (self.max_force is None) != (self.max_penetration is None):
             missing = "max_penetration" if self.max_penetration is None else "max_force"
-            raise ValueError(f"{missing}: max_force and max_penetration go together (K·x ≤ F)")
+            raise InputError(missing, "max_force and max_penetration go together (K·x ≤ F)")
         if (self.quantization is None) != (self.max_force_noise is None):
             missing = "max_force_noise" if self.max_force_noise is None else "quantization"
-            raise ValueError(f"{missing}: quantization and max_force_noise go together (B·q/T ≤ F_noise)")
+            raise InputError(missing, "quantization and max_force_noise go together (B·q/T ≤ F_noise)")
 
     @property
     def gain_factor(self) -> float:

@@ -22,6 +22,7 @@ from models.device import Device
 from models.discretize import split_delay
 
 from .loop import loop_matrices
+from ..errors import InputError
 
 __all__ = ["perturbed_device", "sensitivities", "PARAMETERS"]
 
@@ -56,7 +57,7 @@ def perturbed_device(device: Device, parameter: str, value: float) -> Device:
             cable["motor_mass"] *= value / m
             cable["body_mass"] = value - cable["motor_mass"]
     else:
-        raise ValueError(f"parameter: unknown device parameter {parameter!r}")
+        raise InputError("parameter", f"unknown device parameter {parameter!r}")
     return Device.model_validate(data)
 
 

@@ -11,10 +11,10 @@ from pydantic import ValidationError
 
 from optim.analysis import analyse_stability
 from optim.boundary import stability_boundary
+from optim.errors import InputError
 from optim.verification import verify_analysis, verify_boundary
 
 from ..cost import boundary_cost_ms, check_reference_cost, stability_cost_ms, verify_cost_ms
-from ..errors import NumericInputError
 from ..executor import Compute
 from ..schemas.analysis import BoundaryRequest, BoundaryResponse, StabilityRequest, StabilityResponse
 from ..schemas.common import device_examples
@@ -23,18 +23,18 @@ from ..schemas.verification import verification_out
 router = APIRouter(prefix="/v1/analysis", tags=["analysis"])
 
 
-def field_error(exc: ValueError, prefix: str = "") -> NumericInputError:
-    """A numerics ValueError ("field: rule") as a 422 naming the field (under ``prefix``, e.g. "device.").
+def field_error(exc: ValueError, prefix: str = "") -> InputError:
+    """The numerics' ValueError as a 422: an InputError names its field (located under ``prefix``, e.g.
+    "device."); any other ValueError of an analysis is the device's numbers defeating the arithmetic.
 
     A pydantic ValidationError is a ValueError too, but one raised inside the numerics means an internal
     model was misused: a bug, re-raised so that it answers 500 without its text.
     """
+    if isinstance(exc, InputError):
+        return exc.under(prefix) if prefix else exc
     if isinstance(exc, ValidationError):
         raise exc
-    text = str(exc)
-    field, _, msg = text.partition(": ")
-    ok = msg and field.replace(".", "").replace("_", "").isalnum()
-    return NumericInputError(prefix + field if ok else "device", msg if ok else text)
+    return InputError("device", str(exc))
 
 
 def _finite_or_null(answer: dict) -> dict:

@@ -4,12 +4,13 @@ force-feedforward gain (apparent mass)."""
 from __future__ import annotations
 
 import dataclasses
+import time
 
 from fastapi import APIRouter
 
-from optim.hardware import HardwareDesign, HardwareTarget, design_hardware
+from optim.errors import InputError
+from optim.hardware import HardwareDesign, HardwareTarget, design_hardware, loose_direction
 from optim.verification_hardware import verify_hardware_design
-from service.errors import NumericInputError
 from service.executor import BoundedExecutor, Compute
 from service.schemas.design_hardware import HardwareDesignRequest, HardwareDesignResponse
 from service.schemas.verification import verification_out
@@ -26,18 +27,23 @@ def hardware_target(request: HardwareDesignRequest) -> HardwareTarget:
 
 def run_hardware(request: HardwareDesignRequest, compute: BoundedExecutor) -> HardwareDesign:
     """The design in a compute worker (tens of exact designs: never inline), under the request time budget."""
-    try:
-        value_range = None if request.range is None else (request.range.min, request.range.max)
-        return compute.run(design_hardware, request.device, hardware_target(request), request.free,
-                           points=request.points, value_range=value_range, cost_ms=None)
-    except ValueError as exc:
-        field, _, msg = str(exc).partition(": ")
-        raise NumericInputError(field, msg) from None
+    # An InputError (field, rule) answers 422 by itself (service.errors).
+    value_range = None if request.range is None else (request.range.min, request.range.max)
+    return compute.run(design_hardware, request.device, hardware_target(request), request.free,
+                       points=request.points, value_range=value_range, cost_ms=None)
 
 
 @router.post("/v1/design/hardware", response_model=HardwareDesignResponse, tags=["design"])
 def design_hardware_route(request: HardwareDesignRequest, compute: Compute) -> HardwareDesignResponse:
-    design = run_hardware(request, compute)
+    t0 = time.perf_counter()
+    try:
+        design = run_hardware(request, compute)
+    except InputError:
+        raise                   # 422 naming the field, as on every route (service.errors)
+    except (RuntimeError, ArithmeticError, ValueError) as exc:   # numerical trouble: failed, as the other designs
+        return HardwareDesignResponse(status="failed", free=request.free,
+                                      direction=loose_direction(request.free, hardware_target(request)),
+                                      reason=f"solver trouble: {exc}", elapsed_ms=(time.perf_counter() - t0) * 1e3)
     data = _finite(dataclasses.asdict(design))
     if request.verify and design.status == "optimal":
         v = compute.run(verify_hardware_design, request.device, request.free, design.value, design.controller,

@@ -10,12 +10,12 @@ from fastapi import APIRouter
 from fastapi.exceptions import RequestValidationError
 
 from optim.design_ladder import design_stiffness_on_rung
+from optim.errors import InputError
 from optim.robust.box import UncertaintyBox
 from optim.robust.stiffness import robust_design_stiffness
 from optim.stiffness import StiffnessRequirements
 from optim.verification import verify_stiffness_design
 from service.cost import stiffness_design_cost_ms, verify_cost_ms
-from service.errors import NumericInputError
 from service.executor import Compute
 from service.schemas.design_stiffness import StiffnessDesignRequest, StiffnessDesignResponse
 from service.schemas.ladder import rung_fields
@@ -44,13 +44,15 @@ def design_stiffness_route(request: StiffnessDesignRequest, compute: Compute) ->
     req = StiffnessRequirements(**fields)
     if request.requirements.uncertainty is not None:
         if request.method != "exact":
-            raise NumericInputError("method", "robust designs (requirements.uncertainty) are computed on the exact rung only")
+            raise InputError("method", "robust designs (requirements.uncertainty) are computed on the exact rung only")
         if request.verify:
-            raise NumericInputError("verify", "robust designs (requirements.uncertainty) are not verified yet")
+            raise InputError("verify", "robust designs (requirements.uncertainty) are not verified yet")
         return _robust(request, req, t0, compute)
     try:
         design, rung = compute.run(design_stiffness_on_rung, request.device, req, request.method, request.grid_points,
                                    cost_ms=stiffness_design_cost_ms(request.device, request.method, request.grid_points))
+    except InputError:
+        raise                   # 422 naming the field, as on every route (service.errors)
     except (RuntimeError, ArithmeticError, ValueError) as exc:   # CasADi raises RuntimeError on solver trouble
         return StiffnessDesignResponse(status="failed", reason=f"solver trouble: {exc}",
                                        elapsed_ms=(time.perf_counter() - t0) * 1e3)
@@ -65,13 +67,15 @@ def design_stiffness_route(request: StiffnessDesignRequest, compute: Compute) ->
 
 
 def input_error(exc: ValueError) -> Exception:
-    """A numerics ValueError ("field: rule") as a 422; an uncertainty path stays one element of loc."""
-    field, _, msg = str(exc).partition(": ")
+    """An InputError as a 422 whose loc keeps an uncertainty path ("device.cable.stiffness") one element;
+    any other exception is returned unchanged (re-raised by the caller)."""
+    if not isinstance(exc, InputError):
+        return exc
     prefix = "requirements.uncertainty."
-    if field.startswith(prefix):
-        loc = ("body", "requirements", "uncertainty", field[len(prefix):])
-        return RequestValidationError([{"type": "value_error", "loc": loc, "msg": msg, "input": None}])
-    return NumericInputError(field, msg)
+    if exc.field.startswith(prefix):
+        loc = ("body", "requirements", "uncertainty", exc.field[len(prefix):])
+        return RequestValidationError([{"type": "value_error", "loc": loc, "msg": exc.rule, "input": None}])
+    return exc
 
 
 def _robust(request: StiffnessDesignRequest, req: StiffnessRequirements, t0: float,
@@ -80,9 +84,9 @@ def _robust(request: StiffnessDesignRequest, req: StiffnessRequirements, t0: flo
     try:
         box = UncertaintyBox.from_ranges(request.device, ranges)
         d = compute.run(robust_design_stiffness, request.device, req, box, cost_ms=None)  # always a worker
-    except ValueError as exc:
+    except InputError as exc:
         raise input_error(exc) from None
-    except (RuntimeError, ArithmeticError) as exc:
+    except (RuntimeError, ArithmeticError, ValueError) as exc:   # numerical trouble, as the nominal design
         return StiffnessDesignResponse(status="failed", reason=f"solver trouble: {exc}", robust=True,
                                        elapsed_ms=(time.perf_counter() - t0) * 1e3)
     data = _finite(dataclasses.asdict(d))

@@ -9,12 +9,12 @@ from fastapi import APIRouter
 
 from models.filters import ButterworthLowPass
 from optim.design_ladder import design_inertia_on_rung
+from optim.errors import InputError
 from optim.feedforward import apparent_mass, resolve_human
 from optim.inertia import RIGID_OPTIMISM_FLAG, InertiaRequirements
 from optim.verification import verify_critical_force_gain, verify_force_feedforward
 
 from ..cost import force_feedforward_cost_ms, inertia_design_cost_ms, verify_cost_ms
-from ..errors import NumericInputError
 from ..executor import Compute
 from ..jobs import force_feedforward_job
 from ..schemas.ladder import rung_fields
@@ -29,11 +29,12 @@ def _finite(x: float | None) -> float | None:
     return x if x is not None and math.isfinite(x) else None
 
 
-def _field_error(exc: ValueError, prefix: str = "") -> NumericInputError:
-    field, _, msg = str(exc).partition(": ")
-    if not msg:
-        return NumericInputError("device", str(exc))
-    return NumericInputError(field if field.startswith(("device", "requirements")) else prefix + field, msg)
+def _field_error(exc: ValueError, prefix: str = "") -> InputError:
+    """An InputError located in the body (its field under ``prefix`` unless it already starts at device or
+    requirements); any other ValueError of the analysis is about the device."""
+    if not isinstance(exc, InputError):
+        return InputError("device", str(exc))
+    return exc if exc.field.startswith(("device", "requirements")) else exc.under(prefix)
 
 
 def _human_notes(source: str) -> list[str]:
@@ -87,9 +88,9 @@ def inertia(req: InertiaRequest, compute: Compute) -> InertiaResponse:
         humans=tuple(r.humans) if r.humans else None, pareto_points=r.pareto_points)
     if r.uncertainty is not None:
         if req.method != "exact":
-            raise NumericInputError("method", "robust designs (requirements.uncertainty) are computed on the exact rung only")
+            raise InputError("method", "robust designs (requirements.uncertainty) are computed on the exact rung only")
         if req.verify:
-            raise NumericInputError("verify", "robust designs (requirements.uncertainty) are not verified yet")
+            raise InputError("verify", "robust designs (requirements.uncertainty) are not verified yet")
         return _robust_inertia(req, spec, compute)
     try:
         d, rung = compute.run(design_inertia_on_rung, req.device, spec, req.method, req.grid_points,
@@ -152,8 +153,10 @@ def _robust_inertia(req: InertiaRequest, spec: InertiaRequirements, compute: Com
     try:
         box = UncertaintyBox.from_ranges(req.device, {k: (v.min, v.max) for k, v in req.requirements.uncertainty.items()})
         d = compute.run(robust_design_inertia, req.device, spec, box, cost_ms=None)  # always a worker
-    except ValueError as exc:
+    except InputError as exc:
         raise input_error(exc) from None
+    except ValueError as exc:
+        raise _field_error(exc) from None
     human, source = resolve_human(req.device)
     notes = _human_notes(source)
     if d.pareto:

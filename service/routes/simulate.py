@@ -10,10 +10,10 @@ from fastapi import APIRouter
 from models.device import Device
 from models.scene import Scene
 from models.simulate import SimulationResult, check_cost
+from optim.errors import InputError
 from optim.relay import RelayReport
 
 from ..cost import simulation_cost_ms
-from ..errors import NumericInputError
 from ..executor import BoundedExecutor, Compute
 from ..jobs import simulate_job
 from ..schemas.simulate import SimulateRequest, SimulateResponse
@@ -25,9 +25,9 @@ def _finite(x: float | None) -> float | None:
     return None if x is None or not math.isfinite(x) else float(x)
 
 
-def _field_error(exc: ValueError) -> NumericInputError:
-    field, _, msg = str(exc).partition(": ")
-    return NumericInputError(field if msg else "scene", msg or str(exc))
+def _field_error(exc: ValueError) -> InputError:
+    """An InputError names its field; any other ValueError of the simulator is about the scene."""
+    return exc if isinstance(exc, InputError) else InputError("scene", str(exc))
 
 
 def run_scene(device: Device, scene: Scene, compute: BoundedExecutor) -> tuple[SimulationResult, RelayReport | None]:

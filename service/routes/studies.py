@@ -13,6 +13,7 @@ from fastapi.responses import StreamingResponse
 
 from optim.studies import StudyInputError
 
+from ..errors import StoreUnavailable
 from ..schemas.studies import StudyCreated, StudyList, StudyRequest, StudyResults, StudyStatus
 from ..studies.export import columns, csv_chunks, flat_row, parquet_bytes, scan_columns
 from ..studies.lifespan import study_lifespan
@@ -22,14 +23,16 @@ from ..studies.runner import StudyRunner, plan_from_request
 router = APIRouter(prefix="/v1/studies", tags=["studies"], lifespan=study_lifespan)
 
 MAX_PAGE = 10_000
+#: Largest paging offset: 2^53 − 1, the largest integer every JSON client holds exactly (and far inside the
+#: 64-bit integers of SQLite and PostgreSQL, which answered a larger one with OverflowError: a 500).
+MAX_OFFSET = 2**53 - 1
 MAX_PLOT_POINTS = 200_000
 
 
 def _runner(request: Request) -> StudyRunner:
     runner = getattr(request.app.state, "study_runner", None)
     if runner is None:
-        why = getattr(request.app.state, "study_error", None) or "the study runner is not started"
-        raise HTTPException(status_code=503, detail=why)
+        raise StoreUnavailable()
     return runner
 
 
@@ -94,7 +97,7 @@ def submit_study(req: StudyRequest, request: Request) -> StudyCreated:
 
 
 @router.get("", response_model=StudyList)
-def list_studies(request: Request, offset: Annotated[int, Query(ge=0)] = 0,
+def list_studies(request: Request, offset: Annotated[int, Query(ge=0, le=MAX_OFFSET)] = 0,
                  limit: Annotated[int, Query(ge=1, le=1000)] = 100,
                  status: Literal["queued", "running", "done", "cancelled", "failed"] | None = None) -> StudyList:
     rows = _runner(request).store.list(limit, offset, status)
@@ -124,7 +127,7 @@ def cancel_study(study_id: str, request: Request, purge: bool = False) -> StudyS
 @router.get("/{study_id}/results", response_model=StudyResults,
             responses={200: {"content": {"text/csv": {}, "application/vnd.apache.parquet": {}}}})
 def study_results(study_id: str, request: Request, format: Literal["json", "csv", "parquet"] = "json",
-                  offset: Annotated[int, Query(ge=0)] = 0,
+                  offset: Annotated[int, Query(ge=0, le=MAX_OFFSET)] = 0,
                   limit: Annotated[int, Query(ge=1, le=MAX_PAGE)] = 1000) -> StudyResults | Response:
     """Stored results in point order: JSON paged by offset/limit; CSV and Parquet whole."""
     runner = _runner(request)

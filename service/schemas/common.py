@@ -2,14 +2,30 @@
 
 from __future__ import annotations
 
-from typing import Annotated
+from typing import Annotated, Any, Callable, TypeVar
 
-from pydantic import AfterValidator, BaseModel, ConfigDict, Field
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidatorFunctionWrapHandler, WrapValidator
 
 from models.device import Device as CoreDevice
+from models.scene import Scene as CoreScene
 from optim.domain import check_device_domain
 
-STRICT = ConfigDict(extra="forbid", allow_inf_nan=False)
+#: Every request model: unknown fields refused, finite numbers only, and a number must be a JSON number
+#: (strict: ``true`` and ``"5.4"`` are refused instead of read as 1 and 5.4; an integer is a valid float,
+#: a float with a fraction is not a valid integer).
+STRICT = ConfigDict(extra="forbid", allow_inf_nan=False, strict=True)
+
+M = TypeVar("M", bound=BaseModel)
+
+
+def json_numbers(model: type[M]) -> Callable[[Any, ValidatorFunctionWrapHandler], M]:
+    """Validate a core model (models/: lax by default, for internal callers) strictly, as STRICT does for
+    the service's own models; its nested models follow (pydantic's runtime strict flag reaches them)."""
+
+    def validate(value: Any, handler: ValidatorFunctionWrapHandler) -> M:
+        return model.model_validate(value, strict=True) if isinstance(value, dict) else handler(value)
+
+    return validate
 
 
 def _in_domain(device: CoreDevice) -> CoreDevice:
@@ -18,7 +34,9 @@ def _in_domain(device: CoreDevice) -> CoreDevice:
 
 
 #: The device of every request: models.device.Device, inside the numerics' validated domain (optim.domain).
-Device = Annotated[CoreDevice, AfterValidator(_in_domain)]
+Device = Annotated[CoreDevice, WrapValidator(json_numbers(CoreDevice)), AfterValidator(_in_domain)]
+#: The scene of a simulation: models.scene.Scene with JSON numbers only.
+Scene = Annotated[CoreScene, WrapValidator(json_numbers(CoreScene))]
 
 LHIFAM_RIGID = {"mass": 5.4, "damping": 3.5, "sample_time": 0.001}
 
@@ -49,4 +67,5 @@ class CrossoverOut(BaseModel):
     stiffness: float = Field(description="K [N/m] that puts a closed-loop pole at e^{jωT}")
 
 
-__all__ = ["Device", "Controller", "CrossoverOut", "STRICT", "LHIFAM_RIGID", "device_examples"]
+__all__ = ["Device", "Scene", "Controller", "CrossoverOut", "STRICT", "LHIFAM_RIGID", "device_examples",
+           "json_numbers"]

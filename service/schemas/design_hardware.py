@@ -17,7 +17,7 @@ from .verification import VerificationOut, VerifyField
 __all__ = ["HardwareTargetIn", "ValueRangeIn", "HardwareDesignRequest", "HardwareDesignResponse", "CurvePoint", "EdgeOut",
            "ControllerOut"]
 
-_STRICT = ConfigDict(extra="forbid", allow_inf_nan=False)
+_STRICT = ConfigDict(extra="forbid", allow_inf_nan=False, strict=True)
 
 
 class HardwareTargetIn(BaseModel):
@@ -50,7 +50,7 @@ class ValueRangeIn(BaseModel):
 
 
 class HardwareDesignRequest(BaseModel):
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, json_schema_extra={"examples": [
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, strict=True, json_schema_extra={"examples": [
         {"device": {"preset": "lhifam", "cable": None}, "target": {"stiffness": 20000, "min_gain_margin_db": 6},
          "free": "delay"},
         {"device": {"preset": "lhifam"}, "target": {"stiffness": 5000, "max_damping": 20}, "free": "cable.stiffness"},

@@ -16,7 +16,7 @@ from .verification import VerificationOut, VerifyField
 __all__ = ["StiffnessRequirementsIn", "StiffnessDesignRequest", "SensitivityOut", "StiffnessDesignResponse",
            "RangeIn", "WorstCaseOut", "PassivityWorstCaseOut"]
 
-_STRICT = ConfigDict(extra="forbid", allow_inf_nan=False)
+_STRICT = ConfigDict(extra="forbid", allow_inf_nan=False, strict=True)
 _BIG = 1e12
 
 
@@ -62,7 +62,7 @@ class StiffnessRequirementsIn(BaseModel):
 
 
 class StiffnessDesignRequest(BaseModel):
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, json_schema_extra={"examples": [
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, strict=True, json_schema_extra={"examples": [
         {"device": {"mass": 5.4, "damping": 3.5, "sample_time": 0.001}, "requirements": {"min_gain_margin_db": 6}},
         {"device": {"preset": "lhifam"}, "requirements": {"min_gain_margin_db": 6}},
         {"device": {"preset": "phantom-1.0"}}]})

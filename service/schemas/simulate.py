@@ -6,9 +6,7 @@ from typing import Literal
 
 from pydantic import BaseModel, Field
 
-from models.scene import Scene
-
-from .common import STRICT, CrossoverOut, Device
+from .common import STRICT, CrossoverOut, Device, Scene
 
 __all__ = ["SimulateRequest", "SimulateResponse", "TrajectoryOut", "VerdictOut", "MeasuredVerdictOut", "PolesOut",
            "DominantPoleOut", "CycleOut", "SettledOut",

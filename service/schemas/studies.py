@@ -31,7 +31,7 @@ class Sampling(BaseModel):
     model_config = STRICT
     design: Literal["grid", "latin_hypercube"] = Field(
         default="grid", description="Cartesian grid of the sweep, or a Latin hypercube (scipy.stats.qmc)")
-    samples: int | None = Field(default=None, ge=1, description="points of a Latin hypercube")
+    samples: int | None = Field(default=None, ge=1, le=MAX_STUDY_POINTS, description="points of a Latin hypercube")
     seed: int | None = Field(default=None, ge=0, lt=2**63,
                              description="Latin hypercube seed; drawn and stored when omitted")
 

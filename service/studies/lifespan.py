@@ -2,7 +2,8 @@
 
 At startup the store is migrated to the newest Alembic revision and the coordinator resumes any
 study left queued or running by a previous process.  If the store cannot be opened the rest of
-the service still serves; the study routes answer 503 with the reason.
+the service still serves; the study routes answer 503 (a generic message
+and the request id; the cause is logged).
 """
 
 from __future__ import annotations
@@ -50,7 +51,8 @@ async def study_lifespan(app: FastAPI) -> AsyncIterator[None]:
     except Exception as exc:  # noqa: BLE001 - the other endpoints must still serve
         log.exception("study store unavailable")
         app.state.study_runner = None
-        app.state.study_error = f"study store unavailable: {type(exc).__name__}: {exc}"
+        # The cause (driver text: hosts, ports, paths) is in the log above, never in an answer.
+        app.state.study_error = "study store unavailable"
     try:
         yield
     finally:

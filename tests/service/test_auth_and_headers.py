@@ -163,7 +163,7 @@ def test_unexpected_errors_leak_no_trace_or_path(client, monkeypatch):
     monkeypatch.setattr(routes, "analyse_stability", broken)
     r = client.post(STABILITY, json={"device": LHIFAM_RIGID}, headers={"x-request-id": "oops-1"})
     assert r.status_code == 500
-    assert r.json() == {"detail": "internal error"}
+    assert r.json() == {"detail": "internal error", "request_id": "oops-1"}
     assert "secret" not in r.text and "Traceback" not in r.text
     assert r.headers["x-request-id"] == "oops-1"  # the operator can find the traceback in the log by it
 
@@ -180,4 +180,4 @@ def test_unexpected_value_error_without_a_field_is_500_without_leaks(client, mon
 
     monkeypatch.setattr(routes, "analyse_stability", broken)
     r = client.post(STABILITY, json={"device": LHIFAM_RIGID})
-    assert r.status_code == 500 and r.json() == {"detail": "internal error"}
+    assert r.status_code == 500 and r.json() == {"detail": "internal error", "request_id": r.headers["x-request-id"]}

@@ -118,7 +118,7 @@ def test_exports_round_trip(client, finished):
     ({"sweep": {"requirements.min_gain_margin_db": [6.0]}}, ["body", "sweep", "requirements.min_gain_margin_db"]),
     ({"sweep": {}}, ["body", "sweep"]),
     ({"sampling": {"design": "latin_hypercube", "seed": 1}}, ["body", "sampling", "samples"]),
-    ({"sampling": {"design": "latin_hypercube", "samples": 2_000_000, "seed": 1}}, ["body", "sweep"]),
+    ({"sampling": {"design": "latin_hypercube", "samples": 2_000_000, "seed": 1}}, ["body", "sampling", "samples"]),
     ({"base": {"device": {"mass": -1}}}, ["body", "base", "device"]),
 ])
 def test_bad_sweeps_answer_422_naming_the_field(client, change, loc):

@@ -109,8 +109,21 @@ def test_out_of_range_fields_are_named(client, path, body, loc):
     assert loc in locs(client.post(path, json=body))
 
 
-def test_numerics_value_error_becomes_422_naming_the_field(client, monkeypatch):
-    """The numerics raise ValueError("field: rule") for rules only they know; the answer is 422 at that field."""
+def test_numerics_input_error_becomes_422_naming_the_field(client, monkeypatch):
+    """The numerics raise InputError(field, rule) for rules only they know; the answer is 422 at that field."""
+    import service.routes.analysis as routes
+    from optim.errors import InputError
+
+    def refuses(*args, **kwargs):
+        raise InputError("damping_max", "this device has no finite B_max; give damping_max")
+
+    monkeypatch.setattr(routes, "analyse_stability", refuses)
+    (e,) = errors(client.post(STABILITY, json={"device": LHIFAM_RIGID}))
+    assert e["loc"] == ["body", "damping_max"] and e["msg"].startswith("this device has no finite B_max")
+
+
+def test_an_untyped_value_error_is_never_parsed_for_a_field(client, monkeypatch):
+    """Text that looks like "field: rule" in a plain ValueError names no field (only InputError does)."""
     import service.routes.analysis as routes
 
     def refuses(*args, **kwargs):
@@ -118,7 +131,7 @@ def test_numerics_value_error_becomes_422_naming_the_field(client, monkeypatch):
 
     monkeypatch.setattr(routes, "analyse_stability", refuses)
     (e,) = errors(client.post(STABILITY, json={"device": LHIFAM_RIGID}))
-    assert e["loc"] == ["body", "damping_max"] and e["msg"].startswith("this device has no finite B_max")
+    assert e["loc"] == ["body", "device"]
 
 
 def test_numerics_value_error_without_a_field_name_is_422_on_the_device(client, monkeypatch):
