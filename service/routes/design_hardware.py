@@ -22,10 +22,10 @@ def hardware_target(request: HardwareDesignRequest) -> HardwareTarget:
     return HardwareTarget(**request.target.model_dump())
 
 
-def run_hardware(request: HardwareDesignRequest, compute: BoundedExecutor) -> HardwareDesign:
+async def run_hardware(request: HardwareDesignRequest, compute: BoundedExecutor) -> HardwareDesign:
     """The design in a compute worker (tens of exact designs: never inline), under the request time budget."""
     try:
-        return compute.run(design_hardware, request.device, hardware_target(request), request.free,
+        return await compute.arun(design_hardware, request.device, hardware_target(request), request.free,
                            points=request.points, cost_ms=None)
     except ValueError as exc:
         field, _, msg = str(exc).partition(": ")
@@ -33,5 +33,5 @@ def run_hardware(request: HardwareDesignRequest, compute: BoundedExecutor) -> Ha
 
 
 @router.post("/v1/design/hardware", response_model=HardwareDesignResponse, tags=["design"])
-def design_hardware_route(request: HardwareDesignRequest, compute: Compute) -> HardwareDesignResponse:
-    return HardwareDesignResponse(**_finite(dataclasses.asdict(run_hardware(request, compute))))
+async def design_hardware_route(request: HardwareDesignRequest, compute: Compute) -> HardwareDesignResponse:
+    return HardwareDesignResponse(**_finite(dataclasses.asdict(await run_hardware(request, compute))))

@@ -34,8 +34,8 @@ def _finite(value):
 
 
 @router.post("/v1/design/stiffness", response_model=StiffnessDesignResponse, tags=["design"])
-def design_stiffness_route(request: StiffnessDesignRequest, compute: Compute) -> StiffnessDesignResponse:
-    # A plain def (the threadpool); the design runs in a compute worker under the request time budget
+async def design_stiffness_route(request: StiffnessDesignRequest, compute: Compute) -> StiffnessDesignResponse:
+    # The design runs in a compute worker under the request time budget, awaited without holding a thread
     # (service/cost.py), where the CasADi solvers are built and cached per process.
     t0 = time.perf_counter()
     fields = request.requirements.model_dump(exclude={"uncertainty"})
@@ -43,9 +43,9 @@ def design_stiffness_route(request: StiffnessDesignRequest, compute: Compute) ->
     if request.requirements.uncertainty is not None:
         if request.method != "exact":
             raise NumericInputError("method", "robust designs (requirements.uncertainty) are computed on the exact rung only")
-        return _robust(request, req, t0, compute)
+        return await _robust(request, req, t0, compute)
     try:
-        design, rung = compute.run(design_stiffness_on_rung, request.device, req, request.method, request.grid_points,
+        design, rung = await compute.arun(design_stiffness_on_rung, request.device, req, request.method, request.grid_points,
                                    cost_ms=stiffness_design_cost_ms(request.device, request.method, request.grid_points))
     except (RuntimeError, ArithmeticError, ValueError) as exc:   # CasADi raises RuntimeError on solver trouble
         return StiffnessDesignResponse(status="failed", reason=f"solver trouble: {exc}",
@@ -64,12 +64,12 @@ def input_error(exc: ValueError) -> Exception:
     return NumericInputError(field, msg)
 
 
-def _robust(request: StiffnessDesignRequest, req: StiffnessRequirements, t0: float,
+async def _robust(request: StiffnessDesignRequest, req: StiffnessRequirements, t0: float,
             compute: Compute) -> StiffnessDesignResponse:
     ranges = {k: (v.min, v.max) for k, v in request.requirements.uncertainty.items()}
     try:
         box = UncertaintyBox.from_ranges(request.device, ranges)
-        d = compute.run(robust_design_stiffness, request.device, req, box, cost_ms=None)  # always a worker
+        d = await compute.arun(robust_design_stiffness, request.device, req, box, cost_ms=None)  # always a worker
     except ValueError as exc:
         raise input_error(exc) from None
     except (RuntimeError, ArithmeticError) as exc:

@@ -41,12 +41,12 @@ def _human_notes(source: str) -> list[str]:
 
 
 @router.post("/v1/analysis/force-feedforward", response_model=ForceFeedforwardResponse)
-def force_feedforward(req: ForceFeedforwardRequest, compute: Compute) -> ForceFeedforwardResponse:
+async def force_feedforward(req: ForceFeedforwardRequest, compute: Compute) -> ForceFeedforwardResponse:
     start = time.perf_counter()
     dev = req.device
     try:
         filt = ButterworthLowPass(req.filter.order, req.filter.cutoff_hz, dev.sample_time) if req.filter else None
-        res, rigid = compute.run(force_feedforward_job, dev, filt, req.method, req.grid_points,
+        res, rigid = await compute.arun(force_feedforward_job, dev, filt, req.method, req.grid_points,
                                  cost_ms=force_feedforward_cost_ms(dev, req.method, req.grid_points))
     except ValueError as exc:
         raise _field_error(exc, "filter.") from exc
@@ -71,7 +71,7 @@ def force_feedforward(req: ForceFeedforwardRequest, compute: Compute) -> ForceFe
 
 
 @router.post("/v1/design/inertia", response_model=InertiaResponse)
-def inertia(req: InertiaRequest, compute: Compute) -> InertiaResponse:
+async def inertia(req: InertiaRequest, compute: Compute) -> InertiaResponse:
     r = req.requirements
     spec = InertiaRequirements(
         min_gain_margin_db=r.min_gain_margin_db, cutoff_min_hz=r.cutoff_min_hz, cutoff_max_hz=r.cutoff_max_hz,
@@ -81,9 +81,9 @@ def inertia(req: InertiaRequest, compute: Compute) -> InertiaResponse:
     if r.uncertainty is not None:
         if req.method != "exact":
             raise NumericInputError("method", "robust designs (requirements.uncertainty) are computed on the exact rung only")
-        return _robust_inertia(req, spec, compute)
+        return await _robust_inertia(req, spec, compute)
     try:
-        d, rung = compute.run(design_inertia_on_rung, req.device, spec, req.method, req.grid_points,
+        d, rung = await compute.arun(design_inertia_on_rung, req.device, spec, req.method, req.grid_points,
                               cost_ms=inertia_design_cost_ms(req.device, req.method, req.grid_points,
                                                              len(r.humans or ()) or (2 if r.human_mass_range else 1)))
     except ValueError as exc:
@@ -125,7 +125,7 @@ def _rigid_out(d, notes: list[str], who: str) -> dict | None:
             "optimism": _finite(rm.optimism), "optimistic": rm.optimistic}
 
 
-def _robust_inertia(req: InertiaRequest, spec: InertiaRequirements, compute: Compute) -> InertiaResponse:
+async def _robust_inertia(req: InertiaRequest, spec: InertiaRequirements, compute: Compute) -> InertiaResponse:
     from optim.robust.box import UncertaintyBox
     from optim.robust.inertia import robust_design_inertia
 
@@ -133,7 +133,7 @@ def _robust_inertia(req: InertiaRequest, spec: InertiaRequirements, compute: Com
 
     try:
         box = UncertaintyBox.from_ranges(req.device, {k: (v.min, v.max) for k, v in req.requirements.uncertainty.items()})
-        d = compute.run(robust_design_inertia, req.device, spec, box, cost_ms=None)  # always a worker
+        d = await compute.arun(robust_design_inertia, req.device, spec, box, cost_ms=None)  # always a worker
     except ValueError as exc:
         raise input_error(exc) from None
     human, source = resolve_human(req.device)

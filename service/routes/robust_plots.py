@@ -13,11 +13,11 @@ from optim.stiffness import StiffnessRequirements
 
 from ..errors import NumericInputError
 from ..executor import Compute
-from ..jobs import robust_slice_job
-from ..plots_robust import MEDIA_TYPES, plot_hardware
+from ..jobs import hardware_plot_job, robust_slice_job
+from ..plots_robust import MEDIA_TYPES
 from ..schemas.design_hardware import HardwareDesignRequest
 from ..schemas.design_stiffness import StiffnessDesignRequest
-from .design_hardware import hardware_target, run_hardware
+from .design_hardware import hardware_target
 from .design_stiffness import input_error
 
 router = APIRouter(tags=["plots"])
@@ -32,7 +32,7 @@ class RobustPlotRequest(StiffnessDesignRequest):
 
 
 @router.post("/v1/plots/robust", response_class=Response, responses=_IMAGE)
-def robust_plot(req: RobustPlotRequest, compute: Compute,
+async def robust_plot(req: RobustPlotRequest, compute: Compute,
                 format: Literal["png", "svg"] = Query("png")) -> Response:  # noqa: A002
     unc = req.requirements.uncertainty
     if not unc:
@@ -50,7 +50,7 @@ def robust_plot(req: RobustPlotRequest, compute: Compute,
             raise NumericInputError(name, f"{p!r} is not one of the uncertain paths {paths}")
     requirements = StiffnessRequirements(**req.requirements.model_dump(exclude={"uncertainty"}))
     try:  # the robust design and the points² exact analyses of the slice: always a worker
-        image = compute.run(robust_slice_job, req.device, requirements, box, x, y, req.points,
+        image = await compute.arun(robust_slice_job, req.device, requirements, box, x, y, req.points,
                             req.requirements.min_gain_margin_db, format, cost_ms=None)
     except NumericInputError:
         raise
@@ -60,7 +60,14 @@ def robust_plot(req: RobustPlotRequest, compute: Compute,
 
 
 @router.post("/v1/plots/hardware", response_class=Response, responses=_IMAGE)
-def hardware_plot(req: HardwareDesignRequest, compute: Compute,
-                  format: Literal["png", "svg"] = Query("png")) -> Response:  # noqa: A002
-    design = run_hardware(req, compute)
-    return Response(content=plot_hardware(design, hardware_target(req), format), media_type=MEDIA_TYPES[format])
+async def hardware_plot(req: HardwareDesignRequest, compute: Compute,
+                        format: Literal["png", "svg"] = Query("png")) -> Response:  # noqa: A002
+    try:  # tens of exact designs, then the drawing: always a worker, under the budget
+        image = await compute.arun(hardware_plot_job, req.device, hardware_target(req), req.free, req.points, format,
+                                   cost_ms=None)
+    except NumericInputError:
+        raise
+    except ValueError as exc:
+        field, _, msg = str(exc).partition(": ")
+        raise NumericInputError(field, msg) from None
+    return Response(content=image, media_type=MEDIA_TYPES[format])

@@ -10,13 +10,15 @@ from typing import Annotated, Literal
 from fastapi import APIRouter, HTTPException, Query, Request, Response
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import StreamingResponse
+from starlette.concurrency import run_in_threadpool
 
 from optim.studies import StudyInputError
 
+from ..executor import Compute
 from ..schemas.studies import StudyCreated, StudyList, StudyRequest, StudyResults, StudyStatus
 from ..studies.export import columns, csv_chunks, flat_row, parquet_bytes, scan_columns
 from ..studies.lifespan import study_lifespan
-from ..studies.plot import plot_rows
+from ..studies.plot import plot_study
 from ..studies.runner import StudyRunner, plan_from_request
 
 router = APIRouter(prefix="/v1/studies", tags=["studies"], lifespan=study_lifespan)
@@ -149,11 +151,11 @@ def study_results(study_id: str, request: Request, format: Literal["json", "csv"
 @router.get("/{study_id}/plot", response_class=Response, responses={200: {"description": "the figure", "content": {
     "image/png": {"schema": {"type": "string", "format": "binary"}},
     "image/svg+xml": {"schema": {"type": "string", "format": "binary"}}}}})
-def study_plot(study_id: str, request: Request, y: str, x: str, x2: str | None = None,
-               format: Literal["png", "svg"] = "png") -> Response:
+async def study_plot(study_id: str, request: Request, compute: Compute, y: str, x: str, x2: str | None = None,
+                     format: Literal["png", "svg"] = "png") -> Response:
     """Result ``y`` against swept ``x`` (line) or against ``x`` and ``x2`` (heatmap)."""
     runner = _runner(request)
-    row = _study(runner, study_id)
+    row = await run_in_threadpool(_study, runner, study_id)
     paths = list(row["request"].get("sweep", {}))
     for name, value in (("x", x), ("x2", x2)):
         if value is not None and value not in paths:
@@ -162,11 +164,12 @@ def study_plot(study_id: str, request: Request, y: str, x: str, x2: str | None =
         raise _invalid(["query", "x2"], "must differ from x")
     if row["done"] > MAX_PLOT_POINTS:
         raise _invalid(["query", "x"], f"the study has more than {MAX_PLOT_POINTS} points to draw; export it instead")
-    rows = [flat_row(paths, r) for r in runner.store.iter_results(study_id)]
-    if rows and not any(y in r for r in rows):
-        known = [c for c in columns(paths, rows) if c not in ("index", "error", *paths)]
-        raise _invalid(["query", "y"], f"{y!r} is not a result of this study; results: {', '.join(known)}")
     sweep = row["request"].get("sweep", {})
     log_paths = {p: spec.get("scale") == "log" for p, spec in sweep.items() if isinstance(spec, dict)}
-    image = plot_rows(rows, y, x, x2, format, f"{row['problem']} study {study_id[:8]}: {y}", log_paths)
+    try:  # read and drawn in a compute worker, under the request time budget
+        image = await compute.arun(plot_study, runner.store.url, study_id, paths, y, x, x2, format,
+                                   f"{row['problem']} study {study_id[:8]}: {y}", log_paths, cost_ms=None)
+    except ValueError as exc:
+        field, _, msg = str(exc).partition(": ")
+        raise _invalid(["query", field], msg) from None
     return Response(image, media_type="image/png" if format == "png" else "image/svg+xml")
