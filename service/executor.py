@@ -311,13 +311,15 @@ class BoundedExecutor:
         except TimeoutError:
             _log.warning("compute budget exceeded; worker killed and replaced",
                          extra={"budget_s": job.budget, "function": getattr(job.fn, "__qualname__", str(job.fn))})
+            successor = self._replace(slot, worker)
             job.future.set_exception(ComputeTimeout(job.budget))
-            return self._replace(slot, worker)
+            return successor
         except (EOFError, OSError) as exc:
             _log.error("compute worker died; replaced", extra={"error": type(exc).__name__})
+            successor = self._replace(slot, worker)
             job.future.set_exception(
                 ComputeUnavailable("the compute worker died during the computation; it was replaced"))
-            return self._replace(slot, worker)
+            return successor
         except Exception as exc:  # noqa: BLE001 - e.g. unpicklable arguments: nothing reached the worker
             job.future.set_exception(exc)
             return worker

@@ -114,6 +114,15 @@ def test_http_timeout_answers_503_and_the_next_request_is_served_normally():
 def test_shutdown_stops_the_workers():
     with make_client(compute_workers=1) as c:
         c.post(STABILITY, json={"device": LHIFAM_RIGID, "method": "grid", "grid_points": 200_000})
-        workers = list(c.app.state.executor._idle)
-        assert workers and all(w.process.is_alive() for w in workers)
-    assert all(not w.process.is_alive() for w in workers)
+        pids = c.app.state.executor.worker_pids()
+        assert pids and all(_alive(p) for p in pids)
+    assert not any(_alive(p) for p in pids)
+
+
+def _alive(pid: int) -> bool:
+    """Running (not a zombie) — /proc/<pid>/stat's state field."""
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[0] not in ("Z", "X")
+    except OSError:
+        return False
