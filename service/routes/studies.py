@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import asyncio
 import random
 import time
 import uuid
@@ -9,7 +10,7 @@ from typing import Annotated, Literal
 
 from fastapi import APIRouter, HTTPException, Query, Request, Response
 from fastapi.exceptions import RequestValidationError
-from fastapi.responses import StreamingResponse
+from fastapi.responses import JSONResponse, StreamingResponse
 from starlette.concurrency import run_in_threadpool
 
 from optim.studies import StudyInputError
@@ -98,7 +99,7 @@ def submit_study(req: StudyRequest, request: Request) -> StudyCreated:
 @router.get("", response_model=StudyList)
 def list_studies(request: Request, offset: Annotated[int, Query(ge=0)] = 0,
                  limit: Annotated[int, Query(ge=1, le=1000)] = 100,
-                 status: Literal["queued", "running", "done", "cancelled", "failed"] | None = None) -> StudyList:
+                 status: Literal["queued", "running", "cancelling", "done", "cancelled", "failed"] | None = None) -> StudyList:
     rows = _runner(request).store.list(limit, offset, status)
     return StudyList(studies=[_status(r) for r in rows], offset=offset, limit=limit)
 
@@ -108,19 +109,40 @@ def get_study(study_id: str, request: Request) -> StudyStatus:
     return _status(_study(_runner(request), study_id))
 
 
-@router.delete("/{study_id}", response_model=StudyStatus)
-def cancel_study(study_id: str, request: Request, purge: bool = False) -> StudyStatus | Response:
-    """Cancel a queued or running study (stored results stay); ``purge=true`` also deletes it and its results."""
+#: How long a cancel waits for the study's owner to stop before answering 202 "cancelling" [s].
+CANCEL_WAIT_S = 2.0
+
+
+@router.delete("/{study_id}", response_model=StudyStatus, responses={
+    202: {"model": StudyStatus, "description": "cancelling: the study's coordinator (maybe in another service "
+                                               "process) stops at its next chunk; no row is written from now on"},
+    204: {"description": "purged"},
+    409: {"description": "purge refused: the study is still active or stopping; retry once it is cancelled"}})
+async def cancel_study(study_id: str, request: Request, purge: bool = False) -> StudyStatus | Response:
+    """Cancel a queued or running study (stored results stay); ``purge=true`` also deletes it and its results.
+
+    200 with ``cancelled`` (or the study's final state) once it has stopped; 202 with ``cancelling`` when
+    its coordinator has not stopped within a moment.  Either way no result row is written after the answer.
+    A purge of a study that is still active or stopping answers 409."""
     runner = _runner(request)
-    row = _study(runner, study_id)
-    if runner.store.cancel(study_id):
-        runner.cancel(study_id)
+    store = runner.store
+    row = await run_in_threadpool(_study, runner, study_id)
+    outcome = await run_in_threadpool(store.cancel, study_id)
+    if outcome:
+        runner.cancel(study_id)   # this process's coordinator, if it runs the study, stops without waiting
+    deadline = time.monotonic() + CANCEL_WAIT_S
+    while outcome == "cancelling" and time.monotonic() < deadline:
+        await asyncio.sleep(0.05)
+        outcome = await run_in_threadpool(store.status, study_id)
     if purge:
-        if runner.current == study_id:
+        gone = await run_in_threadpool(store.delete, study_id)
+        if gone == "active":
             raise HTTPException(status_code=409, detail="the study is still stopping; purge it again in a moment")
-        runner.store.delete(study_id)
         return Response(status_code=204)
-    return _status(runner.store.get(study_id) or row)
+    st = _status(await run_in_threadpool(store.get, study_id) or row)
+    if st.status == "cancelling":
+        return JSONResponse(st.model_dump(mode="json"), status_code=202)
+    return st
 
 
 @router.get("/{study_id}/results", response_model=StudyResults,

@@ -13,6 +13,8 @@ from concurrent.futures.process import BrokenProcessPool
 import os
 from typing import Any, Callable, Protocol
 
+from ..lifeline import die_with_parent
+
 __all__ = ["Executor", "LocalExecutor", "DaskExecutor", "make_executor"]
 
 
@@ -43,8 +45,11 @@ class LocalExecutor:
 
     def _get(self) -> cf.ProcessPoolExecutor:
         if self._pool is None:
+            # die_with_parent: a kill -9 of the server must not leave the pool's workers running (issue 18);
+            # a watchdog, not PR_SET_PDEATHSIG, since the parent thread that spawns a worker may end first.
             self._pool = cf.ProcessPoolExecutor(max_workers=self.workers,
-                                                mp_context=multiprocessing.get_context("spawn"))
+                                                mp_context=multiprocessing.get_context("spawn"),
+                                                initializer=die_with_parent, initargs=(False, os.getpid()))
         return self._pool
 
     def submit(self, fn: Callable, *args: Any) -> cf.Future:

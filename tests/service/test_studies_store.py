@@ -43,11 +43,13 @@ def test_cancel_wins_over_finish(tmp_path):
     store = _store(tmp_path)
     store.create("s2", "stability", {}, total=1)
     store.begin_run("s2")
-    assert store.cancel("s2")
+    assert store.cancel("s2") == "cancelling"   # its coordinator (a live lease) stops it
+    assert store.write_chunk("s2", [(0, "c" * 32, [1.0], {"k": 1.0}, None)]) is None  # no row after the cancel
+    assert store.delete("s2") == "active"       # not purged while its owner may still write
     store.finish("s2", "done")
     assert store.get("s2")["status"] == "cancelled"
     assert store.begin_run("s2") is None  # a cancelled study is not resumed
-    assert store.delete("s2") and store.get("s2") is None
+    assert store.delete("s2") == "deleted" and store.get("s2") is None
 
 
 def test_one_coordinator_per_study(tmp_path, monkeypatch):
