@@ -123,22 +123,22 @@ async def cancel_study(study_id: str, request: Request, purge: bool = False) -> 
 
     200 with ``cancelled`` (or the study's final state) once it has stopped; 202 with ``cancelling`` when
     its coordinator has not stopped within a moment.  Either way no result row is written after the answer.
-    A purge of a study that is still active or stopping answers 409."""
+    A purge cancels too, and answers 409 at once while the study is still running or stopping (retry)."""
     runner = _runner(request)
     store = runner.store
     row = await run_in_threadpool(_study, runner, study_id)
     outcome = await run_in_threadpool(store.cancel, study_id)
     if outcome:
         runner.cancel(study_id)   # this process's coordinator, if it runs the study, stops without waiting
-    deadline = time.monotonic() + CANCEL_WAIT_S
-    while outcome == "cancelling" and time.monotonic() < deadline:
-        await asyncio.sleep(0.05)
-        outcome = await run_in_threadpool(store.status, study_id)
-    if purge:
+    if purge:   # at once: a study still running or stopping is never purged under its writer
         gone = await run_in_threadpool(store.delete, study_id)
         if gone == "active":
             raise HTTPException(status_code=409, detail="the study is still stopping; purge it again in a moment")
         return Response(status_code=204)
+    deadline = time.monotonic() + CANCEL_WAIT_S
+    while outcome == "cancelling" and time.monotonic() < deadline:
+        await asyncio.sleep(0.05)
+        outcome = await run_in_threadpool(store.status, study_id)
     st = _status(await run_in_threadpool(store.get, study_id) or row)
     if st.status == "cancelling":
         return JSONResponse(st.model_dump(mode="json"), status_code=202)
