@@ -46,10 +46,12 @@ import queue
 import threading
 import time
 from dataclasses import dataclass, field
-from multiprocessing.connection import Connection
 from typing import Annotated, Any, Callable, TypeVar
 
 from fastapi import Depends, Request
+
+from .compute_worker import Worker as _Worker
+from .compute_worker import warm_worker as _warm_worker
 
 __all__ = ["ComputeTimeout", "ComputeUnavailable", "ComputeBusy", "BoundedExecutor", "Compute", "get_executor",
            "run_bounded", "PRELOAD", "QueueState"]
@@ -60,7 +62,8 @@ _log = logging.getLogger("zwidth.executor")
 #: Longest wait for a new worker to start (the forkserver's first start imports numpy, scipy and the numerics).
 STARTUP_TIMEOUT = 120.0
 #: Modules the forkserver imports once, so that every worker starts warm.
-PRELOAD = ("numpy", "scipy.optimize", "service.executor", "service.jobs", "service._warm")
+PRELOAD = ("numpy", "scipy.optimize", "service.executor", "service.compute_worker", "service.jobs",
+           "service._warm")
 #: Inline (cheap) calls running at once: more threads would only compete for the GIL with the event loop.
 INLINE_THREADS = 4
 
@@ -97,68 +100,6 @@ class QueueState:
     busy: int           #: workers computing now
     warm: bool          #: every worker started and warmed up (numerics imported, design solvers built)
     replaced: int       #: workers killed and replaced so far (timeouts and crashes)
-
-
-def _serve(conn: Connection) -> None:
-    """Worker loop: say "ready", then receive (fn, args, kwargs), send back ("ok", value) or ("err", exception)."""
-    from .lifeline import die_with_parent
-
-    # The parent is the forkserver: single-threaded, it dies with the server (service.lifeline).
-    die_with_parent(pdeathsig=True)
-    conn.send(("ready", None))
-    while True:
-        try:
-            fn, args, kwargs = conn.recv()
-        except (EOFError, OSError):
-            return
-        try:
-            reply: tuple[str, Any] = ("ok", fn(*args, **kwargs))
-        except Exception as exc:  # noqa: BLE001 - re-raised in the caller, where it is mapped
-            reply = ("err", exc)
-        try:
-            conn.send(reply)
-        except Exception as exc:  # noqa: BLE001 - an unpicklable result or exception
-            conn.send(("err", RuntimeError(f"worker could not return its result ({type(exc).__name__})")))
-
-
-def _warm_worker() -> None:
-    """Run in each worker at warm-up: the numerics' caches are filled (inherited from the forkserver's
-    import of service._warm, else built now), so the first request after readiness pays nothing."""
-    from . import _warm
-
-    _warm.touch()
-
-
-class _Worker:
-    def __init__(self, ctx: Any) -> None:
-        parent, child = ctx.Pipe()
-        self.process = ctx.Process(target=_serve, args=(child,), name="zwidth-compute", daemon=True)
-        self.process.start()
-        child.close()
-        self.conn: Connection = parent
-        self.ready = False
-
-    def wait_ready(self, timeout: float) -> None:
-        """Wait for the worker's greeting (TimeoutError, EOFError if it died)."""
-        if self.ready:
-            return
-        if not self.conn.poll(timeout):
-            raise TimeoutError
-        self.conn.recv()
-        self.ready = True
-
-    def call(self, fn: Callable[..., T], args: tuple, kwargs: dict, timeout: float) -> tuple[bool, Any]:
-        """(True, value) or (False, exception raised by fn); TimeoutError past ``timeout``, EOFError if it died."""
-        self.conn.send((fn, args, kwargs))
-        if not self.conn.poll(max(timeout, 0.0)):
-            raise TimeoutError
-        status, value = self.conn.recv()
-        return status == "ok", value
-
-    def kill(self) -> None:
-        self.process.kill()
-        self.process.join(timeout=5)
-        self.conn.close()
 
 
 @dataclass
@@ -400,7 +341,8 @@ class BoundedExecutor:
                 raise ComputeTimeout(budget, waiting=True) from None
             return await waiter   # started: the dispatcher stops it at the budget
         except asyncio.CancelledError:
-            self._withdraw(fut)   # the request went away: a call not yet started never runs
+            if not self._withdraw(fut):   # the request went away: a call not yet started never runs
+                waiter.add_done_callback(lambda f: f.cancelled() or f.exception())   # nobody reads it now
             raise
 
     # -- life cycle -------------------------------------------------------------------------------

@@ -59,7 +59,7 @@ async def stability(req: Annotated[StabilityRequest, Body(openapi_examples=_STAB
     check_reference_cost(req.device, req.method)
     try:
         res = await compute.arun(analyse_stability, req.device, k, b, req.method, req.grid_points,
-                          cost_ms=stability_cost_ms(req.device, req.method, b, req.grid_points))
+                                 cost_ms=stability_cost_ms(req.device, req.method, b, req.grid_points))
     except ValueError as exc:
         raise field_error(exc) from exc
     return StabilityResponse(**_finite_or_null(asdict(res)))
@@ -71,7 +71,7 @@ async def boundary(req: Annotated[BoundaryRequest, Body(openapi_examples=device_
              compute: Compute) -> BoundaryResponse:
     try:
         res = await compute.arun(stability_boundary, req.device, req.damping_max, req.points,
-                          cost_ms=boundary_cost_ms(req.device, req.points))
+                                 cost_ms=boundary_cost_ms(req.device, req.points))
     except ValueError as exc:
         raise field_error(exc) from exc
 

@@ -26,7 +26,7 @@ async def run_hardware(request: HardwareDesignRequest, compute: BoundedExecutor)
     """The design in a compute worker (tens of exact designs: never inline), under the request time budget."""
     try:
         return await compute.arun(design_hardware, request.device, hardware_target(request), request.free,
-                           points=request.points, cost_ms=None)
+                                  points=request.points, cost_ms=None)
     except ValueError as exc:
         field, _, msg = str(exc).partition(": ")
         raise NumericInputError(field, msg) from None

@@ -45,8 +45,9 @@ async def design_stiffness_route(request: StiffnessDesignRequest, compute: Compu
             raise NumericInputError("method", "robust designs (requirements.uncertainty) are computed on the exact rung only")
         return await _robust(request, req, t0, compute)
     try:
-        design, rung = await compute.arun(design_stiffness_on_rung, request.device, req, request.method, request.grid_points,
-                                   cost_ms=stiffness_design_cost_ms(request.device, request.method, request.grid_points))
+        design, rung = await compute.arun(
+            design_stiffness_on_rung, request.device, req, request.method, request.grid_points,
+            cost_ms=stiffness_design_cost_ms(request.device, request.method, request.grid_points))
     except (RuntimeError, ArithmeticError, ValueError) as exc:   # CasADi raises RuntimeError on solver trouble
         return StiffnessDesignResponse(status="failed", reason=f"solver trouble: {exc}",
                                        elapsed_ms=(time.perf_counter() - t0) * 1e3)

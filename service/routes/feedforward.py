@@ -47,7 +47,7 @@ async def force_feedforward(req: ForceFeedforwardRequest, compute: Compute) -> F
     try:
         filt = ButterworthLowPass(req.filter.order, req.filter.cutoff_hz, dev.sample_time) if req.filter else None
         res, rigid = await compute.arun(force_feedforward_job, dev, filt, req.method, req.grid_points,
-                                 cost_ms=force_feedforward_cost_ms(dev, req.method, req.grid_points))
+                                        cost_ms=force_feedforward_cost_ms(dev, req.method, req.grid_points))
     except ValueError as exc:
         raise _field_error(exc, "filter.") from exc
     kcr = _finite(res.critical_force_gain)
@@ -84,8 +84,9 @@ async def inertia(req: InertiaRequest, compute: Compute) -> InertiaResponse:
         return await _robust_inertia(req, spec, compute)
     try:
         d, rung = await compute.arun(design_inertia_on_rung, req.device, spec, req.method, req.grid_points,
-                              cost_ms=inertia_design_cost_ms(req.device, req.method, req.grid_points,
-                                                             len(r.humans or ()) or (2 if r.human_mass_range else 1)))
+                                     cost_ms=inertia_design_cost_ms(
+                                         req.device, req.method, req.grid_points,
+                                         len(r.humans or ()) or (2 if r.human_mass_range else 1)))
     except ValueError as exc:
         raise _field_error(exc) from exc
     notes = _human_notes(d.human_source)

@@ -20,7 +20,8 @@ class Health(BaseModel):
 
 class ComputeQueue(BaseModel):
     depth: int = Field(description="expensive calls waiting for a compute worker")
-    max_depth: int = Field(description="waiting calls beyond which a new one is refused with 503 (ZWIDTH_COMPUTE_QUEUE)")
+    max_depth: int = Field(description="waiting calls beyond which a new one is refused with 503 "
+                                       "(ZWIDTH_COMPUTE_QUEUE)")
     workers: int = Field(description="compute worker processes (ZWIDTH_COMPUTE_WORKERS)")
     busy: int = Field(description="workers computing now")
     replaced: int = Field(description="workers killed and replaced since the start (budget overruns, crashes)")

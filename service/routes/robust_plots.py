@@ -51,7 +51,7 @@ async def robust_plot(req: RobustPlotRequest, compute: Compute,
     requirements = StiffnessRequirements(**req.requirements.model_dump(exclude={"uncertainty"}))
     try:  # the robust design and the points² exact analyses of the slice: always a worker
         image = await compute.arun(robust_slice_job, req.device, requirements, box, x, y, req.points,
-                            req.requirements.min_gain_margin_db, format, cost_ms=None)
+                                   req.requirements.min_gain_margin_db, format, cost_ms=None)
     except NumericInputError:
         raise
     except ValueError as exc:

@@ -99,7 +99,8 @@ def submit_study(req: StudyRequest, request: Request) -> StudyCreated:
 @router.get("", response_model=StudyList)
 def list_studies(request: Request, offset: Annotated[int, Query(ge=0)] = 0,
                  limit: Annotated[int, Query(ge=1, le=1000)] = 100,
-                 status: Literal["queued", "running", "cancelling", "done", "cancelled", "failed"] | None = None) -> StudyList:
+                 status: Literal["queued", "running", "cancelling", "done", "cancelled", "failed"] | None = None
+                 ) -> StudyList:
     rows = _runner(request).store.list(limit, offset, status)
     return StudyList(studies=[_status(r) for r in rows], offset=offset, limit=limit)
 
