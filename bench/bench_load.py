@@ -2,11 +2,14 @@
 
 Starts ``uvicorn service.app:app`` (one server process, its compute workers) on a free loopback port, waits
 for ``/readyz``, measures the server's resident memory, then drives it for S seconds with N concurrent
-clients (asyncio + httpx, each sends its next request when the last is answered) mixing
+clients (asyncio + httpx) mixing
 
 * heavy requests, which the service runs in its compute workers under the request time budget: a
   boundary, reference-rung analyses (mpmath), Bode and boundary plots;
 * cheap requests, which it runs inline: exact analyses of rigid and cable devices, a force feedforward.
+
+Each client sends its next request when the last is answered; after a 503 it first waits the answer's
+``Retry-After`` (as a client should: the service sheds load so that it is honoured).
 
 Meanwhile a separate process probes ``/healthz`` every 50 ms (its own event loop: the probe's latency is
 the server's, not the load generator's), and the queue is sampled from ``/readyz``.  After the clients
@@ -86,8 +89,12 @@ async def _client(client: httpx.AsyncClient, stop_at: float, rng: np.random.Gene
     while time.monotonic() < stop_at:
         name, kind, path, body, _ = MIX[int(rng.choice(len(MIX), p=p))]
         t0 = time.perf_counter()
+        retry_after = 0.0
         try:
-            status = (await client.post(path, json=body)).status_code
+            r = await client.post(path, json=body)
+            status = r.status_code
+            if status == 503:
+                retry_after = float(r.headers.get("retry-after", 0))
         except httpx.HTTPError as exc:
             status = type(exc).__name__
         rec = out.setdefault(name, {"kind": kind, "ms": [], "status": {}})
@@ -95,6 +102,7 @@ async def _client(client: httpx.AsyncClient, stop_at: float, rng: np.random.Gene
         rec["status"][status] = rec["status"].get(status, 0) + 1
         if status == 503:
             rec.setdefault("ms_503", []).append(rec["ms"][-1])
+            await asyncio.sleep(retry_after)   # a polite client: what Retry-After is for
 
 
 async def _sample_queue(base: str, stop_at: float, out: list) -> None:
@@ -208,7 +216,7 @@ def render(res: dict) -> str:
         f"One uvicorn process with {res['compute_workers']} compute workers, request budget {res['budget']:g} s, "
         f"queue depth {res['queue_depth'] if res['queue_depth'] is not None else 'default'}; {res['clients']} "
         f"concurrent clients for {res['seconds']:g} s (asyncio + httpx, each sends its next request when the last "
-        f"is answered); /healthz probed every 50 ms from a separate process.",
+        f"is answered, after the `Retry-After` of a 503); /healthz probed every 50 ms from a separate process.",
         "",
         f"**{total} requests in {res['wall']:.1f} s ({total / res['wall']:.1f}/s).** Deepest queue seen on /readyz: "
         f"{depth}. Server process RSS {res['rss_before_kib'] / 1024:.1f} MiB before, "

@@ -16,10 +16,11 @@ T = TypeVar("T")
 
 def _serve(conn: Connection) -> None:
     """Worker loop: say "ready", then receive (fn, args, kwargs), send back ("ok", value) or ("err", exception)."""
-    from .lifeline import die_with_parent
+    from .lifeline import die_with_parent, lower_priority
 
     # The parent is the forkserver: single-threaded, it dies with the server (service.lifeline).
     die_with_parent(pdeathsig=True)
+    lower_priority()
     conn.send(("ready", None))
     while True:
         try:
