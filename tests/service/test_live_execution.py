@@ -103,7 +103,7 @@ def test_keep_alive_connection_stays_usable_after_a_budget_overrun(server):
     _wait_ready(server.url)
     conn = http.client.HTTPConnection("127.0.0.1", server.port, timeout=60)
     try:
-        body = json.dumps({"device": {"preset": "lhifam", "delay": 0.01}, "method": "reference"})
+        body = json.dumps({"device": {"preset": "lhifam", "delay": 0.15}, "method": "reference"})  # ≈ 20 s
         conn.request("POST", "/v1/analysis/stability", body=body, headers={"Content-Type": "application/json"})
         r = conn.getresponse()
         r.read()
