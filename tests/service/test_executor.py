@@ -199,3 +199,33 @@ def test_warm_up_makes_the_first_design_fast():
     finally:
         ex.shutdown()
     assert not ex.state().warm
+
+
+@pytest.mark.slow
+def test_http_sheds_load_at_once_past_the_queue_depth_and_readyz_shows_the_queue():
+    """ZWIDTH_COMPUTE_QUEUE = 0 and one worker: while a reference analysis holds it, the next expensive request
+    answers 503 with Retry-After at once (not at the budget); cheap ones and /healthz are served meanwhile."""
+    import threading
+
+    with make_client(request_timeout=3, compute_workers=1, compute_queue=0, prestart_workers=True) as c:
+        deadline = time.monotonic() + 120
+        while c.get("/readyz").status_code != 200:
+            assert time.monotonic() < deadline
+            time.sleep(0.05)
+        slow = {"device": {"preset": "lhifam", "delay": 0.15}, "method": "reference"}   # ≈ 20 s: stopped at 3 s
+        held = threading.Thread(target=c.post, args=(STABILITY,), kwargs={"json": slow})
+        held.start()
+        while c.get("/readyz").json()["queue"]["busy"] == 0:
+            time.sleep(0.01)
+        ready = c.get("/readyz").json()
+        assert ready["ready"] and ready["queue"] == {"depth": 0, "max_depth": 0, "workers": 1, "busy": 1,
+                                                     "replaced": 0}
+        t0 = time.monotonic()
+        r = c.post(STABILITY, json={"device": LHIFAM_RIGID, "method": "reference"})
+        assert time.monotonic() - t0 < 1.0
+        assert r.status_code == 503 and r.headers["retry-after"] == "1"
+        assert "ZWIDTH_COMPUTE_QUEUE" in r.json()["detail"]
+        assert c.post(STABILITY, json={"device": LHIFAM_RIGID}).status_code == 200   # inline: served
+        assert c.get("/healthz").status_code == 200
+        held.join(30)
+        assert c.get("/readyz").json()["queue"]["replaced"] == 1   # the held one was stopped at its budget
