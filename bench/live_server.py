@@ -14,7 +14,7 @@ import time
 from pathlib import Path
 from typing import IO
 
-__all__ = ["free_port", "LiveServer"]
+__all__ = ["free_port", "LiveServer", "session_pids", "rss_kib"]
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -23,6 +23,36 @@ def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
+
+
+def _stat(pid: int) -> list[str] | None:
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()   # fields from the state on (the name may hold spaces)
+    except OSError:
+        return None
+
+
+def session_pids(sid: int) -> list[int]:
+    """Live (not zombie) processes whose session id is ``sid`` (Linux /proc)."""
+    out = []
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            st = _stat(int(entry))
+            if st is not None and int(st[3]) == sid and st[0] not in ("Z", "X"):
+                out.append(int(entry))
+    return sorted(out)
+
+
+def rss_kib(pid: int) -> int:
+    """Resident memory of one process [KiB] (0 when it is gone)."""
+    try:
+        for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1])
+    except OSError:
+        pass
+    return 0
 
 
 class LiveServer:
@@ -72,11 +102,28 @@ class LiveServer:
         self._out.seek(0, os.SEEK_END)
         return text
 
+    def session_pids(self) -> list[int]:
+        """Live processes of the server's session (it runs in its own): the server, its forkserver, resource
+        tracker and workers — zombies (dead, not yet reaped) excluded."""
+        return session_pids(self.proc.pid)
+
+    def crash(self) -> None:
+        """SIGKILL the server process alone, as the OOM killer or ``kill -9 <pid>`` would: its children are left
+        to notice by themselves (service.lifeline)."""
+        if self.proc.poll() is None:
+            os.kill(self.proc.pid, signal.SIGKILL)
+        self.proc.wait(10)
+
     def kill(self) -> None:
         """SIGKILL the server's whole process group (no shutdown handlers run)."""
         if self.proc.poll() is None:
             os.killpg(self.proc.pid, signal.SIGKILL)
         self.proc.wait(10)
+        if self.proc.poll() is not None:
+            try:   # what a crash (:meth:`crash`) left behind must not outlive the test either
+                os.killpg(self.proc.pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
         self._out.close()
 
     def stop(self) -> None:

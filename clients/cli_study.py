@@ -20,7 +20,7 @@ from .errors import APIError
 
 app = typer.Typer(help="Batch design-space studies on a zwidth server (POST /v1/studies).", no_args_is_help=True)
 
-_ACTIVE = ("queued", "running")
+_ACTIVE = ("queued", "running", "cancelling")
 
 
 def _client(url: str, token: str | None) -> ZwidthClient:

@@ -1,4 +1,4 @@
-"""Imported by the compute workers' forkserver only: fills the numerics' per-process caches once.
+"""Imported by the compute workers' forkserver (then :func:`touch` in each worker): fills per-process caches once.
 
 The exact rigid discretisation builds its series coefficients on first use
 (models.discretize, cached per process) and scipy imports submodules lazily;
@@ -22,3 +22,10 @@ stability_boundary(Device(mass=1.0, damping=1.0), None, 3)
 for _name in ("lhifam", "phantom-1.0"):
     design_stiffness(Device(preset=_name))
     design_stiffness(Device(preset=_name).rigid())
+
+
+def touch() -> None:
+    """One stiffness design, run by each compute worker at warm-up (service.executor): milliseconds when the
+    solvers were inherited from the forkserver, their construction otherwise — before readiness, not in the
+    first request."""
+    design_stiffness(Device(preset="lhifam"))

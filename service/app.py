@@ -76,7 +76,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     settings = settings or Settings()
     configure_logging(settings.log_level)
     executor = BoundedExecutor(workers=settings.compute_workers, timeout=settings.request_timeout,
-                                inline_cost_ms=settings.inline_cost_ms)
+                                inline_cost_ms=settings.inline_cost_ms, max_queue=settings.compute_queue)
 
     @asynccontextmanager
     async def lifespan(_: FastAPI) -> AsyncIterator[None]:

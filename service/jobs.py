@@ -16,6 +16,7 @@ from models.filters import ButterworthLowPass
 from models.scene import Scene
 from models.simulate import SimulationResult, simulate
 from optim.feedforward import critical_force_gain
+from optim.hardware import HardwareTarget, design_hardware
 from optim.feedforward_ladder import ForceFeedforwardAnalysis, analyse_force_feedforward
 from optim.relay import RelayReport, relay_experiment
 from optim.scene_verdict import with_margin_verdict
@@ -24,9 +25,10 @@ from optim.robust.stiffness import robust_design_stiffness
 from optim.stiffness import StiffnessRequirements
 
 from .errors import NumericInputError
-from .plots_robust import margin_slice, plot_robust_slice
+from .plots_robust import margin_slice, plot_hardware, plot_robust_slice
+from .plots_simulation import plot_simulation
 
-__all__ = ["force_feedforward_job", "simulate_job", "robust_slice_job"]
+__all__ = ["force_feedforward_job", "simulate_job", "robust_slice_job", "hardware_plot_job", "simulation_plot_job"]
 
 
 def force_feedforward_job(device: Device, filt: ButterworthLowPass | None, method: str,
@@ -60,3 +62,15 @@ def robust_slice_job(device: Device, requirements: StiffnessRequirements, box: U
     title = (f"K = {design.stiffness:.5g} N/m, B = {design.damping:.4g} N·s/m; worst margin "
              f"{design.gain_margin_db:.4f} dB")
     return plot_robust_slice(xs, ys, margin, wxy, min_gain_margin_db, (x, y), fmt, title)
+
+
+def hardware_plot_job(device: Device, target: HardwareTarget, free: str, points: int, fmt: str,
+                      value_range: tuple[float, float] | None = None) -> bytes:
+    """The hardware design and its trade-off figure, both in the worker (under the request time budget)."""
+    return plot_hardware(design_hardware(device, target, free, points=points, value_range=value_range), target, fmt)
+
+
+def simulation_plot_job(device: Device, scene: Scene, fmt: str) -> bytes:
+    """The scene simulated and drawn in the worker: the per-sample trajectory never reaches the server."""
+    result, _ = simulate_job(device, scene)
+    return plot_simulation(result, fmt)

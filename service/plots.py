@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import io
 import math
-from typing import Literal
+from typing import TYPE_CHECKING, Literal, Sequence
 
 import matplotlib
 
@@ -25,10 +25,24 @@ from matplotlib.figure import Figure  # noqa: E402
 from optim.boundary import Boundary  # noqa: E402
 from optim.frequency_response import FrequencyResponse  # noqa: E402
 
-__all__ = ["boundary_figure", "bode_figure", "render", "MEDIA_TYPES", "ImageFormat"]
+if TYPE_CHECKING:
+    from optim.frequency_response import CrossoverPoint as Crossover
+
+__all__ = ["boundary_figure", "bode_figure", "render", "MEDIA_TYPES", "ImageFormat", "MAX_CROSSOVER_LABELS",
+           "labelled_crossovers", "boundary_plot", "bode_plot"]
 
 ImageFormat = Literal["png", "svg"]
 MEDIA_TYPES: dict[str, str] = {"png": "image/png", "svg": "image/svg+xml"}
+#: Crossovers labelled with their K_i on a Bode diagram: a text per crossover made a 10 s delay's thousands of
+#: labels take a minute to draw (issue 18); the rest are marked and counted.
+MAX_CROSSOVER_LABELS = 12
+
+
+def labelled_crossovers(crossovers: Sequence[Crossover]) -> list[Crossover]:
+    """The crossovers whose K_i is written on the figure: the MAX_CROSSOVER_LABELS of least K_i (the one that
+    sets K_cr first), in frequency order."""
+    keep = sorted(range(len(crossovers)), key=lambda i: (crossovers[i].stiffness, i))[:MAX_CROSSOVER_LABELS]
+    return [crossovers[i] for i in sorted(keep)]
 
 
 def boundary_figure(boundary: Boundary, title: str = "") -> Figure:
@@ -68,12 +82,19 @@ def bode_figure(response: FrequencyResponse, stiffness: float | None = None, tit
         db = 20 * np.log10(response.magnitude)
     ax_m.semilogx(w, db, color="C0", gid="magnitude", label="|G(e^{jωT})|")
     ax_p.semilogx(w, response.phase_deg, color="C0", gid="phase")
-    for i, c in enumerate(response.crossovers):
-        label = "crossovers (K_i = 1/|G|)" if i == 0 else None
-        ax_m.plot([c.frequency], [20 * math.log10(c.magnitude)], "o", color="C3", gid=f"crossover-{i}", label=label)
-        ax_p.plot([c.frequency], [c.phase_deg], "o", color="C3")
-        ax_m.annotate(f"{c.stiffness:.4g} N/m", (c.frequency, 20 * math.log10(c.magnitude)),
-                      textcoords="offset points", xytext=(4, 6), fontsize="x-small")
+    crossovers = response.crossovers
+    if crossovers:
+        # One line artist for all crossovers (a long delay has thousands), labels on the binding few only.
+        f = np.array([c.frequency for c in crossovers])
+        ax_m.plot(f, [20 * math.log10(c.magnitude) for c in crossovers], "o", color="C3", ms=4, gid="crossovers",
+                  label="crossovers (K_i = 1/|G|)")
+        ax_p.plot(f, [c.phase_deg for c in crossovers], "o", color="C3", ms=4, gid="crossovers-phase")
+        for c in labelled_crossovers(crossovers):
+            ax_m.annotate(f"{c.stiffness:.4g} N/m", (c.frequency, 20 * math.log10(c.magnitude)),
+                          textcoords="offset points", xytext=(4, 6), fontsize="x-small")
+        if len(crossovers) > MAX_CROSSOVER_LABELS:
+            ax_m.text(0.01, 0.02, f"{len(crossovers)} crossovers; the {MAX_CROSSOVER_LABELS} of least K labelled",
+                      transform=ax_m.transAxes, fontsize="x-small", color="C3", gid="crossover-summary")
     if stiffness is not None and response.damping == 0.0:
         # With B = 0 the gain margin is the gap between 1/K and |G| at the crossover that sets K_cr.
         ax_m.axhline(-20 * math.log10(stiffness), color="C2", ls="--", lw=0.8, gid="wall",
@@ -99,3 +120,18 @@ def render(fig: Figure, fmt: ImageFormat) -> bytes:
     metadata = {"Date": None} if fmt == "svg" else {"Software": None}
     fig.savefig(buf, format=fmt, metadata=metadata)
     return buf.getvalue()
+
+
+def boundary_plot(device, damping_max: float | None, points: int, fmt: ImageFormat) -> bytes:
+    """Compute and draw the boundary figure: what a compute worker runs for /v1/plots/boundary (the drawing is
+    under the request time budget too, and the server process never holds a figure)."""
+    from optim.boundary import stability_boundary
+
+    return render(boundary_figure(stability_boundary(device, damping_max, points)), fmt)
+
+
+def bode_plot(device, damping: float, points: int, stiffness: float | None, fmt: ImageFormat) -> bytes:
+    """Compute and draw the Bode figure: what a compute worker runs for /v1/plots/bode."""
+    from optim.frequency_response import loop_frequency_response
+
+    return render(bode_figure(loop_frequency_response(device, damping, points), stiffness), fmt)

@@ -47,6 +47,10 @@ class Settings(BaseSettings):
                                    description="compute budget of one request [s]; a bounded call past it answers 503")
     compute_workers: int = Field(default=2, ge=1, le=64,
                                  description="worker processes for expensive (bounded) numerics calls")
+    compute_queue: int = Field(default=32, ge=0, le=10_000,
+                               description="expensive calls that may wait for a busy worker; past them a request is "
+                                           "refused at once with 503 and Retry-After (the wait counts against "
+                                           "request_timeout)")
     inline_cost_ms: float = Field(default=25.0, ge=0, le=60_000,
                                   description="calls estimated below this cost [ms] run inline in the request thread "
                                               "(not bounded by the budget); 0 sends every estimated call to a worker")

@@ -54,30 +54,30 @@ _STABILITY_EXAMPLES = {
 
 @router.post("/stability", response_model=StabilityResponse, operation_id="analyse_stability",
              summary="Critical stiffness K_cr(B), every crossover, margin and passivity of a wall")
-def stability(req: Annotated[StabilityRequest, Body(openapi_examples=_STABILITY_EXAMPLES)],
+async def stability(req: Annotated[StabilityRequest, Body(openapi_examples=_STABILITY_EXAMPLES)],
               compute: Compute) -> StabilityResponse:
     k = req.controller.stiffness if req.controller else None
     b = req.controller.damping if req.controller else 0.0
     check_reference_cost(req.device, req.method)
     try:
-        res = compute.run(analyse_stability, req.device, k, b, req.method, req.grid_points,
-                          cost_ms=stability_cost_ms(req.device, req.method, b, req.grid_points))
+        res = await compute.arun(analyse_stability, req.device, k, b, req.method, req.grid_points,
+                                 cost_ms=stability_cost_ms(req.device, req.method, b, req.grid_points))
     except ValueError as exc:
         raise field_error(exc) from exc
     out = _finite_or_null(asdict(res))
     if req.verify:   # only when asked: the fast path does no extra work
-        out["verification"] = verification_out(compute.run(verify_analysis, req.device, res,
+        out["verification"] = verification_out(await compute.arun(verify_analysis, req.device, res,
                                                            cost_ms=verify_cost_ms(req.device)))
     return StabilityResponse(**out)
 
 
 @router.post("/boundary", response_model=BoundaryResponse, operation_id="stability_boundary",
              summary="The stability boundary K_cr(B) from B = 0 to B_max and the B allowing the stiffest wall")
-def boundary(req: Annotated[BoundaryRequest, Body(openapi_examples=device_examples(points=20))],
+async def boundary(req: Annotated[BoundaryRequest, Body(openapi_examples=device_examples(points=20))],
              compute: Compute) -> BoundaryResponse:
     try:
-        res = compute.run(stability_boundary, req.device, req.damping_max, req.points,
-                          cost_ms=boundary_cost_ms(req.device, req.points))
+        res = await compute.arun(stability_boundary, req.device, req.damping_max, req.points,
+                                 cost_ms=boundary_cost_ms(req.device, req.points))
     except ValueError as exc:
         raise field_error(exc) from exc
 
@@ -88,7 +88,7 @@ def boundary(req: Annotated[BoundaryRequest, Body(openapi_examples=device_exampl
         return d
     verification = None
     if req.verify:
-        verification = verification_out(compute.run(verify_boundary, req.device, res,
+        verification = verification_out(await compute.arun(verify_boundary, req.device, res,
                                                     cost_ms=(req.points + 1) * verify_cost_ms(req.device)))
     return BoundaryResponse(points=[clean(p) for p in res.points], optimum=clean(res.optimum),
                             max_stable_damping=res.max_stable_damping, method="exact", elapsed_ms=res.elapsed_ms,

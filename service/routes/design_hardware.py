@@ -25,19 +25,19 @@ def hardware_target(request: HardwareDesignRequest) -> HardwareTarget:
     return HardwareTarget(**request.target.model_dump())
 
 
-def run_hardware(request: HardwareDesignRequest, compute: BoundedExecutor) -> HardwareDesign:
+async def run_hardware(request: HardwareDesignRequest, compute: BoundedExecutor) -> HardwareDesign:
     """The design in a compute worker (tens of exact designs: never inline), under the request time budget."""
     # An InputError (field, rule) answers 422 by itself (service.errors).
     value_range = None if request.range is None else (request.range.min, request.range.max)
-    return compute.run(design_hardware, request.device, hardware_target(request), request.free,
-                       points=request.points, value_range=value_range, cost_ms=None)
+    return await compute.arun(design_hardware, request.device, hardware_target(request), request.free,
+                              points=request.points, value_range=value_range, cost_ms=None)
 
 
 @router.post("/v1/design/hardware", response_model=HardwareDesignResponse, tags=["design"])
-def design_hardware_route(request: HardwareDesignRequest, compute: Compute) -> HardwareDesignResponse:
+async def design_hardware_route(request: HardwareDesignRequest, compute: Compute) -> HardwareDesignResponse:
     t0 = time.perf_counter()
     try:
-        design = run_hardware(request, compute)
+        design = await run_hardware(request, compute)
     except InputError:
         raise                   # 422 naming the field, as on every route (service.errors)
     except (RuntimeError, ArithmeticError, ValueError) as exc:   # numerical trouble: failed, as the other designs
@@ -46,7 +46,7 @@ def design_hardware_route(request: HardwareDesignRequest, compute: Compute) -> H
                                       reason=f"solver trouble: {exc}", elapsed_ms=(time.perf_counter() - t0) * 1e3)
     data = _finite(dataclasses.asdict(design))
     if request.verify and design.status == "optimal":
-        v = compute.run(verify_hardware_design, request.device, request.free, design.value, design.controller,
-                        cost_ms=None)
+        v = await compute.arun(verify_hardware_design, request.device, request.free, design.value,
+                               design.controller, cost_ms=None)
         data["verification"] = verification_out(v) if v is not None else None
     return HardwareDesignResponse(**data)

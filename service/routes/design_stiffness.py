@@ -36,8 +36,8 @@ def _finite(value):
 
 
 @router.post("/v1/design/stiffness", response_model=StiffnessDesignResponse, tags=["design"])
-def design_stiffness_route(request: StiffnessDesignRequest, compute: Compute) -> StiffnessDesignResponse:
-    # A plain def (the threadpool); the design runs in a compute worker under the request time budget
+async def design_stiffness_route(request: StiffnessDesignRequest, compute: Compute) -> StiffnessDesignResponse:
+    # The design runs in a compute worker under the request time budget, awaited without holding a thread
     # (service/cost.py), where the CasADi solvers are built and cached per process.
     t0 = time.perf_counter()
     fields = request.requirements.model_dump(exclude={"uncertainty"})
@@ -47,10 +47,11 @@ def design_stiffness_route(request: StiffnessDesignRequest, compute: Compute) ->
             raise InputError("method", "robust designs (requirements.uncertainty) are computed on the exact rung only")
         if request.verify:
             raise InputError("verify", "robust designs (requirements.uncertainty) are not verified yet")
-        return _robust(request, req, t0, compute)
+        return await _robust(request, req, t0, compute)
     try:
-        design, rung = compute.run(design_stiffness_on_rung, request.device, req, request.method, request.grid_points,
-                                   cost_ms=stiffness_design_cost_ms(request.device, request.method, request.grid_points))
+        design, rung = await compute.arun(
+            design_stiffness_on_rung, request.device, req, request.method, request.grid_points,
+            cost_ms=stiffness_design_cost_ms(request.device, request.method, request.grid_points))
     except InputError:
         raise                   # 422 naming the field, as on every route (service.errors)
     except (RuntimeError, ArithmeticError, ValueError) as exc:   # CasADi raises RuntimeError on solver trouble
@@ -60,7 +61,7 @@ def design_stiffness_route(request: StiffnessDesignRequest, compute: Compute) ->
     if request.verify and design.stiffness is not None and design.damping is not None:
         # the margin and (when required) the passivity the design claims, checked by the closed loop
         passive = True if req.passivity else None
-        data["verification"] = verification_out(compute.run(
+        data["verification"] = verification_out(await compute.arun(
             verify_stiffness_design, request.device, design.stiffness, design.damping, design.gain_margin_db, passive,
             cost_ms=verify_cost_ms(request.device)))
     return StiffnessDesignResponse(**data, **rung_fields(rung))
@@ -78,12 +79,12 @@ def input_error(exc: ValueError) -> Exception:
     return exc
 
 
-def _robust(request: StiffnessDesignRequest, req: StiffnessRequirements, t0: float,
+async def _robust(request: StiffnessDesignRequest, req: StiffnessRequirements, t0: float,
             compute: Compute) -> StiffnessDesignResponse:
     ranges = {k: (v.min, v.max) for k, v in request.requirements.uncertainty.items()}
     try:
         box = UncertaintyBox.from_ranges(request.device, ranges)
-        d = compute.run(robust_design_stiffness, request.device, req, box, cost_ms=None)  # always a worker
+        d = await compute.arun(robust_design_stiffness, request.device, req, box, cost_ms=None)  # always a worker
     except InputError as exc:
         raise input_error(exc) from None
     except (RuntimeError, ArithmeticError, ValueError) as exc:   # numerical trouble, as the nominal design

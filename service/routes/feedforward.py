@@ -44,13 +44,13 @@ def _human_notes(source: str) -> list[str]:
 
 
 @router.post("/v1/analysis/force-feedforward", response_model=ForceFeedforwardResponse)
-def force_feedforward(req: ForceFeedforwardRequest, compute: Compute) -> ForceFeedforwardResponse:
+async def force_feedforward(req: ForceFeedforwardRequest, compute: Compute) -> ForceFeedforwardResponse:
     start = time.perf_counter()
     dev = req.device
     try:
         filt = ButterworthLowPass(req.filter.order, req.filter.cutoff_hz, dev.sample_time) if req.filter else None
-        res, rigid = compute.run(force_feedforward_job, dev, filt, req.method, req.grid_points,
-                                 cost_ms=force_feedforward_cost_ms(dev, req.method, req.grid_points))
+        res, rigid = await compute.arun(force_feedforward_job, dev, filt, req.method, req.grid_points,
+                                        cost_ms=force_feedforward_cost_ms(dev, req.method, req.grid_points))
     except ValueError as exc:
         raise _field_error(exc, "filter.") from exc
     kcr = _finite(res.critical_force_gain)
@@ -63,7 +63,7 @@ def force_feedforward(req: ForceFeedforwardRequest, compute: Compute) -> ForceFe
                          f"{100 * (rigid / res.critical_force_gain - 1):.0f} % above the cable model's {kcr:.4g}")
     verification = None
     if req.verify:   # only when asked: the fast path does no extra work
-        verification = verification_out(compute.run(
+        verification = verification_out(await compute.arun(
             verify_force_feedforward, dev, res, filt.order if filt else None, filt.cutoff_hz if filt else None,
             cost_ms=verify_cost_ms(dev)))
     return ForceFeedforwardResponse(
@@ -79,7 +79,7 @@ def force_feedforward(req: ForceFeedforwardRequest, compute: Compute) -> ForceFe
 
 
 @router.post("/v1/design/inertia", response_model=InertiaResponse)
-def inertia(req: InertiaRequest, compute: Compute) -> InertiaResponse:
+async def inertia(req: InertiaRequest, compute: Compute) -> InertiaResponse:
     r = req.requirements
     spec = InertiaRequirements(
         min_gain_margin_db=r.min_gain_margin_db, cutoff_min_hz=r.cutoff_min_hz, cutoff_max_hz=r.cutoff_max_hz,
@@ -91,11 +91,12 @@ def inertia(req: InertiaRequest, compute: Compute) -> InertiaResponse:
             raise InputError("method", "robust designs (requirements.uncertainty) are computed on the exact rung only")
         if req.verify:
             raise InputError("verify", "robust designs (requirements.uncertainty) are not verified yet")
-        return _robust_inertia(req, spec, compute)
+        return await _robust_inertia(req, spec, compute)
     try:
-        d, rung = compute.run(design_inertia_on_rung, req.device, spec, req.method, req.grid_points,
-                              cost_ms=inertia_design_cost_ms(req.device, req.method, req.grid_points,
-                                                             len(r.humans or ()) or (2 if r.human_mass_range else 1)))
+        d, rung = await compute.arun(design_inertia_on_rung, req.device, spec, req.method, req.grid_points,
+                                     cost_ms=inertia_design_cost_ms(
+                                         req.device, req.method, req.grid_points,
+                                         len(r.humans or ()) or (2 if r.human_mass_range else 1)))
     except ValueError as exc:
         raise _field_error(exc) from exc
     notes = _human_notes(d.human_source)
@@ -110,7 +111,7 @@ def inertia(req: InertiaRequest, compute: Compute) -> InertiaResponse:
         human = d.worst_human or (d.humans[0] if d.humans else resolve_human(req.device)[0])
         gm = d.gain_margin_db
         critical = d.force_gain * 10 ** (gm / 20) if gm is not None and math.isfinite(gm) else d.critical_force_gain
-        verification = verification_out(compute.run(
+        verification = verification_out(await compute.arun(
             verify_critical_force_gain, req.device, human, critical, d.filter_order, d.filter_cutoff_hz,
             design_gain=d.force_gain, cost_ms=verify_cost_ms(req.device)))
     return InertiaResponse(
@@ -144,7 +145,7 @@ def _rigid_out(d, notes: list[str], who: str) -> dict | None:
             "optimism": _finite(rm.optimism), "optimistic": rm.optimistic}
 
 
-def _robust_inertia(req: InertiaRequest, spec: InertiaRequirements, compute: Compute) -> InertiaResponse:
+async def _robust_inertia(req: InertiaRequest, spec: InertiaRequirements, compute: Compute) -> InertiaResponse:
     from optim.robust.box import UncertaintyBox
     from optim.robust.inertia import robust_design_inertia
 
@@ -152,7 +153,7 @@ def _robust_inertia(req: InertiaRequest, spec: InertiaRequirements, compute: Com
 
     try:
         box = UncertaintyBox.from_ranges(req.device, {k: (v.min, v.max) for k, v in req.requirements.uncertainty.items()})
-        d = compute.run(robust_design_inertia, req.device, spec, box, cost_ms=None)  # always a worker
+        d = await compute.arun(robust_design_inertia, req.device, spec, box, cost_ms=None)  # always a worker
     except InputError as exc:
         raise input_error(exc) from None
     except ValueError as exc:

@@ -1,6 +1,12 @@
-"""GET /healthz: liveness, open even when the /v1 routes need a token."""
+"""GET /healthz (liveness) and GET /readyz (readiness with the compute queue), open even when the /v1 routes
+need a token.
 
-from fastapi import APIRouter
+Both are ``async def`` and touch nothing but memory: they answer on the event loop, never wait for a thread
+of the pool nor for a compute worker, so they stay fast however loaded the service is.
+"""
+
+from fastapi import APIRouter, Request
+from fastapi.responses import JSONResponse
 from pydantic import BaseModel, Field
 
 router = APIRouter(tags=["health"])
@@ -12,8 +18,43 @@ class Health(BaseModel):
     version: str = Field(description="zwidth version")
 
 
+class ComputeQueue(BaseModel):
+    depth: int = Field(description="expensive calls waiting for a compute worker")
+    max_depth: int = Field(description="waiting calls beyond which a new one is refused with 503 "
+                                       "(ZWIDTH_COMPUTE_QUEUE)")
+    workers: int = Field(description="compute worker processes (ZWIDTH_COMPUTE_WORKERS)")
+    busy: int = Field(description="workers computing now")
+    replaced: int = Field(description="workers killed and replaced since the start (budget overruns, crashes)")
+
+
+class Readiness(BaseModel):
+    model_config = {"json_schema_extra": {"examples": [
+        {"ready": True, "warm": True, "version": "0.1.0",
+         "queue": {"depth": 0, "max_depth": 32, "workers": 2, "busy": 1, "replaced": 0}}]}}
+    ready: bool = Field(description="the service takes requests at full speed: the warm-up is done (or disabled)")
+    warm: bool = Field(description="every compute worker is started and warm (numerics imported, CasADi design "
+                                   "solvers built): the first design does not pay for either")
+    version: str = Field(description="zwidth version")
+    queue: ComputeQueue
+
+
 @router.get("/healthz", response_model=Health, operation_id="healthz", summary="Liveness probe")
-def healthz() -> Health:
+async def healthz() -> Health:
     from ..app import VERSION
 
     return Health(status="ok", version=VERSION)
+
+
+@router.get("/readyz", response_model=Readiness, operation_id="readyz",
+            summary="Readiness probe: 200 once the compute workers are warm, else 503; the compute queue",
+            responses={503: {"model": Readiness, "description": "still warming up"}})
+async def readyz(request: Request) -> JSONResponse:
+    from ..app import VERSION
+
+    state = request.app.state.executor.state()
+    settings = getattr(request.app.state, "settings", None)
+    ready = state.warm or not getattr(settings, "prestart_workers", True)
+    body = Readiness(ready=ready, warm=state.warm, version=VERSION,
+                     queue=ComputeQueue(depth=state.depth, max_depth=state.max_depth, workers=state.workers,
+                                        busy=state.busy, replaced=state.replaced))
+    return JSONResponse(body.model_dump(), status_code=200 if ready else 503)

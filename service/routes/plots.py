@@ -7,12 +7,8 @@ from typing import Annotated
 from fastapi import APIRouter, Body
 from fastapi.responses import Response
 
-from optim.boundary import stability_boundary
-from optim.frequency_response import loop_frequency_response
-
-from ..cost import bode_cost_ms, boundary_cost_ms
 from ..executor import Compute
-from ..plots import MEDIA_TYPES, bode_figure, boundary_figure, render
+from ..plots import MEDIA_TYPES, bode_plot, boundary_plot
 from ..schemas.common import device_examples
 from ..schemas.plots import BodePlotRequest, BoundaryPlotRequest
 from .analysis import field_error
@@ -26,25 +22,25 @@ _IMAGE = {200: {"description": "the figure", "content": {
 
 @router.post("/boundary", response_class=Response, responses=_IMAGE, operation_id="plot_boundary",
              summary="Figure of the stability boundary K_cr(B) with its optimum (PNG or SVG)")
-def plot_boundary(req: Annotated[BoundaryPlotRequest, Body(openapi_examples=device_examples(points=20, format="svg"))],
+async def plot_boundary(req: Annotated[BoundaryPlotRequest, Body(openapi_examples=device_examples(points=20, format="svg"))],
                   compute: Compute) -> Response:
     try:
-        res = compute.run(stability_boundary, req.device, req.damping_max, req.points,
-                          cost_ms=boundary_cost_ms(req.device, req.points))
+        # Computed and drawn in a compute worker under the budget: the drawing costs more than the numerics.
+        image = await compute.arun(boundary_plot, req.device, req.damping_max, req.points, req.format,
+                                   cost_ms=None)
     except ValueError as exc:
         raise field_error(exc) from exc
-    return Response(render(boundary_figure(res), req.format), media_type=MEDIA_TYPES[req.format])
+    return Response(image, media_type=MEDIA_TYPES[req.format])
 
 
 @router.post("/bode", response_class=Response, responses=_IMAGE, operation_id="plot_bode",
              summary="Bode diagram of the sampled loop with the crossovers of K_cr(B) marked (PNG or SVG)")
-def plot_bode(req: Annotated[BodePlotRequest, Body(openapi_examples=device_examples(format="svg"))],
+async def plot_bode(req: Annotated[BodePlotRequest, Body(openapi_examples=device_examples(format="svg"))],
               compute: Compute) -> Response:
     b = req.controller.damping if req.controller else 0.0
     k = req.controller.stiffness if req.controller else None
     try:
-        res = compute.run(loop_frequency_response, req.device, b, req.points,
-                          cost_ms=bode_cost_ms(req.device, b, req.points))
+        image = await compute.arun(bode_plot, req.device, b, req.points, k, req.format, cost_ms=None)
     except ValueError as exc:
         raise field_error(exc) from exc
-    return Response(render(bode_figure(res, k), req.format), media_type=MEDIA_TYPES[req.format])
+    return Response(image, media_type=MEDIA_TYPES[req.format])

@@ -11,13 +11,13 @@ from pydantic import BaseModel, ConfigDict, Field
 from optim.robust.box import UncertaintyBox
 from optim.stiffness import StiffnessRequirements
 
-from ..errors import NumericInputError
+from optim.errors import InputError
 from ..executor import Compute
-from ..jobs import robust_slice_job
-from ..plots_robust import MEDIA_TYPES, plot_hardware
+from ..jobs import hardware_plot_job, robust_slice_job
+from ..plots_robust import MEDIA_TYPES
 from ..schemas.design_hardware import HardwareDesignRequest
 from ..schemas.design_stiffness import StiffnessDesignRequest
-from .design_hardware import hardware_target, run_hardware
+from .design_hardware import hardware_target
 from .design_stiffness import input_error
 
 router = APIRouter(tags=["plots"])
@@ -32,11 +32,11 @@ class RobustPlotRequest(StiffnessDesignRequest):
 
 
 @router.post("/v1/plots/robust", response_class=Response, responses=_IMAGE)
-def robust_plot(req: RobustPlotRequest, compute: Compute,
+async def robust_plot(req: RobustPlotRequest, compute: Compute,
                 format: Literal["png", "svg"] = Query("png")) -> Response:  # noqa: A002
     unc = req.requirements.uncertainty
     if not unc:
-        raise NumericInputError("requirements.uncertainty", "the robust plot needs at least one uncertain path")
+        raise InputError("requirements.uncertainty", "the robust plot needs at least one uncertain path")
     ranges = {k: (v.min, v.max) for k, v in unc.items()}
     try:
         box = UncertaintyBox.from_ranges(req.device, ranges)
@@ -47,12 +47,12 @@ def robust_plot(req: RobustPlotRequest, compute: Compute,
     y = req.y or (paths[1] if len(paths) > 1 else paths[0])
     for name, p in (("x", x), ("y", y)):
         if p not in paths:
-            raise NumericInputError(name, f"{p!r} is not one of the uncertain paths {paths}")
+            raise InputError(name, f"{p!r} is not one of the uncertain paths {paths}")
     requirements = StiffnessRequirements(**req.requirements.model_dump(exclude={"uncertainty"}))
     try:  # the robust design and the points² exact analyses of the slice: always a worker
-        image = compute.run(robust_slice_job, req.device, requirements, box, x, y, req.points,
-                            req.requirements.min_gain_margin_db, format, cost_ms=None)
-    except NumericInputError:
+        image = await compute.arun(robust_slice_job, req.device, requirements, box, x, y, req.points,
+                                   req.requirements.min_gain_margin_db, format, cost_ms=None)
+    except InputError:
         raise
     except ValueError as exc:
         raise input_error(exc) from None
@@ -60,9 +60,12 @@ def robust_plot(req: RobustPlotRequest, compute: Compute,
 
 
 @router.post("/v1/plots/hardware", response_class=Response, responses=_IMAGE)
-def hardware_plot(req: HardwareDesignRequest, compute: Compute,
-                  format: Literal["png", "svg"] = Query("png")) -> Response:  # noqa: A002
+async def hardware_plot(req: HardwareDesignRequest, compute: Compute,
+                        format: Literal["png", "svg"] = Query("png")) -> Response:  # noqa: A002
     if req.verify:
-        raise NumericInputError("verify", "a plot carries no verification: use POST /v1/design/hardware")
-    design = run_hardware(req, compute)
-    return Response(content=plot_hardware(design, hardware_target(req), format), media_type=MEDIA_TYPES[format])
+        raise InputError("verify", "a plot carries no verification: use POST /v1/design/hardware")
+    value_range = None if req.range is None else (req.range.min, req.range.max)
+    # tens of exact designs, then the drawing: always a worker, under the budget; an InputError answers 422
+    image = await compute.arun(hardware_plot_job, req.device, hardware_target(req), req.free, req.points, format,
+                               value_range, cost_ms=None)
+    return Response(content=image, media_type=MEDIA_TYPES[format])

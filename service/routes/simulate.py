@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 import time
 
+from typing import TYPE_CHECKING, Any, Callable
+
 from fastapi import APIRouter
 
 from models.device import Device
@@ -18,6 +20,9 @@ from ..executor import BoundedExecutor, Compute
 from ..jobs import simulate_job
 from ..schemas.simulate import SimulateRequest, SimulateResponse
 
+if TYPE_CHECKING:
+    from optim.relay import RelayReport
+
 router = APIRouter(tags=["simulation"])
 
 
@@ -30,12 +35,14 @@ def _field_error(exc: ValueError) -> InputError:
     return exc if isinstance(exc, InputError) else InputError("scene", str(exc))
 
 
-def run_scene(device: Device, scene: Scene, compute: BoundedExecutor) -> tuple[SimulationResult, RelayReport | None]:
-    """Validate the cost, simulate (inline when short, else in a compute worker under the request time
-    budget), analyse a relay; ValueErrors name the field."""
+async def run_scene(device: Device, scene: Scene, compute: BoundedExecutor, job: Callable = simulate_job,
+                    *extra: Any) -> Any:
+    """Validate the cost, run ``job(device, scene, *extra)`` (by default: simulate and analyse a relay) inline
+    when short, else in a compute worker under the request time budget; ValueErrors name the field."""
     try:
         check_cost(device, scene)
-        return compute.run(simulate_job, device, scene, cost_ms=simulation_cost_ms(device, scene))
+        cost = simulation_cost_ms(device, scene) if job is simulate_job else None   # a drawing: always a worker
+        return await compute.arun(job, device, scene, *extra, cost_ms=cost)
     except ValueError as exc:
         raise _field_error(exc) from exc
 
@@ -56,7 +63,7 @@ def _runs(ns: list[int]) -> list[list[int]]:
     return out
 
 
-def _relay_out(rep: RelayReport) -> dict:
+def _relay_out(rep: "RelayReport") -> dict:
     s = rep.settled
     settled = None
     if s is not None:
@@ -104,9 +111,9 @@ def verdict_out(res: SimulationResult) -> dict:
 
 
 @router.post("/v1/simulate", response_model=SimulateResponse)
-def simulate_scene(req: SimulateRequest, compute: Compute) -> SimulateResponse:
+async def simulate_scene(req: SimulateRequest, compute: Compute) -> SimulateResponse:
     start = time.perf_counter()
-    res, relay = run_scene(req.device, req.scene, compute)
+    res, relay = await run_scene(req.device, req.scene, compute)
     tr = res.trajectory
     return SimulateResponse(
         effects_simulated=list(res.effects_simulated), not_simulated=list(res.not_simulated), method=res.method,

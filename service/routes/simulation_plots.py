@@ -8,7 +8,8 @@ from fastapi import APIRouter, Query
 from fastapi.responses import Response
 
 from ..executor import Compute
-from ..plots_simulation import MEDIA_TYPES, plot_simulation
+from ..jobs import simulation_plot_job
+from ..plots_simulation import MEDIA_TYPES
 from ..schemas.simulate import SimulateRequest
 from .simulate import run_scene
 
@@ -17,7 +18,8 @@ router = APIRouter(tags=["plots"])
 
 @router.post("/v1/plots/simulation", response_class=Response,
              responses={200: {"content": {"image/png": {}, "image/svg+xml": {}}}})
-def simulation_plot(req: SimulateRequest, compute: Compute,
+async def simulation_plot(req: SimulateRequest, compute: Compute,
                     format: Literal["png", "svg"] = Query("png")) -> Response:  # noqa: A002
-    res, _ = run_scene(req.device, req.scene, compute)
-    return Response(content=plot_simulation(res, format), media_type=MEDIA_TYPES[format])
+    # Simulated and drawn in a compute worker, under the request time budget.
+    image = await run_scene(req.device, req.scene, compute, simulation_plot_job, format)
+    return Response(content=image, media_type=MEDIA_TYPES[format])

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import asyncio
 import random
 import time
 import uuid
@@ -9,15 +10,17 @@ from typing import Annotated, Literal
 
 from fastapi import APIRouter, HTTPException, Query, Request, Response
 from fastapi.exceptions import RequestValidationError
-from fastapi.responses import StreamingResponse
+from fastapi.responses import JSONResponse, StreamingResponse
+from starlette.concurrency import run_in_threadpool
 
 from optim.studies import StudyInputError
 
 from ..errors import StoreUnavailable
+from ..executor import Compute
 from ..schemas.studies import StudyCreated, StudyList, StudyRequest, StudyResults, StudyStatus
 from ..studies.export import columns, csv_chunks, flat_row, parquet_bytes, scan_columns
 from ..studies.lifespan import study_lifespan
-from ..studies.plot import plot_rows
+from ..studies.plot import plot_study
 from ..studies.runner import StudyRunner, plan_from_request
 
 router = APIRouter(prefix="/v1/studies", tags=["studies"], lifespan=study_lifespan)
@@ -99,7 +102,8 @@ def submit_study(req: StudyRequest, request: Request) -> StudyCreated:
 @router.get("", response_model=StudyList)
 def list_studies(request: Request, offset: Annotated[int, Query(ge=0, le=MAX_OFFSET)] = 0,
                  limit: Annotated[int, Query(ge=1, le=1000)] = 100,
-                 status: Literal["queued", "running", "done", "cancelled", "failed"] | None = None) -> StudyList:
+                 status: Literal["queued", "running", "cancelling", "done", "cancelled", "failed"] | None = None
+                 ) -> StudyList:
     rows = _runner(request).store.list(limit, offset, status)
     return StudyList(studies=[_status(r) for r in rows], offset=offset, limit=limit)
 
@@ -109,19 +113,40 @@ def get_study(study_id: str, request: Request) -> StudyStatus:
     return _status(_study(_runner(request), study_id))
 
 
-@router.delete("/{study_id}", response_model=StudyStatus)
-def cancel_study(study_id: str, request: Request, purge: bool = False) -> StudyStatus | Response:
-    """Cancel a queued or running study (stored results stay); ``purge=true`` also deletes it and its results."""
+#: How long a cancel waits for the study's owner to stop before answering 202 "cancelling" [s].
+CANCEL_WAIT_S = 2.0
+
+
+@router.delete("/{study_id}", response_model=StudyStatus, responses={
+    202: {"model": StudyStatus, "description": "cancelling: the study's coordinator (maybe in another service "
+                                               "process) stops at its next chunk; no row is written from now on"},
+    204: {"description": "purged"},
+    409: {"description": "purge refused: the study is still active or stopping; retry once it is cancelled"}})
+async def cancel_study(study_id: str, request: Request, purge: bool = False) -> StudyStatus | Response:
+    """Cancel a queued or running study (stored results stay); ``purge=true`` also deletes it and its results.
+
+    200 with ``cancelled`` (or the study's final state) once it has stopped; 202 with ``cancelling`` when
+    its coordinator has not stopped within a moment.  Either way no result row is written after the answer.
+    A purge cancels too, and answers 409 at once while the study is still running or stopping (retry)."""
     runner = _runner(request)
-    row = _study(runner, study_id)
-    if runner.store.cancel(study_id):
-        runner.cancel(study_id)
-    if purge:
-        if runner.current == study_id:
+    store = runner.store
+    row = await run_in_threadpool(_study, runner, study_id)
+    outcome = await run_in_threadpool(store.cancel, study_id)
+    if outcome:
+        runner.cancel(study_id)   # this process's coordinator, if it runs the study, stops without waiting
+    if purge:   # at once: a study still running or stopping is never purged under its writer
+        gone = await run_in_threadpool(store.delete, study_id)
+        if gone == "active":
             raise HTTPException(status_code=409, detail="the study is still stopping; purge it again in a moment")
-        runner.store.delete(study_id)
         return Response(status_code=204)
-    return _status(runner.store.get(study_id) or row)
+    deadline = time.monotonic() + CANCEL_WAIT_S
+    while outcome == "cancelling" and time.monotonic() < deadline:
+        await asyncio.sleep(0.05)
+        outcome = await run_in_threadpool(store.status, study_id)
+    st = _status(await run_in_threadpool(store.get, study_id) or row)
+    if st.status == "cancelling":
+        return JSONResponse(st.model_dump(mode="json"), status_code=202)
+    return st
 
 
 @router.get("/{study_id}/results", response_model=StudyResults,
@@ -152,11 +177,11 @@ def study_results(study_id: str, request: Request, format: Literal["json", "csv"
 @router.get("/{study_id}/plot", response_class=Response, responses={200: {"description": "the figure", "content": {
     "image/png": {"schema": {"type": "string", "format": "binary"}},
     "image/svg+xml": {"schema": {"type": "string", "format": "binary"}}}}})
-def study_plot(study_id: str, request: Request, y: str, x: str, x2: str | None = None,
-               format: Literal["png", "svg"] = "png") -> Response:
+async def study_plot(study_id: str, request: Request, compute: Compute, y: str, x: str, x2: str | None = None,
+                     format: Literal["png", "svg"] = "png") -> Response:
     """Result ``y`` against swept ``x`` (line) or against ``x`` and ``x2`` (heatmap)."""
     runner = _runner(request)
-    row = _study(runner, study_id)
+    row = await run_in_threadpool(_study, runner, study_id)
     paths = list(row["request"].get("sweep", {}))
     for name, value in (("x", x), ("x2", x2)):
         if value is not None and value not in paths:
@@ -165,11 +190,12 @@ def study_plot(study_id: str, request: Request, y: str, x: str, x2: str | None =
         raise _invalid(["query", "x2"], "must differ from x")
     if row["done"] > MAX_PLOT_POINTS:
         raise _invalid(["query", "x"], f"the study has more than {MAX_PLOT_POINTS} points to draw; export it instead")
-    rows = [flat_row(paths, r) for r in runner.store.iter_results(study_id)]
-    if rows and not any(y in r for r in rows):
-        known = [c for c in columns(paths, rows) if c not in ("index", "error", *paths)]
-        raise _invalid(["query", "y"], f"{y!r} is not a result of this study; results: {', '.join(known)}")
     sweep = row["request"].get("sweep", {})
     log_paths = {p: spec.get("scale") == "log" for p, spec in sweep.items() if isinstance(spec, dict)}
-    image = plot_rows(rows, y, x, x2, format, f"{row['problem']} study {study_id[:8]}: {y}", log_paths)
+    try:  # read and drawn in a compute worker, under the request time budget
+        image = await compute.arun(plot_study, runner.store.url, study_id, paths, y, x, x2, format,
+                                   f"{row['problem']} study {study_id[:8]}: {y}", log_paths, cost_ms=None)
+    except ValueError as exc:
+        field, _, msg = str(exc).partition(": ")
+        raise _invalid(["query", field], msg) from None
     return Response(image, media_type="image/png" if format == "png" else "image/svg+xml")

@@ -72,7 +72,7 @@ class StudyStatus(BaseModel):
     id: str
     name: str | None
     problem: str
-    status: Literal["queued", "running", "done", "cancelled", "failed"]
+    status: Literal["queued", "running", "cancelling", "done", "cancelled", "failed"]
     total: int = Field(description="points in the study")
     done: int = Field(description="points stored (failed ones included)")
     failed: int = Field(description="points whose evaluation failed (their rows carry the reason)")

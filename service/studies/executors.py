@@ -13,6 +13,8 @@ from concurrent.futures.process import BrokenProcessPool
 import os
 from typing import Any, Callable, Protocol
 
+from ..lifeline import batch_worker_init
+
 __all__ = ["Executor", "LocalExecutor", "DaskExecutor", "make_executor"]
 
 
@@ -43,8 +45,11 @@ class LocalExecutor:
 
     def _get(self) -> cf.ProcessPoolExecutor:
         if self._pool is None:
+            # A kill -9 of the server must not leave the pool's workers running (issue 18), and they yield the
+            # cores to the server's requests (service.lifeline).
             self._pool = cf.ProcessPoolExecutor(max_workers=self.workers,
-                                                mp_context=multiprocessing.get_context("spawn"))
+                                                mp_context=multiprocessing.get_context("spawn"),
+                                                initializer=batch_worker_init, initargs=(os.getpid(),))
         return self._pool
 
     def submit(self, fn: Callable, *args: Any) -> cf.Future:

@@ -6,7 +6,7 @@ import io
 import math
 from typing import Any, Sequence
 
-__all__ = ["plot_rows"]
+__all__ = ["plot_rows", "plot_study"]
 
 
 def _finite(v: Any) -> bool:
@@ -68,3 +68,24 @@ def plot_rows(rows: Sequence[dict[str, Any]], y: str, x: str, x2: str | None, fm
     buf = io.BytesIO()
     fig.savefig(buf, format=fmt, bbox_inches="tight")
     return buf.getvalue()
+
+
+_stores: dict[str, Any] = {}
+
+
+def plot_study(url: str, study_id: str, paths: list[str], y: str, x: str, x2: str | None, fmt: str, title: str,
+               log_paths: dict[str, bool]) -> bytes:
+    """Read the study's results from the store at ``url`` and draw them: what a compute worker runs for
+    GET /v1/studies/{id}/plot, so the rows and the figure never sit in the server process and the drawing is
+    under the request time budget.  ValueError "y: ..." when ``y`` is not a result of the study."""
+    from .export import columns, flat_row
+    from .store import StudyStore
+
+    store = _stores.get(url)
+    if store is None:   # one engine per worker process and store
+        store = _stores[url] = StudyStore(url)
+    rows = [flat_row(paths, r) for r in store.iter_results(study_id)]
+    if rows and not any(y in r for r in rows):
+        known = [c for c in columns(paths, rows) if c not in ("index", "error", *paths)]
+        raise ValueError(f"y: {y!r} is not a result of this study; results: {', '.join(known)}")
+    return plot_rows(rows, y, x, x2, fmt, title, log_paths)

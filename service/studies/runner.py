@@ -6,6 +6,11 @@ stored (by content hash), keeps a bounded number of chunks in flight, and writes
 one transaction as it completes.  A task that failed (a worker killed, a broken pool) is
 resubmitted; after three attempts the study is marked ``failed`` with the error, never
 completed with made-up points.
+
+A cancel may come through any service process: the store then refuses this coordinator's next
+chunk (store.write_chunk), and the coordinator also reads the study's state at every poll while
+it waits for chunks; either way it stops scheduling, drops the chunks in flight and turns
+``cancelling`` into ``cancelled`` — within one chunk (or one poll) of the cancel.
 """
 
 from __future__ import annotations
@@ -30,6 +35,7 @@ __all__ = ["StudyRunner", "plan_from_request"]
 log = logging.getLogger("zwidth.studies")
 
 _MAX_ATTEMPTS = 3
+_RENEW_EVERY = 5.0  # [s] lease renewal (the lease is store.LEASE_SECONDS)
 _BLOCK = 8192  # points planned (values + hashes) at a time: bounded memory for a 1e6-point study
 
 
@@ -93,6 +99,7 @@ class StudyRunner:
     def _loop(self) -> None:
         while not self._stop.is_set():
             try:
+                self.store.settle_cancels()
                 ids = self.store.active_ids(self.owner)
                 if ids:
                     self._run(ids[0])
@@ -153,7 +160,7 @@ class StudyRunner:
         try:
             plan = plan_from_request(row["request"])
         except (StudyInputError, KeyError, TypeError) as exc:  # e.g. a design module removed from the build
-            self.store.finish(study_id, "failed", f"the stored request cannot be planned: {exc}")
+            self.store.finish(study_id, "failed", f"the stored request cannot be planned: {exc}", owner=self.owner)
             return
         executor = self._executor()
         args = (plan.problem, dict(plan.device), dict(plan.requirements), [(a.path, a.kind) for a in plan.axes])
@@ -165,6 +172,8 @@ class StudyRunner:
         while True:
             if self._should_stop(study_id):
                 executor.cancel(set(pending))
+                if not self._stop.is_set():   # cancelled (not a shutdown): say that it stopped
+                    self.store.finish(study_id, "cancelled", owner=self.owner)
                 return
             while not exhausted and len(pending) < limit:
                 rows = next(todo, None)
@@ -185,14 +194,20 @@ class StudyRunner:
                     if attempt >= _MAX_ATTEMPTS:
                         executor.cancel(set(pending))
                         self.store.finish(study_id, "failed",
-                                          f"a chunk failed {attempt} times: {type(exc).__name__}: {exc}")
+                                          f"a chunk failed {attempt} times: {type(exc).__name__}: {exc}",
+                                          owner=self.owner)
                         return
                     log.warning("study %s: chunk failed (%s), resubmitting", study_id, exc)
                     pending[executor.submit(evaluate_chunk, *args, rows)] = (rows, attempt + 1)
                     continue
-                self.store.write_chunk(study_id, out)
-            if time.monotonic() - last_check > 1.0:  # a cancel from another process; keep the lease
+                if self.store.write_chunk(study_id, out, self.owner) is None:
+                    self._cancelled.add(study_id)   # cancelled (through any server) or taken over: stop now
+                    break
+            # A cancel through another process (no chunk came back to find it); keep the lease.
+            if self.store.status(study_id) != "running":
+                self._cancelled.add(study_id)
+            elif time.monotonic() - last_check > _RENEW_EVERY:
                 last_check = time.monotonic()
-                if self.store.status(study_id) != "running" or not self.store.renew(study_id, self.owner):
+                if not self.store.renew(study_id, self.owner):
                     self._cancelled.add(study_id)
-        self.store.finish(study_id, "done")
+        self.store.finish(study_id, "done", owner=self.owner)

@@ -4,6 +4,12 @@ Schema changes are Alembic migrations (``migrations/``) applied by :meth:`StudyS
 startup.  Results are written by one writer, the runner's coordinator, in chunks as they
 complete, as inserts that skip a point already stored (keyed by the point's content hash): a
 study restarted after a crash, or a chunk Dask ran twice, never stores a point twice.
+
+Cancel and purge may come through any service process on the store.  A chunk is written only
+while its study is active and held by the writing coordinator, checked in the chunk's own
+transaction: once a cancel has committed, no row of the study is ever written again.  A running
+study is cancelled in two steps: ``cancelling`` (asked, by anyone) then ``cancelled`` (its owner
+stopped, or the owner is gone); a study is purged only when it is in neither active state.
 SQLite with several writers answers "database is locked" (optuna #820, #4994), hence the one
 writer; the API's own writes (a new study, a cancel) are single-row and wait on busy_timeout.
 """
@@ -18,13 +24,15 @@ import sqlalchemy as sa
 from sqlalchemy import event
 from sqlalchemy.engine import Engine
 
-__all__ = ["StudyStore", "ACTIVE", "FINISHED"]
+__all__ = ["StudyStore", "ACTIVE", "FINISHED", "CANCELLING"]
 
 ACTIVE = ("queued", "running")
 #: A coordinator renews its lease on the study it runs well within this time [s]; a study whose
 #: lease ran out (its process is gone) may be taken over by another service process.
 LEASE_SECONDS = 30.0
 FINISHED = ("done", "cancelled", "failed")
+#: A cancel asked while a coordinator runs the study; the owner turns it into "cancelled" when it stops.
+CANCELLING = "cancelling"
 
 metadata = sa.MetaData()
 studies = sa.Table(
@@ -99,6 +107,15 @@ def _alive_here(owner: str) -> bool | None:
     except PermissionError:
         return True
     return True
+
+
+def _alive_owner(cur: tuple, now: float) -> bool:
+    """Whether the owner of a (owner, lease_until) pair may still write: its lease runs and, on this
+    host, its process exists."""
+    owner, lease = cur
+    if lease is None or lease < now:
+        return False
+    return _alive_here(owner) is not False
 
 
 def _claimable(current: str | None, lease_until: float | None, owner: str, now: float) -> bool:
@@ -217,14 +234,24 @@ class StudyStore:
         with self.engine.connect() as conn:
             return set(conn.execute(sa.select(results.c.point_hash).where(results.c.study_id == study_id)).scalars())
 
-    def write_chunk(self, study_id: str, rows: Iterable[tuple]) -> int:
-        """Store (index, hash, params, result, error) rows; returns how many were new."""
+    def write_chunk(self, study_id: str, rows: Iterable[tuple], owner: str | None = None) -> int | None:
+        """Store (index, hash, params, result, error) rows; returns how many were new.
+
+        None, and nothing written, when the study is no longer active (cancelled, purged) or, with
+        ``owner``, no longer held by that coordinator: checked by the transaction's first statement,
+        which also takes the write lock, so a cancel committed before it is always seen."""
         ok, bad = [], []
         for index, digest, params, result, error in rows:
             rec = dict(study_id=study_id, point_hash=digest, idx=index, params=params, result=result, error=error)
             (bad if error is not None else ok).append(rec)
         new_ok = new_bad = 0
+        guard = [studies.c.id == study_id, studies.c.status.in_(ACTIVE)]
+        if owner is not None:
+            guard.append(studies.c.owner == owner)
         with self.engine.begin() as conn:
+            held = conn.execute(studies.update().where(*guard).values(done=studies.c.done))
+            if not held.rowcount:
+                return None
             if ok:
                 new_ok = len(conn.execute(self._insert(), ok).all())
             if bad:
@@ -239,23 +266,71 @@ class StudyStore:
         with self.engine.begin() as conn:
             conn.execute(studies.update().where(studies.c.id == study_id).values(error=error))
 
-    def finish(self, study_id: str, status: str, error: str | None = None) -> None:
-        """Close a running study (a cancel that came first wins)."""
+    def finish(self, study_id: str, status: str, error: str | None = None, owner: str | None = None) -> None:
+        """Close a running study (a cancel that came first wins: a ``cancelling`` study becomes ``cancelled``);
+        with ``owner``, only while that coordinator holds it."""
+        guard = [studies.c.id == study_id, studies.c.status.in_(("running", CANCELLING))]
+        if owner is not None:
+            guard.append(studies.c.owner == owner)
         with self.engine.begin() as conn:
-            conn.execute(studies.update().where(studies.c.id == study_id, studies.c.status == "running")
-                         .values(status=status, finished_at=time.time(), error=error, owner=None, lease_until=None))
+            conn.execute(studies.update().where(*guard)
+                         .values(status=sa.case((studies.c.status == CANCELLING, "cancelled"), else_=status),
+                                 finished_at=time.time(), error=sa.case((studies.c.status == CANCELLING, None),
+                                                                        else_=error),
+                                 owner=None, lease_until=None))
 
-    def cancel(self, study_id: str) -> bool:
+    def cancel(self, study_id: str) -> str | None:
+        """Cancel an active study: "cancelled" at once when nobody runs it (queued, or its owner is gone),
+        "cancelling" when a live coordinator runs it (it stops at its next chunk and says "cancelled");
+        None when the study is not active.  From the commit on, no row of the study is written."""
+        now = time.time()
         with self.engine.begin() as conn:
-            res = conn.execute(studies.update().where(studies.c.id == study_id, studies.c.status.in_(ACTIVE))
-                               .values(status="cancelled", finished_at=time.time()))
-        return bool(res.rowcount)
+            res = conn.execute(studies.update().where(studies.c.id == study_id, studies.c.status == "queued")
+                               .values(status="cancelled", finished_at=now))
+            if res.rowcount:
+                return "cancelled"
+            cur = conn.execute(sa.select(studies.c.owner, studies.c.lease_until)
+                               .where(studies.c.id == study_id, studies.c.status == "running")).first()
+            if cur is None:
+                return None
+            gone = cur[0] is None or not _alive_owner(tuple(cur), now)
+            res = conn.execute(studies.update().where(studies.c.id == study_id, studies.c.status == "running",
+                                                      _same(studies.c.owner, cur[0]))
+                               .values(**({"status": "cancelled", "finished_at": now, "owner": None,
+                                           "lease_until": None} if gone else {"status": CANCELLING})))
+            if not res.rowcount:   # the owner changed meanwhile: say what the store now holds
+                return conn.execute(sa.select(studies.c.status).where(studies.c.id == study_id)).scalar()
+            return "cancelled" if gone else CANCELLING
 
-    def delete(self, study_id: str) -> bool:
+    def settle_cancels(self) -> int:
+        """Turn ``cancelling`` studies whose owner is gone (crashed, lease run out) into ``cancelled``."""
+        now = time.time()
+        with self.engine.connect() as conn:
+            rows = conn.execute(sa.select(studies.c.id, studies.c.owner, studies.c.lease_until)
+                                .where(studies.c.status == CANCELLING)).all()
+        settled = 0
+        for sid, owner, lease in rows:
+            if owner is None or not _alive_owner((owner, lease), now):
+                with self.engine.begin() as conn:
+                    settled += conn.execute(
+                        studies.update().where(studies.c.id == sid, studies.c.status == CANCELLING,
+                                               _same(studies.c.owner, owner))
+                        .values(status="cancelled", finished_at=now, owner=None, lease_until=None)).rowcount
+        return settled
+
+    def delete(self, study_id: str) -> str:
+        """Purge a study and its results: "deleted", "missing", or "active" (refused: queued, running or
+        cancelling — a coordinator may still write; cancel it and purge once it is cancelled)."""
         with self.engine.begin() as conn:
+            # The guard is the first write: a coordinator's chunk transaction cannot interleave.
+            res = conn.execute(studies.update().where(studies.c.id == study_id, studies.c.status.in_(FINISHED))
+                               .values(owner=None))
+            if not res.rowcount:
+                exists = conn.execute(sa.select(studies.c.id).where(studies.c.id == study_id)).first()
+                return "active" if exists else "missing"
             conn.execute(results.delete().where(results.c.study_id == study_id))
-            res = conn.execute(studies.delete().where(studies.c.id == study_id))
-        return bool(res.rowcount)
+            conn.execute(studies.delete().where(studies.c.id == study_id))
+        return "deleted"
 
     # -- results --------------------------------------------------------------------------------
     def results(self, study_id: str, offset: int = 0, limit: int = 1000) -> list[dict[str, Any]]:

@@ -20,7 +20,7 @@ def wait_finished(get, study_id: str, timeout: float = 60.0) -> dict:
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         st = get(study_id)
-        if st["status"] not in ("queued", "running"):
+        if st["status"] not in ("queued", "running", "cancelling"):
             return st
         time.sleep(0.1)
     raise AssertionError(f"study {study_id} did not finish within {timeout} s: {st}")

@@ -114,6 +114,118 @@ def test_http_timeout_answers_503_and_the_next_request_is_served_normally():
 def test_shutdown_stops_the_workers():
     with make_client(compute_workers=1) as c:
         c.post(STABILITY, json={"device": LHIFAM_RIGID, "method": "grid", "grid_points": 200_000})
-        workers = list(c.app.state.executor._idle)
-        assert workers and all(w.process.is_alive() for w in workers)
-    assert all(not w.process.is_alive() for w in workers)
+        pids = c.app.state.executor.worker_pids()
+        assert pids and all(_alive(p) for p in pids)
+    assert not any(_alive(p) for p in pids)
+
+
+def _alive(pid: int) -> bool:
+    """Running (not a zombie) — /proc/<pid>/stat's state field."""
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[0] not in ("Z", "X")
+    except OSError:
+        return False
+
+
+def test_a_full_queue_refuses_at_once_with_busy():
+    """Past workers + max_queue calls in the system a new call is refused at once (503 + Retry-After), not
+    left to wait out the budget."""
+    from service.executor import ComputeBusy
+
+    ex = BoundedExecutor(workers=1, timeout=5.0, max_queue=2)
+    try:
+        ex.warm_up()
+        futs = [ex.submit(time.sleep, 0.5) for _ in range(3)]   # one running, two waiting
+        while ex.state().busy == 0:
+            time.sleep(0.005)
+        t0 = time.monotonic()
+        with pytest.raises(ComputeBusy, match="ZWIDTH_COMPUTE_QUEUE"):
+            ex.submit(math.sqrt, 1.0)
+        assert time.monotonic() - t0 < 0.1
+        state = ex.state()
+        assert (state.busy, state.depth, state.max_depth, state.workers) == (1, 2, 2, 1)
+        for f in futs:
+            f.result(timeout=10)
+        assert ex.state().depth == 0 and ex.run(math.sqrt, 4.0) == 2.0
+    finally:
+        ex.shutdown()
+
+
+def test_awaiting_calls_hold_no_thread_and_the_wait_counts_against_the_budget():
+    """40 requests waiting for one busy worker: no thread per request (the server's pool has 40), and the
+    ones still queued at the budget answer ComputeTimeout (waiting) at the budget, not later."""
+    import asyncio
+    import threading
+
+    ex = BoundedExecutor(workers=1, timeout=0.6, max_queue=100)
+
+    async def main():
+        before = threading.active_count()
+        calls = [asyncio.ensure_future(ex.arun(time.sleep, 0.25)) for _ in range(40)]
+        await asyncio.sleep(0.2)
+        during = threading.active_count()
+        t0 = time.monotonic()
+        out = await asyncio.gather(*calls, return_exceptions=True)
+        return before, during, time.monotonic() - t0, out
+
+    try:
+        ex.warm_up()
+        before, during, waited, out = asyncio.run(main())
+    finally:
+        ex.shutdown()
+    assert during - before <= 2                      # the dispatcher already exists; nothing per call
+    served = [o for o in out if o is None]
+    timeouts = [o for o in out if isinstance(o, ComputeTimeout)]
+    assert len(served) + len(timeouts) == 40 and 1 <= len(served) <= 3
+    assert sum(not t.waiting for t in timeouts) <= 1   # the one started with too little budget left
+    assert waited < 0.6 + 0.5                          # every answer by the budget (+ scheduling slack)
+    assert ex.state().depth == 0                       # the withdrawn calls left the queue
+
+
+def test_warm_up_makes_the_first_design_fast():
+    """Issue 20: after warm-up (what /readyz waits for) the first stiffness design costs no process start
+    nor solver construction (≈ 9 s cold in-process)."""
+    from models.device import Device
+    from optim.stiffness import design_stiffness
+
+    ex = BoundedExecutor(workers=1, timeout=30.0)
+    try:
+        assert ex.warm_up() and ex.state().warm
+        t0 = time.monotonic()
+        design = ex.run(design_stiffness, Device(preset="phantom-1.0"))
+        assert time.monotonic() - t0 < 1.0
+        assert design.status == "optimal"
+    finally:
+        ex.shutdown()
+    assert not ex.state().warm
+
+
+@pytest.mark.slow
+def test_http_sheds_load_at_once_past_the_queue_depth_and_readyz_shows_the_queue():
+    """ZWIDTH_COMPUTE_QUEUE = 0 and one worker: while a reference analysis holds it, the next expensive request
+    answers 503 with Retry-After at once (not at the budget); cheap ones and /healthz are served meanwhile."""
+    import threading
+
+    with make_client(request_timeout=3, compute_workers=1, compute_queue=0, prestart_workers=True) as c:
+        deadline = time.monotonic() + 120
+        while c.get("/readyz").status_code != 200:
+            assert time.monotonic() < deadline
+            time.sleep(0.05)
+        slow = {"device": {"preset": "lhifam", "delay": 0.15}, "method": "reference"}   # ≈ 20 s: stopped at 3 s
+        held = threading.Thread(target=c.post, args=(STABILITY,), kwargs={"json": slow})
+        held.start()
+        while c.get("/readyz").json()["queue"]["busy"] == 0:
+            time.sleep(0.01)
+        ready = c.get("/readyz").json()
+        assert ready["ready"] and ready["queue"] == {"depth": 0, "max_depth": 0, "workers": 1, "busy": 1,
+                                                     "replaced": 0}
+        t0 = time.monotonic()
+        r = c.post(STABILITY, json={"device": LHIFAM_RIGID, "method": "reference"})
+        assert time.monotonic() - t0 < 1.0
+        assert r.status_code == 503 and r.headers["retry-after"] == "1"
+        assert "ZWIDTH_COMPUTE_QUEUE" in r.json()["detail"]
+        assert c.post(STABILITY, json={"device": LHIFAM_RIGID}).status_code == 200   # inline: served
+        assert c.get("/healthz").status_code == 200
+        held.join(30)
+        assert c.get("/readyz").json()["queue"]["replaced"] == 1   # the held one was stopped at its budget

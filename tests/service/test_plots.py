@@ -76,10 +76,36 @@ def test_bode_figure_plots_the_numerics_arrays_exactly():
     assert np.array_equal(mag.get_xdata(), res.frequency)
     assert np.array_equal(mag.get_ydata(), 20 * np.log10(res.magnitude))
     assert np.array_equal(_line(fig, "phase").get_ydata(), res.phase_deg)
-    for i, c in enumerate(res.crossovers):
-        mark = _line(fig, f"crossover-{i}")
-        assert (mark.get_xdata()[0], mark.get_ydata()[0]) == (c.frequency, 20 * math.log10(c.magnitude))
+    marks = _line(fig, "crossovers")
+    assert list(marks.get_xdata()) == [c.frequency for c in res.crossovers]
+    assert list(marks.get_ydata()) == [20 * math.log10(c.magnitude) for c in res.crossovers]
+    assert list(_line(fig, "crossovers-phase").get_ydata()) == [c.phase_deg for c in res.crossovers]
     assert _line(fig, "wall").get_ydata()[0] == -20 * math.log10(3000.0)
+
+
+def test_a_long_delay_marks_every_crossover_but_labels_the_binding_few():
+    """Issue 18: a 1 s delay has hundreds of crossovers; a text per crossover made the drawing take a minute.
+    All are marked (one artist), the MAX_CROSSOVER_LABELS of least K_i are labelled, the rest counted."""
+    import time
+
+    from service.plots import MAX_CROSSOVER_LABELS, labelled_crossovers
+
+    res = loop_frequency_response(Device(**LHIFAM_RIGID, delay=1.0), 0.0, 2000)
+    assert len(res.crossovers) > 10 * MAX_CROSSOVER_LABELS
+    t0 = time.perf_counter()
+    fig = bode_figure(res)
+    png = render(fig, "png")
+    assert png.startswith(PNG_MAGIC) and time.perf_counter() - t0 < 10
+    assert len(_line(fig, "crossovers").get_xdata()) == len(res.crossovers)
+    texts = [t.get_text() for t in fig.axes[0].texts]
+    labelled = labelled_crossovers(res.crossovers)
+    assert len(labelled) == MAX_CROSSOVER_LABELS
+    assert [t for t in texts if t.endswith(" N/m")] == [f"{c.stiffness:.4g} N/m" for c in labelled]
+    # the labelled ones are those of least K_i, and K_cr (the least of all) is among them
+    worst_labelled = max(c.stiffness for c in labelled)
+    assert sum(c.stiffness < worst_labelled for c in res.crossovers) < MAX_CROSSOVER_LABELS
+    assert min(c.stiffness for c in labelled) == min(c.stiffness for c in res.crossovers)
+    assert any(t.startswith(f"{len(res.crossovers)} crossovers") for t in texts)
 
 
 @pytest.mark.parametrize("device", [Device(**LHIFAM_RIGID)] + [Device(preset=p) for p in sorted(PRESETS)]

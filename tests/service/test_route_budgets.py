@@ -49,20 +49,22 @@ CASES = {
                                                  "free": "cable.stiffness", "points": 201}), WORKER_CHEAP),
     "simulate": (("/v1/simulate", {"device": CABLE_DELAYED, "scene": RELAY}),
                  ("/v1/simulate", {"device": LHIFAM_RIGID, "scene": RELEASE})),
-    "plots/simulation": (("/v1/plots/simulation", {"device": CABLE_DELAYED, "scene": RELAY}),
-                         ("/v1/plots/simulation", {"device": LHIFAM_RIGID, "scene": RELEASE})),
+    # Plots are drawn in the worker, under the budget (issue 18): the next request, too short to draw a figure
+    # within 0.2 s on a loaded machine, is a worker call without drawing.
+    "plots/simulation": (("/v1/plots/simulation", {"device": CABLE_DELAYED, "scene": RELAY}), WORKER_CHEAP),
     "plots/robust": (("/v1/plots/robust", {"device": CABLE_DELAYED, "requirements": {"uncertainty": UNC},
                                            "points": 121}), WORKER_CHEAP),
     "plots/hardware": (("/v1/plots/hardware", {"device": CABLE_DELAYED, "target": {"stiffness": 2000},
                                                "free": "cable.stiffness", "points": 201}), WORKER_CHEAP),
     "plots/boundary": (("/v1/plots/boundary", {"device": {"preset": "lhifam", "delay": 0.5}, "points": 2000}),
-                       ("/v1/plots/boundary", {"device": LHIFAM_RIGID, "points": 2})),
+                       WORKER_CHEAP),
     "plots/bode": (("/v1/plots/bode", {"device": {"preset": "lhifam", "delay": 10.0}, "points": 5000,
                                        "controller": {"stiffness": 100, "damping": 50}}),
-                   ("/v1/plots/bode", {"device": LHIFAM_RIGID, "points": 100})),
+                   ("/v1/analysis/stability", {"device": LHIFAM_RIGID})),
 }
 #: The Bode data are bounded by their input limits to ~0.1 s (10 000 samples of delay, 5000 points, a cable
-#: device): the costliest valid request is stopped by a 0.02 s budget instead.
+#: device) and the drawing, its crossover labels capped, to well under a second: the costliest valid request is
+#: stopped by a 0.02 s budget instead (the next request: an inline analysis).
 BUDGETS = {"plots/bode": 0.02}
 
 

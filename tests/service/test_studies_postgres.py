@@ -41,7 +41,9 @@ def test_postgres_store_schema_and_idempotent_writes(pg_url):
     assert store.write_chunk("p1", rows) == 2
     assert store.write_chunk("p1", rows) == 0
     assert (store.get("p1")["done"], store.get("p1")["failed"]) == (2, 1)
-    assert store.delete("p1")
+    assert store.delete("p1") == "active"      # queued: a coordinator may still take it
+    assert store.cancel("p1") == "cancelled"
+    assert store.delete("p1") == "deleted" and store.get("p1") is None
     store.dispose()
 
 

@@ -80,3 +80,45 @@ def test_sigkill_mid_run_then_resume(tmp_path):
     assert [r["index"] for r in resumed] == list(range(4000))  # every point, exactly once
     # identical numbers, bit for bit (the resumed points ran in other chunks than in the fresh run)
     assert resumed == uninterrupted
+
+
+@pytest.mark.slow
+def test_sigkill_of_the_server_alone_leaves_no_process_and_resumes_once(tmp_path):
+    """Issue 18: ``kill -9 <server pid>`` (not its group) used to leave the resource tracker and the pools'
+    workers alive with parent 1 (~240 MB per crash).  Now nothing of the server's session outlives it by 5 s,
+    and the next server resumes the study: every point stored exactly once."""
+    db, log = tmp_path / "store.db", tmp_path / "server.log"
+    study = small_study(num_delay=5000)  # 10 000 points: still running when killed
+    server = Server(db, log)
+    try:
+        deadline = time.monotonic() + 90
+        while server.http.get("/readyz").status_code != 200 and time.monotonic() < deadline:
+            time.sleep(0.1)   # the compute workers (and their forkserver) are up
+        sid = server.http.post("/v1/studies", json=study).json()["id"]
+        while server.get(sid)["done"] < 40 and time.monotonic() < deadline:
+            time.sleep(0.02)  # the study pool's workers are up
+        before = server.session_pids()
+        assert len(before) >= 1 + 2 + 2, before   # server, compute forkserver + workers, study workers, trackers
+        server.crash()
+        deadline = time.monotonic() + 5.0
+        while server.session_pids() and time.monotonic() < deadline:
+            time.sleep(0.1)
+        left = server.session_pids()
+    finally:
+        server.kill()   # whatever is left (the assertion below says if anything was)
+    assert left == [], f"alive 5 s after the server's SIGKILL: {left} of {before}"
+
+    server = Server(db, log)
+    try:
+        st = wait_finished(server.get, sid, timeout=120)
+        assert st["status"] == "done" and st["done"] == st["total"] == 10000 and st["resumed_from"] >= 40, st
+        page = server.http.get(f"/v1/studies/{sid}/results", params={"offset": 0, "limit": 10000}).json()
+        assert [r["index"] for r in page["rows"]] == list(range(10000))
+    finally:
+        server.stop()
+    import sqlite3
+
+    with sqlite3.connect(db) as conn:   # exactly once: as many rows as points, one per index
+        n, distinct = conn.execute("SELECT count(*), count(DISTINCT idx) FROM study_results WHERE study_id = ?",
+                                   (sid,)).fetchone()
+    assert n == distinct == 10000

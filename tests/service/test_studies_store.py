@@ -43,11 +43,13 @@ def test_cancel_wins_over_finish(tmp_path):
     store = _store(tmp_path)
     store.create("s2", "stability", {}, total=1)
     store.begin_run("s2")
-    assert store.cancel("s2")
+    assert store.cancel("s2") == "cancelling"   # its coordinator (a live lease) stops it
+    assert store.write_chunk("s2", [(0, "c" * 32, [1.0], {"k": 1.0}, None)]) is None  # no row after the cancel
+    assert store.delete("s2") == "active"       # not purged while its owner may still write
     store.finish("s2", "done")
     assert store.get("s2")["status"] == "cancelled"
     assert store.begin_run("s2") is None  # a cancelled study is not resumed
-    assert store.delete("s2") and store.get("s2") is None
+    assert store.delete("s2") == "deleted" and store.get("s2") is None
 
 
 def test_one_coordinator_per_study(tmp_path, monkeypatch):
@@ -83,3 +85,23 @@ def test_one_coordinator_per_study(tmp_path, monkeypatch):
     assert store.begin_run("s3", me) is not None
     store.finish("s3", "done")
     assert store.get("s3")["owner"] is None
+
+
+def test_a_cancel_of_a_study_whose_owner_is_gone_is_final_at_once(tmp_path):
+    """Nobody would acknowledge it: a crashed owner's running study (or one left 'cancelling') is cancelled
+    directly, by the cancel or by the next coordinator's settle_cancels, and may then be purged."""
+    import socket
+
+    store = _store(tmp_path)
+    dead = f"{socket.gethostname()}:{2**22 + 12345}:dead"   # above pid_max's default: no such process
+    store.create("s4", "stability", {}, total=4)
+    store.begin_run("s4", dead)
+    assert store.cancel("s4") == "cancelled" and store.get("s4")["owner"] is None
+    assert store.delete("s4") == "deleted"
+    store.create("s5", "stability", {}, total=4)
+    store.begin_run("s5", dead)
+    with store.engine.begin() as conn:   # as if the owner crashed after the cancel was asked
+        conn.execute(sa.text("UPDATE studies SET status = 'cancelling' WHERE id = 's5'"))
+    assert store.delete("s5") == "active" and store.active_ids("me") == []
+    assert store.settle_cancels() == 1 and store.get("s5")["status"] == "cancelled"
+    assert store.delete("s5") == "deleted" and store.delete("s5") == "missing"
