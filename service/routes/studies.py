@@ -13,6 +13,7 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse, StreamingResponse
 from starlette.concurrency import run_in_threadpool
 
+from optim.errors import InputError
 from optim.studies import StudyInputError
 
 from ..errors import StoreUnavailable
@@ -195,7 +196,6 @@ async def study_plot(study_id: str, request: Request, compute: Compute, y: str, 
     try:  # read and drawn in a compute worker, under the request time budget
         image = await compute.arun(plot_study, runner.store.url, study_id, paths, y, x, x2, format,
                                    f"{row['problem']} study {study_id[:8]}: {y}", log_paths, cost_ms=None)
-    except ValueError as exc:
-        field, _, msg = str(exc).partition(": ")
-        raise _invalid(["query", field], msg) from None
+    except InputError as exc:
+        raise _invalid(["query", exc.field], exc.rule) from None
     return Response(image, media_type="image/png" if format == "png" else "image/svg+xml")

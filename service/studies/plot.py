@@ -6,6 +6,8 @@ import io
 import math
 from typing import Any, Sequence
 
+from optim.errors import InputError
+
 __all__ = ["plot_rows", "plot_study"]
 
 
@@ -77,7 +79,7 @@ def plot_study(url: str, study_id: str, paths: list[str], y: str, x: str, x2: st
                log_paths: dict[str, bool]) -> bytes:
     """Read the study's results from the store at ``url`` and draw them: what a compute worker runs for
     GET /v1/studies/{id}/plot, so the rows and the figure never sit in the server process and the drawing is
-    under the request time budget.  ValueError "y: ..." when ``y`` is not a result of the study."""
+    under the request time budget.  InputError on ``y`` when it is not a result of the study."""
     from .export import columns, flat_row
     from .store import StudyStore
 
@@ -87,5 +89,5 @@ def plot_study(url: str, study_id: str, paths: list[str], y: str, x: str, x2: st
     rows = [flat_row(paths, r) for r in store.iter_results(study_id)]
     if rows and not any(y in r for r in rows):
         known = [c for c in columns(paths, rows) if c not in ("index", "error", *paths)]
-        raise ValueError(f"y: {y!r} is not a result of this study; results: {', '.join(known)}")
+        raise InputError("y", f"{y!r} is not a result of this study; results: {', '.join(known)}")
     return plot_rows(rows, y, x, x2, fmt, title, log_paths)
