@@ -57,16 +57,13 @@ def _bounds(prob: Problem, start: dict[str, float], max_delay: float,
 
 
 def _scale(prob: Problem, x: np.ndarray) -> np.ndarray:
+    vals = prob.values(x)
     out = []
     for name, v in zip(prob.names, x):
-        if name == "delay":
-            out.append(prob.sample_time)
-        elif name == "offset":
+        if name == "offset":
             out.append(max(float(np.std(prob.data.position)), 1e-12))
-        elif name == "friction":
-            out.append(max(abs(v), 1e-3 * float(np.max(np.abs(prob.data.force)))))
         else:
-            out.append(max(abs(v), 1e-9))
+            out.append(max(abs(v), prob.typical(name, vals)))
     return np.array(out)
 
 
@@ -78,6 +75,14 @@ def _solve(prob: Problem, start: dict[str, float], max_delay: float,
     scale = _scale(prob, x0)
     return least_squares(prob.residual, x0, jac=lambda x: prob.jacobian(x, lo), bounds=(lo, hi),
                          x_scale=scale, method="trf", max_nfev=max_nfev, xtol=1e-10, ftol=1e-12, gtol=1e-10)
+
+
+def _start_cost(prob: Problem, start: dict[str, float]) -> float:
+    try:
+        r = prob.residual(np.array([start.get(n, 0.0) for n in prob.names], float))
+    except (ValidationError, ValueError):
+        return math.inf
+    return float(r @ r)
 
 
 def fit_model(prob: Problem, max_delay: float, rigid_start: dict[str, float] | None = None) -> FitOutcome:
@@ -96,7 +101,9 @@ def fit_model(prob: Problem, max_delay: float, rigid_start: dict[str, float] | N
         else:
             if rigid_start is None:
                 raise ValueError("the cable fit starts from a rigid fit")
-            runs = [_solve(prob, s, max_delay) for s in cable_starts(prob, rigid_start)]
+            starts = cable_starts(prob, rigid_start, max_delay)
+            scored = sorted(starts, key=lambda s: _start_cost(prob, s))[:REFINED_STARTS]
+            runs = [_solve(prob, s, max_delay) for s in scored]
             final = min(runs, key=lambda r: r.cost)
             n_starts = len(runs)
     except (ValidationError, ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:

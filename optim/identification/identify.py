@@ -196,6 +196,11 @@ def identify(data: TimeSeriesData | FrequencyResponseData, model: str = "auto", 
                      residual_whiteness=white, residual_autocorrelation=rho, samples=len(r),
                      evaluations=sum(o.problem.evaluations for o in outcomes.values()),
                      starts=sum(o.starts for o in outcomes.values()))
+    dl = res.parameters["delay"]
+    if "delay" not in known and dl.value >= max_delay - 1e-9 * t:
+        warnings.append(f"parameters.delay: {dl.value:.6g} s is at the edge of the searched range [0, max_delay = "
+                        f"{max_delay:.6g} s]: the model is probably wrong for this data (friction? the cable mode?) "
+                        f"or the delay is longer (raise max_delay)")
     if not white["white"]:
         warnings.append(f"fit: the residual is not white (Ljung–Box p = {white['p_value']:.2g}): the model misses "
                         f"something in the data (friction, a mode, nonlinearity) or the noise is coloured; the "

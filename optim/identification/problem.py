@@ -89,6 +89,18 @@ class Problem:
         v = self.values(x)
         return device_from(self.model, {p: v[p] for p in PARAMS[self.model]}, self.sample_time)
 
+    def typical(self, name: str, values: dict[str, float]) -> float:
+        """A magnitude for steps and scaling where the value itself may be 0: T for the delay, for a
+        damping the δ = bT/m = 1e-4 of a lightly damped device (LHifAM: 6.5e-4)."""
+        if name == "delay":
+            return self.sample_time
+        mass = values.get("mass") or values.get("cable.motor_mass", 0.0) + values.get("cable.body_mass", 0.0)
+        if name == "friction":
+            return 1e-3 * float(np.max(np.abs(self.data.force))) if isinstance(self.data, TimeSeriesData) else 1.0
+        if "damping" in name:
+            return 1e-4 * mass / self.sample_time
+        return 1e-12
+
     # -- the model's output --------------------------------------------------------------------------
     def _physical_output(self, values: dict[str, float]) -> np.ndarray:
         dev = device_from(self.model, {p: values[p] for p in PARAMS[self.model]}, self.sample_time)
@@ -127,8 +139,7 @@ class Problem:
             if name == "friction":
                 cols.append(fric)
                 continue
-            scale = abs(x[i]) if x[i] != 0 else (self.sample_time if name == "delay" else 1e-6)
-            h = _REL_STEP * max(scale, self.sample_time if name == "delay" else 0.0)
+            h = _REL_STEP * max(abs(x[i]), self.typical(name, v))
             lo = 0.0 if lower is None else lower[i]
             xp, xm = x.copy(), x.copy()
             xp[i] += h

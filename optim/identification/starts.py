@@ -104,8 +104,9 @@ def _resonance(prob: Problem, rigid: dict[str, float]) -> list[tuple[float, floa
     else:
         w, h = prob.data.frequency, prob.data.response
         kind = prob.data.model_kind
+        dev = _low_frequency_rigid(prob)
     cands = []
-    if len(w) >= 4:
+    if len(w) >= 4 and dev is not None:
         ratio = np.abs(h / response(dev, w, kind))
         ip = int(np.argmax(ratio))
         if ratio[ip] > 1.3 and ip > 0:
@@ -117,13 +118,37 @@ def _resonance(prob: Problem, rigid: dict[str, float]) -> list[tuple[float, floa
     return cands
 
 
-def cable_starts(prob: Problem, rigid: dict[str, float]) -> list[dict[str, float]]:
+def _low_frequency_rigid(prob: Problem):
+    """The rigid model fitted (magnitude only, so the delay does not matter) to the lowest third of a
+    response's frequencies, below a cable mode: the reference the resonance is read against."""
+    data = prob.data
+    order = np.argsort(data.frequency)
+    low = order[:max(3, len(order) // 3)]
+    w, mag = data.frequency[low], np.abs(data.response[low])
+    # |1/H|² = m²ω⁴ + b²ω²: linear in (m², b²)
+    coef, *_ = np.linalg.lstsq(np.column_stack([w ** 4, w ** 2]) * mag[:, None] ** 2, np.ones_like(w), rcond=None)
+    if not coef[0] > 0:
+        return None
+    return device_from("rigid", {"mass": math.sqrt(coef[0]), "damping": math.sqrt(max(coef[1], 0.0)), "delay": 0.0},
+                       prob.sample_time)
+
+
+def cable_starts(prob: Problem, rigid: dict[str, float], max_delay: float) -> list[dict[str, float]]:
     t = prob.sample_time
     m, b = rigid["mass"], rigid["damping"]
     out = []
     fixed_delay = prob.fixed.get("delay")
     d0 = int(round(rigid["delay"] / t))
-    delays = [fixed_delay] if fixed_delay is not None else sorted({max(0, d0 + k) * t for k in (-1, 0, 1)})
+    if fixed_delay is not None:
+        delays = [fixed_delay]
+    elif isinstance(prob.data, FrequencyResponseData):      # cheap to evaluate: every whole sample
+        delays = [k * t for k in range(int(math.floor(max_delay / t + 1e-9)) + 1)]
+    else:
+        delays = sorted({max(0, d0 + k) * t for k in (-1, 0, 1)})
+    if isinstance(prob.data, FrequencyResponseData):
+        ref = _low_frequency_rigid(prob)
+        if ref is not None:
+            m, b = ref.mass, ref.damping
     for wn, wz in _resonance(prob, rigid):
         mu_r = min(max((wz / wn) ** 2, 0.01), 0.9)
         m_r, m_d = mu_r * m, (1 - mu_r) * m
