@@ -95,18 +95,16 @@ def _finish(out: FitOutcome, confidence: float) -> tuple[IdentificationResult | 
         check_device_domain(dev)
     except (ValidationError, ValueError) as exc:
         return None, f"the fitted {out.model} device is outside the numeric domain ({exc})"
-    warns = []
+    warns: list[str] = []
     unc: dict[str, dict[str, float]] = {}
     for name in PARAMS[out.model]:
         p = params[name]
-        if p.interval[0] == p.interval[1]:
-            continue                              # fixed by known
-        lo = p.interval[0]
-        if name in POSITIVE and not p.value - z * p.std_error > 0:
-            warns.append(f"parameters.{name}: its interval reaches 0, so it is left out of uncertainty "
-                         f"(the data barely determine it)")
+        if name in prob.fixed:
             continue
-        unc[f"device.{name}"] = {"min": lo, "max": p.interval[1]}
+        if name in POSITIVE and not p.value - z * p.std_error > 0:
+            return None, (f"the data do not determine {name} of the {out.model} model: its {confidence:g} interval "
+                          f"[{p.value - z * p.std_error:.4g}, {p.interval[1]:.4g}] reaches 0")
+        unc[f"device.{name}"] = {"min": p.interval[0], "max": p.interval[1]}
     device = dev.model_dump(exclude_none=True, exclude={"preset"})
     return IdentificationResult(status="identified", model=out.model, reason="", device=device,
                                 parameters=params, uncertainty=unc, warnings=tuple(warns),
