@@ -24,7 +24,7 @@ __all__ = ["FitOutcome", "fit_model", "REFINED_STARTS"]
 
 #: whole-sample delay starts refined after scoring (the best by their linear-solve cost)
 REFINED_STARTS = 3
-_MAX_NFEV = 100
+_MAX_NFEV = 200
 
 
 @dataclass(frozen=True)

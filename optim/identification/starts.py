@@ -109,8 +109,9 @@ def _resonance(prob: Problem, rigid: dict[str, float]) -> list[tuple[float, floa
     if len(w) >= 4 and dev is not None:
         ratio = np.abs(h / response(dev, w, kind))
         ip = int(np.argmax(ratio))
-        if ratio[ip] > 1.3 and ip > 0:
-            iz = int(np.argmin(ratio[:ip]))
+        band = (w >= 0.1 * w[ip]) & (w < w[ip])      # μ_r = (ω_z/ω_n)² ≥ 0.01
+        if ratio[ip] > 1.3 and band.any():
+            iz = int(np.flatnonzero(band)[np.argmin(ratio[band])])
             if ratio[iz] < ratio[ip] and w[iz] < w[ip]:
                 cands.append((float(w[ip]), float(w[iz])))
     nyq = math.pi / t
