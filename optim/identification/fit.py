@@ -37,6 +37,8 @@ class FitOutcome:
     starts: int
     reason: str | None = None
     """why it failed (None when it converged)"""
+    last: np.ndarray | None = None
+    """where the best run stopped, converged or not (a start for the cable fit)"""
 
 
 def _bounds(prob: Problem, start: dict[str, float], max_delay: float,
@@ -110,7 +112,8 @@ def fit_model(prob: Problem, max_delay: float, rigid_start: dict[str, float] | N
         return FitOutcome(prob.model, prob, None, math.inf, None, 0, f"the fit left the model's domain ({exc})")
     if final.status <= 0 or not np.all(np.isfinite(final.x)):
         return FitOutcome(prob.model, prob, None, math.inf, None, n_starts,
-                          f"least squares did not converge ({final.message})")
+                          f"least squares did not converge ({final.message})",
+                          final.x if np.all(np.isfinite(final.x)) else None)
     jac = prob.jacobian(final.x, _bounds(prob, dict(zip(prob.names, final.x)), max_delay, None)[0])
     rss = float(final.fun @ final.fun)
-    return FitOutcome(prob.model, prob, final.x, rss, jac, n_starts)
+    return FitOutcome(prob.model, prob, final.x, rss, jac, n_starts, None, final.x)

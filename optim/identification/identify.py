@@ -162,12 +162,12 @@ def identify(data: TimeSeriesData | FrequencyResponseData, model: str = "auto", 
     outcomes: dict[str, FitOutcome] = {"rigid": rigid}
     if "cable" in asked:
         cable_known = {k: v for k, v in known.items() if k in PARAMS["cable"]} | fric_known
-        if rigid.x is None:
+        if rigid.last is None:
             outcomes["cable"] = FitOutcome("cable", Problem("cable", data, cable_known, friction), None, math.inf,
                                            None, 0, f"no rigid fit to start from ({rigid.reason})")
-        else:
+        else:   # a rigid fit that did not converge still gives the mass scale and the delay to start from
             outcomes["cable"] = fit_model(Problem("cable", data, cable_known, friction), max_delay,
-                                          rigid.problem.values(rigid.x))
+                                          rigid.problem.values(rigid.last))
     finished: dict[str, tuple[IdentificationResult | None, str | None]] = {}
     comparison = []
     for m in asked:
