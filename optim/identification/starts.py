@@ -96,9 +96,12 @@ def _resonance(prob: Problem, rigid: dict[str, float]) -> list[tuple[float, floa
         nper = int(min(len(u), 512))
         f, puu = welch(u, fs=1 / t, nperseg=nper, detrend="linear")
         _, pyu = csd(u, y, fs=1 / t, nperseg=nper, detrend="linear")
+        _, pyy = welch(y, fs=1 / t, nperseg=nper, detrend="linear")
         w = 2 * math.pi * f[1:]
         h = pyu[1:] / puu[1:]
-        ok = (puu[1:] > 1e-3 * np.max(puu[1:])) & (w * t < 0.9 * math.pi)
+        coherence = np.abs(pyu[1:]) ** 2 / np.maximum(puu[1:] * pyy[1:], 1e-300)
+        # only where the position still carries the input (at high frequency it is the encoder's noise)
+        ok = (puu[1:] > 1e-3 * np.max(puu[1:])) & (w * t < 0.9 * math.pi) & (coherence > 0.8)
         w, h = w[ok], h[ok]
         kind = "sampled"
     else:
