@@ -146,8 +146,9 @@ def identify(data: TimeSeriesData | FrequencyResponseData, model: str = "auto", 
     notes: list[str] = []
     if ts:
         if model == "auto":
+            check_time_series(data, _free_count("rigid", known, friction, ts), ("rigid",))
             f5, f95 = excited_band(data.force, t)
-            if f5 > 0 and f95 / f5 < BAND_RATIO["cable"]:
+            if not f95 / f5 >= BAND_RATIO["cable"]:
                 asked = ("rigid",)
                 notes.append(f"the cable model was not fitted: the input's band {f5:.3g}-{f95:.3g} Hz is too "
                              f"narrow for it (ratio below {BAND_RATIO['cable']:g})")

@@ -19,6 +19,8 @@ from ..plots_identification import MEDIA_TYPES, plot_identification
 from ..schemas.identify import IdentifyRequest, IdentifyResponse
 
 router = APIRouter(tags=["identification"])
+#: the request's fields a numerics "field: rule" may name (known.<name> carries the caller's own name)
+_FIELDS = frozenset({"data", "known", "model", "confidence", "friction", "max_delay", "sample_time"})
 
 _EXAMPLE_T = np.arange(400) * 0.001
 _EXAMPLES = {
@@ -67,7 +69,7 @@ def run_identification(req: IdentifyRequest, compute: Compute) -> Identification
         if type(exc) is not ValueError:
             raise
         field, _, msg = str(exc).partition(": ")
-        if not msg or not field.replace(".", "").replace("_", "").isalnum():
+        if not msg or field.split(".", 1)[0] not in _FIELDS:
             raise
         raise NumericInputError(field, msg) from None
 
