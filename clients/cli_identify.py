@@ -7,6 +7,7 @@ m) or ``frequency,real,imag`` (a measured X/F: rad/s, m/N).  Other columns are i
 from __future__ import annotations
 
 import csv
+import itertools
 import math
 from pathlib import Path
 from typing import Annotated, Any
@@ -51,7 +52,7 @@ def read_csv(path: Path) -> dict[str, Any]:
     t = values.pop("time")
     if len(t) < 2:
         raise c.usage_error(f"{path}: a time series needs at least 2 rows")
-    steps = [b - a for a, b in zip(t, t[1:])]
+    steps = [b - a for a, b in itertools.pairwise(t)]
     dt = sum(steps) / len(steps)
     if not (dt > 0 and all(math.isclose(s, dt, rel_tol=1e-3, abs_tol=1e-12) for s in steps)):
         raise c.usage_error(f"{path}: the time column must be uniformly sampled (one row per sample period)")

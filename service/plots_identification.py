@@ -11,7 +11,7 @@ from matplotlib.figure import Figure
 
 from optim.identification import IdentificationResult
 
-__all__ = ["plot_identification", "MEDIA_TYPES"]
+__all__ = ["MEDIA_TYPES", "plot_identification"]
 
 MEDIA_TYPES = {"png": "image/png", "svg": "image/svg+xml"}
 

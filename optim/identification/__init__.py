@@ -9,4 +9,4 @@ from .data import FrequencyResponseData, TimeSeriesData
 from .identify import identify
 from .result import IdentificationResult
 
-__all__ = ["identify", "IdentificationResult", "TimeSeriesData", "FrequencyResponseData"]
+__all__ = ["FrequencyResponseData", "IdentificationResult", "TimeSeriesData", "identify"]

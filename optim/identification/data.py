@@ -14,9 +14,19 @@ from typing import Literal
 import numpy as np
 from scipy.signal import welch
 
-__all__ = ["TimeSeriesData", "FrequencyResponseData", "MAX_SAMPLES", "MAX_RESPONSE_POINTS",
-           "SAMPLES_PER_PARAMETER", "POINTS_PER_PARAMETER", "BAND_RATIO", "check_time_series",
-           "check_response", "excited_band", "warnings_for"]
+__all__ = [
+    "BAND_RATIO",
+    "MAX_RESPONSE_POINTS",
+    "MAX_SAMPLES",
+    "POINTS_PER_PARAMETER",
+    "SAMPLES_PER_PARAMETER",
+    "FrequencyResponseData",
+    "TimeSeriesData",
+    "check_response",
+    "check_time_series",
+    "excited_band",
+    "warnings_for",
+]
 
 #: Longest time series [samples]; the fit costs O(N) per model evaluation (docs/bench_identification.md).
 MAX_SAMPLES = 200_000

@@ -20,7 +20,7 @@ from .models import POSITIVE, ModelName
 from .problem import Problem
 from .starts import cable_starts, rigid_starts
 
-__all__ = ["FitOutcome", "fit_model", "REFINED_STARTS"]
+__all__ = ["REFINED_STARTS", "FitOutcome", "fit_model"]
 
 #: whole-sample delay starts refined after scoring (the best by their linear-solve cost)
 REFINED_STARTS = 3

@@ -15,15 +15,22 @@ import numpy as np
 from pydantic import ValidationError
 
 from ..domain import check_device_domain
-from .data import (BAND_RATIO, FrequencyResponseData, TimeSeriesData, check_response, check_time_series,
-                   excited_band, warnings_for)
+from .data import (
+    BAND_RATIO,
+    FrequencyResponseData,
+    TimeSeriesData,
+    check_response,
+    check_time_series,
+    excited_band,
+    warnings_for,
+)
 from .fit import FitOutcome, fit_model
 from .models import PARAMS, POSITIVE, ModelName
 from .problem import Problem
 from .result import Comparison, FitQuality, IdentificationResult, Parameter
 from .stats import IDENTIFIABLE_RCOND, covariance, information_criteria, ljung_box, nrmse, quantile
 
-__all__ = ["identify", "DEFAULT_MAX_DELAY_SAMPLES", "MAX_DELAY_SEARCH_SAMPLES"]
+__all__ = ["DEFAULT_MAX_DELAY_SAMPLES", "MAX_DELAY_SEARCH_SAMPLES", "identify"]
 
 #: the delay is searched in [0, max_delay]; default 20 samples
 DEFAULT_MAX_DELAY_SAMPLES = 20
@@ -71,7 +78,7 @@ def _summary(out: FitOutcome) -> tuple[float, float, float]:
 def _finish(out: FitOutcome, confidence: float) -> tuple[IdentificationResult | None, str | None]:
     """The parameters, device and uncertainty of a converged fit, or why it cannot be trusted."""
     prob = out.problem
-    cov, s2, rcond = covariance(out.jac, out.rss)
+    cov, _, rcond = covariance(out.jac, out.rss)
     if rcond < IDENTIFIABLE_RCOND:
         _, _, vt = np.linalg.svd(out.jac / np.maximum(np.linalg.norm(out.jac, axis=0), 1e-300))
         weak = [prob.names[i] for i in np.argsort(-np.abs(vt[-1]))[:2]]
@@ -81,7 +88,6 @@ def _finish(out: FitOutcome, confidence: float) -> tuple[IdentificationResult | 
     dof = len(prob.measured) - len(prob.names)
     z = quantile(confidence, dof)
     params: dict[str, Parameter] = {}
-    values = prob.values(out.x)
     for i, name in enumerate(prob.names):
         if name == "offset":
             continue
@@ -171,7 +177,8 @@ def identify(data: TimeSeriesData | FrequencyResponseData, model: str = "auto", 
                                           rigid.problem.values(rigid.last))
     finished: dict[str, tuple[IdentificationResult | None, str | None]] = {}
     comparison = []
-    for m in asked:
+    compared = ("rigid", "cable") if "cable" in asked else asked     # the cable fit always has its rigid one
+    for m in compared:
         out = outcomes[m]
         if out.x is None:
             finished[m] = (None, out.reason)
@@ -195,6 +202,11 @@ def identify(data: TimeSeriesData | FrequencyResponseData, model: str = "auto", 
                      residual_whiteness=white, residual_autocorrelation=rho, samples=len(r),
                      evaluations=sum(o.problem.evaluations for o in outcomes.values()),
                      starts=sum(o.starts for o in outcomes.values()))
+    by = {c.model: c for c in comparison}
+    if chosen == "cable" and model == "cable" and by["rigid"].bic is not None and by["rigid"].bic < by["cable"].bic:
+        warnings.append(f"model: the rigid model explains these data better (BIC lower by "
+                        f"{by['cable'].bic - by['rigid'].bic:.4g}): the cable mode found here is not supported by "
+                        f"the data; use model auto")
     dl = res.parameters["delay"]
     if "delay" not in known and dl.value >= max_delay - 1e-9 * t:
         warnings.append(f"parameters.delay: {dl.value:.6g} s is at the edge of the searched range [0, max_delay = "

@@ -25,7 +25,7 @@ from models.device import Device
 from models.discretize import RigidZOH
 from models.plants import cable_tfs, stiffness_loop_plant
 
-__all__ = ["ModelName", "PARAMS", "POSITIVE", "device_from", "simulate_position", "response", "modal_terms"]
+__all__ = ["PARAMS", "POSITIVE", "ModelName", "device_from", "modal_terms", "response", "simulate_position"]
 
 ModelName = Literal["rigid", "cable"]
 

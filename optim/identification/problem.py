@@ -60,7 +60,7 @@ class Problem:
         if ts:
             self._u = self.data.force
             self._y = self.data.position
-            self._sgn = friction_regressor(self.data.position, self.data.sample_time) if self.friction else None
+            self.sign_regressor = friction_regressor(self.data.position, self.data.sample_time) if self.friction else None
         else:
             self._h = self.data.response
             self._w = 1.0 / np.abs(self.data.response)
@@ -113,7 +113,7 @@ class Problem:
     def _friction_column(self, values: dict[str, float]) -> np.ndarray:
         v = {p: values[p] for p in PARAMS[self.model]}
         v["delay"] = 0.0
-        return simulate_position(device_from(self.model, v, self.sample_time), self._sgn)
+        return simulate_position(device_from(self.model, v, self.sample_time), self.sign_regressor)
 
     def output(self, x: np.ndarray) -> np.ndarray:
         v = self.values(x)

@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Literal
 
-__all__ = ["Parameter", "FitQuality", "Comparison", "IdentificationResult"]
+__all__ = ["Comparison", "FitQuality", "IdentificationResult", "Parameter"]
 
 
 @dataclass(frozen=True)

@@ -20,7 +20,7 @@ from .data import FrequencyResponseData, TimeSeriesData
 from .models import device_from, response, simulate_position
 from .problem import Problem
 
-__all__ = ["rigid_starts", "cable_starts"]
+__all__ = ["cable_starts", "rigid_starts"]
 
 _DELTAS = np.geomspace(1e-7, 0.3, 16)
 
@@ -32,7 +32,7 @@ def _rigid_ts_score(prob: Problem, delay: float, delta: float) -> tuple[float, d
     cols = [simulate_position(dev, data.force), np.ones(len(data.force))]
     if prob.friction:
         dev0 = device_from("rigid", {"mass": 1.0, "damping": delta / t, "delay": 0.0}, t)
-        cols.append(simulate_position(dev0, prob._sgn))
+        cols.append(simulate_position(dev0, prob.sign_regressor))
     a = np.column_stack(cols)
     coef, *_ = np.linalg.lstsq(a, data.position, rcond=None)
     if not coef[0] > 0:

@@ -14,8 +14,15 @@ import numpy as np
 from scipy.stats import chi2
 from scipy.stats import t as student_t
 
-__all__ = ["covariance", "quantile", "nrmse", "autocorrelation", "ljung_box", "information_criteria",
-           "IDENTIFIABLE_RCOND"]
+__all__ = [
+    "IDENTIFIABLE_RCOND",
+    "autocorrelation",
+    "covariance",
+    "information_criteria",
+    "ljung_box",
+    "nrmse",
+    "quantile",
+]
 
 #: a scaled Jacobian whose smallest singular value is below this fraction of the largest has a direction
 #: the data do not determine: the fit answers ``failed`` instead of an interval of ±∞

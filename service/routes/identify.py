@@ -96,7 +96,7 @@ def identify_route(req: IdentifyRequest, compute: Compute) -> IdentifyResponse:
 @router.post("/v1/plots/identify", response_class=Response, tags=["plots"],
              responses={200: {"content": {"image/png": {}, "image/svg+xml": {}}}})
 def identify_plot(req: IdentifyRequest, compute: Compute,
-                  format: Literal["png", "svg"] | None = Query(None)) -> Response:  # noqa: A002
+                  format: Literal["png", "svg"] | None = Query(None)) -> Response:
     fmt = format or req.format
     res = run_identification(req, compute)
     return Response(content=plot_identification(res, fmt), media_type=MEDIA_TYPES[fmt])

@@ -10,7 +10,7 @@ from optim.identification.data import MAX_RESPONSE_POINTS, MAX_SAMPLES
 
 from .common import STRICT
 
-__all__ = ["TimeSeriesIn", "FrequencyResponseIn", "IdentifyRequest", "IdentifyResponse"]
+__all__ = ["FrequencyResponseIn", "IdentifyRequest", "IdentifyResponse", "TimeSeriesIn"]
 
 _BIG = 1e12
 

@@ -24,8 +24,7 @@ def test_lab_workflow(server, tmp_path):
     d = record("rigid", 0.0013)
     with open(tmp_path / "data.csv", "w") as fh:
         fh.write("time,force,position\n")
-        for k, (u, y) in enumerate(zip(d.force, d.position)):
-            fh.write(f"{k * 0.001:.6f},{float(u)!r},{float(y)!r}\n")
+        fh.writelines(f"{k * 0.001:.6f},{float(u)!r},{float(y)!r}\n" for k, (u, y) in enumerate(zip(d.force, d.position)))
     code = blocks[0].replace("http://127.0.0.1:8000", server.url)
     buf = io.StringIO()
     cwd = os.getcwd()

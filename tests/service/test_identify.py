@@ -149,7 +149,7 @@ def test_response_with_too_few_points(client):
 
 
 def test_bad_options(client):
-    loc, msg = _loc_msg(client.post("/v1/identify", json={"model": "rigid", "data": _fr(), "known": {"bogus": 1}}))
+    loc, _ = _loc_msg(client.post("/v1/identify", json={"model": "rigid", "data": _fr(), "known": {"bogus": 1}}))
     assert loc == ["body", "known", "bogus"]
     loc, _ = _loc_msg(client.post("/v1/identify", json={"data": _fr(), "friction": True}))
     assert loc == ["body", "friction"]
@@ -164,3 +164,24 @@ def test_plot(client, fmt, media):
     assert r.content[:4] == b"\x89PNG" if fmt == "png" else b"<svg" in r.content[:400]
     r = client.post("/v1/plots/identify", json={"model": "rigid", "data": _ts(), "format": "svg"})
     assert r.status_code == 200 and r.headers["content-type"] == "image/svg+xml"
+
+
+def test_cable_device_and_uncertainty_are_accepted(client):
+    """A cable device's answer: its device analysed by /v1/analysis/stability, its seven-path uncertainty box
+    accepted by the robust design's own validation (optim.robust.box, what requirements.uncertainty runs)."""
+    from optim.robust.box import UncertaintyBox
+
+    cable = Device(cable={"motor_mass": 0.3, "motor_damping": 0.1, "body_mass": 5.1, "body_damping": 3.4,
+                          "stiffness": 79500.0, "damping": 15.0}, delay=0.0013)
+    r = client.post("/v1/identify", json={"model": "auto", "data": _fr(points=60, device=cable)})
+    assert r.status_code == 200, r.text
+    body = r.json()
+    assert body["status"] == "identified" and body["model"] == "cable", body["reason"]
+    assert set(body["device"]["cable"]) == {"motor_mass", "motor_damping", "body_mass", "body_damping", "stiffness",
+                                            "damping"}
+    s = client.post("/v1/analysis/stability", json={"device": body["device"]})
+    assert s.status_code == 200, s.text
+    ranges = {k: (v["min"], v["max"]) for k, v in body["uncertainty"].items()}
+    assert len(ranges) == 7
+    box = UncertaintyBox.from_ranges(Device.model_validate(body["device"]), ranges)
+    assert box.dim == 7

@@ -11,7 +11,7 @@ their sum b_r + b_d and to the cable damping b_c.
 
 from __future__ import annotations
 
-from functools import lru_cache
+from functools import cache
 
 import numpy as np
 
@@ -37,7 +37,7 @@ def device(kind: str, delay: float) -> Device:
     return Device(**(RIGID if kind == "rigid" else CABLE), delay=delay)
 
 
-@lru_cache(maxsize=None)
+@cache
 def record(kind: str, delay: float, friction: float = 0.0, seed: int = 0, n: int = N,
            noise: float = NOISE, quantization: float = QUANTIZATION) -> TimeSeriesData:
     u = excitation(n, T, amplitude=AMPLITUDE, seed=seed)

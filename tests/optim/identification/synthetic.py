@@ -22,7 +22,7 @@ from models.scene import Effects
 from models.sim_loop import linear_step
 from models.sim_plant import build_plant, sample_plant
 
-__all__ = ["excitation", "simulate_experiment", "RIGID", "CABLE"]
+__all__ = ["CABLE", "RIGID", "excitation", "simulate_experiment"]
 
 RIGID = {"mass": 5.4, "damping": 3.5, "sample_time": 0.001}
 #: the LHifAM's cable block (chapter Table 2), 84 Hz mode

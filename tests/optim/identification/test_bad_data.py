@@ -71,8 +71,8 @@ def test_narrow_band_for_cable_but_enough_for_rigid():
     n = 4000
     t = np.arange(n) * T
     u = np.sin(2 * np.pi * 3 * t) + np.sin(2 * np.pi * 9 * t)
-    from .synthetic import simulate_experiment
     from .cases import device
+    from .synthetic import simulate_experiment
     y = simulate_experiment(device("rigid", 0.001), u, quantization=5e-6, noise=5e-6)
     with pytest.raises(ValueError, match=r"^data\.force: too narrow a band for the cable model"):
         identify(_ts(u, y), model="cable")
@@ -129,10 +129,22 @@ def test_clipped_data_warns():
     assert not any("clipped" in w for w in clean.warnings)
 
 
-def test_unidentifiable_cable_fails_without_a_device():
-    """A rigid device's record asked for the cable model: no cable mode to find, so `failed` with the reason
-    (never a made-up device)."""
+def test_cable_asked_of_a_rigid_device_is_not_claimed_silently():
+    """A rigid device's record asked for the cable model: there is no cable mode to find.  Either the fit fails
+    (no device) or the answer says the rigid model explains the data better (BIC)."""
     res = identify(record("rigid", 0.001), model="cable")
+    if res.status == "failed":
+        assert res.device is None and res.parameters == {} and res.uncertainty == {}
+        assert res.reason.startswith("the cable fit failed: ")
+    else:
+        assert any(w.startswith("model: the rigid model explains these data better") for w in res.warnings)
+    assert [c.model for c in res.comparison] == ["rigid", "cable"]
+
+
+def test_unconverged_fit_fails_without_a_device():
+    """A response of a rigid device asked for the cable model: least squares wanders along the unidentifiable
+    directions and does not converge, so `failed` with the reason (never a made-up device)."""
+    res = identify(noisy_response("rigid", 0.0013), model="cable")
     assert res.status == "failed" and res.device is None and res.parameters == {} and res.uncertainty == {}
     assert res.reason.startswith("the cable fit failed: ")
 

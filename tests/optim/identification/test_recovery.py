@@ -7,7 +7,7 @@ import pytest
 
 from optim.identification import identify
 
-from .cases import (DAMPING_RTOL, DELAY_ATOL, DELAYS, FRICTION, MASS_RTOL, device, noisy_response, record)
+from .cases import DAMPING_RTOL, DELAY_ATOL, DELAYS, FRICTION, MASS_RTOL, device, noisy_response, record
 
 
 def _check_rigid(res, dev):
