@@ -23,7 +23,7 @@ from .starts import cable_starts, rigid_starts
 __all__ = ["REFINED_STARTS", "FitOutcome", "fit_model"]
 
 #: whole-sample delay starts refined after scoring (the best by their linear-solve cost)
-REFINED_STARTS = 3
+REFINED_STARTS = 4
 _MAX_NFEV = 200
 
 
@@ -76,7 +76,7 @@ def _solve(prob: Problem, start: dict[str, float], max_delay: float,
     x0 = np.clip(x0, lo, np.nextafter(hi, -np.inf))
     scale = _scale(prob, x0)
     return least_squares(prob.residual, x0, jac=lambda x: prob.jacobian(x, lo), bounds=(lo, hi),
-                         x_scale=scale, method="trf", max_nfev=max_nfev, xtol=1e-10, ftol=1e-12, gtol=1e-10)
+                         x_scale=scale, method="trf", max_nfev=max_nfev, xtol=1e-10, ftol=1e-12, gtol=1e-15)
 
 
 def _start_cost(prob: Problem, start: dict[str, float]) -> float:

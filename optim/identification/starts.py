@@ -76,7 +76,10 @@ def rigid_starts(prob: Problem, max_delay: float) -> list[tuple[float, dict[str,
     for dl in delays:
         bounds = (max(0.0, dl - 0.5 * t), dl + 0.5 * t)
         if isinstance(prob.data, TimeSeriesData):
-            cands = [_rigid_ts_score(prob, dl, delta) for delta in _DELTAS]
+            # two points per sample (a quarter sample either side): at whole samples only, a fast chirp can
+            # rank a wrong sample first when the true delay sits half-way between two
+            offsets = (0.0,) if fixed_delay is not None else (-0.25 * t, 0.25 * t)
+            cands = [_rigid_ts_score(prob, max(dl + o, 0.0), delta) for o in offsets for delta in _DELTAS]
         else:
             cands = [_rigid_fr_score(prob, dl)]
         cands = [c for c in cands if c is not None]
