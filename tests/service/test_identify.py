@@ -162,8 +162,13 @@ def test_plot(client, fmt, media):
     r = client.post(f"/v1/plots/identify?format={fmt}", json={"model": "rigid", "data": _fr()})
     assert r.status_code == 200 and r.headers["content-type"] == media
     assert r.content[:4] == b"\x89PNG" if fmt == "png" else b"<svg" in r.content[:400]
+
+
+def test_time_series_plot(client):
     r = client.post("/v1/plots/identify", json={"model": "rigid", "data": _ts(), "format": "svg"})
     assert r.status_code == 200 and r.headers["content-type"] == "image/svg+xml"
+    failed = client.post("/v1/plots/identify", json={"model": "cable", "data": _fr()})
+    assert failed.status_code == 200 and failed.content[:4] == b"\x89PNG"     # says why it failed
 
 
 def test_cable_device_and_uncertainty_are_accepted(client):
