@@ -142,6 +142,9 @@ def identify(data: TimeSeriesData | FrequencyResponseData, model: str = "auto", 
     if friction and not ts:
         raise ValueError("friction: the Coulomb term needs a time series (a frequency response is linear)")
     _check_known(model, known, friction)
+    for m in (("rigid", "cable") if model == "auto" else (model,)):
+        if all(p in known for p in PARAMS[m]):
+            raise ValueError(f"known: fixes every parameter of the {m} model; nothing is left to identify")
     t = data.sample_time
     if max_delay is None:
         max_delay = known.get("delay", DEFAULT_MAX_DELAY_SAMPLES * t)

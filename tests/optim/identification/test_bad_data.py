@@ -107,6 +107,8 @@ def test_options():
         identify(d, model="rigid", known={"stiffness": 1.0})
     with pytest.raises(ValueError, match=r"^known\.mass: not a free parameter here \(with model auto"):
         identify(d, model="auto", known={"mass": 1.0})
+    with pytest.raises(ValueError, match=r"^known: fixes every parameter of the rigid model"):
+        identify(d, model="rigid", known={"mass": 5.4, "damping": 3.5, "delay": 0.001})
     with pytest.raises(ValueError, match=r"^known\.mass: must be finite and > 0"):
         identify(d, model="rigid", known={"mass": 0.0})
     with pytest.raises(ValueError, match=r"^friction: the Coulomb term needs a time series"):
