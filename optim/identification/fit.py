@@ -108,8 +108,15 @@ def fit_model(prob: Problem, max_delay: float, rigid_start: dict[str, float] | N
             runs = [_solve(prob, s, max_delay) for s in scored]
             final = min(runs, key=lambda r: r.cost)
             n_starts = len(runs)
-    except (ValidationError, ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
-        return FitOutcome(prob.model, prob, None, math.inf, None, 0, f"the fit left the model's domain ({exc})")
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        where = ".".join(str(p) for p in err.get("loc", ()))
+        return FitOutcome(prob.model, prob, None, math.inf, None, 0,
+                          f"the fit left the model's domain ({where}: {err.get('msg', 'invalid')})")
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
+        return FitOutcome(prob.model, prob, None, math.inf, None, 0,
+                          f"the fit broke down numerically ({type(exc).__name__}); the data may be far from this "
+                          f"model (check units: N, m, s)")
     if final.status <= 0 or not np.all(np.isfinite(final.x)):
         return FitOutcome(prob.model, prob, None, math.inf, None, n_starts,
                           f"least squares did not converge ({final.message})",
