@@ -22,16 +22,6 @@ router = APIRouter(tags=["identification"])
 #: the request's fields a numerics "field: rule" may name (known.<name> carries the caller's own name)
 _FIELDS = frozenset({"data", "known", "model", "confidence", "friction", "max_delay", "sample_time"})
 
-_EXAMPLE_T = np.arange(400) * 0.001
-_EXAMPLES = {
-    "response": {"summary": "a measured X/F of a rigid 5.4 kg device with 1.5 ms of delay",
-                 "value": {"model": "auto", "data": {
-                     "kind": "frequency_response", "frequency": [6.28, 12.6, 31.4, 62.8, 126.0, 314.0],
-                     "real": [-0.004694, -0.001167, -1.878e-4, -4.69e-5, -1.164e-5, -1.748e-6],
-                     "imag": [-6.1e-5, 8.17e-6, 8.82e-6, 4.36e-6, 2.18e-6, 8.2e-7]}}},
-}
-
-
 def _finite(value):
     if isinstance(value, float) and not math.isfinite(value):
         return None
@@ -84,8 +74,7 @@ def response_of(res: IdentificationResult) -> IdentifyResponse:
     return IdentifyResponse(**_finite(out))
 
 
-@router.post("/v1/identify", response_model=IdentifyResponse, openapi_extra={
-    "requestBody": {"content": {"application/json": {"examples": _EXAMPLES}}}})
+@router.post("/v1/identify", response_model=IdentifyResponse)
 def identify_route(req: IdentifyRequest, compute: Compute) -> IdentifyResponse:
     t0 = time.perf_counter()
     res = run_identification(req, compute)

@@ -4,9 +4,12 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, Field
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
 
+from models.device import Device as _Device
 from optim.identification.data import MAX_RESPONSE_POINTS, MAX_SAMPLES
+from optim.identification.models import response as _response
 
 from .common import STRICT
 
@@ -44,8 +47,17 @@ class FrequencyResponseIn(BaseModel):
                                   "from the commanded force sample to the encoder sample (ZOH included, ω < π/T)")
 
 
+def _example() -> dict:
+    """A swept X/F of the rigid LHifAM (5.4 kg, 3.5 N·s/m) with 1.5 ms of loop delay, 16 points 1-300 Hz."""
+    w = np.geomspace(2 * np.pi, 2 * np.pi * 300, 16)
+    h = _response(_Device(mass=5.4, damping=3.5, delay=0.0015), w, "continuous")
+    r6 = lambda v: [float(f"{x:.6g}") for x in v]  # noqa: E731
+    return {"model": "auto", "data": {"kind": "frequency_response", "frequency": r6(w), "real": r6(h.real),
+                                      "imag": r6(h.imag)}}
+
+
 class IdentifyRequest(BaseModel):
-    model_config = STRICT
+    model_config = ConfigDict(**STRICT, json_schema_extra={"examples": [_example()]})
     model: Literal["rigid", "cable", "auto"] = Field(
         "auto", description="rigid | cable | auto (fit both, choose by BIC, AIC shown, say why)")
     data: TimeSeriesIn | FrequencyResponseIn = Field(discriminator="kind")

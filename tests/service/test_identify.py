@@ -190,3 +190,10 @@ def test_cable_device_and_uncertainty_are_accepted(client):
     assert len(ranges) == 7
     box = UncertaintyBox.from_ranges(Device.model_validate(body["device"]), ranges)
     assert box.dim == 7
+
+
+def test_documented_example_is_identified(client):
+    example = client.get("/openapi.json").json()["components"]["schemas"]["IdentifyRequest"]["examples"][0]
+    r = client.post("/v1/identify", json=example)
+    assert r.status_code == 200 and r.json()["status"] == "identified" and r.json()["model"] == "rigid"
+    assert abs(r.json()["device"]["delay"] - 0.0015) < 0.00005
