@@ -78,10 +78,11 @@ def test_response_recovery(kind):
     (_check_rigid if kind == "rigid" else _check_cable)(res, device(kind, 0.0023))
 
 
-def test_sampled_response_recovery():
-    """The loop's own response (force sample to encoder sample, ZOH included) fitted as such."""
-    res = identify(noisy_response("rigid", 0.0014, kind_of_response="sampled"), model="rigid")
-    _check_rigid(res, device("rigid", 0.0014))
+@pytest.mark.parametrize("kind", ("rigid", "cable"))
+def test_sampled_response_recovery(kind):
+    """The loop's own response (force sample to encoder sample, ZOH included) fitted as such; auto chooses."""
+    res = identify(noisy_response(kind, 0.0014, kind_of_response="sampled"), model="auto")
+    (_check_rigid if kind == "rigid" else _check_cable)(res, device(kind, 0.0014))
 
 
 @pytest.mark.slow
