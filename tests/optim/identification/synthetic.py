@@ -44,8 +44,12 @@ def excitation(n: int, sample_time: float, amplitude: float = 2.0, seed: int = 0
 
 
 def simulate_experiment(device: Device, force: np.ndarray, *, friction: float = 0.0, quantization: float = 0.0,
-                        noise: float = 0.0, seed: int = 0) -> np.ndarray:
-    """Encoder position [m] at k = 0..N−1, from rest, for the commanded force u[k] (held, delayed by t_d)."""
+                        noise: float = 0.0, seed: int = 0, pd: tuple[float, float] | None = None):
+    """Encoder position [m] at k = 0..N−1, from rest, for the commanded force u[k] (held, delayed by t_d).
+
+    With ``pd = (K, B)`` the experiment runs under a weak PD wall, u[k] = force[k] − K·y[k] − B·(y[k] − y[k−1])/T
+    on the measured (noisy, quantised) position y, and the answer is (u, y): the commanded force a lab records.
+    """
     effects = Effects(delay={}, cable_mode={} if device.cable is not None else None)
     sp = sample_plant(build_plant(device, effects), device.sample_time, device.delay)
     step = FrictionStepper(sp, friction) if friction > 0 else linear_step(sp)
@@ -63,8 +67,35 @@ def simulate_experiment(device: Device, force: np.ndarray, *, friction: float = 
         buf[1:] = buf[:-1]
         buf[0] = u
     rng = np.random.default_rng(seed + 1)
+    if pd is not None:
+        return _closed_loop(step, sp, np.asarray(force, float), pd, quantization, noise, rng, friction > 0)
     if noise > 0:
         y = y + rng.normal(0.0, noise, len(y))
     if quantization > 0:
         y = quantization * np.round(y / quantization)
     return y
+
+
+def _closed_loop(step, sp, r, pd, quantization, noise, rng, reset):
+    k_p, b_d = pd
+    t, ip, d = sp.sample_time, sp.plant.motor_position, sp.d
+    x = np.zeros(sp.phi.shape[0])
+    if reset:
+        step.reset(x)
+    buf = np.zeros(d + 1)
+    e = rng.normal(0.0, noise, len(r)) if noise > 0 else np.zeros(len(r))
+    u_rec, y_rec = np.empty(len(r)), np.empty(len(r))
+    y_prev = 0.0
+    for k in range(len(r)):
+        y = x[ip] + e[k]
+        if quantization > 0:
+            y = quantization * np.round(y / quantization)
+        u = r[k] - k_p * y - b_d * (y - y_prev) / t
+        y_prev = y
+        u_rec[k], y_rec[k] = u, y
+        ua = buf[d]
+        ub = u if d == 0 else buf[d - 1]
+        x, _ = step(x, ua, ub, 0.0)
+        buf[1:] = buf[:-1]
+        buf[0] = u
+    return u_rec, y_rec
