@@ -24,7 +24,7 @@ from .data import (
     excited_band,
     warnings_for,
 )
-from .fit import FitOutcome, fit_model
+from .fit import FitOutcome, fit_model, refine_friction
 from .models import PARAMS, POSITIVE, ModelName
 from .problem import Problem
 from .result import Comparison, FitQuality, IdentificationResult, Parameter
@@ -169,6 +169,8 @@ def identify(data: TimeSeriesData | FrequencyResponseData, model: str = "auto", 
     fric_known = {"friction": known["friction"]} if "friction" in known else {}
     rigid_known = {k: v for k, v in known.items() if k in PARAMS["rigid"]} | fric_known
     rigid = fit_model(Problem("rigid", data, rigid_known, friction), max_delay)
+    if friction:
+        rigid = refine_friction(rigid, max_delay)
     outcomes: dict[str, FitOutcome] = {"rigid": rigid}
     if "cable" in asked:
         cable_known = {k: v for k, v in known.items() if k in PARAMS["cable"]} | fric_known
@@ -178,6 +180,8 @@ def identify(data: TimeSeriesData | FrequencyResponseData, model: str = "auto", 
         else:   # a rigid fit that did not converge still gives the mass scale and the delay to start from
             outcomes["cable"] = fit_model(Problem("cable", data, cable_known, friction), max_delay,
                                           rigid.problem.values(rigid.last))
+            if friction:
+                outcomes["cable"] = refine_friction(outcomes["cable"], max_delay)
     finished: dict[str, tuple[IdentificationResult | None, str | None]] = {}
     comparison = []
     compared = ("rigid", "cable") if "cable" in asked else asked     # the cable fit always has its rigid one

@@ -49,6 +49,8 @@ class Problem:
     data: TimeSeriesData | FrequencyResponseData
     fixed: dict[str, float]
     friction: bool = False
+    sign_regressor: np.ndarray | None = None
+    """−sign(v[k]) of the friction term; default: read from the measured position (friction_regressor)"""
     free: tuple[str, ...] = field(init=False)
     nuisance: tuple[str, ...] = field(init=False)
     evaluations: int = field(default=0, init=False)
@@ -60,7 +62,8 @@ class Problem:
         if ts:
             self._u = self.data.force
             self._y = self.data.position
-            self.sign_regressor = friction_regressor(self.data.position, self.data.sample_time) if self.friction else None
+            if self.friction and self.sign_regressor is None:
+                self.sign_regressor = friction_regressor(self.data.position, self.data.sample_time)
         else:
             self._h = self.data.response
             self._w = 1.0 / np.abs(self.data.response)

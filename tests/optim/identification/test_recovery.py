@@ -106,12 +106,23 @@ def test_known_parameter_is_held():
 
 
 @pytest.mark.slow
-def test_cable_with_friction_is_flagged_not_trusted():
-    """Known limit (docs/identification.md): the sign of the measured motor velocity is too noisy near the cable
-    mode for the friction regressor, so with friction the cable fit is biased.  It must not pass silently:
-    the residual is not white and the answer says so."""
-    res = identify(record("cable", 0.0013, FRICTION), model="cable", friction=True)
-    assert res.status == "failed" or any("residual is not white" in w for w in res.warnings)
+@pytest.mark.parametrize("delay", (0.0, 0.0013))
+def test_cable_with_friction(delay):
+    """Coulomb friction on the cable device's motor mass (1 % of the excitation): masses, stiffness and delay
+    hold their tolerances, the total damping b_r + b_d its 10 %; the cable damping b_c is biased by up to
+    ~12 % (measured: 3-12 % over delays 0-2.5 ms), so it is held to 15 % here (docs/identification.md), and
+    the answer warns that its residual is not white (the friction term is an approximation)."""
+    dev = device("cable", delay)
+    res = identify(record("cable", delay, FRICTION), model="cable", friction=True)
+    p, c = res.parameters, dev.cable
+    assert res.status == "identified", res.reason
+    for name in ("motor_mass", "body_mass", "stiffness"):
+        assert p[f"cable.{name}"].value == pytest.approx(getattr(c, name), rel=MASS_RTOL), name
+    total = p["cable.motor_damping"].value + p["cable.body_damping"].value
+    assert total == pytest.approx(c.motor_damping + c.body_damping, rel=DAMPING_RTOL)
+    assert p["cable.damping"].value == pytest.approx(c.damping, rel=0.15)
+    assert abs(p["delay"].value - dev.delay) <= DELAY_ATOL
+    assert any("residual is not white" in w for w in res.warnings)
 
 
 @pytest.mark.parametrize("kind,delay", (("rigid", 0.0007), pytest.param("cable", 0.0023, marks=pytest.mark.slow)))
