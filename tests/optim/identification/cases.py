@@ -2,12 +2,13 @@
 
 Noise levels ("realistic"): encoder quantisation q = 5 µm and Gaussian measurement noise σ = 5 µm on
 the position (a 1 µm optical encoder is finer; a noisy analog read-out is comparable); excitation
-±3 N (a chirp 0.5-200 Hz plus a PRBS), 4,000 samples at T = 1 ms; Coulomb friction 0.03 N, 1 % of the excitation (at 5 % the delay error reaches 0.6 ms: the friction term is an approximation, docs/identification.md).
+±3 N (a chirp 0.5-200 Hz plus a PRBS), 4,000 samples at T = 1 ms; Coulomb friction 0.03 N, 1 % of the
+excitation (at 5 % the delay error reaches 0.6 ms: the friction term is an approximation,
+docs/identification.md).
 Tolerances are those of issue 21: 1 % on masses (and the cable stiffness), 10 % on dampings, T/20 on
-the delay (the cable damping b_c with friction: 15 %, test_cable_with_friction).  For the cable device the
-motor and body dampings are not separately determined by a
-motor-side encoder at this noise (their sum is, see test_cable_recovery), so the 10 % applies to
-their sum b_r + b_d and to the cable damping b_c.
+the delay.  For the cable device the motor and body dampings are not separately determined by a
+motor-side encoder at this noise (their sum is, see test_cable_recovery_and_auto), so the 10 % applies
+to their sum b_r + b_d and to the cable damping b_c (15 % with friction, test_cable_with_friction).
 """
 
 from __future__ import annotations
