@@ -29,13 +29,14 @@ from .models import Health
 
 if TYPE_CHECKING:  # modules of endpoints that may not be in every build (imported when called)
     from service.schemas.design_hardware import HardwareDesignResponse
+    from service.schemas.identify import IdentifyResponse
     from service.schemas.feedforward import ForceFeedforwardResponse, InertiaResponse
     from service.schemas.studies import StudyCreated, StudyList, StudyResults, StudyStatus
 
 __all__ = ["Call", "Kind", "Plot", "health", "presets", "stability", "boundary", "force_feedforward",
            "design_stiffness", "design_inertia", "design_hardware", "plot_hardware", "simulate", "plot_simulation",
            "plot_boundary", "plot_bode", "submit_study", "study", "studies", "study_results", "export_study",
-           "cancel_study", "plot_study", "plot_robust", "device_json", "Export"]
+           "cancel_study", "plot_study", "plot_robust", "device_json", "Export", "identify", "plot_identify"]
 
 R = TypeVar("R")
 #: Kinds of call, each with its own timeout (see :class:`clients.client.Timeouts`).
@@ -232,6 +233,34 @@ def plot_hardware(device: DeviceLike, free: str, *, stiffness: float | None = No
     return Call("POST", "/v1/plots/hardware", "plot", _image,
                 json=_hardware_body(device, free, stiffness, force_gain, apparent_mass, min_gain_margin_db,
                                     max_damping, cutoff_min_hz, filter_order, points), params={"format": format})
+
+
+def _identify_body(data: Mapping[str, Any], model: str | None, known: Mapping[str, float] | None,
+                   friction: bool | None, confidence: float | None, sample_time: float | None,
+                   max_delay: float | None) -> dict[str, Any]:
+    return _body(data=dict(data), model=model, known=dict(known) if known is not None else None, friction=friction,
+                 confidence=confidence, sample_time=sample_time, max_delay=max_delay)
+
+
+def identify(data: Mapping[str, Any], *, model: str | None = None, known: Mapping[str, float] | None = None,
+             friction: bool | None = None, confidence: float | None = None, sample_time: float | None = None,
+             max_delay: float | None = None) -> Call[IdentifyResponse]:
+    """``POST /v1/identify``: a device, its parameters' intervals and the ``uncertainty`` box from measured
+    ``data`` ({"kind": "time_series", "sample_time", "force", "position"} or {"kind": "frequency_response",
+    "frequency", "real", "imag"}); ``model`` rigid, cable or auto."""
+    from service.schemas.identify import IdentifyResponse
+
+    return Call("POST", "/v1/identify", "design", _model(IdentifyResponse),
+                json=_identify_body(data, model, known, friction, confidence, sample_time, max_delay))
+
+
+def plot_identify(data: Mapping[str, Any], *, model: str | None = None, known: Mapping[str, float] | None = None,
+                  friction: bool | None = None, confidence: float | None = None, sample_time: float | None = None,
+                  max_delay: float | None = None, format: ImageFormat = "png") -> Call[Plot]:  # noqa: A002
+    """``POST /v1/plots/identify?format=``: measured against fitted, with the residual."""
+    return Call("POST", "/v1/plots/identify", "plot", _image,
+                json=_identify_body(data, model, known, friction, confidence, sample_time, max_delay),
+                params={"format": format})
 
 
 def simulate(device: DeviceLike, scene: PartLike) -> Call[SimulateResponse]:

@@ -22,6 +22,7 @@ from . import cli_common as c
 from .cli_common import (DEFAULT_URL, AsJson, Connection, DeviceFile, Local, Preset, SceneFile, Sets, Token, Url,
                          emit, handle_errors, open_client, out, scene_root)
 from .cli_design import app as design_app
+from .cli_identify import identify as identify_command
 from .cli_plot import app as plot_app
 from .cli_study import app as study_app
 from .robust_cli import robust_app
@@ -32,6 +33,7 @@ app.add_typer(design_app, name="design")
 app.add_typer(plot_app, name="plot")
 app.add_typer(robust_app, name="robust")
 app.add_typer(study_app, name="study")
+app.command("identify")(identify_command)
 
 
 # ------------------------------------------------------------------------------------------------ presets

@@ -195,6 +195,8 @@ class ZwidthClient(_Core):
     export_study = _sync(calls.export_study)
     study_results = _sync(calls.study_results)
     plot_study = _sync(calls.plot_study)
+    identify = _sync(calls.identify)
+    plot_identify = _sync(calls.plot_identify)
 
 
 class AsyncZwidthClient(_Core):
@@ -253,3 +255,5 @@ class AsyncZwidthClient(_Core):
     export_study = _async(calls.export_study)
     study_results = _async(calls.study_results)
     plot_study = _async(calls.plot_study)
+    identify = _async(calls.identify)
+    plot_identify = _async(calls.plot_identify)

@@ -134,3 +134,29 @@ def test_example_designs_the_lhifam_wall_and_plots_the_boundary(server, tmp_path
     assert f"K = {d.stiffness:.1f} N/m, B = {d.damping:.2f} N*s/m" in p.stdout
     assert "independent check: stable = 1, gain margin 6.00 dB" in p.stdout
     assert (tmp_path / "wall.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_identify_decodes_the_same_device_as_the_python_client(server, tmp_path):
+    """zwidth_identify on a measured X/F (a rigid 5.4 kg device with 1.5 ms of delay, exact data)."""
+    import numpy as np
+
+    from models.device import Device
+    from optim.identification.models import response
+
+    w = np.geomspace(6.0, 2000.0, 12)
+    h = response(Device(mass=5.4, damping=3.5, delay=0.0015), w, "continuous")
+    vec = lambda v: "[" + " ".join(f"{x:.17g}" for x in v) + "]"  # noqa: E731
+    p = octave(f"r = zwidth_identify(struct('kind', 'frequency_response', 'frequency', {vec(w)}, 'real', "
+               f"{vec(h.real)}, 'imag', {vec(h.imag)}), struct('model', 'rigid'));\n"
+               "printf('%s\\n', r.status); printf('%.17g ', [r.device.mass, r.device.damping, r.device.delay, "
+               "r.uncertainty.device_mass.min, r.uncertainty.device_mass.max]); printf('\\n');",
+               tmp_path, server.url)
+    status, values = p.stdout.splitlines()[-2:]
+    assert status == "identified"
+    data = {"kind": "frequency_response", "frequency": w.tolist(), "real": h.real.tolist(), "imag": h.imag.tolist()}
+    with ZwidthClient(server.url) as zw:
+        r = zw.identify(data, model="rigid")
+    py = [r.device["mass"], r.device["damping"], r.device["delay"], r.uncertainty["device.mass"].min,
+          r.uncertainty["device.mass"].max]
+    assert numbers(values) == pytest.approx(py, rel=1e-9)
+    assert r.device["mass"] == pytest.approx(5.4, rel=1e-9)

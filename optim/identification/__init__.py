@@ -1,0 +1,12 @@
+"""System identification: from a lab's measurements to a device, its uncertainty and the fit's quality.
+
+Output error on the exact sampled model of the analyses (models/plants.stiffness_loop_plant: ZOH and
+fractional delay), or a weighted complex fit of a measured frequency response.  Entry point:
+:func:`optim.identification.identify.identify`.
+"""
+
+from .data import FrequencyResponseData, TimeSeriesData
+from .identify import identify
+from .result import IdentificationResult
+
+__all__ = ["FrequencyResponseData", "IdentificationResult", "TimeSeriesData", "identify"]

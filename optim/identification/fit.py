@@ -1,0 +1,158 @@
+"""Fit one model structure: multistart bounded least squares (scipy.optimize.least_squares, trust-region
+reflective, x_scale from the start) with the Jacobian of optim/identification/problem.py.
+
+Rigid: the starts of every whole sample of delay are scored (starts.py); the best few are refined
+with the delay bounded to their own sample (the cost is multimodal in the delay, FIELD-NOTES.md), and
+the best of those polished with the delay free in [0, max_delay].  Cable: started from the rigid fit
+and the resonance read off the data, at the whole samples of delay around the rigid fit's.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from pydantic import ValidationError
+from scipy.optimize import least_squares
+
+from .models import POSITIVE, ModelName
+from .problem import Problem
+from .starts import cable_starts, rigid_starts
+
+__all__ = ["REFINED_STARTS", "FitOutcome", "fit_model"]
+
+#: whole-sample delay starts refined after scoring (the best by their linear-solve cost)
+REFINED_STARTS = 4
+_MAX_NFEV = 200
+#: passes of the friction regressor read from the fitted model (refine_friction)
+FRICTION_PASSES = 3
+
+
+@dataclass(frozen=True)
+class FitOutcome:
+    model: ModelName
+    problem: Problem
+    x: np.ndarray | None
+    rss: float
+    jac: np.ndarray | None
+    starts: int
+    reason: str | None = None
+    """why it failed (None when it converged)"""
+    last: np.ndarray | None = None
+    """where the best run stopped, converged or not (a start for the cable fit)"""
+
+
+def _bounds(prob: Problem, start: dict[str, float], max_delay: float,
+            delay_bounds: tuple[float, float] | None) -> tuple[np.ndarray, np.ndarray]:
+    lo, hi = [], []
+    for name in prob.names:
+        if name == "delay":
+            a, b = delay_bounds if delay_bounds is not None else (0.0, max_delay + prob.sample_time)
+        elif name == "offset":
+            a, b = -np.inf, np.inf
+        elif name in POSITIVE:
+            a, b = start[name] * 1e-6, start[name] * 1e6
+        else:                                    # dampings, friction
+            a, b = 0.0, np.inf
+        lo.append(a)
+        hi.append(b)
+    return np.array(lo), np.array(hi)
+
+
+def _scale(prob: Problem, x: np.ndarray) -> np.ndarray:
+    vals = prob.values(x)
+    out = []
+    for name, v in zip(prob.names, x):
+        if name == "offset":
+            out.append(max(float(np.std(prob.data.position)), 1e-12))
+        else:
+            out.append(max(abs(v), prob.typical(name, vals)))
+    return np.array(out)
+
+
+def _solve(prob: Problem, start: dict[str, float], max_delay: float,
+           delay_bounds: tuple[float, float] | None = None, max_nfev: int = _MAX_NFEV):
+    x0 = np.array([start.get(n, prob.fixed.get(n, 0.0)) for n in prob.names], float)
+    lo, hi = _bounds(prob, start, max_delay, delay_bounds)
+    x0 = np.clip(x0, lo, np.nextafter(hi, -np.inf))
+    scale = _scale(prob, x0)
+    return least_squares(prob.residual, x0, jac=lambda x: prob.jacobian(x, lo), bounds=(lo, hi),
+                         x_scale=scale, method="trf", max_nfev=max_nfev, xtol=1e-10, ftol=1e-12, gtol=1e-15)
+
+
+def _start_cost(prob: Problem, start: dict[str, float]) -> float:
+    try:
+        r = prob.residual(np.array([start.get(n, 0.0) for n in prob.names], float))
+    except (ValidationError, ValueError):
+        return math.inf
+    return float(r @ r)
+
+
+def fit_model(prob: Problem, max_delay: float, rigid_start: dict[str, float] | None = None) -> FitOutcome:
+    """The best least-squares fit of ``prob`` over its starts, or a FitOutcome with its reason."""
+    try:
+        if prob.model == "rigid":
+            scored = rigid_starts(prob, max_delay)
+            if not scored:
+                return FitOutcome(prob.model, prob, None, math.inf, None, 0,
+                                  "no start gave a positive mass: the data do not look like a mass driven by this force")
+            runs = [(_solve(prob, s, max_delay, bounds), s) for _, s, bounds in scored[:REFINED_STARTS]]
+            best = min(runs, key=lambda r: r[0].cost)[0]
+            start = dict(zip(prob.names, best.x))
+            final = _solve(prob, start, max_delay)
+            n_starts = len(runs) + 1
+        else:
+            if rigid_start is None:
+                raise ValueError("the cable fit starts from a rigid fit")
+            starts = cable_starts(prob, rigid_start, max_delay)
+            scored = sorted(starts, key=lambda s: _start_cost(prob, s))[:REFINED_STARTS]
+            runs = [_solve(prob, s, max_delay) for s in scored]
+            final = min(runs, key=lambda r: r.cost)
+            n_starts = len(runs)
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        where = ".".join(str(p) for p in err.get("loc", ()))
+        return FitOutcome(prob.model, prob, None, math.inf, None, 0,
+                          f"the fit left the model's domain ({where}: {err.get('msg', 'invalid')})")
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
+        return FitOutcome(prob.model, prob, None, math.inf, None, 0,
+                          f"the fit broke down numerically ({type(exc).__name__}); the data may be far from this "
+                          f"model (check units: N, m, s)")
+    if final.status <= 0 or not np.all(np.isfinite(final.x)):
+        return FitOutcome(prob.model, prob, None, math.inf, None, n_starts,
+                          f"least squares did not converge ({final.message})",
+                          final.x if np.all(np.isfinite(final.x)) else None)
+    jac = prob.jacobian(final.x, _bounds(prob, dict(zip(prob.names, final.x)), max_delay, None)[0])
+    rss = float(final.fun @ final.fun)
+    return FitOutcome(prob.model, prob, final.x, rss, jac, n_starts, None, final.x)
+
+
+def refine_friction(out: FitOutcome, max_delay: float) -> FitOutcome:
+    """Re-read the friction's sign from the fitted model instead of the measured position, and refit.
+
+    The sign over [kT, (k+1)T) is that of the model's mean velocity over the sample, x̂[k+1] − x̂[k]: noise
+    free, and switching within half a sample of the true reversal on average (the measured-velocity sign
+    switches late and flickers with the encoder's noise, worst near a cable mode).  Each pass is kept only
+    if it lowers the residual; at most FRICTION_PASSES passes.
+    """
+    best = out
+    for _ in range(FRICTION_PASSES):
+        if best.x is None:
+            break
+        prob = best.problem
+        y = prob.output(best.x)
+        step = np.zeros(len(y))
+        step[:-1] = np.diff(y)
+        step[-1] = step[-2] if len(y) > 1 else 0.0
+        nxt = Problem(prob.model, prob.data, prob.fixed, True, sign_regressor=-np.sign(step))
+        try:
+            r = _solve(nxt, dict(zip(nxt.names, best.x)), max_delay)
+        except (ValidationError, ValueError, ArithmeticError, np.linalg.LinAlgError):
+            break
+        rss = float(r.fun @ r.fun)
+        if r.status <= 0 or not np.all(np.isfinite(r.x)) or not rss < best.rss:
+            break
+        jac = nxt.jacobian(r.x, _bounds(nxt, dict(zip(nxt.names, r.x)), max_delay, None)[0])
+        best = FitOutcome(best.model, nxt, r.x, rss, jac, best.starts + 1, None, r.x)
+    return best

@@ -1,0 +1,91 @@
+"""POST /v1/identify and POST /v1/plots/identify: thin calls into optim.identification."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from typing import Literal
+
+import numpy as np
+from fastapi import APIRouter, Query
+from fastapi.responses import Response
+
+from optim.identification import FrequencyResponseData, IdentificationResult, TimeSeriesData, identify
+
+from ..errors import NumericInputError
+from ..executor import Compute
+from ..plots_identification import MEDIA_TYPES, plot_identification
+from ..schemas.identify import IdentifyRequest, IdentifyResponse
+
+router = APIRouter(tags=["identification"])
+#: the request's fields a numerics "field: rule" may name (known.<name> carries the caller's own name)
+_FIELDS = frozenset({"data", "known", "model", "confidence", "friction", "max_delay", "sample_time"})
+
+def _finite(value):
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite(v) for v in value]
+    return value
+
+
+def _data(req: IdentifyRequest) -> TimeSeriesData | FrequencyResponseData:
+    d = req.data
+    if d.kind == "time_series":
+        if req.sample_time is not None and req.sample_time != d.sample_time:
+            raise NumericInputError("sample_time", "for a time series give the sample time in data.sample_time")
+        return TimeSeriesData(sample_time=d.sample_time, force=np.asarray(d.force, float),
+                              position=np.asarray(d.position, float))
+    if not len(d.frequency) == len(d.real) == len(d.imag):
+        raise NumericInputError("data.real", f"frequency, real and imag must have the same length "
+                                             f"({len(d.frequency)}, {len(d.real)}, {len(d.imag)})")
+    return FrequencyResponseData(frequency=np.asarray(d.frequency, float),
+                                 response=np.asarray(d.real, float) + 1j * np.asarray(d.imag, float),
+                                 sample_time=req.sample_time or 0.001, model_kind=d.response)
+
+
+def run_identification(req: IdentifyRequest, compute: Compute) -> IdentificationResult:
+    """Fit in a compute worker under the request time budget; a "field: rule" ValueError is a 422."""
+    data = _data(req)
+    try:
+        return compute.run(identify, data, req.model, req.known, req.friction, req.confidence, req.max_delay,
+                           cost_ms=None)
+    except NumericInputError:
+        raise
+    except ValueError as exc:
+        if type(exc) is not ValueError:
+            raise
+        field, _, msg = str(exc).partition(": ")
+        if not msg or field.split(".", 1)[0] not in _FIELDS:
+            raise
+        raise NumericInputError(field, msg) from None
+
+
+def response_of(res: IdentificationResult) -> IdentifyResponse:
+    out = dataclasses.asdict(res)
+    out.pop("fitted", None)
+    out["comparison"] = list(out["comparison"])
+    out["warnings"] = list(out["warnings"])
+    out["parameters"] = {k: {"value": p["value"], "std_error": p["std_error"], "interval": list(p["interval"])}
+                         for k, p in out["parameters"].items()}
+    return IdentifyResponse(**_finite(out))
+
+
+@router.post("/v1/identify", response_model=IdentifyResponse)
+def identify_route(req: IdentifyRequest, compute: Compute) -> IdentifyResponse:
+    t0 = time.perf_counter()
+    res = run_identification(req, compute)
+    res = dataclasses.replace(res, elapsed_ms=1e3 * (time.perf_counter() - t0))
+    return response_of(res)
+
+
+@router.post("/v1/plots/identify", response_class=Response, tags=["plots"],
+             responses={200: {"content": {"image/png": {}, "image/svg+xml": {}}}})
+def identify_plot(req: IdentifyRequest, compute: Compute,
+                  format: Literal["png", "svg"] | None = Query(None)) -> Response:
+    fmt = format or req.format
+    res = run_identification(req, compute)
+    return Response(content=plot_identification(res, fmt), media_type=MEDIA_TYPES[fmt])
