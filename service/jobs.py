@@ -28,7 +28,8 @@ from .errors import NumericInputError
 from .plots_robust import margin_slice, plot_hardware, plot_robust_slice
 from .plots_simulation import plot_simulation
 
-__all__ = ["force_feedforward_job", "simulate_job", "robust_slice_job", "hardware_plot_job", "simulation_plot_job"]
+__all__ = ["force_feedforward_job", "simulate_job", "robust_slice_job", "hardware_plot_job", "simulation_plot_job",
+           "identify_plot_job"]
 
 
 def force_feedforward_job(device: Device, filt: ButterworthLowPass | None, method: str,
@@ -74,3 +75,12 @@ def simulation_plot_job(device: Device, scene: Scene, fmt: str) -> bytes:
     """The scene simulated and drawn in the worker: the per-sample trajectory never reaches the server."""
     result, _ = simulate_job(device, scene)
     return plot_simulation(result, fmt)
+
+
+def identify_plot_job(data, model: str, known, friction: bool, confidence: float, max_delay, fmt: str) -> bytes:
+    """The identification and its measured-vs-fitted figure, both in the worker (under the request budget)."""
+    from optim.identification import identify
+
+    from .plots_identification import plot_identification
+
+    return plot_identification(identify(data, model, known, friction, confidence, max_delay), fmt)

@@ -13,6 +13,7 @@ from typing import Literal
 
 import numpy as np
 from scipy.signal import welch
+from optim.errors import InputError
 
 __all__ = [
     "BAND_RATIO",
@@ -72,7 +73,7 @@ class FrequencyResponseData:
 def _finite(name: str, values: np.ndarray) -> None:
     bad = ~np.isfinite(values)
     if bad.any():
-        raise ValueError(f"data.{name}: every value must be finite (index {int(np.argmax(bad))} is not)")
+        raise InputError(f"data.{name}", f"every value must be finite (index {int(np.argmax(bad))} is not)")
 
 
 def excited_band(force: np.ndarray, sample_time: float) -> tuple[float, float]:
@@ -92,31 +93,31 @@ def excited_band(force: np.ndarray, sample_time: float) -> tuple[float, float]:
 def check_time_series(data: TimeSeriesData, free_parameters: int, models: tuple[str, ...]) -> None:
     """Raise ValueError("data.<field>: rule") when the record cannot identify ``models``."""
     if not (math.isfinite(data.sample_time) and 0 < data.sample_time <= 1.0):
-        raise ValueError("data.sample_time: must be finite, > 0 and ≤ 1 s")
+        raise InputError("data.sample_time", "must be finite, > 0 and ≤ 1 s")
     u, y = data.force, data.position
     if u.ndim != 1 or y.ndim != 1:
-        raise ValueError("data.force: force and position must be flat lists of numbers")
+        raise InputError("data.force", "force and position must be flat lists of numbers")
     if len(u) != len(y):
-        raise ValueError(f"data.position: must have as many values as data.force ({len(y)} ≠ {len(u)})")
+        raise InputError("data.position", f"must have as many values as data.force ({len(y)} ≠ {len(u)})")
     if len(u) > MAX_SAMPLES:
-        raise ValueError(f"data.force: at most {MAX_SAMPLES} samples, got {len(u)}")
+        raise InputError("data.force", f"at most {MAX_SAMPLES} samples, got {len(u)}")
     _finite("force", u)
     _finite("position", y)
     need = SAMPLES_PER_PARAMETER * free_parameters
     if len(u) < need:
-        raise ValueError(f"data.force: {len(u)} samples are too few for {free_parameters} free parameters "
+        raise InputError("data.force", f"{len(u)} samples are too few for {free_parameters} free parameters "
                          f"(at least {SAMPLES_PER_PARAMETER} per parameter: {need})")
     scale = float(np.max(np.abs(u)))
     if scale == 0.0 or float(np.ptp(u)) <= 1e-12 * scale:
-        raise ValueError("data.force: the input is constant, it excites nothing (use a chirp, a PRBS or steps)")
+        raise InputError("data.force", "the input is constant, it excites nothing (use a chirp, a PRBS or steps)")
     if float(np.ptp(y)) == 0.0:
-        raise ValueError("data.position: the position never changes (no motion was measured)")
+        raise InputError("data.position", "the position never changes (no motion was measured)")
     f5, f95 = excited_band(u, data.sample_time)
     for m in models:
         ratio = f95 / f5 if f5 > 0 else math.inf
         if ratio < BAND_RATIO[m]:
-            raise ValueError(
-                f"data.force: too narrow a band for the {m} model: 90 % of the input's power lies within "
+            raise InputError(
+                "data.force", f"too narrow a band for the {m} model: 90 % of the input's power lies within "
                 f"{f5:.4g}-{f95:.4g} Hz (ratio {ratio:.3g}); the {m} model needs a ratio of at least "
                 f"{BAND_RATIO[m]:g} (a chirp or a PRBS over the band of interest)")
 
@@ -124,27 +125,27 @@ def check_time_series(data: TimeSeriesData, free_parameters: int, models: tuple[
 def check_response(data: FrequencyResponseData, free_parameters: int) -> None:
     w, h = data.frequency, data.response
     if not (math.isfinite(data.sample_time) and 0 < data.sample_time <= 1.0):
-        raise ValueError("sample_time: must be finite, > 0 and ≤ 1 s")
+        raise InputError("sample_time", "must be finite, > 0 and ≤ 1 s")
     if len(w) != len(h):
-        raise ValueError(f"data.real: frequency, real and imag must have the same length ({len(w)} ≠ {len(h)})")
+        raise InputError("data.real", f"frequency, real and imag must have the same length ({len(w)} ≠ {len(h)})")
     if len(w) > MAX_RESPONSE_POINTS:
-        raise ValueError(f"data.frequency: at most {MAX_RESPONSE_POINTS} points, got {len(w)}")
+        raise InputError("data.frequency", f"at most {MAX_RESPONSE_POINTS} points, got {len(w)}")
     _finite("frequency", w)
     _finite("real", h.real)
     _finite("imag", h.imag)
     need = POINTS_PER_PARAMETER * free_parameters
     if len(w) < need:
-        raise ValueError(f"data.frequency: {len(w)} points are too few for {free_parameters} free parameters "
+        raise InputError("data.frequency", f"{len(w)} points are too few for {free_parameters} free parameters "
                          f"(at least {POINTS_PER_PARAMETER} per parameter: {need})")
     if np.any(w <= 0):
-        raise ValueError("data.frequency: every frequency must be > 0 rad/s")
+        raise InputError("data.frequency", "every frequency must be > 0 rad/s")
     if len(np.unique(w)) < need:
-        raise ValueError(f"data.frequency: {len(np.unique(w))} distinct frequencies are too few for "
+        raise InputError("data.frequency", f"{len(np.unique(w))} distinct frequencies are too few for "
                          f"{free_parameters} free parameters (at least {need})")
     if np.any(np.abs(h) == 0):
-        raise ValueError("data.real: a response of exactly 0 cannot be weighted (relative error)")
+        raise InputError("data.real", "a response of exactly 0 cannot be weighted (relative error)")
     if data.model_kind == "sampled" and np.any(w * data.sample_time >= math.pi):
-        raise ValueError(f"data.frequency: a sampled response is defined below the Nyquist frequency "
+        raise InputError("data.frequency", f"a sampled response is defined below the Nyquist frequency "
                          f"π/T = {math.pi / data.sample_time:.6g} rad/s")
 
 

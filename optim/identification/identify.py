@@ -29,6 +29,7 @@ from .models import PARAMS, POSITIVE, ModelName
 from .problem import Problem
 from .result import Comparison, FitQuality, IdentificationResult, Parameter
 from .stats import IDENTIFIABLE_RCOND, covariance, information_criteria, ljung_box, nrmse, quantile
+from optim.errors import InputError
 
 __all__ = ["DEFAULT_MAX_DELAY_SAMPLES", "MAX_DELAY_SEARCH_SAMPLES", "identify"]
 
@@ -48,10 +49,10 @@ def _check_known(model: str, known: dict[str, float], friction: bool) -> None:
         if name not in allowed:
             hint = "with model auto only delay (and friction) can be fixed" if model == "auto" else \
                 f"the {model} model's parameters are {', '.join(PARAMS[model])}"
-            raise ValueError(f"known.{name}: not a free parameter here ({hint})")
+            raise InputError(f"known.{name}", f"not a free parameter here ({hint})")
         if not (isinstance(value, (int, float)) and math.isfinite(value)) or value < 0 or \
                 (name in POSITIVE and value <= 0):
-            raise ValueError(f"known.{name}: must be finite and {'> 0' if name in POSITIVE else '≥ 0'}")
+            raise InputError(f"known.{name}", f"must be finite and {'> 0' if name in POSITIVE else '≥ 0'}")
 
 
 def _free_count(model: str, known: dict[str, float], friction: bool, ts: bool) -> int:
@@ -136,20 +137,20 @@ def identify(data: TimeSeriesData | FrequencyResponseData, model: str = "auto", 
     known = dict(known or {})
     ts = isinstance(data, TimeSeriesData)
     if model not in ("rigid", "cable", "auto"):
-        raise ValueError("model: must be rigid, cable or auto")
+        raise InputError("model", "must be rigid, cable or auto")
     if not 0.5 <= confidence < 1.0:
-        raise ValueError("confidence: must be in [0.5, 1)")
+        raise InputError("confidence", "must be in [0.5, 1)")
     if friction and not ts:
-        raise ValueError("friction: the Coulomb term needs a time series (a frequency response is linear)")
+        raise InputError("friction", "the Coulomb term needs a time series (a frequency response is linear)")
     _check_known(model, known, friction)
     for m in (("rigid", "cable") if model == "auto" else (model,)):
         if all(p in known for p in PARAMS[m]):
-            raise ValueError(f"known: fixes every parameter of the {m} model; nothing is left to identify")
+            raise InputError("known", f"fixes every parameter of the {m} model; nothing is left to identify")
     t = data.sample_time
     if max_delay is None:
         max_delay = known.get("delay", DEFAULT_MAX_DELAY_SAMPLES * t)
     if not (math.isfinite(max_delay) and 0 <= max_delay <= MAX_DELAY_SEARCH_SAMPLES * t):
-        raise ValueError(f"max_delay: must be in [0, {MAX_DELAY_SEARCH_SAMPLES}·sample_time] "
+        raise InputError("max_delay", f"must be in [0, {MAX_DELAY_SEARCH_SAMPLES}·sample_time] "
                          f"(one start per whole sample of delay)")
     asked: tuple[ModelName, ...] = ("rigid", "cable") if model == "auto" else (model,)  # type: ignore[assignment]
     notes: list[str] = []

@@ -11,16 +11,15 @@ import numpy as np
 from fastapi import APIRouter, Query
 from fastapi.responses import Response
 
+from optim.errors import InputError
 from optim.identification import FrequencyResponseData, IdentificationResult, TimeSeriesData, identify
 
-from ..errors import NumericInputError
 from ..executor import Compute
-from ..plots_identification import MEDIA_TYPES, plot_identification
+from ..jobs import identify_plot_job
+from ..plots_identification import MEDIA_TYPES
 from ..schemas.identify import IdentifyRequest, IdentifyResponse
 
 router = APIRouter(tags=["identification"])
-#: the request's fields a numerics "field: rule" may name (known.<name> carries the caller's own name)
-_FIELDS = frozenset({"data", "known", "model", "confidence", "friction", "max_delay", "sample_time"})
 
 def _finite(value):
     if isinstance(value, float) and not math.isfinite(value):
@@ -36,32 +35,21 @@ def _data(req: IdentifyRequest) -> TimeSeriesData | FrequencyResponseData:
     d = req.data
     if d.kind == "time_series":
         if req.sample_time is not None and req.sample_time != d.sample_time:
-            raise NumericInputError("sample_time", "for a time series give the sample time in data.sample_time")
+            raise InputError("sample_time", "for a time series give the sample time in data.sample_time")
         return TimeSeriesData(sample_time=d.sample_time, force=np.asarray(d.force, float),
                               position=np.asarray(d.position, float))
     if not len(d.frequency) == len(d.real) == len(d.imag):
-        raise NumericInputError("data.real", f"frequency, real and imag must have the same length "
+        raise InputError("data.real", f"frequency, real and imag must have the same length "
                                              f"({len(d.frequency)}, {len(d.real)}, {len(d.imag)})")
     return FrequencyResponseData(frequency=np.asarray(d.frequency, float),
                                  response=np.asarray(d.real, float) + 1j * np.asarray(d.imag, float),
                                  sample_time=req.sample_time or 0.001, model_kind=d.response)
 
 
-def run_identification(req: IdentifyRequest, compute: Compute) -> IdentificationResult:
-    """Fit in a compute worker under the request time budget; a "field: rule" ValueError is a 422."""
-    data = _data(req)
-    try:
-        return compute.run(identify, data, req.model, req.known, req.friction, req.confidence, req.max_delay,
-                           cost_ms=None)
-    except NumericInputError:
-        raise
-    except ValueError as exc:
-        if type(exc) is not ValueError:
-            raise
-        field, _, msg = str(exc).partition(": ")
-        if not msg or field.split(".", 1)[0] not in _FIELDS:
-            raise
-        raise NumericInputError(field, msg) from None
+async def run_identification(req: IdentifyRequest, compute: Compute) -> IdentificationResult:
+    """Fit in a compute worker under the request time budget; an InputError (field, rule) answers 422."""
+    return await compute.arun(identify, _data(req), req.model, req.known, req.friction, req.confidence,
+                              req.max_delay, cost_ms=None)
 
 
 def response_of(res: IdentificationResult) -> IdentifyResponse:
@@ -75,17 +63,19 @@ def response_of(res: IdentificationResult) -> IdentifyResponse:
 
 
 @router.post("/v1/identify", response_model=IdentifyResponse)
-def identify_route(req: IdentifyRequest, compute: Compute) -> IdentifyResponse:
+async def identify_route(req: IdentifyRequest, compute: Compute) -> IdentifyResponse:
     t0 = time.perf_counter()
-    res = run_identification(req, compute)
+    res = await run_identification(req, compute)
     res = dataclasses.replace(res, elapsed_ms=1e3 * (time.perf_counter() - t0))
     return response_of(res)
 
 
 @router.post("/v1/plots/identify", response_class=Response, tags=["plots"],
              responses={200: {"content": {"image/png": {}, "image/svg+xml": {}}}})
-def identify_plot(req: IdentifyRequest, compute: Compute,
-                  format: Literal["png", "svg"] | None = Query(None)) -> Response:
+async def identify_plot(req: IdentifyRequest, compute: Compute,
+                        format: Literal["png", "svg"] | None = Query(None)) -> Response:  # noqa: A002
     fmt = format or req.format
-    res = run_identification(req, compute)
-    return Response(content=plot_identification(res, fmt), media_type=MEDIA_TYPES[fmt])
+    # fitted and drawn in the worker, under the request time budget (the drawing is part of the cost)
+    image = await compute.arun(identify_plot_job, _data(req), req.model, req.known, req.friction, req.confidence,
+                               req.max_delay, fmt, cost_ms=None)
+    return Response(content=image, media_type=MEDIA_TYPES[fmt])
