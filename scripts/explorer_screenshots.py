@@ -83,23 +83,27 @@ def _panels(page, expect, tmp: Path) -> list[tuple[str, str, str]]:
     expect(page.locator("#study-plot")).to_be_visible(timeout=60_000)
     shot("studies", "A 16-point study (mass × delay) and its heatmap", f"progress {row.locator('.progress-text').inner_text()}")
 
-    csv = _identify_data(tmp)
-    if csv is not None:
-        page.click("#tab-identify")
-        page.set_input_files("#id-file", str(csv))
-        page.click("#id-run")
-        expect(page.locator("#identify-status")).to_be_visible(timeout=120_000)
-        shot("identify", "Identification from a simulated measurement", f"status {page.inner_text('#identify-status')}")
+    page.click("#tab-identify")
+    page.set_input_files("#id-file", str(_identify_data(tmp)))
+    page.click("#id-run")
+    expect(page.locator("#identify-status")).to_be_visible(timeout=120_000)
+    page.click("#id-robust")
+    expect(page.locator("#id-robust-status")).to_be_visible(timeout=120_000)
+    shot("identify", "Identification from a measured record, then the safe wall for its box",
+         f"status {page.inner_text('#identify-status')}, robust wall {page.inner_text('#id-robust-K')} "
+         f"({page.inner_text('#id-robust-status')})")
     return shots
 
 
-def _identify_data(tmp: Path) -> Path | None:
-    """A CSV for the identify panel, when the service has the endpoint (None otherwise)."""
-    try:
-        from tests.service.identify_data import write_measurement_csv  # type: ignore[import-not-found]
-    except ImportError:
-        return None
-    return write_measurement_csv(tmp / "measurement.csv")
+def _identify_data(tmp: Path) -> Path:
+    """A measured record of the rigid LHifAM (1.3 ms of delay, noise, quantisation) as the lab's CSV."""
+    from tests.optim.identification.cases import record
+
+    d = record("rigid", 0.0013)
+    path = tmp / "measurement.csv"
+    path.write_text("time,force,position\n" + "".join(
+        f"{k * 0.001:.6f},{u!r},{y!r}\n" for k, (u, y) in enumerate(zip(d.force.tolist(), d.position.tolist()))))
+    return path
 
 
 def main() -> None:

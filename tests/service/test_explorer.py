@@ -17,6 +17,8 @@ from urllib.parse import urlparse
 
 import pytest
 
+from tests.optim.identification.cases import record
+
 from .conftest import start_live_server
 
 CHROMIUM = "/usr/bin/chromium"
@@ -141,6 +143,21 @@ def test_explorer_end_to_end(tmp_path):
                 page.locator("#study-table tbody tr").first.get_by_role("button", name="heatmap").click()
                 expect(page.locator("#study-plot")).to_be_visible(timeout=60_000)
 
+                # Identify from a measured record (CSV upload), then the wall that is safe for its whole box.
+                csv = tmp_path / "run.csv"
+                d = record("rigid", 0.0013)
+                csv.write_text("time,force,position\n" + "".join(
+                    f"{k * 0.001:.6f},{u!r},{y!r}\n" for k, (u, y) in enumerate(zip(d.force.tolist(),
+                                                                                    d.position.tolist()))))
+                page.click("#tab-identify")
+                page.set_input_files("#id-file", str(csv))
+                page.click("#id-run")
+                expect(page.locator("#identify-status")).to_have_text("identified", timeout=120_000)
+                expect(page.locator("#identify-result")).to_contain_text("mass")
+                page.click("#id-robust")
+                expect(page.locator("#id-robust-status")).to_have_text("optimal", timeout=120_000)
+                expect(page.locator("#identify-plot")).to_be_visible(timeout=60_000)
+
                 # A tablet in portrait: one column, nothing wider than the screen.
                 page.set_viewport_size({"width": 820, "height": 1180})
                 page.click("#tab-boundary")
@@ -152,7 +169,7 @@ def test_explorer_end_to_end(tmp_path):
                 assert not b.blocked, b.blocked
                 paths = b.api_paths()
                 assert {"/v1/presets", "/v1/analysis/stability", "/v1/analysis/boundary", "/v1/design/stiffness",
-                        "/v1/studies"} <= paths
+                        "/v1/studies", "/v1/identify", "/v1/plots/identify"} <= paths
                 strays = {q for q in paths if q not in ALLOWED_PATHS and not q.startswith(("/v1/", "/explorer/"))}
                 assert not strays, strays
             finally:
