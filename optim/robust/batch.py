@@ -35,6 +35,7 @@ from models.discretize import RigidZOH, StateSpaceZOH
 from models.plants import stiffness_loop_plant
 from optim.crossovers import (CLUSTER_GEOM, CLUSTER_HALF_WIDTH, CLUSTER_POINTS, LIN_STEP, LOG_END, LOG_MIN_SAMPLES,
                               LOG_PER_DECADE, STEPS_PER_DELAY_TURN, _solve_brackets)
+from optim.fast_batch import fast_rigid_batch
 from optim.golden import golden_minimum
 
 __all__ = ["BatchCritical", "batch_critical_stiffness"]
@@ -55,6 +56,9 @@ class BatchCritical:
     """θ = ωT [rad per sample] of the crossover that sets K_cr (nan when K_cr is 0 or inf)."""
     max_stable_damping: np.ndarray
     """B_max [N·s/m] (inf when the damper-only loop has no crossover)."""
+    scanned: int = 0
+    """How many devices the scan decided (cable devices, and rigid ones where optim.fast_batch's bounds
+    did not close); the others took the fast path."""
 
 
 class _Evaluator:
@@ -292,7 +296,8 @@ def _min_crossing(h: _Loop, grid: np.ndarray, values: np.ndarray) -> tuple[np.nd
 def batch_critical_stiffness(devices: Sequence[Device], damping: float | np.ndarray) -> BatchCritical:
     """Exact K_cr [N/m] of every device at virtual damping B [N·s/m] (one B for all, or one per device).
 
-    Devices may mix rigid and cable models; each structure is scanned as one batch.
+    Devices may mix rigid and cable models.  Rigid devices take the fast exact path of optim.fast_batch
+    (no scan); the rows its bounds leave open, and each other structure, are scanned as one batch.
     """
     n = len(devices)
     bvec = np.broadcast_to(np.asarray(damping, float), (n,)).copy()
@@ -304,11 +309,37 @@ def batch_critical_stiffness(devices: Sequence[Device], damping: float | np.ndar
     for i, p in enumerate(plants):
         key = ("rigid",) if isinstance(p, RigidZOH) else ("ss", p.a.shape[0])
         groups.setdefault(key, []).append(i)
-    for idx in groups.values():
+    scanned = 0
+    for key, idx in groups.items():
+        if key == ("rigid",):
+            idx, _ = _fast_rigid_rows(devices, plants, bvec, idx, kcr, ang, bmax)
+        if not idx:
+            continue
         sub = [devices[i] for i in idx]
         k, a, bm = _batch_one_structure(sub, [plants[i] for i in idx], bvec[idx])
         kcr[idx], ang[idx], bmax[idx] = k, a, bm
-    return BatchCritical(kcr, ang, bmax)
+        scanned += len(idx)
+    return BatchCritical(kcr, ang, bmax, scanned)
+
+
+def _fast_rigid_rows(devices, plants, bvec, idx, kcr, ang, bmax) -> tuple[list[int], list[int]]:
+    """optim.fast_batch on the rigid rows (results written in place); returns the rows it leaves to the scan."""
+    sub = np.array(idx)
+    res = fast_rigid_batch([plants[i] for i in idx], bvec[sub] / np.array([devices[i].damping_scale for i in idx]))
+    ok = res.ok
+    rows = sub[ok]
+    ks = np.array([devices[i].stiffness_scale for i in rows])
+    bs = np.array([devices[i].damping_scale for i in rows])
+    phys = np.array([devices[i].damping for i in rows])
+    b = bvec[rows]
+    k = res.alpha[ok] * ks
+    bm = res.beta_max[ok] * bs
+    dead = (phys + b <= 0.0) | ((b > 0.0) & (b >= bm))
+    kcr[rows] = np.where(dead, 0.0, k)
+    ang[rows] = np.where(dead, np.nan, res.theta[ok])
+    bmax[rows] = bm
+    rest = [int(i) for i in sub[~ok]]
+    return rest, rest
 
 
 def _batch_one_structure(devices, plants, damping: np.ndarray):

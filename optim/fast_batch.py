@@ -1,0 +1,187 @@
+"""optim.fast_rigid over many rigid devices at once, in numpy arrays (no per-point loop on the hot path).
+
+The same equations and brackets as the scalar path, each Newton iteration one set of array operations
+over the devices still iterating: a device's iterates depend only on its own numbers, so its answer does
+not depend on which other devices share the batch (a study's rows are bit-identical in any chunk).  Rows
+whose bounds do not close come back with ``ok`` False; the caller scans them.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from models.discretize import RigidZOH
+
+from .fast_rigid import rigid_loop
+
+__all__ = ["FastBatch", "fast_rigid_batch"]
+
+_EPS = np.finfo(float).eps
+_HALF_PI = 0.5 * math.pi
+
+
+@dataclass(frozen=True)
+class FastBatch:
+    """Dimensionless answers per device; entries with ``ok`` False are to be scanned."""
+
+    ok: np.ndarray
+    alpha: np.ndarray
+    """α_cr (0 at or above β_max, inf never: a rigid loop always has a crossover)."""
+    theta: np.ndarray
+    """θ of the binding crossover (nan when α_cr = 0)."""
+    beta_max: np.ndarray
+
+
+class _Loops:
+    def __init__(self, plants: Sequence[RigidZOH]):
+        loops = [rigid_loop(p) for p in plants]
+        self.ok = np.array([lp is not None for lp in loops])
+        rows = []
+        for lp in loops:
+            if lp is None:
+                rows.append((0.5, 0.5, 1.0, 0.5, 0.5, 0.0, 0.5, 0.0, 1.5, 1.0, 3))
+                continue
+            ((q1, o1), (q2, o2)), w2 = (lp.zeros + ((0.5, 0.5),))[:2], len(lp.zeros) - 1
+            rows.append((lp.omp, lp.p, lp.lead, q1, o1, q2 if w2 else 0.5, o2 if w2 else 0.5, float(w2),
+                         lp.slope, lp.theta_r, lp.half_pis_at_pi))
+        a = np.array(rows, float).reshape(len(plants), 11)
+        (self.omp, self.p, self.lead, self.q1, self.o1, self.q2, self.o2, self.w2, self.slope, self.tr,
+         half) = a.T
+        self.half = half.astype(np.int64)
+
+    def parts(self, t: np.ndarray, i: np.ndarray):
+        """(ψ, φ', R, R'/R) of devices i at θ = t (as optim.fast_rigid._parts)."""
+        sh, ch = np.sin(0.5 * t), np.cos(0.5 * t)
+        st = 2.0 * sh * ch
+        omp, p = self.omp[i], self.p[i]
+        re_p = omp - 2.0 * sh * sh
+        den_p = re_p * re_p + st * st
+        psi = self.slope[i] * t - np.arctan2(re_p, st)
+        dphi = self.slope[i] + (omp + 2.0 * p * sh * sh) / den_p
+        dlr = p * st / den_p
+        mag = np.sqrt(den_p) / self.lead[i]
+        for q, o, w in ((self.q1[i], self.o1[i], None), (self.q2[i], self.o2[i], self.w2[i])):
+            re_q = 2.0 * ch * ch - o
+            den_q = re_q * re_q + st * st
+            if w is None:
+                psi = psi - np.arctan2(st, re_q)
+                dphi = dphi - (o + 2.0 * q * ch * ch) / den_q
+                dlr = dlr + q * st / den_q
+                mag = mag / np.sqrt(den_q)
+            else:
+                two = w > 0
+                psi = np.where(two, psi - np.arctan2(st, re_q), psi)
+                dphi = np.where(two, dphi - (o + 2.0 * q * ch * ch) / den_q, dphi)
+                dlr = np.where(two, dlr + q * st / den_q, dlr)
+                mag = np.where(two, mag / np.sqrt(den_q), mag)
+        return psi, dphi, mag, dlr
+
+    def damper_eq(self, t, i):
+        """ψ + θ/2 − π/2 (0 at a damper-loop crossover) and its derivative."""
+        psi, dphi, _, _ = self.parts(t, i)
+        return psi + 0.5 * t - _HALF_PI, dphi + 0.5
+
+    def k_eq(self, t, i, beta):
+        psi, dphi, r, dlr = self.parts(t, i)
+        b = beta[i]
+        g = b * np.cos(0.5 * t) / r
+        sat = g >= 1.0
+        gs = np.where(sat, 0.0, g)
+        dg = gs * (-0.5 * np.tan(0.5 * t) - dlr)
+        f = np.where(sat, psi - _HALF_PI, psi - np.arcsin(gs))
+        df = np.where(sat, dphi, dphi - dg / np.sqrt((1.0 - gs) * (1.0 + gs)))
+        zero = b == 0.0
+        return np.where(zero, psi, f), np.where(zero, dphi, df)
+
+    def k_of(self, t, i, beta):
+        psi, _, r, _ = self.parts(t, i)
+        s = np.sin(0.5 * t)
+        return 2.0 * s * (r * np.cos(psi) - beta[i] * s)
+
+    def start(self, i, damp, level, hi):
+        a = self.slope[i] + 0.5
+        with np.errstate(divide="ignore", invalid="ignore"):
+            x = np.where(damp > 0, np.sqrt(damp / a), level / a)
+            x = np.where((damp > 0) & (damp / x > 1.0), level / (a + 1.0 / damp), x)
+        return np.minimum(x, 0.5 * hi)
+
+
+def _solve(fun, i: np.ndarray, lo: np.ndarray, hi: np.ndarray, x: np.ndarray, *args) -> np.ndarray:
+    """optim.fast_rigid._solve (level 0) on every device i at once; a device stops when it converges."""
+    lo, hi, x = lo.copy(), hi.copy(), x.copy()
+    out = np.full(i.shape, np.nan)
+    act = np.arange(i.size)
+    for _ in range(200):
+        if act.size == 0:
+            break
+        xl, ll, hl = x[act], lo[act], hi[act]
+        bis = ~((ll < xl) & (xl < hl))
+        geo = (ll > 0.0) & (hl > 8.0 * ll)
+        xl = np.where(bis, np.where(geo, np.sqrt(ll * hl), 0.5 * (ll + hl)), xl)
+        fx, dfx = fun(xl, i[act], *args)
+        hit = fx == 0.0
+        below = fx < 0.0
+        ll = np.where(below, xl, ll)
+        hl = np.where(below, hl, xl)
+        narrow = hl - ll <= 4.0 * _EPS * hl
+        with np.errstate(divide="ignore", invalid="ignore"):
+            step = np.where(dfx > 0.0, fx / dfx, np.inf)
+        xn = xl - step
+        small = (np.abs(step) <= 2.0 * _EPS * xl) & (ll < xn) & (xn < hl)
+        done = hit | narrow | small
+        out[act[hit | narrow]] = xl[hit | narrow]
+        fin = small & ~(hit | narrow)
+        out[act[fin]] = xn[fin]
+        lo[act], hi[act], x[act] = ll, hl, xn
+        act = act[~done]
+    if act.size:
+        out[act] = x[act]
+    return out
+
+
+def fast_rigid_batch(plants: Sequence[RigidZOH], betas: np.ndarray) -> FastBatch:
+    """α_cr(β) and β_max of every rigid plant (dimensionless), with ``ok`` False where the scan must decide.
+
+    β_max is found for every device (the studies report it at β = 0 too)."""
+    n = len(plants)
+    L = _Loops(plants)
+    betas = np.asarray(betas, float)
+    ok = L.ok.copy()
+    alpha, theta, bmax = np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan)
+    # the damper-only loop: its first crossover θ_b (the Nyquist point when ψ + θ/2 reaches π/2 only there)
+    at_pi = L.tr == math.pi
+    with np.errstate(all="ignore"):
+        fb_in = L.damper_eq(L.tr, np.arange(n))[0]
+    fb = np.where(at_pi, (L.half - 1) * _HALF_PI, fb_in)
+    ok &= fb >= 0.0
+    nyq = at_pi & (L.half == 1)
+    tb = np.where(nyq, math.pi, np.nan)
+    i = np.nonzero(ok & ~nyq)[0]
+    if i.size:
+        tb[i] = _solve(L.damper_eq, i, np.zeros(i.size), L.tr[i], L.start(i, L.omp[i], math.pi, L.tr[i]))
+    j = np.nonzero(ok)[0]
+    bmax[j] = L.parts(tb[j], j)[2]
+    dead = ok & (betas > 0.0) & (betas >= bmax)
+    alpha[dead] = 0.0
+    live = ok & ~dead
+    hi = np.where(betas > 0.0, tb, L.tr)
+    nyq_k = live & (hi == math.pi) & (L.half == 1)
+    k = np.nonzero(nyq_k)[0]
+    theta[k] = math.pi
+    with np.errstate(all="ignore"):
+        fk_in = L.k_eq(np.where(live, hi, 1.0), np.arange(n), betas)[0]
+    fk = np.where(hi == math.pi, (L.half - 1) * _HALF_PI, fk_in)
+    solve = live & ~nyq_k & (fk > 0.0)
+    ok &= ~(live & ~nyq_k & ~(fk > 0.0))
+    i = np.nonzero(solve)[0]
+    if i.size:
+        theta[i] = _solve(L.k_eq, i, np.zeros(i.size), hi[i], L.start(i, L.omp[i] + betas[i], _HALF_PI, hi[i]),
+                          betas)
+    i = np.nonzero(ok & ~dead)[0]
+    if i.size:
+        alpha[i] = L.k_of(theta[i], i, betas)
+    return FastBatch(ok, alpha, theta, bmax)
