@@ -97,11 +97,6 @@ class _Loops:
         zero = b == 0.0
         return np.where(zero, psi, f), np.where(zero, dphi, df)
 
-    def k_of(self, t, i, beta):
-        psi, _, r, _ = self.parts(t, i)
-        s = np.sin(0.5 * t)
-        return 2.0 * s * (r * np.cos(psi) - beta[i] * s)
-
     def start(self, i, damp, level, hi):
         a = self.slope[i] + 0.5
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -183,5 +178,22 @@ def fast_rigid_batch(plants: Sequence[RigidZOH], betas: np.ndarray) -> FastBatch
                           betas)
     i = np.nonzero(ok & ~dead)[0]
     if i.size:
-        alpha[i] = L.k_of(theta[i], i, betas)
+        from optim.robust.batch import _Evaluator        # (that module imports this one)
+        ev, rows, b = _Evaluator([plants[k] for k in i]), np.arange(i.size), betas[i]
+
+        def h(t):       # H(θ) = −1/G_n + β(e^{−jθ} − 1), the scan's own evaluation
+            return -ev.inverse(t, rows) + b * np.expm1(-1j * t)
+
+        # optim.fast_rigid.polish: one secant step on Im H, kept only when it is a few ulp and lowers |Im H|
+        t = theta[i]
+        step = 64.0 * _EPS * t
+        with np.errstate(all="ignore"):
+            f0, f1 = h(t).imag, h(t + step).imag
+            t1 = t - f0 * step / (f1 - f0)
+            t1 = np.where(np.isfinite(t1), t1, t)
+            take = ((f1 != f0) & (f0 != 0.0) & (np.abs(t1 - t) <= 8.0 * _EPS * t) & (t1 < math.pi)
+                    & (np.abs(h(t1).imag) < np.abs(f0)) & (t < math.pi))
+        t = np.where(take, t1, t)
+        theta[i] = t
+        alpha[i] = h(t).real       # K = Re H at the root (optim.fast_rigid.re_h says why)
     return FastBatch(ok, alpha, theta, bmax)
