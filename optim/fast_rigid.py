@@ -18,8 +18,8 @@ Why no scan is needed (each step is a line of algebra on these two forms):
   and in u, and both rise), so the K > 0 crossover of lowest frequency is the binding one, every later
   one (the Nyquist point included: H(π) = 2(R − β) when φ(π) ≡ π/2) has a larger K.
 * φ' = d + m + ½ + Re z/(z − p) − Σ Re z/(z + q_i).  Re z/(z − p) ≥ 1/(1 + p); a zero outside the unit
-  circle (q > 1) takes at most 1/(1 + q); the zero inside closest to −1 takes Re z/(z + q), which rises
-  with θ, and the equation Re z/(z + q) = D has a closed-form root.  Below that θ_r, φ rises, so F rises
+  circle (q > 1) takes at most 1/(1 + q), one inside at most 1/(1 − q); the zero inside closest to −1
+  takes Re z/(z + q), which rises with θ, and the equation Re z/(z + q) = D has a closed-form root.  Below that θ_r, φ rises, so F rises
   (−asin g rises too): on [0, θ_r] the equation F = π/2 has at most one root.  F(0) ≤ 0, so levels
   π/2 − 2π... are never reached and the root, when F(θ_r) ≥ π/2, is the binding crossover.
 * The damper-only loop: −1/G_n/(1 − e^{−jθ}) = −R e^{j(φ + θ/2)}, real and positive where
@@ -27,7 +27,7 @@ Why no scan is needed (each step is a line of algebra on these two forms):
   root θ_b gives B_max = R(θ_b)·m/T exactly.  For β < β_max the K root lies in (0, θ_b):
   F(θ_b) > φ(θ_b) − asin cos(θ_b/2) = π/2.
 
-Where a hypothesis fails (complex or positive zeros, two zeros inside the circle, no root below θ_r)
+Where a hypothesis fails (complex or positive zeros, no root below θ_r)
 the caller falls back to the scan; ``fast_rigid`` returns None then, never a guess.
 """
 
@@ -84,13 +84,14 @@ def rigid_loop(plant: RigidZOH) -> RigidLoop | None:
     if any(q <= 0.0 or (plant.f > 0.0 and abs(omq) < MIN_ZERO_GAP) for q, omq in zeros):
         return None
     slope = plant.d + m + 0.5
-    inside = [z for z in zeros if z[0] < 1.0]
-    if len(inside) > 1:
-        return None
-    bound = slope + 1.0 / (1.0 + p) - sum(1.0 / (1.0 + q) for q, _ in zeros if q > 1.0)
+    # the zero inside closest to −1 is taken exactly; any other inside one at its largest, 1/(1 − q) (at π)
+    inside = sorted((z for z in zeros if z[0] < 1.0), reverse=True)
+    bound = (slope + 1.0 / (1.0 + p) - sum(1.0 / (1.0 + q) for q, _ in zeros if q > 1.0)
+             - sum(1.0 / omq for _, omq in inside[1:]))
     bound *= 1.0 - 1e-12                              # a little inside: θ_r is a bound, never rounded past
     theta_r = math.pi
     n_in = len(inside)
+    inside = inside[:1]
     if any(omq == 0.0 for _, omq in zeros):
         theta_r = math.pi * (1.0 - 1e-9)            # H has a pole at π; the tail bound k(θ_r) still holds
     elif inside:
