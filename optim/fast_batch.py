@@ -9,14 +9,13 @@ whose bounds do not close come back with ``ok`` False; the caller scans them.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-from models.discretize import RigidZOH
+from models.discretize import rigid_coefficients, split_delay_array
 
-from .fast_rigid import rigid_loop
+from .fast_rigid import MIN_ZERO_GAP
 
 __all__ = ["FastBatch", "fast_rigid_batch"]
 
@@ -37,21 +36,65 @@ class FastBatch:
 
 
 class _Loops:
-    def __init__(self, plants: Sequence[RigidZOH]):
-        loops = [rigid_loop(p) for p in plants]
-        self.ok = np.array([lp is not None for lp in loops])
-        rows = []
-        for lp in loops:
-            if lp is None:
-                rows.append((0.5, 0.5, 1.0, 0.5, 0.5, 0.0, 0.5, 0.0, 1.5, 1.0, 3))
-                continue
-            ((q1, o1), (q2, o2)), w2 = (lp.zeros + ((0.5, 0.5),))[:2], len(lp.zeros) - 1
-            rows.append((lp.omp, lp.p, lp.lead, q1, o1, q2 if w2 else 0.5, o2 if w2 else 0.5, float(w2),
-                         lp.slope, lp.theta_r, lp.half_pis_at_pi))
-        a = np.array(rows, float).reshape(len(plants), 11)
-        (self.omp, self.p, self.lead, self.q1, self.o1, self.q2, self.o2, self.w2, self.slope, self.tr,
-         half) = a.T
-        self.half = half.astype(np.int64)
+    """optim.fast_rigid.rigid_loop of every device at once (arrays; ``ok`` False where it would be None)."""
+
+    def __init__(self, delta: np.ndarray, d: np.ndarray, f: np.ndarray):
+        (self.omp, self.phi12, self.g0p, self.g0v, self.g1p, self.g1v, _, self.a0, self.c0) = \
+            rigid_coefficients(delta, f)
+        self.d, self.whole = d.astype(float), f == 0.0
+        omp, p = self.omp, 1.0 - self.omp
+        self.p = p
+        with np.errstate(all="ignore"):
+            # whole-sample delay: N = a(z + q), 1 − q = −c/a (from the series: exact down to δ = 0)
+            o_w = -self.c0 / self.a0
+            # fractional: z·N = A z² + B z + C, zeros −q: the larger from the formula, the smaller as C/(A q)
+            aa, bb = self.g0p, self.g1p - p * self.g0p + self.phi12 * self.g0v
+            cc = self.phi12 * self.g1v - p * self.g1p
+            disc = bb * bb - 4.0 * aa * cc
+            big = (bb + np.sqrt(disc)) / (2.0 * aa)
+            small = cc / (aa * big)
+        w = self.whole
+        self.lead = np.where(w, self.a0, aa)
+        self.q1, self.o1 = np.where(w, 1.0 - o_w, big), np.where(w, o_w, 1.0 - big)
+        self.q2, self.o2 = np.where(w, 0.5, small), np.where(w, 0.5, 1.0 - small)
+        self.w2 = np.where(w, 0.0, 1.0)
+        m = np.where(w, 0.0, 1.0)
+        ok = np.where(w, self.a0 > 0.0, (aa > 0.0) & (bb > 0.0) & (cc > 0.0) & (disc >= 0.0))
+        ok &= (self.q1 > 0.0) & (w | ((self.q2 > 0.0) & (np.abs(self.o1) >= MIN_ZERO_GAP)
+                                      & (np.abs(self.o2) >= MIN_ZERO_GAP)))
+        self.slope = self.d + m + 0.5
+        # the rising-phase bound of optim.fast_rigid.rigid_loop: the inside zero closest to −1 exactly
+        # (q1 ≥ q2, so it is q1 when q1 is inside), any other inside one at 1/(1 − q), outside ones at 1/(1 + q)
+        in1, in2 = self.q1 < 1.0, (self.q2 < 1.0) & ~w
+        with np.errstate(all="ignore"):
+            bound = (self.slope + 1.0 / (1.0 + p) - np.where(self.q1 > 1.0, 1.0 / (1.0 + self.q1), 0.0)
+                     - np.where(~w & (self.q2 > 1.0), 1.0 / (1.0 + self.q2), 0.0)
+                     - np.where(in1 & in2, 1.0 / self.o2, 0.0))
+            bound = bound * (1.0 - 1e-12)
+            qj, oj = np.where(in1, self.q1, self.q2), np.where(in1, self.o1, self.o2)
+            any_in = in1 | in2
+            ok &= ~any_in | (bound > 1.0 / (1.0 + qj))
+            rhs = oj * (1.0 - bound * oj) / (qj * (2.0 * bound - 1.0))
+            tr = np.where(any_in & (rhs > 0.0), 2.0 * np.arccos(np.minimum(1.0, np.sqrt(0.5 * rhs))), math.pi)
+        zero_at_minus_one = (self.o1 == 0.0) | (~w & (self.o2 == 0.0))
+        self.tr = np.where(zero_at_minus_one, math.pi * (1.0 - 1e-9), tr)
+        n_in = in1.astype(np.int64) + in2.astype(np.int64)
+        self.half = 2 * (d.astype(np.int64) + m.astype(np.int64) + 1 - n_in) + 1
+        self.ok = ok & np.isfinite(self.tr)
+        for name in ("q1", "o1", "q2", "o2", "lead"):      # harmless numbers where the row is not ok
+            setattr(self, name, np.where(self.ok, getattr(self, name), 0.5))
+        self.lead = np.where(self.ok, self.lead, 1.0)
+
+    def h(self, t: np.ndarray, i: np.ndarray, beta: np.ndarray) -> np.ndarray:
+        """H(θ) = −1/G_n + β(e^{−jθ} − 1) as RigidZOH.inverse_response and the scan compute it."""
+        z = np.exp(1j * t)
+        zm1 = np.expm1(1j * t)
+        zinv = 1.0 / z
+        omp = self.omp[i]
+        frac = (self.g0p[i] + self.g1p[i] * zinv) * (zm1 + omp) + self.phi12[i] * (self.g0v[i] + self.g1v[i] * zinv)
+        num = np.where(self.whole[i], self.a0[i] * (z + 1.0) + self.c0[i], frac)
+        inv = zm1 * (zm1 + omp) * np.exp(1j * self.d[i] * t) / num
+        return -inv + beta * np.expm1(-1j * t)
 
     def parts(self, t: np.ndarray, i: np.ndarray):
         """(ψ, φ', R, R'/R) of devices i at θ = t (as optim.fast_rigid._parts)."""
@@ -138,12 +181,12 @@ def _solve(fun, i: np.ndarray, lo: np.ndarray, hi: np.ndarray, x: np.ndarray, *a
     return out
 
 
-def fast_rigid_batch(plants: Sequence[RigidZOH], betas: np.ndarray) -> FastBatch:
-    """α_cr(β) and β_max of every rigid plant (dimensionless), with ``ok`` False where the scan must decide.
-
-    β_max is found for every device (the studies report it at β = 0 too)."""
-    n = len(plants)
-    L = _Loops(plants)
+def fast_rigid_batch(delta: np.ndarray, delay_samples: np.ndarray, betas: np.ndarray) -> FastBatch:
+    """α_cr(β) and β_max of every rigid device (δ, d = t_d/T, β: arrays; dimensionless), with ``ok`` False
+    where the scan must decide.  β_max is found for every device (the studies report it at β = 0 too)."""
+    n = len(delta)
+    d, f = split_delay_array(delay_samples)
+    L = _Loops(np.asarray(delta, float), d, f)
     betas = np.asarray(betas, float)
     ok = L.ok.copy()
     alpha, theta, bmax = np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan)
@@ -178,11 +221,10 @@ def fast_rigid_batch(plants: Sequence[RigidZOH], betas: np.ndarray) -> FastBatch
                           betas)
     i = np.nonzero(ok & ~dead)[0]
     if i.size:
-        from optim.robust.batch import _Evaluator        # (that module imports this one)
-        ev, rows, b = _Evaluator([plants[k] for k in i]), np.arange(i.size), betas[i]
+        b = betas[i]
 
-        def h(t):       # H(θ) = −1/G_n + β(e^{−jθ} − 1), the scan's own evaluation
-            return -ev.inverse(t, rows) + b * np.expm1(-1j * t)
+        def h(t):
+            return L.h(t, i, b)
 
         # optim.fast_rigid.polish: one secant step on Im H, kept only when it is a few ulp and lowers |Im H|
         t = theta[i]

@@ -304,42 +304,37 @@ def batch_critical_stiffness(devices: Sequence[Device], damping: float | np.ndar
     if not np.all(np.isfinite(bvec) & (bvec >= 0)):
         raise ValueError("damping: virtual damping B must be finite and ≥ 0")
     kcr, ang, bmax = np.full(n, np.inf), np.full(n, np.nan), np.full(n, np.inf)
-    plants = [stiffness_loop_plant(d) for d in devices]
+    rigid = [i for i, d in enumerate(devices) if d.cable is None]
+    rest = [i for i, d in enumerate(devices) if d.cable is not None]
+    if rigid:
+        rest += _fast_rigid_rows([devices[i] for i in rigid], bvec, np.array(rigid), kcr, ang, bmax)
+    plants = {i: stiffness_loop_plant(devices[i]) for i in rest}
     groups: dict[tuple, list[int]] = {}
-    for i, p in enumerate(plants):
+    for i in sorted(rest):
+        p = plants[i]
         key = ("rigid",) if isinstance(p, RigidZOH) else ("ss", p.a.shape[0])
         groups.setdefault(key, []).append(i)
-    scanned = 0
-    for key, idx in groups.items():
-        if key == ("rigid",):
-            idx, _ = _fast_rigid_rows(devices, plants, bvec, idx, kcr, ang, bmax)
-        if not idx:
-            continue
+    for idx in groups.values():
         sub = [devices[i] for i in idx]
         k, a, bm = _batch_one_structure(sub, [plants[i] for i in idx], bvec[idx])
         kcr[idx], ang[idx], bmax[idx] = k, a, bm
-        scanned += len(idx)
-    return BatchCritical(kcr, ang, bmax, scanned)
+    return BatchCritical(kcr, ang, bmax, len(rest))
 
 
-def _fast_rigid_rows(devices, plants, bvec, idx, kcr, ang, bmax) -> tuple[list[int], list[int]]:
-    """optim.fast_batch on the rigid rows (results written in place); returns the rows it leaves to the scan."""
-    sub = np.array(idx)
-    res = fast_rigid_batch([plants[i] for i in idx], bvec[sub] / np.array([devices[i].damping_scale for i in idx]))
+def _fast_rigid_rows(devices, bvec, idx, kcr, ang, bmax) -> list[int]:
+    """optim.fast_batch on the rigid rows idx (results written in place); returns the rows it leaves to the scan."""
+    m, b_phys, t, td = np.array([(d.mass, d.damping, d.sample_time, d.delay) for d in devices]).T
+    ks, bs = m / t**2, m / t                  # Device.stiffness_scale, damping_scale
+    b = bvec[idx]
+    res = fast_rigid_batch(b_phys * t / m, td / t, b / bs)
     ok = res.ok
-    rows = sub[ok]
-    ks = np.array([devices[i].stiffness_scale for i in rows])
-    bs = np.array([devices[i].damping_scale for i in rows])
-    phys = np.array([devices[i].damping for i in rows])
-    b = bvec[rows]
-    k = res.alpha[ok] * ks
-    bm = res.beta_max[ok] * bs
-    dead = (phys + b <= 0.0) | ((b > 0.0) & (b >= bm))
-    kcr[rows] = np.where(dead, 0.0, k)
+    rows = idx[ok]
+    bm = res.beta_max[ok] * bs[ok]
+    dead = (b_phys[ok] + b[ok] <= 0.0) | ((b[ok] > 0.0) & (b[ok] >= bm))
+    kcr[rows] = np.where(dead, 0.0, res.alpha[ok] * ks[ok])
     ang[rows] = np.where(dead, np.nan, res.theta[ok])
     bmax[rows] = bm
-    rest = [int(i) for i in sub[~ok]]
-    return rest, rest
+    return [int(i) for i in idx[~ok]]
 
 
 def _batch_one_structure(devices, plants, damping: np.ndarray):

@@ -61,7 +61,8 @@ def _check(devices, seed):
     betas = np.where(kind == 0, 0.0, frac * beta_max)
     alpha, theta = _scan(devices, plants, betas)
     with np.errstate(all="ignore"):
-        fast = fast_rigid_batch(plants, betas)
+        fast = fast_rigid_batch(np.array([d.delta for d in devices]), np.array([d.delay_samples for d in devices]),
+                                betas)
     ok = fast.ok
     assert ok.mean() > 0.99, f"{(~ok).sum()} of {n} fell back to the scan"
     np.testing.assert_allclose(fast.beta_max[ok], beta_max[ok], rtol=RTOL, atol=0)
