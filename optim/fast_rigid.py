@@ -38,7 +38,8 @@ from dataclasses import dataclass
 
 from models.discretize import RigidZOH
 
-__all__ = ["RigidLoop", "FastRigid", "rigid_loop", "fast_rigid", "fast_beta_max", "re_h", "MIN_ZERO_GAP"]
+__all__ = ["RigidLoop", "FastRigid", "rigid_loop", "fast_rigid", "fast_beta_max", "rigid_crossovers", "re_h",
+           "MIN_ZERO_GAP"]
 
 _EPS = 2.220446049250313e-16
 _HALF_PI = 0.5 * math.pi
@@ -283,3 +284,34 @@ def fast_rigid(plant: RigidZOH, beta: float, beta_max: float | None = None,
     t = _solve(lambda x: _k_eq(L, beta, x), 0.0, 0.0, hi, _start(L, L.omp + beta, _HALF_PI, hi))
     t = polish(plant, beta, t)
     return FastRigid(re_h(plant, beta, t), t, bmax)
+
+
+def rigid_crossovers(plant: RigidZOH, beta: float, first: tuple[float, float], tail,
+                     loop: RigidLoop | None = None) -> list[tuple[float, float]] | None:
+    """Every K > 0 crossover (θ, α), by frequency, for β below β_max; ``first`` is fast_rigid's (θ, α).
+
+    On [0, θ_r] F̃ rises, so the crossovers are its roots at the levels π/2 + 2πk, k = 0, 1, …, one each,
+    found in turn by the same bracketed Newton (k = 0 is ``first``); past θ_r, where nothing is monotone,
+    ``tail(θ_r)`` (the scan restricted to [θ_r, π], Nyquist included) lists them.  None where the fast path
+    has no θ_r (the caller scans everything)."""
+    L = loop if loop is not None else rigid_loop(plant)
+    if L is None:
+        return None
+    tr = L.theta_r
+    t0, a0 = first
+    out = [(t0, a0)]
+    if t0 < tr:
+        top = (L.half_pis_at_pi - 1) * _HALF_PI if tr == math.pi else _k_eq(L, beta, tr)[0]
+        lo, step = t0, 2.0 * math.pi / (L.slope + 0.5)
+        k = 1
+        while 2.0 * math.pi * k < top:
+            level = 2.0 * math.pi * k
+            t = _solve(lambda x: _k_eq(L, beta, x), level, lo, tr, min(lo + step, 0.5 * (lo + tr)))
+            t = polish(plant, beta, t)
+            out.append((t, re_h(plant, beta, t)))
+            lo, k = t, k + 1
+    for t, a in tail(tr):
+        if all(abs(t - u) > 1e-12 * t for u, _ in out):
+            out.append((t, a))
+    out.sort()
+    return [c for c in out if c[1] > 0.0]

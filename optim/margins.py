@@ -25,7 +25,7 @@ from models.discretize import RigidZOH
 from models.plants import stiffness_loop_plant
 
 from .crossovers import Crossing, positive_real_crossings, scan_grid
-from .fast_rigid import fast_beta_max, fast_rigid
+from .fast_rigid import fast_beta_max, fast_rigid, rigid_crossovers
 
 __all__ = ["Crossover", "CriticalStiffness", "critical_stiffness", "scan_critical_stiffness", "max_stable_damping",
            "linear_estimate", "gain_margin_db", "loop_plant"]
@@ -162,17 +162,36 @@ def _fast(device: Device, plant: RigidZOH, damping: float, b_max: float | None) 
     bm = None if damping == 0.0 else (b_max if b_max is not None else res.beta_max * bs)
     if res.theta is None:
         return CriticalStiffness(0.0, None, (), damping, bm, reason=_dead_reason(damping, bm), path="fast")
-    k, w = res.alpha * device.stiffness_scale, res.theta / device.sample_time
+    scale, t, beta = device.stiffness_scale, device.sample_time, damping / bs
+    k, w = res.alpha * scale, res.theta / t
 
     def every() -> tuple[Crossover, ...]:
-        # the scan's list, its binding entry replaced by the fast path's (the same crossover, to ~1e-15)
-        found = scan_critical_stiffness(device, damping, b_max=bm).crossovers
-        near = min(found, key=lambda c: abs(c.frequency - w), default=None)
-        if near is None or abs(near.frequency / w - 1) > 1e-9 or abs(near.stiffness / k - 1) > 1e-9:
-            raise RuntimeError(f"fast path and scan disagree on {device!r}, B = {damping!r}")
-        return tuple(Crossover(w, k) if c is near else c for c in found)
+        found = rigid_crossovers(
+            plant, beta, (res.theta, res.alpha), lambda lo: _tail_crossings(device, plant, beta, lo))
+        if found is None:
+            # the scan's list, its binding entry replaced by the fast path's (the same crossover, to ~1e-15)
+            found = [(c.frequency * t, c.stiffness / scale)
+                     for c in scan_critical_stiffness(device, damping, b_max=bm).crossovers]
+            near = min(range(len(found)), key=lambda i: abs(found[i][0] - res.theta), default=None)
+            if near is None or abs(found[near][0] / res.theta - 1) > 1e-9:
+                raise RuntimeError(f"fast path and scan disagree on {device!r}, B = {damping!r}")
+            found[near] = (res.theta, res.alpha)
+        return tuple(Crossover(th / t, a * scale) for th, a in found)
 
     return CriticalStiffness(k, w, every, damping, bm, path="fast")
+
+
+def _tail_crossings(device: Device, plant: RigidZOH, beta: float, lo: float) -> list[tuple[float, float]]:
+    """The scan (optim.crossovers) of the K loop restricted to [lo, π]: (θ, α) of each crossover there."""
+    def h(theta: np.ndarray) -> np.ndarray:
+        return -plant.inverse_response(theta) + beta * np.expm1(-1j * theta)
+
+    if lo >= math.pi:
+        v = float(h(np.array([math.pi]))[0].real)
+        return [(math.pi, v)] if v > 0 else []
+    grid = _grid(device, plant, beta)
+    grid = np.concatenate([[lo], grid[grid > lo]])
+    return [(c.angle, c.value) for c in positive_real_crossings(h, grid)]
 
 
 def scan_critical_stiffness(device: Device, damping: float = 0.0, *, b_max: float | None = None
