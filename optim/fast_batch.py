@@ -70,17 +70,15 @@ class _Loops:
             bound = (self.slope + 1.0 / (1.0 + p) - np.where(self.q1 > 1.0, 1.0 / (1.0 + self.q1), 0.0)
                      - np.where(~w & (self.q2 > 1.0), 1.0 / (1.0 + self.q2), 0.0)
                      - np.where(in1 & in2, 1.0 / self.o2, 0.0))
-            bound = bound * (1.0 - 1e-12)
             qj, oj = np.where(in1, self.q1, self.q2), np.where(in1, self.o1, self.o2)
             any_in = in1 | in2
-            ok &= ~any_in | (bound > 1.0 / (1.0 + qj))
-            rhs = oj * (1.0 - bound * oj) / (qj * (2.0 * bound - 1.0))
-            tr = np.where(any_in & (rhs > 0.0), 2.0 * np.arccos(np.minimum(1.0, np.sqrt(0.5 * rhs))), math.pi)
-        zero_at_minus_one = (self.o1 == 0.0) | (~w & (self.o2 == 0.0))
-        self.tr = np.where(zero_at_minus_one, math.pi * (1.0 - 1e-9), tr)
+            zero_at_minus_one = (self.o1 == 0.0) | (~w & (self.o2 == 0.0))
+            self.tr, ok_r = _rising_end(bound, any_in, qj, oj, zero_at_minus_one)
+            self.trb, ok_rb = _rising_end(bound + 0.5, any_in, qj, oj, zero_at_minus_one)
+            ok &= ok_r & ok_rb
         n_in = in1.astype(np.int64) + in2.astype(np.int64)
         self.half = 2 * (d.astype(np.int64) + m.astype(np.int64) + 1 - n_in) + 1
-        self.ok = ok & np.isfinite(self.tr)
+        self.ok = ok & np.isfinite(self.tr) & np.isfinite(self.trb)
         for name in ("q1", "o1", "q2", "o2", "lead"):      # harmless numbers where the row is not ok
             setattr(self, name, np.where(self.ok, getattr(self, name), 0.5))
         self.lead = np.where(self.ok, self.lead, 1.0)
@@ -148,6 +146,15 @@ class _Loops:
         return np.minimum(x, 0.5 * hi)
 
 
+def _rising_end(bound, any_in, qj, oj, zero_at_minus_one):
+    """optim.fast_rigid._rising_end of every row: (θ, ok)."""
+    bound = bound * (1.0 - 1e-12)
+    ok = ~any_in | (bound > 1.0 / (1.0 + qj))
+    rhs = oj * (1.0 - bound * oj) / (qj * (2.0 * bound - 1.0))
+    tr = np.where(any_in & (rhs > 0.0), 2.0 * np.arccos(np.minimum(1.0, np.sqrt(0.5 * rhs))), math.pi)
+    return np.where(zero_at_minus_one, math.pi * (1.0 - 1e-9), tr), ok
+
+
 def _solve(fun, i: np.ndarray, lo: np.ndarray, hi: np.ndarray, x: np.ndarray, *args) -> np.ndarray:
     """optim.fast_rigid._solve (level 0) on every device i at once; a device stops when it converges."""
     lo, hi, x = lo.copy(), hi.copy(), x.copy()
@@ -190,23 +197,24 @@ def fast_rigid_batch(delta: np.ndarray, delay_samples: np.ndarray, betas: np.nda
     betas = np.asarray(betas, float)
     ok = L.ok.copy()
     alpha, theta, bmax = np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan)
-    # the damper-only loop: its first crossover θ_b (the Nyquist point when ψ + θ/2 reaches π/2 only there)
-    at_pi = L.tr == math.pi
+    # the damper-only loop: its first crossover θ_b on [0, θ_rb] (the Nyquist point when ψ + θ/2 reaches π/2
+    # only there)
+    at_pi = L.trb == math.pi
     with np.errstate(all="ignore"):
-        fb_in = L.damper_eq(L.tr, np.arange(n))[0]
+        fb_in = L.damper_eq(L.trb, np.arange(n))[0]
     fb = np.where(at_pi, (L.half - 1) * _HALF_PI, fb_in)
     ok &= fb >= 0.0
     nyq = at_pi & (L.half == 1)
     tb = np.where(nyq, math.pi, np.nan)
     i = np.nonzero(ok & ~nyq)[0]
     if i.size:
-        tb[i] = _solve(L.damper_eq, i, np.zeros(i.size), L.tr[i], L.start(i, L.omp[i], math.pi, L.tr[i]))
+        tb[i] = _solve(L.damper_eq, i, np.zeros(i.size), L.trb[i], L.start(i, L.omp[i], math.pi, L.trb[i]))
     j = np.nonzero(ok)[0]
     bmax[j] = L.parts(tb[j], j)[2]
     dead = ok & (betas > 0.0) & (betas >= bmax)
     alpha[dead] = 0.0
     live = ok & ~dead
-    hi = np.where(betas > 0.0, tb, L.tr)
+    hi = np.where(betas > 0.0, np.minimum(tb, L.tr), L.tr)      # F̃ rises on [0, θ_r]
     nyq_k = live & (hi == math.pi) & (L.half == 1)
     k = np.nonzero(nyq_k)[0]
     theta[k] = math.pi

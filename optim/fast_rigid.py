@@ -23,8 +23,8 @@ Why no scan is needed (each step is a line of algebra on these two forms):
   (−asin g rises too): on [0, θ_r] the equation F = π/2 has at most one root.  F(0) ≤ 0, so levels
   π/2 − 2π... are never reached and the root, when F(θ_r) ≥ π/2, is the binding crossover.
 * The damper-only loop: −1/G_n/(1 − e^{−jθ}) = −R e^{j(φ + θ/2)}, real and positive where
-  φ + θ/2 = π (mod 2π) with value R.  φ + θ/2 rises on [0, θ_r] and R rises everywhere, so its first
-  root θ_b gives B_max = R(θ_b)·m/T exactly.  For β < β_max the K root lies in (0, θ_b):
+  φ + θ/2 = π (mod 2π) with value R.  φ + θ/2 rises on [0, θ_rb] (the bound above with D + ½, so
+  θ_rb ≥ θ_r) and R rises everywhere, so its first root θ_b gives B_max = R(θ_b)·m/T exactly.  For β < β_max the K root lies in (0, θ_b):
   F(θ_b) > φ(θ_b) − asin cos(θ_b/2) = π/2.
 
 Where a hypothesis fails (complex or positive zeros, no root below θ_r)
@@ -58,6 +58,7 @@ class RigidLoop:
     slope: float                      # d + m + ½
     theta_r: float                    # φ rises on [0, θ_r]
     half_pis_at_pi: int               # φ(π) = this·π/2 exactly (used when θ_r = π)
+    theta_rb: float                   # φ + θ/2 rises on [0, θ_rb] (θ_rb ≥ θ_r)
 
 
 def rigid_loop(plant: RigidZOH) -> RigidLoop | None:
@@ -89,22 +90,30 @@ def rigid_loop(plant: RigidZOH) -> RigidLoop | None:
     inside = sorted((z for z in zeros if z[0] < 1.0), reverse=True)
     bound = (slope + 1.0 / (1.0 + p) - sum(1.0 / (1.0 + q) for q, _ in zeros if q > 1.0)
              - sum(1.0 / omq for _, omq in inside[1:]))
-    bound *= 1.0 - 1e-12                              # a little inside: θ_r is a bound, never rounded past
-    theta_r = math.pi
     n_in = len(inside)
-    inside = inside[:1]
-    if any(omq == 0.0 for _, omq in zeros):
-        theta_r = math.pi * (1.0 - 1e-9)            # H has a pole at π; the tail bound k(θ_r) still holds
-    elif inside:
-        q, omq = inside[0]
-        if bound <= 1.0 / (1.0 + q):
-            return None
-        # Re z/(z + q) = D  ⇔  2cos²(θ/2) = (1 − q)(1 − D(1 − q)) / (q(2D − 1))
-        rhs = omq * (1.0 - bound * omq) / (q * (2.0 * bound - 1.0))
-        if rhs > 0.0:
-            theta_r = 2.0 * math.acos(min(1.0, math.sqrt(0.5 * rhs)))
+    theta_r = _rising_end(bound, inside[:1], zeros)
+    theta_rb = _rising_end(bound + 0.5, inside[:1], zeros)   # φ + θ/2, the damper loop's phase
+    if theta_r is None or theta_rb is None:
+        return None
     # at θ = π exactly every arg is 0 or π: φ(π) = (d + m + ½ + 1 − n_in)π, in halves of π
-    return RigidLoop(omp, p, lead, zeros, slope, theta_r, 2 * (plant.d + m + 1 - n_in) + 1)
+    return RigidLoop(omp, p, lead, zeros, slope, theta_r, 2 * (plant.d + m + 1 - n_in) + 1, theta_rb)
+
+
+def _rising_end(bound: float, inside, zeros) -> float | None:
+    """θ up to which slope − Re z/(z + q) > 0 for the inside zero q (π when it holds everywhere)."""
+    bound *= 1.0 - 1e-12                              # a little inside: a bound, never rounded past
+    if any(omq == 0.0 for _, omq in zeros):
+        return math.pi * (1.0 - 1e-9)                 # H has a pole at π; the tail bounds still hold
+    if not inside:
+        return math.pi
+    q, omq = inside[0]
+    if bound <= 1.0 / (1.0 + q):
+        return None
+    # Re z/(z + q) = D  ⇔  2cos²(θ/2) = (1 − q)(1 − D(1 − q)) / (q(2D − 1))
+    rhs = omq * (1.0 - bound * omq) / (q * (2.0 * bound - 1.0))
+    if rhs > 0.0:
+        return 2.0 * math.acos(min(1.0, math.sqrt(0.5 * rhs)))
+    return math.pi
 
 
 def _parts(L: RigidLoop, t: float) -> tuple[float, float, float, float]:
@@ -234,8 +243,8 @@ def _start(L: RigidLoop, damp: float, level: float, hi: float) -> float:
 
 
 def _damper_root(L: RigidLoop) -> tuple[float, float] | None:
-    """(θ_b, β_max): the damper-only loop's first crossover, or None when it is past θ_r."""
-    tr = L.theta_r
+    """(θ_b, β_max): the damper-only loop's first crossover, or None when it is past θ_rb."""
+    tr = L.theta_rb
     # at θ = π exactly: ψ(π) = (half_pis_at_pi − 1)·π/2, so ψ + θ/2 = half_pis_at_pi·π/2
     fb = L.half_pis_at_pi * _HALF_PI if tr == math.pi else _damper_eq(L, tr)[0]
     if fb < _HALF_PI:
@@ -270,7 +279,7 @@ def fast_rigid(plant: RigidZOH, beta: float, beta_max: float | None = None,
         bmax = rb if beta_max is None else beta_max
         if beta >= bmax:
             return FastRigid(0.0, None, bmax)
-        hi = tb
+        hi = min(tb, L.theta_r)                 # F̃ rises on [0, θ_r]; the root is below θ_b
     else:
         bmax, hi = None, L.theta_r
     if hi == math.pi:
