@@ -64,6 +64,10 @@ class CriticalStiffness:
     """"fast": closed-form brackets and Newton (optim.fast_rigid), no scan; "scan": every crossover of a
     frequency scan (optim.crossovers), the fallback wherever the fast path's bounds do not close."""
 
+    def __getstate__(self) -> dict:
+        # results travel pickled between processes (service.jobs): send the list, never the closure
+        return {**self.__dict__, "all_crossovers": self.crossovers}
+
     @property
     def crossovers(self) -> tuple[Crossover, ...]:
         """All phase crossovers with K > 0, by frequency (the fast path scans for them on first use only)."""

@@ -131,6 +131,19 @@ def test_against_the_40_digit_reference(kw, b_frac):
     assert fast.alpha * dev.stiffness_scale == pytest.approx(ref, rel=tol)
 
 
+def test_result_pickles_with_its_crossover_list():
+    """Compute workers send results pickled: the lazily found list travels as a list, equal to the scan's."""
+    import pickle
+
+    dev = Device(mass=5.4, damping=3.5, delay=0.005)
+    res = critical_stiffness(dev, 20.0)
+    back = pickle.loads(pickle.dumps(res))
+    assert back == res and back.path == "fast"
+    assert back.crossovers == res.crossovers
+    assert [c.frequency for c in back.crossovers] == pytest.approx(
+        [c.frequency for c in scan_critical_stiffness(dev, 20.0).crossovers], rel=1e-9)
+
+
 def test_fallback_is_said():
     """Cable devices (no fast path yet) say they were scanned; a rigid one says it was not."""
     assert critical_stiffness(Device(preset="lhifam")).path == "scan"
