@@ -176,7 +176,7 @@ def _solve(fun, i: np.ndarray, lo: np.ndarray, hi: np.ndarray, x: np.ndarray, *a
         with np.errstate(divide="ignore", invalid="ignore"):
             step = np.where(dfx > 0.0, fx / dfx, np.inf)
         xn = xl - step
-        small = (np.abs(step) <= 2.0 * _EPS * xl) & (ll < xn) & (xn < hl)
+        small = (np.abs(step) <= 2.0 * _EPS * xl) & (ll <= xn) & (xn <= hl)   # (from one side, hl stays far)
         done = hit | narrow | small
         out[act[hit | narrow]] = xl[hit | narrow]
         fin = small & ~(hit | narrow)

@@ -175,7 +175,7 @@ def _solve(fun, level: float, lo: float, hi: float, x: float) -> float:
             return x
         step = (fx - level) / dfx if dfx > 0.0 else math.inf
         xn = x - step
-        if abs(step) <= 2.0 * _EPS * x and lo < xn < hi:
+        if abs(step) <= 2.0 * _EPS * x and lo <= xn <= hi:   # converged (from one side, hi stays far)
             return xn
         x = xn
     return x
