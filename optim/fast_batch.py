@@ -208,7 +208,9 @@ def fast_rigid_batch(delta: np.ndarray, delay_samples: np.ndarray, betas: np.nda
     tb = np.where(nyq, math.pi, np.nan)
     i = np.nonzero(ok & ~nyq)[0]
     if i.size:
-        tb[i] = _solve(L.damper_eq, i, np.zeros(i.size), L.trb[i], L.start(i, L.omp[i], math.pi, L.trb[i]))
+        a = L.slope[i] + 0.5                                   # optim.fast_rigid._damper_start
+        x0 = np.minimum((_HALF_PI + np.sqrt(_HALF_PI * _HALF_PI + 4.0 * a * L.omp[i])) / (2.0 * a), 0.5 * L.trb[i])
+        tb[i] = _solve(L.damper_eq, i, np.zeros(i.size), L.trb[i], x0)
     j = np.nonzero(ok)[0]
     bmax[j] = L.parts(tb[j], j)[2]
     dead = ok & (betas > 0.0) & (betas >= bmax)

@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 from models.discretize import RigidZOH
 
@@ -61,6 +62,7 @@ class RigidLoop:
     theta_rb: float                   # φ + θ/2 rises on [0, θ_rb] (θ_rb ≥ θ_r)
 
 
+@lru_cache(maxsize=4096)
 def rigid_loop(plant: RigidZOH) -> RigidLoop | None:
     """The factored form of ``plant``, or None when its zeros break the hypotheses (scan instead)."""
     omp, phi12, g0p, g0v, g1p, g1v, _ = plant.coefficients()
@@ -242,6 +244,13 @@ def _start(L: RigidLoop, damp: float, level: float, hi: float) -> float:
     return min(x, 0.5 * hi)
 
 
+def _damper_start(L: RigidLoop, hi: float) -> float:
+    """Closed-form start: ψ + θ/2 ≈ (d + m + 1)θ − δ/θ at low frequency, = π/2 at θ_b."""
+    a = L.slope + 0.5
+    x = (_HALF_PI + math.sqrt(_HALF_PI * _HALF_PI + 4.0 * a * L.omp)) / (2.0 * a)
+    return min(x, 0.5 * hi)
+
+
 def _damper_root(L: RigidLoop) -> tuple[float, float] | None:
     """(θ_b, β_max): the damper-only loop's first crossover, or None when it is past θ_rb."""
     tr = L.theta_rb
@@ -252,7 +261,7 @@ def _damper_root(L: RigidLoop) -> tuple[float, float] | None:
     if tr == math.pi and L.half_pis_at_pi == 1:
         tb = math.pi                          # the Nyquist point: ψ + θ/2 reaches π/2 only there
     else:
-        tb = _solve(lambda t: _damper_eq(L, t), _HALF_PI, 0.0, tr, _start(L, L.omp, math.pi, tr))
+        tb = _solve(lambda t: _damper_eq(L, t), _HALF_PI, 0.0, tr, _damper_start(L, tr))
     return tb, _parts(L, tb)[2]
 
 

@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import lru_cache
 from typing import Literal
 
 import numpy as np
@@ -78,7 +79,9 @@ class CriticalStiffness:
         return found
 
 
+@lru_cache(maxsize=4096)
 def loop_plant(device: Device):
+    """The sampled plant of ``device`` (immutable; cached: a design or a boundary asks for it many times)."""
     return stiffness_loop_plant(device)
 
 
