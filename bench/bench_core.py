@@ -218,7 +218,7 @@ def render(rows: list[Row], batch: BatchRow | None = None) -> str:
         lines += [
             "## Batch path",
             "",
-            "`optim.robust.batch.batch_critical_stiffness` (the studies', boundary's and robust box searches' "
+            "`optim.robust.batch.batch_critical_stiffness` (the studies' and the robust box searches' "
             f"path) on {batch.devices:,} random rigid devices (δ 1e-8–3, delays 0–20 samples whole and fractional, "
             "B = 0 or up to 0.99·B_max), Device objects built beforehand:",
             "",
