@@ -30,7 +30,9 @@ __all__ = [
     "phi1",
     "phi2",
     "split_delay",
+    "split_delay_array",
     "RigidZOH",
+    "rigid_coefficients",
     "StateSpaceZOH",
     "cable_state_space",
 ]
@@ -107,6 +109,15 @@ def split_delay(delay_samples: float) -> tuple[int, float]:
     return int(whole), float(delay_samples - whole)
 
 
+def split_delay_array(delay_samples: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """split_delay of many delays at once: (whole samples as int, fraction), the same 64-ulp snap."""
+    ds = np.asarray(delay_samples, float)
+    nearest = np.round(ds)
+    snap = np.abs(ds - nearest) <= 64 * np.finfo(float).eps * np.maximum(1.0, ds)
+    whole = np.floor(ds)
+    return np.where(snap, nearest, whole).astype(np.int64), np.where(snap, 0.0, ds - whole)
+
+
 @dataclass(frozen=True)
 class RigidZOH:
     """Rigid plant 1/(ms² + bs) (eq. 14) under ZOH and delay, in closed form.
@@ -177,6 +188,40 @@ class RigidZOH:
         one_minus_p, phi12, g0p, g0v, g1p, g1v, _ = self.coefficients()
         phi = np.array([[1.0, phi12], [0.0, 1.0 - one_minus_p]])
         return phi, np.array([g0p, g0v]), np.array([g1p, g1v]), np.array([1.0, 0.0])
+
+
+def _horner_array(coeffs: tuple[float, ...], x: np.ndarray) -> np.ndarray:
+    acc = np.zeros_like(x)
+    for c in reversed(coeffs):
+        acc = acc * x + c
+    return acc
+
+
+def _phi_array(name: str, x: np.ndarray) -> np.ndarray:
+    """phi1/phi2 of arrays: the same series below |x| = 1, the same closed forms above."""
+    small = np.abs(x) < 1.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        big = -np.expm1(-x) / x if name == "phi1" else (x + np.expm1(-x)) / (x * x)
+    return np.where(small, _horner_array(_series(name), np.where(small, x, 0.0)), big)
+
+
+def rigid_coefficients(delta: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, ...]:
+    """RigidZOH.coefficients() and f0_numerator() of many plants at once (arrays of δ and the delay fraction f):
+    (1 − p, Φ₁₂, Γ0 pos, Γ0 vel, Γ1 pos, Γ1 vel, 1 − f, φ₂(δ), c(δ)), the same formulas elementwise."""
+    delta, f = np.asarray(delta, float), np.asarray(f, float)
+    s0 = 1.0 - f
+    one_minus_p = -np.expm1(-delta)
+    phi12 = _phi_array("phi1", delta)
+    g0p = s0 * s0 * _phi_array("phi2", delta * s0)
+    g0v = s0 * _phi_array("phi1", delta * s0)
+    g1p = f * f * _phi_array("phi2", delta * f) + s0 * _phi_array("phi1", delta * s0) * f * _phi_array("phi1", delta * f)
+    g1v = np.exp(-delta * s0) * f * _phi_array("phi1", delta * f)
+    a0 = _phi_array("phi2", delta)
+    small = delta < 1.0
+    p = np.exp(-delta)
+    c_big = _phi_array("phi1", delta) ** 2 - (1.0 + p) * a0
+    c0 = np.where(small, _horner_array(_series("rigid_c"), np.where(small, delta, 0.0)), c_big)
+    return one_minus_p, phi12, g0p, g0v, g1p, g1v, s0, a0, c0
 
 
 def cable_state_space(mu_r: float, mu_d: float, delta_r: float, delta_d: float,

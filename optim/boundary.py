@@ -42,8 +42,8 @@ class Boundary:
     elapsed_ms: float
 
 
-def _point(device: Device, b: float) -> BoundaryPoint:
-    r = critical_stiffness(device, b)
+def _point(device: Device, b: float, b_max: float) -> BoundaryPoint:
+    r = critical_stiffness(device, b, b_max=b_max)     # B_max once per boundary, not once per point
     k = r.critical_stiffness if math.isfinite(r.critical_stiffness) else math.nan
     return BoundaryPoint(b, k, r.crossover_frequency, linear_estimate(device, b))
 
@@ -71,16 +71,16 @@ def _boundary(device: Device, damping_max: float | None, points: int) -> Boundar
     if not math.isfinite(top):
         raise InputError("damping_max", "this device has no finite B_max; give damping_max")
     grid = np.linspace(0.0, top, points)
-    pts = tuple(_point(device, float(b)) for b in grid)
+    pts = tuple(_point(device, float(b), b_max) for b in grid)
     valid = [p for p in pts if math.isfinite(p.critical_stiffness)]
     best_i = int(np.argmax([p.critical_stiffness for p in valid]))
     lo = valid[max(best_i - 1, 0)].damping
     hi = valid[min(best_i + 1, len(valid) - 1)].damping
     best = valid[best_i]
     if hi > lo:
-        res = minimize_scalar(lambda b: -critical_stiffness(device, b).critical_stiffness,
+        res = minimize_scalar(lambda b: -critical_stiffness(device, b, b_max=b_max).critical_stiffness,
                               bounds=(lo, hi), method="bounded", options={"xatol": 1e-10 * max(hi, 1e-300)})
-        cand = _point(device, float(res.x))
+        cand = _point(device, float(res.x), b_max)
         if cand.critical_stiffness > best.critical_stiffness:
             best = cand
     return Boundary(pts, best, b_max if math.isfinite(b_max) else None, (time.perf_counter() - t0) * 1e3)

@@ -35,6 +35,7 @@ from models.discretize import RigidZOH, StateSpaceZOH
 from models.plants import stiffness_loop_plant
 from optim.crossovers import (CLUSTER_GEOM, CLUSTER_HALF_WIDTH, CLUSTER_POINTS, LIN_STEP, LOG_END, LOG_MIN_SAMPLES,
                               LOG_PER_DECADE, STEPS_PER_DELAY_TURN, _solve_brackets)
+from optim.fast_batch import fast_rigid_batch
 from optim.golden import golden_minimum
 from ..errors import InputError
 
@@ -56,6 +57,9 @@ class BatchCritical:
     """θ = ωT [rad per sample] of the crossover that sets K_cr (nan when K_cr is 0 or inf)."""
     max_stable_damping: np.ndarray
     """B_max [N·s/m] (inf when the damper-only loop has no crossover)."""
+    scanned: int = 0
+    """How many devices the scan decided (cable devices, and rigid ones where optim.fast_batch's bounds
+    did not close); the others took the fast path."""
 
 
 class _Evaluator:
@@ -293,23 +297,45 @@ def _min_crossing(h: _Loop, grid: np.ndarray, values: np.ndarray) -> tuple[np.nd
 def batch_critical_stiffness(devices: Sequence[Device], damping: float | np.ndarray) -> BatchCritical:
     """Exact K_cr [N/m] of every device at virtual damping B [N·s/m] (one B for all, or one per device).
 
-    Devices may mix rigid and cable models; each structure is scanned as one batch.
+    Devices may mix rigid and cable models.  Rigid devices take the fast exact path of optim.fast_batch
+    (no scan); the rows its bounds leave open, and each other structure, are scanned as one batch.
     """
     n = len(devices)
     bvec = np.broadcast_to(np.asarray(damping, float), (n,)).copy()
     if not np.all(np.isfinite(bvec) & (bvec >= 0)):
         raise InputError("damping", "virtual damping B must be finite and ≥ 0")
     kcr, ang, bmax = np.full(n, np.inf), np.full(n, np.nan), np.full(n, np.inf)
-    plants = [stiffness_loop_plant(d) for d in devices]
+    rigid = [i for i, d in enumerate(devices) if d.cable is None]
+    rest = [i for i, d in enumerate(devices) if d.cable is not None]
+    if rigid:
+        rest += _fast_rigid_rows([devices[i] for i in rigid], bvec, np.array(rigid), kcr, ang, bmax)
+    plants = {i: stiffness_loop_plant(devices[i]) for i in rest}
     groups: dict[tuple, list[int]] = {}
-    for i, p in enumerate(plants):
+    for i in sorted(rest):
+        p = plants[i]
         key = ("rigid",) if isinstance(p, RigidZOH) else ("ss", p.a.shape[0])
         groups.setdefault(key, []).append(i)
     for idx in groups.values():
         sub = [devices[i] for i in idx]
         k, a, bm = _batch_one_structure(sub, [plants[i] for i in idx], bvec[idx])
         kcr[idx], ang[idx], bmax[idx] = k, a, bm
-    return BatchCritical(kcr, ang, bmax)
+    return BatchCritical(kcr, ang, bmax, len(rest))
+
+
+def _fast_rigid_rows(devices, bvec, idx, kcr, ang, bmax) -> list[int]:
+    """optim.fast_batch on the rigid rows idx (results written in place); returns the rows it leaves to the scan."""
+    m, b_phys, t, td = np.array([(d.mass, d.damping, d.sample_time, d.delay) for d in devices]).T
+    ks, bs = m / t**2, m / t                  # Device.stiffness_scale, damping_scale
+    b = bvec[idx]
+    res = fast_rigid_batch(b_phys * t / m, td / t, b / bs)
+    ok = res.ok
+    rows = idx[ok]
+    bm = res.beta_max[ok] * bs[ok]
+    dead = (b_phys[ok] + b[ok] <= 0.0) | ((b[ok] > 0.0) & (b[ok] >= bm))
+    kcr[rows] = np.where(dead, 0.0, res.alpha[ok] * ks[ok])
+    ang[rows] = np.where(dead, np.nan, res.theta[ok])
+    bmax[rows] = bm
+    return [int(i) for i in idx[~ok]]
 
 
 def _batch_one_structure(devices, plants, damping: np.ndarray):

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from models.device import Device
-from models.discretize import RigidZOH, StateSpaceZOH, phi1, phi2, split_delay
+from models.discretize import (RigidZOH, StateSpaceZOH, phi1, phi2, rigid_coefficients, split_delay,
+                               split_delay_array)
 from models.plants import cable_tfs, stiffness_loop_plant
 
 
@@ -89,3 +90,19 @@ def test_cable_matrices_keep_the_integrator_exactly_at_one():
     plant = stiffness_loop_plant(Device(preset="lhifam"))
     phi, g0, g1, c = plant.matrices()
     assert phi[0, 0] == 1.0 and np.all(phi[1:, 0] == 0.0)
+
+
+def test_array_forms_equal_the_scalar_ones():
+    """rigid_coefficients and split_delay_array (the batch path's) against RigidZOH and split_delay, to 4 ulp."""
+    rng = np.random.default_rng(3)
+    delta = np.concatenate([10 ** rng.uniform(-12, 1.5, 400), [0.0, 1.0, 0.999999, 1e-300]])
+    f = np.where(rng.uniform(size=delta.size) < 0.5, 0.0, rng.uniform(0, 1, delta.size))
+    got = np.array(rigid_coefficients(delta, f)).T
+    for row, dl, fr in zip(got, delta, f):
+        p = RigidZOH(delta=float(dl), d=0, f=float(fr))
+        want = np.array(p.coefficients() + p.f0_numerator())
+        # c(δ) ≈ −δ/6 is a difference of O(1/δ) terms above δ = 1: a few ulp of those
+        np.testing.assert_allclose(row, want, rtol=8e-16 if dl < 1 else 1e-14, atol=0)
+    ds = np.concatenate([rng.uniform(0, 50, 300), [0.003 / 0.001, 2.9999999, 7.0, 0.0, 1e4 - 1e-13]])
+    whole, frac = split_delay_array(ds)
+    assert [(int(a), float(b)) for a, b in zip(whole, frac)] == [split_delay(float(x)) for x in ds]
