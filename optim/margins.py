@@ -206,7 +206,7 @@ def scan_critical_stiffness(device: Device, damping: float = 0.0, *, b_max: floa
                             ) -> CriticalStiffness:
     """K_cr(B) by the scan of every crossover (optim.crossovers): the reference the fast path is held to."""
     if not (math.isfinite(damping) and damping >= 0.0):
-        raise ValueError("damping: virtual damping B must be finite and ≥ 0")
+        raise InputError("damping", "virtual damping B must be finite and ≥ 0")
     plant = loop_plant(device)
     beta = damping / device.damping_scale
     if device.damping + damping <= 0.0:
