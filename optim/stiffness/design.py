@@ -119,14 +119,10 @@ def design_stiffness(device: Device, requirements: StiffnessRequirements | None 
         pass_note = (f"passivity tested with {d_pass} whole samples of delay"
                      + (" (the fractional delay rounded up: conservative)" if conservative else ""))
         if device.damping <= 0.0:
-            return _infeasible("passivity required but the device has no physical damping: no stiffness is passive "
-                               "(b must exceed P(θ) ≥ 0 at some θ)", t0, passivity_delay_samples=d_pass, passivity_note=pass_note)
-    if device.damping <= 0.0:
-        # optim.margins scans from θ_min ∝ δ, which is 0 here (a ZeroDivisionError there): rather than return a
-        # design the exact analysis cannot re-check, say so.
-        return StiffnessDesign(status="failed", reason="the exact analysis (optim.margins) does not yet handle a "
-                               "device with zero physical damping, so no design can be verified",
-                               elapsed_ms=(time.perf_counter() - t0) * 1e3)
+            return _infeasible("passivity is impossible on this device: it has no physical damping (b = 0), and a "
+                               "passive wall needs b > P(θ) ≥ 0 at some θ for every K > 0 and B ≥ 0; without "
+                               "passivity, virtual damping B can still stabilise a wall", t0,
+                               passivity_delay_samples=d_pass, passivity_note=pass_note)
     b_max = max_stable_damping(device)
     if not b_max > 0.0:
         return _infeasible("no positive stiffness is stable for any virtual damping on this device", t0,
@@ -143,9 +139,14 @@ def design_stiffness(device: Device, requirements: StiffnessRequirements | None 
     betas, objective, pass_theta = _coarse_profile(ctx)
     i = int(np.argmax(objective))
     if not objective[i] > 0.0:
+        # the coarse profile is a seed, not a proof: "infeasible" rests on the exact analysis
+        betas, objective, pass_theta = _exact_profile(ctx)
+        i = int(np.argmax(objective))
+    if not objective[i] > 0.0:
         why = ("passivity and the gain margin leave no positive stiffness for any B in [0, "
                f"{upper_b:.6g}] N·s/m" if req.passivity else
                f"no positive stiffness meets the gain margin for any B in [0, {upper_b:.6g}] N·s/m")
+        why += f" (the exact K_cr{' and passivity' if req.passivity else ''} at {betas.size} values of B confirm it)"
         return _infeasible(why, t0, max_stable_damping=_fin(b_max), passivity_delay_samples=d_pass if req.passivity
                            else None, passivity_note=pass_note)
     if not objective[i] < 1e29:
@@ -169,11 +170,32 @@ def _coarse_profile(ctx: _Context) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
                                       inside[:: max(1, inside.size // 300)], np.array(ctx.curve.breakpoints)]))
     betas = betas[(betas >= 0) & (betas <= hi * (1 - 1e-9))]
     obj = ctx.req.gain_factor * coarse_critical(ctx.curve, betas)
+    if ctx.device.delta <= 0.0:
+        # b = 0: at B = 0 the loop is a bare double integrator, K_cr = 0 (optim.margins); the curve's lowest
+        # crossover θ ≈ sqrt(β/(d+½)) → 0 with α → 0 there, below any sampled θ, so the profile must be told
+        obj[betas <= 0.0] = 0.0
     obj = np.minimum(obj, ctx.alpha_cap)
     theta = np.zeros_like(betas)
     if ctx.req.passivity:
         pa, theta = passive_alpha_on_grid(ctx.device.delta, ctx.d_pass, betas)
         obj = np.minimum(obj, pa)
+    return betas, obj, theta
+
+
+def _exact_profile(ctx: _Context, points: int = 33) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The objective of ``_coarse_profile`` from the exact analysis (optim.margins, optim.passivity) at a few β."""
+    hi = ctx.beta_hi
+    betas = np.unique(np.concatenate([np.linspace(0.0, hi, points)[:-1], hi * (1 - np.geomspace(1e-6, 1e-2, 3))]))
+    dev, bs, ks = ctx.device, ctx.device.damping_scale, ctx.device.stiffness_scale
+    obj, theta = np.zeros(betas.size), np.zeros(betas.size)
+    for j, beta in enumerate(betas):
+        b = float(beta) * bs
+        a = ctx.req.gain_factor * critical_stiffness(dev, b, b_max=ctx.b_max).critical_stiffness / ks
+        if ctx.req.passivity:
+            pk = largest_passive_stiffness(dev, b)
+            a = min(a, pk.stiffness / ks)
+            theta[j] = pk.worst_angle or 0.0
+        obj[j] = min(a, ctx.alpha_cap)
     return betas, obj, theta
 
 
@@ -223,6 +245,10 @@ def _piece_bounds(ctx: _Context, theta: float) -> tuple[float, float]:
 
 def _solve_from(ctx: _Context, beta0: float, alpha0: float, pass_theta0: float) -> _Attempt:
     interval = _interval(ctx, beta0)
+    if ctx.device.delta <= 0.0 and interval[0] <= 0.0:
+        # b = 0: as β → 0 the lowest crossover runs to θ → 0 with α → 0, a degenerate corner (Im H/|H| → 0 along
+        # it) where Ipopt stalls; there K_cr ≈ 2β/(1+2d) ≪ α0, so the optimum is not below 1e-3·β0
+        interval = (1e-3 * beta0, interval[1])
     beta_ref = max(beta0, 1e-2 * ctx.beta_hi)
     alpha_ref = alpha0
     # crossovers far above the objective cannot bind nearby; the exact re-check adds any that do
@@ -235,7 +261,8 @@ def _solve_from(ctx: _Context, beta0: float, alpha0: float, pass_theta0: float) 
     x_start = [alpha0 / alpha_ref, beta0 / beta_ref]
     attempt = None
     for _ in range(_MAX_EXCHANGES):
-        nyquist = bool(ctx.curve.nyquist_alpha(np.array([beta0]))[0] > 0)
+        nyq = float(ctx.curve.nyquist_alpha(np.array([beta0]))[0])
+        nyquist = bool(0 < nyq <= far)
         key = ProblemKey(ctx.n_states, len(crossings), nyquist, N_CUTS if ctx.req.passivity else 0)
         params = _params(ctx, ctx.loop_flat, dev.delta, ctx.alpha_cap, ctx.beta_cap, alpha_ref, beta_ref, cuts)
         x0 = np.array(x_start + [t for t, _ in crossings])
