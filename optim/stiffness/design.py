@@ -29,7 +29,7 @@ from optim.passivity import (kernel, largest_passive_stiffness, passive_alpha_on
 from .loop import loop_matrices
 from .problem import N_CUTS, ProblemKey, ProblemSolution, solve_problem
 from .profile import BoundaryCurve, boundary_curve, coarse_critical, crossings_at
-from .requirements import StiffnessRequirements
+from .requirements import DESIGN_BACK_OFF, StiffnessRequirements
 
 __all__ = ["StiffnessDesign", "Sensitivity", "design_stiffness"]
 
@@ -75,6 +75,10 @@ class StiffnessDesign:
     max_stable_damping: float | None = None
     """B_max [N·s/m]."""
     active_constraints: tuple[str, ...] = ()
+    """limits within 1e-6 (relative) of binding K or B."""
+    back_off: float | None = None
+    """K sits this far (relative) below its binding limit, so that the design is strictly inside every
+    constraint (DESIGN_BACK_OFF); None on the rungs that do not apply it."""
     sensitivities: tuple[Sensitivity, ...] = ()
     sensitivity_note: str | None = None
     passivity_delay_samples: int | None = None
@@ -317,7 +321,7 @@ def _finish(ctx: _Context, at: _Attempt, b_max: float, k_caps: dict, b_caps: dic
     limits = [at.stiffness, req.gain_factor * kcr, *k_caps.values()]
     if at.passive_k is not None:
         limits.append(at.passive_k)
-    k = min(limits)
+    k = (1.0 - DESIGN_BACK_OFF) * min(limits)
     if not k > 0:
         why = (at_reason(at) or "no positive stiffness satisfies the requirements")
         return StiffnessDesign(status="infeasible", reason=why,
@@ -335,4 +339,4 @@ def _finish(ctx: _Context, at: _Attempt, b_max: float, k_caps: dict, b_caps: dic
         status="optimal", stiffness=k, damping=at.damping, critical_stiffness=kcr,
         gain_margin_db=gain_margin_db(kcr, k), crossover_frequency=at.exact.crossover_frequency,
         linear_estimate=lin, linear_estimate_error=(lin - kcr) / kcr, active_constraints=tuple(active),
-        sensitivities=sens, sensitivity_note=note, elapsed_ms=(time.perf_counter() - t0) * 1e3, **common)
+        back_off=DESIGN_BACK_OFF, sensitivities=sens, sensitivity_note=note, elapsed_ms=(time.perf_counter() - t0) * 1e3, **common)
