@@ -20,8 +20,29 @@ from optim.margins import critical_stiffness, max_stable_damping
 # (before the modal check): found by random sampling around issue 17's device (m_r ≈ 5.5 kg, m_d ≈ 9.5 kg,
 # k_c ≈ 4 kN/m, tiny b's, T ≈ 62 µs, 2 samples of delay) and a wider family (scripted in the test below).
 MISSED = [
-    # (device, grid answer then, its estimate then, exact K_cr [N/m])
+    # (device, the estimate the samples alone gave, exact K_cr [N/m] to 1e-3)
+    (Device(sample_time=8.09947025155612e-05, cable=dict(
+        motor_mass=9.063, motor_damping=1.1750784053140935e-06, body_mass=13.509, body_damping=1.6051586150845925e-08,
+        stiffness=667.2, damping=0.00907710329298255)), 0.032, 0.0294127),          # grid 471.9 N/m: 1.6e4× off
+    (Device(sample_time=6.805658231202813e-05, delay=3 * 6.805658231202813e-05, cable=dict(
+        motor_mass=7.708, motor_damping=0.0014726102681352667, body_mass=2.12, body_damping=0.00488799458424859,
+        stiffness=348.1, damping=2.2230149984242364e-05)), 0.227, 27.4158),         # grid 213.9 N/m: 7.8× off
 ]
+
+
+@pytest.mark.parametrize("device,old_estimate,exact", MISSED)
+def test_missed_crossovers_below_the_grid_give_a_null_estimate(device, old_estimate, exact, monkeypatch):
+    """A resonance/anti-resonance pair below the grid's lowest frequency hides two crossovers (parity unchanged);
+    the samples alone gave a small estimate for a wrong answer.  The modal check makes it null."""
+    assert critical_stiffness(device, 0.0).critical_stiffness == pytest.approx(exact, rel=1e-3)
+    res = analyse_stability(device, method="grid")
+    assert res.error_estimate == math.inf and "anti-resonance" in res.error_source
+    assert grid_blind_spot(device, np.geomspace(1e-3, math.pi, 1000)) is not None
+    # what the samples alone said: a small estimate, far from the truth
+    import optim.analysis as analysis
+    monkeypatch.setattr(analysis, "grid_blind_spot", lambda *a: None)
+    k, _, _, err = grid_critical_stiffness(device, 0.0, 1000)
+    assert err < 1.0 and abs(k / exact - 1) > 5 * err
 
 
 def _check(device: Device, damping: float, points: int = 1000) -> tuple[float, float, float]:
