@@ -332,12 +332,13 @@ def _finish(t0, nominal, box, req, scenarios, sol, k_nlp, b, wc: WorstCase, it, 
             passivity: _Passivity | None, pkw: dict):
     g = req.gain_factor
     per_scenario = [critical_stiffness(sc.device, b, b_max=sc.b_max).critical_stiffness for sc in scenarios]
-    limits = [k_nlp, g * wc.critical_stiffness, *(g * v for v in per_scenario), *k_caps.values()]
+    analysed = [g * wc.critical_stiffness, *(g * v for v in per_scenario)]
     k_pass = None
     if passivity is not None:
         k_pass, _ = largest_robust_passive_stiffness(passivity.corners, b)
-        limits.append(k_pass)
-    k = (1.0 - DESIGN_BACK_OFF) * min(limits)     # strictly inside every limit (optim.stiffness.requirements)
+        analysed.append(k_pass)
+    # strictly inside the analysed limits, caps met as K ≤ cap (optim.stiffness.requirements.DESIGN_BACK_OFF)
+    k = min([k_nlp, *k_caps.values(), (1.0 - DESIGN_BACK_OFF) * min(analysed)])
     if not k > 0:
         what = "is passive and meets the gain margin" if passivity is not None else "meets the gain margin"
         return _done(t0, status="infeasible", iterations=it, evaluations=evals, ignored_paths=ignored, **pkw,

@@ -78,8 +78,8 @@ class StiffnessDesign:
     active_constraints: tuple[str, ...] = ()
     """limits within 1e-6 (relative) of binding K or B."""
     back_off: float | None = None
-    """K sits this far (relative) below its binding limit, so that the design is strictly inside every
-    constraint (DESIGN_BACK_OFF); None on the rungs that do not apply it."""
+    """K sits at least this far (relative) below g·K_cr(B) and the passive K(B), the limits the analysis checks
+    (DESIGN_BACK_OFF; caps on K are met as K ≤ cap); None on the rungs that do not apply it."""
     sensitivities: tuple[Sensitivity, ...] = ()
     sensitivity_note: str | None = None
     passivity_delay_samples: int | None = None
@@ -451,10 +451,8 @@ def _finish(ctx: _Context, at: _Attempt, b_max: float, k_caps: dict, b_caps: dic
                "the exchange of crossovers and passivity angles did not settle")
         return StiffnessDesign(status="failed", reason=why, elapsed_ms=(time.perf_counter() - t0) * 1e3, **common)
     kcr = at.exact.critical_stiffness
-    limits = [at.stiffness, req.gain_factor * kcr, *k_caps.values()]
-    if at.passive_k is not None:
-        limits.append(at.passive_k)
-    k = (1.0 - DESIGN_BACK_OFF) * min(limits)
+    analysed = [req.gain_factor * kcr] + ([at.passive_k] if at.passive_k is not None else [])
+    k = min([at.stiffness, *k_caps.values(), (1.0 - DESIGN_BACK_OFF) * min(analysed)])
     if not k > 0:
         why = (at_reason(at) or "no positive stiffness satisfies the requirements")
         return StiffnessDesign(status="infeasible", reason=why,
