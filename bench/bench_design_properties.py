@@ -71,7 +71,7 @@ def run(cases: int, seed: int) -> str:
              "gain margin ≥ the requirement, passive when required, the same K_cr, K and B within their caps, and "
              f"(delays ≤ {OPTIMALITY_MAX_DELAY} samples) K not below a dense exact B scan's best by more than "
              f"{OPTIMALITY_RTOL:g}; `infeasible` ⇒ the dense scan (tests/optim/stiffness_scan.py) finds no feasible "
-             "wall; `failed` counts as a disagreement.  Designs sit 1e-9 (relative) inside their binding limit "
+             "wall; `failed` counts as a disagreement.  Designs sit 1e-9 (relative) inside the analysed limits "
              "(`back_off`).",
              "",
              "| devices | cases | optimal | infeasible | failed | optimality checked | agree | disagree | "
