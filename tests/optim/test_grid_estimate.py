@@ -108,3 +108,16 @@ def test_long_delay_winds_below_the_grid():
     dev = Device(mass=5.4, damping=3.5, delay=5.0)
     assert "delay" in grid_blind_spot(dev, np.geomspace(1e-3, math.pi, 1000))
     _check(dev, 0.0)
+
+
+@pytest.mark.parametrize("b", [1e-7, 1e-5, 1e-3])
+@pytest.mark.parametrize("fraction", [0.0, 0.3])
+def test_issue_cable_family_is_null_or_within(b, fraction):
+    """Issue 17's device: m_r ≈ 5.5 kg, m_d ≈ 9.5 kg, k_c ≈ 4 kN/m, tiny b's, T ≈ 62 µs, 2 samples of delay (the
+    grid answered 14,927 N/m with a 1.1 % estimate where the truth is ~21 N/m).  Its modes are far narrower than
+    the grid's spacing: the estimate is null."""
+    dev = Device(sample_time=6.2e-5, delay=2 * 6.2e-5, cable=dict(
+        motor_mass=5.5, motor_damping=b, body_mass=9.5, body_damping=b, stiffness=4000.0, damping=b))
+    assert "narrower" in grid_blind_spot(dev, np.geomspace(1e-3, math.pi, 1000))
+    _, err, _ = _check(dev, fraction * max_stable_damping(dev))
+    assert err == math.inf
