@@ -20,13 +20,13 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 
 from models.device import Device
 from optim.margins import critical_stiffness, gain_margin_db, linear_estimate, max_stable_damping
-from optim.passivity import (kernel, largest_passive_stiffness, passive_alpha_on_grid, passivity_margin,
+from optim.passivity import (kernel, largest_passive_stiffness, passivity_margin,
                              passivity_samples)
 
+from . import safeguards
 from .loop import loop_matrices
 from .problem import N_CUTS, ProblemKey, ProblemSolution, solve_problem
 from .profile import BoundaryCurve, boundary_curve, coarse_critical, crossings_at
@@ -145,7 +145,7 @@ def design_stiffness(device: Device, requirements: StiffnessRequirements | None 
     i = int(np.argmax(objective))
     if not objective[i] > 0.0:
         # the coarse profile is a seed, not a proof: "infeasible" rests on the exact analysis
-        betas, objective, pass_theta = _exact_profile(ctx)
+        betas, objective, pass_theta = safeguards.exact_profile(ctx)
         i = int(np.argmax(objective))
     if not objective[i] > 0.0:
         why = ("passivity and the gain margin leave no positive stiffness for any B in [0, "
@@ -159,111 +159,24 @@ def design_stiffness(device: Device, requirements: StiffnessRequirements | None 
                            "the design is unbounded", t0)
     setup_ms = (time.perf_counter() - t0) * 1e3
     best, first, failures = None, None, 0
-    for j in _starts(ctx, betas, objective):
-        if best is not None and not objective[j] > _value(ctx, best) / ctx.device.stiffness_scale * (1 + 1e-6):
+    for j in safeguards.starts(ctx, betas, objective):
+        if best is not None and not objective[j] > safeguards.value(ctx, best) / ks * (1 + 1e-6):
             break                 # no other interval's seed can beat the verified answer
         at = _solve_from(ctx, float(betas[j]), float(objective[j]), pass_theta[j])
         first = first or at
-        if _value(ctx, at) > 0 and (best is None or _value(ctx, at) > _value(ctx, best)) and _locally_optimal(ctx, at):
+        v = safeguards.value(ctx, at)
+        if v > 0 and (best is None or v > safeguards.value(ctx, best)) and safeguards.locally_optimal(ctx, at):
             best = at
-        failures += not _settled(at)
+        failures += not safeguards.settled(at)
         if failures >= 2:
             break
     fallback = None
     if best is None:
         # Ipopt failed on every start (seen with passivity at long delays, where the kernel has ~d local maxima,
         # and on undamped cables): the 1-D problem in B is solved on the exact analysis instead
-        best, fallback = _scan_attempt(ctx, first), first.sol.return_status if first else "no start"
+        best, fallback = safeguards.scan_attempt(ctx, first), first.sol.return_status if first else "no start"
     solve_ms = (time.perf_counter() - t0) * 1e3 - setup_ms
     return _finish(ctx, best, b_max, k_caps, b_caps, pass_note, t0, setup_ms, solve_ms, fallback)
-
-
-_MAX_STARTS = 6
-#: Ipopt statuses whose iterate is kept: it stalls a hair from the optimum when its 1e-11 tolerance is below the
-#: noise of the crossover equations (seen on lightly damped cables at long delays).  The exact re-check makes
-#: the point feasible, and ``_locally_optimal`` tests it before it is labelled optimal.
-_STUCK = ("Search_Direction_Becomes_Too_Small", "Solved_To_Acceptable_Level")
-
-
-def _ipopt_ok(at: "_Attempt") -> bool:
-    return at.sol.success or at.sol.return_status in _STUCK
-
-
-def _settled(at: "_Attempt") -> bool:
-    return _ipopt_ok(at) and at.converged
-
-
-def _exact_objective(ctx: _Context, b: float) -> float:
-    """min(g·K_cr(B), passive K(B), caps) [N/m] from the exact analysis."""
-    k = ctx.req.gain_factor * critical_stiffness(ctx.device, b, b_max=ctx.b_max).critical_stiffness
-    if ctx.req.passivity:
-        k = min(k, largest_passive_stiffness(ctx.device, b).stiffness)
-    return min([k, *ctx.req.stiffness_caps().values()])
-
-
-def _locally_optimal(ctx: _Context, at: "_Attempt") -> bool:
-    """A stalled Ipopt iterate is kept only if the exact objective at B ± 1e-4 of the B range does not beat it."""
-    if at.sol.success:
-        return True
-    value = _value(ctx, at)
-    h = 1e-4 * ctx.beta_hi * ctx.device.damping_scale
-    upper = ctx.beta_hi * ctx.device.damping_scale
-    for b in (at.damping - h, at.damping + h):
-        if 0.0 <= b < upper and _exact_objective(ctx, b) > value * (1 + 1e-7):
-            return False
-    return True
-
-
-def _starts(ctx: _Context, betas: np.ndarray, objective: np.ndarray) -> list[int]:
-    """Seeds in decreasing coarse objective, one per interval between the curve's breakpoints.
-
-    The coarse profile interpolates the sampled curve: next to a fold it can miss a crossover that is about to
-    vanish and overstate the objective there (a cable with b_c = 192 N·s/m seeded at the fold's low side gave
-    16 N/m where 9,084 N/m was reachable across it).  Every interval whose seed beats the verified answer is
-    solved, up to _MAX_STARTS."""
-    pts = np.array([0.0, *ctx.curve.breakpoints, np.inf])
-    which = np.searchsorted(pts, betas, side="right")
-    best: dict[int, int] = {}
-    for j in np.argsort(-objective, kind="stable"):
-        if objective[j] > 0 and int(which[j]) not in best:
-            best[int(which[j])] = int(j)
-    return sorted(best.values(), key=lambda j: -objective[j])[:_MAX_STARTS]
-
-
-def _value(ctx: _Context, at: "_Attempt") -> float:
-    """The design K [N/m] an attempt gives (before the back-off): −inf unless Ipopt converged and settled."""
-    if not _settled(at):
-        return -math.inf
-    ks = [at.stiffness, ctx.req.gain_factor * at.exact.critical_stiffness, *ctx.req.stiffness_caps().values()]
-    if at.passive_k is not None:
-        ks.append(at.passive_k)
-    return min(ks)
-
-
-def _scan_attempt(ctx: _Context, like: "_Attempt | None") -> "_Attempt":
-    """Maximise the exact objective min(g·K_cr(B), passive K(B), caps) over B: the exact profile, then bounded
-    Brent refinement around its two best points (the method of the independent test comparator)."""
-    betas, obj, _ = _exact_profile(ctx, 49)
-    dev, bs, ks = ctx.device, ctx.device.damping_scale, ctx.device.stiffness_scale
-
-    def f(beta: float) -> float:
-        b = beta * bs
-        a = ctx.req.gain_factor * critical_stiffness(dev, b, b_max=ctx.b_max).critical_stiffness / ks
-        if ctx.req.passivity:
-            a = min(a, largest_passive_stiffness(dev, b).stiffness / ks)
-        return min(a, ctx.alpha_cap)
-    best_a, best_b = float(obj.max()), float(betas[int(obj.argmax())])
-    for i in np.argsort(-obj)[:2]:
-        lo, hi = betas[max(i - 1, 0)], betas[min(i + 1, betas.size - 1)]
-        res = minimize_scalar(lambda x: -f(x), bounds=(lo, hi), method="bounded", options={"xatol": 1e-9 * hi})
-        if -res.fun > best_a:
-            best_a, best_b = float(-res.fun), float(res.x)
-    b = best_b * bs
-    exact = critical_stiffness(dev, b, b_max=ctx.b_max)
-    pk = largest_passive_stiffness(dev, b).stiffness if ctx.req.passivity else None
-    sol = ProblemSolution(True, "exact B scan", 0, best_a, best_b, (), np.zeros(0), np.zeros(0), np.zeros(0))
-    key = like.key if like is not None else ProblemKey(ctx.n_states, 0, False, 0)
-    return _Attempt(sol, key, np.zeros(0), 1.0, 1.0, (0.0, ctx.beta_hi), best_a * ks, b, exact, pk, True)
 
 
 def _fin(x: float | None) -> float | None:
@@ -285,50 +198,8 @@ def _coarse_profile(ctx: _Context) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     obj = np.minimum(obj, ctx.alpha_cap)
     theta = np.zeros_like(betas)
     if ctx.req.passivity:
-        pa, theta = _passive_profile(ctx.device.delta, ctx.d_pass, betas)
+        pa, theta = safeguards.passive_profile(ctx.device.delta, ctx.d_pass, betas)
         obj = np.minimum(obj, pa)
-    return betas, obj, theta
-
-
-_PASSIVE_WORK = 4_000_000     # β's × θ samples of one passive_alpha_on_grid call
-
-
-def _passive_profile(delta: float, d: int, betas: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """passive_alpha_on_grid on the sorted β's, on a subset of them when the kernel's θ grid is long.
-
-    Its grid has 64·(d+1) samples: at 3,000 samples of delay and ~460 β's that was 97 M entries and 30 s.
-    The passive α(β) is a minimum of functions affine in β (concave where positive), so interpolating
-    it between subset points errs low: a seed, as before; the exact passivity check decides."""
-    n_theta = 64 * (d + 1) + 257
-    if betas.size * n_theta <= _PASSIVE_WORK:
-        return passive_alpha_on_grid(delta, d, betas)
-    m = max(8, _PASSIVE_WORK // n_theta)
-    pick = np.unique(np.linspace(0, betas.size - 1, m).round().astype(int))
-    sub = betas[pick]
-    pa, th = [], []
-    for chunk in np.array_split(sub, max(1, sub.size * n_theta // _PASSIVE_WORK)):
-        a, t = passive_alpha_on_grid(delta, d, chunk)
-        pa.append(a)
-        th.append(t)
-    pa, th = np.concatenate(pa), np.concatenate(th)
-    near = pick[np.clip(np.searchsorted(sub, betas), 0, sub.size - 1)]
-    return np.interp(betas, sub, pa), th[np.searchsorted(pick, near)]
-
-
-def _exact_profile(ctx: _Context, points: int = 33) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The objective of ``_coarse_profile`` from the exact analysis (optim.margins, optim.passivity) at a few β."""
-    hi = ctx.beta_hi
-    betas = np.unique(np.concatenate([np.linspace(0.0, hi, points)[:-1], hi * (1 - np.geomspace(1e-6, 1e-2, 3))]))
-    dev, bs, ks = ctx.device, ctx.device.damping_scale, ctx.device.stiffness_scale
-    obj, theta = np.zeros(betas.size), np.zeros(betas.size)
-    for j, beta in enumerate(betas):
-        b = float(beta) * bs
-        a = ctx.req.gain_factor * critical_stiffness(dev, b, b_max=ctx.b_max).critical_stiffness / ks
-        if ctx.req.passivity:
-            pk = largest_passive_stiffness(dev, b)
-            a = min(a, pk.stiffness / ks)
-            theta[j] = pk.worst_angle or 0.0
-        obj[j] = min(a, ctx.alpha_cap)
     return betas, obj, theta
 
 
@@ -379,8 +250,8 @@ def _piece_bounds(ctx: _Context, theta: float) -> tuple[float, float]:
 def _solve_from(ctx: _Context, beta0: float, alpha0: float, pass_theta0: float) -> _Attempt:
     interval = _interval(ctx, beta0)
     if ctx.device.delta <= 0.0 and interval[0] <= 0.0:
-        # b = 0: as β → 0 the lowest crossover runs to θ → 0 with α → 0, a degenerate corner (Im H/|H| → 0 along
-        # it) where Ipopt stalls; there K_cr ≈ 2β/(1+2d) ≪ α0, so the optimum is not below 1e-3·β0
+        # b = 0: as β → 0 the lowest crossover runs to θ → 0 with α → 0, a degenerate corner (Im H/|H| → 0
+        # along it) where Ipopt stalls; there K_cr ≈ 2β/(1+2d) ≪ α0, so the optimum is not below 1e-3·β0
         interval = (1e-3 * beta0, interval[1])
     beta_ref = max(beta0, 1e-2 * ctx.beta_hi)
     alpha_ref = alpha0
@@ -405,7 +276,7 @@ def _solve_from(ctx: _Context, beta0: float, alpha0: float, pass_theta0: float) 
         pk = largest_passive_stiffness(dev, b) if ctx.req.passivity else None
         attempt = _Attempt(sol, key, params, alpha_ref, beta_ref, interval, k, b, exact, pk.stiffness if pk else None,
                            False)
-        if not (sol.success or sol.return_status in _STUCK):
+        if not (sol.success or sol.return_status in safeguards.STUCK):
             return attempt
         changed = False
         g_k = ctx.req.gain_factor * exact.critical_stiffness
@@ -442,12 +313,13 @@ def _finish(ctx: _Context, at: _Attempt, b_max: float, k_caps: dict, b_caps: dic
                             "nyquist": at.key.nyquist, "passivity_cuts": at.key.cuts}}
     if fallback is not None:
         solver = {"name": "exact B scan", "why": f"Ipopt did not converge ({fallback}) from any seed",
-                  "method": "the exact objective min(g·K_cr(B), passive K(B), caps) at 51 values of B, then bounded "
-                            "Brent refinement around the two best (optimal to the scan's resolution in B)"}
+                  "method": "the exact objective min(g·K_cr(B), passive K(B), caps) at 63 values of B (even, "
+                            "log-spaced near 0, next to B_max), then bounded Brent refinement around the two best "
+                            "(optimal to the scan's resolution in B)"}
     common = dict(max_stable_damping=_fin(b_max), passivity_delay_samples=ctx.d_pass if req.passivity else None,
                   passivity_note=pass_note, solver=solver, setup_ms=setup_ms, solve_ms=solve_ms)
-    if not _settled(at):
-        why = (f"Ipopt did not converge: {at.sol.return_status}" if not _ipopt_ok(at) else
+    if not safeguards.settled(at):
+        why = (f"Ipopt did not converge: {at.sol.return_status}" if not safeguards.ipopt_ok(at) else
                "the exchange of crossovers and passivity angles did not settle")
         return StiffnessDesign(status="failed", reason=why, elapsed_ms=(time.perf_counter() - t0) * 1e3, **common)
     kcr = at.exact.critical_stiffness
@@ -476,4 +348,5 @@ def _finish(ctx: _Context, at: _Attempt, b_max: float, k_caps: dict, b_caps: dic
         status="optimal", stiffness=k, damping=at.damping, critical_stiffness=kcr,
         gain_margin_db=gain_margin_db(kcr, k), crossover_frequency=at.exact.crossover_frequency,
         linear_estimate=lin, linear_estimate_error=(lin - kcr) / kcr, active_constraints=tuple(active),
-        back_off=DESIGN_BACK_OFF, sensitivities=sens, sensitivity_note=note, elapsed_ms=(time.perf_counter() - t0) * 1e3, **common)
+        back_off=DESIGN_BACK_OFF, sensitivities=sens, sensitivity_note=note,
+        elapsed_ms=(time.perf_counter() - t0) * 1e3, **common)

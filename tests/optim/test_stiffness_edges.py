@@ -148,3 +148,23 @@ def test_design_at_the_sample_time_limit_steps_backwards():
     fd = (design.stiffness - lower.stiffness) / 1e-4
     assert sens["sample_time"] == pytest.approx(fd, rel=1e-3)
     assert all(math.isfinite(v) for v in sens.values())
+
+
+def test_exact_scan_fallback_when_ipopt_fails_everywhere(monkeypatch):
+    """If Ipopt fails from every seed, the 1-D problem in B is solved on the exact analysis, and says so."""
+    import optim.stiffness.design as design_module
+    real = design_module.solve_problem
+
+    def failing(*args, **kwargs):
+        sol = real(*args, **kwargs)
+        return design_module.ProblemSolution(False, "Maximum_Iterations_Exceeded", 200, sol.a, sol.b, sol.thetas,
+                                             sol.lam_p, sol.lam_x, sol.lam_g)
+    monkeypatch.setattr(design_module, "solve_problem", failing)
+    dev = Device(mass=5.4, damping=3.5, sample_time=1e-3, delay=2e-3)
+    for req in (StiffnessRequirements(min_gain_margin_db=6.0), StiffnessRequirements(passivity=True)):
+        design = design_stiffness(dev, req)
+        _agrees(dev, design, req)
+        assert design.solver["name"] == "exact B scan" and "Maximum_Iterations_Exceeded" in design.solver["why"]
+        assert design.sensitivities == () and "exact B scan" in design.sensitivity_note
+        best, _ = scan_best(dev, req)
+        assert design.stiffness == pytest.approx(best, rel=1e-5)

@@ -20,7 +20,8 @@ def client():
 
 def test_undamped_cable_is_analysed(client):
     """Was a 422 "outside the numerically representable range (invalid value encountered in matmul)"."""
-    r = client.post("/v1/analysis/stability", json={"device": UNDAMPED, "controller": {"stiffness": 100, "damping": 0.5}})
+    r = client.post("/v1/analysis/stability",
+                    json={"device": UNDAMPED, "controller": {"stiffness": 100, "damping": 0.5}})
     assert r.status_code == 200, r.text
     body = r.json()
     assert body["critical_stiffness"] == pytest.approx(861.5237197778189, rel=1e-9)
@@ -52,6 +53,7 @@ def test_zero_margin_design_is_analysed_stable(client):
 
 
 def test_sample_time_limit_design_is_not_failed(client):
-    body = client.post("/v1/design/stiffness", json={"device": {"mass": 5.4, "damping": 3.5, "sample_time": 1.0}}).json()
+    dev = {"mass": 5.4, "damping": 3.5, "sample_time": 1.0}
+    body = client.post("/v1/design/stiffness", json={"device": dev}).json()
     assert body["status"] == "optimal", body["reason"]
     assert "pydantic" not in (body["sensitivity_note"] or "") and len(body["sensitivities"]) == 4
