@@ -210,7 +210,8 @@ def robust_design_stiffness(nominal: Device, requirements: StiffnessRequirements
     scenarios = [_scenario(box, p) for p in _initial_points(box)]
     if any(sc.device.damping <= 0.0 for sc in scenarios):
         return _done(t0, status="failed", ignored_paths=ignored, **pkw,
-                     reason="a device of the box has no physical damping, which the exact analysis does not handle")
+                     reason="a device of the box has no physical damping: robust designs do not handle b = 0 yet "
+                            "(the nominal design does: POST /v1/design/stiffness without uncertainty)")
     evals, last_wc, it, sol, k_nlp, b = 0, None, 0, None, 0.0, 0.0
     for it in range(1, _MAX_OUTER + 1):
         upper_b = min(min(sc.b_max for sc in scenarios), b_cap)
