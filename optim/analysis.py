@@ -97,8 +97,9 @@ def linear_error_estimate(device: Device, damping: float) -> float:
     if device.cable is None:
         return rigid
     # eq. 10 ignores the cable mode; the chapter's own test (eq. 22-24) compares Q with K_lin:
-    # the resonant peak can move K_cr by about K_lin/Q.
-    return rigid + linear_estimate(device, damping) / Q_criterion(device)
+    # the resonant peak can move K_cr by about K_lin/Q; an undamped mode (Q = 0) has an unbounded peak.
+    q = Q_criterion(device)
+    return rigid + linear_estimate(device, damping) / q if q > 0 else math.inf
 
 
 def grid_critical_stiffness(device: Device, damping: float, points: int) -> tuple[float, float | None, tuple[Crossover, ...], float]:

@@ -57,3 +57,15 @@ def test_sample_time_limit_design_is_not_failed(client):
     body = client.post("/v1/design/stiffness", json={"device": dev}).json()
     assert body["status"] == "optimal", body["reason"]
     assert "pydantic" not in (body["sensitivity_note"] or "") and len(body["sensitivities"]) == 4
+
+
+@pytest.mark.parametrize("method", ["linear", "grid", "exact"])
+def test_undamped_cable_on_every_cheap_rung(client, method):
+    """The linear rung divided by Q = 0 (an undamped mode's peak): its estimate is now null (unbounded)."""
+    r = client.post("/v1/analysis/stability", json={"device": UNDAMPED, "method": method,
+                                                    "controller": {"stiffness": 100, "damping": 0.5}})
+    assert r.status_code == 200, r.text
+    body = r.json()
+    assert body["critical_stiffness"] > 0
+    if method != "exact":
+        assert body["error_estimate"] is None       # unbounded: an undamped mode the rung cannot vouch for
