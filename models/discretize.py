@@ -294,7 +294,19 @@ class StateSpaceZOH:
         return self._cache["m"]
 
     def inverse_response(self, theta: np.ndarray) -> np.ndarray:
-        return 1.0 / self.response(theta)
+        """1/G_n(e^{jθ}); exactly 0 on a pole of G on the unit circle (an undamped mode sampled at its angle).
+
+        With every damping 0 the cable mode's poles lie on the unit circle, and a scan evaluates G exactly at
+        their angles (pole_angles() are hints): the modal resolvent divides by 0 there (inf, then inf·0 = nan in
+        the sums).  The limit of 1/G at a pole is 0, which is what is returned, not a NaN (nor a
+        FloatingPointError under the service's np.errstate(invalid="raise"))."""
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            g = self.response(theta)
+            inv = 1.0 / g
+        pole = ~np.isfinite(g)
+        if pole.any():
+            inv = np.where(pole, 0.0, inv)
+        return inv
 
     def modal_form(self):
         """Split off an exact integrator (E's first column is exactly 0) and diagonalise the rest.

@@ -24,7 +24,7 @@ from .reference import reference_critical_stiffness
 from .errors import InputError
 
 __all__ = ["Method", "METHODS", "StabilityAnalysis", "analyse_stability", "linear_error_estimate",
-           "grid_critical_stiffness", "DEFAULT_GRID_POINTS", "MAX_GRID_POINTS", "EXACT_REL_ERROR",
+           "grid_critical_stiffness", "grid_blind_spot", "DEFAULT_GRID_POINTS", "MAX_GRID_POINTS", "EXACT_REL_ERROR",
            "MODE_MATTERS_RTOL"]
 
 Method = Literal["linear", "grid", "exact", "reference"]
@@ -98,15 +98,17 @@ def linear_error_estimate(device: Device, damping: float) -> float:
     if device.cable is None:
         return rigid
     # eq. 10 ignores the cable mode; the chapter's own test (eq. 22-24) compares Q with K_lin:
-    # the resonant peak can move K_cr by about K_lin/Q.
-    return rigid + linear_estimate(device, damping) / Q_criterion(device)
+    # the resonant peak can move K_cr by about K_lin/Q; an undamped mode (Q = 0) has an unbounded peak.
+    q = Q_criterion(device)
+    return rigid + linear_estimate(device, damping) / q if q > 0 else math.inf
 
 
 def grid_critical_stiffness(device: Device, damping: float, points: int) -> tuple[float, float | None, tuple[Crossover, ...], float]:
     """K_cr on a fixed log grid of ω from 1e-3/T to π/T (no refinement), as a naive tool would.
 
     Returns (K_cr, ω, crossovers, error estimate).  Linear interpolation of Im H
-    between samples; its error is estimated from the change of Re H across the bracket.
+    between samples; its error is bounded by the whole change of Re H across the bracket (the crossing lies in
+    it; half of it understated a rigid device at 5.6e-5 against 5.1e-5).
     The estimate is ∞ (unbounded: the grid cannot vouch for its answer) when the grid shows
     that it missed crossovers (see ``grid_unresolved``).
     """
@@ -124,7 +126,7 @@ def grid_critical_stiffness(device: Device, damping: float, points: int) -> tupl
         if k > 0:
             found.append(Crossover(frequency=(theta[i] + w * (theta[i + 1] - theta[i])) / device.sample_time,
                                    stiffness=k * device.stiffness_scale))
-            errs.append(abs(re[i + 1] - re[i]) / (2 * abs(k)))
+            errs.append(abs(re[i + 1] - re[i]) / abs(k))   # the crossing lies in the bracket: the whole change
     if re[-1] > 0:
         found.append(Crossover(frequency=math.pi / device.sample_time, stiffness=float(re[-1]) * device.stiffness_scale))
         errs.append(0.0)
@@ -132,8 +134,53 @@ def grid_critical_stiffness(device: Device, damping: float, points: int) -> tupl
         return math.inf, None, (), math.inf
     j = int(np.argmin([c.stiffness for c in found]))
     kcr = found[j].stiffness
-    err = math.inf if grid_unresolved(h, device.delta + beta, kcr / device.stiffness_scale) else errs[j]
+    blind = grid_blind_spot(device, theta) is not None
+    err = math.inf if blind or grid_unresolved(h, device.delta + beta, kcr / device.stiffness_scale) else errs[j]
     return kcr, found[j].frequency, tuple(found), err
+
+
+def _modes(device: Device) -> list[tuple[float, float, str]]:
+    """(angle, half-width) per sample of every lightly damped feature of G: the cable's resonance (poles of the
+    continuous plant, sampled at e^{sT}) and anti-resonance (roots of m_d s² + (b_d + b_c) s + k_c), with the
+    kind.  The rigid plant has none (its only pole besides z = 1 sits at angle 0)."""
+    c = device.cable
+    if c is None:
+        return []
+    plant = loop_plant(device)
+    t = device.sample_time
+    out = [(abs(s.imag), abs(s.real), "resonance") for s in np.linalg.eigvals(plant.a) if s.imag > 0]
+    out += [(abs(s.imag) * t, abs(s.real) * t, "anti-resonance")
+            for s in np.roots([c.body_mass, c.body_damping + c.damping, c.stiffness]) if s.imag > 0]
+    return out
+
+
+def grid_blind_spot(device: Device, theta: np.ndarray) -> str | None:
+    """Why the grid θ (rad per sample, increasing) cannot see every crossover, from the device alone; None if it can.
+
+    Below the grid's lowest angle θ₀, arg H rises monotonically from −π/2 (the mass-damper asymptote
+    H ≈ θ² − j(δ+β)θ, turned by the delay's e^{jdθ}) unless a mode of the plant sits there: then at most one
+    crossover hides below θ₀, which the parity test of ``grid_unresolved`` sees.  Two things break that:
+    * the delay's phase (d + 1)·θ₀ reaching π: arg H can wind past 0 twice below the grid;
+    * a resonance or anti-resonance (its swing of arg G by π) below the grid's second angle, or narrower than
+      the grid's spacing where it sits: a pair of crossovers can hide there with the net phase unchanged
+      between two samples (issue 17: a cable sampled at 62 µs answered 14,927 N/m with a 1.1 % estimate
+      where the truth is 21 N/m).  Seen from the modal form, not from the samples.
+    """
+    if (device.delay_samples + 1.0) * theta[0] >= math.pi:
+        return (f"the delay turns the phase by {(device.delay_samples + 1.0) * theta[0]:.3g} rad below the grid's "
+                "lowest frequency: crossovers may hide there")
+    for angle, width, kind in _modes(device):
+        if angle <= theta[1]:
+            return f"a cable {kind} at {angle / device.sample_time:.4g} rad/s lies below the grid's second frequency"
+        if angle >= math.pi:
+            continue
+        i = min(int(np.searchsorted(theta, angle)), theta.size - 1)
+        spacing = theta[i] - theta[i - 1]
+        if width < spacing:
+            return (f"a cable {kind} at {angle / device.sample_time:.4g} rad/s is narrower "
+                    f"({width / device.sample_time:.3g} rad/s) than the grid's spacing there "
+                    f"({spacing / device.sample_time:.3g} rad/s)")
+    return None
 
 
 def grid_unresolved(h: np.ndarray, damping_sum: float, alpha: float) -> bool:
@@ -192,9 +239,11 @@ def _analyse(device: Device, stiffness: float | None, damping: float, method: st
         if not (10 <= grid_points <= MAX_GRID_POINTS):
             raise InputError("grid_points", f"must be between 10 and {MAX_GRID_POINTS}")
         kcr, w, crossovers, err = grid_critical_stiffness(device, damping, grid_points)
-        source = (f"half the change of K across the bracketing grid interval ({grid_points} log-spaced ω from 1e-3/T "
+        source = (f"the whole change of K across the bracketing grid interval ({grid_points} log-spaced ω from 1e-3/T "
                   "to π/T); null (unbounded) when the grid's samples show missed crossovers: Im H > 0 at its lowest "
-                  "ω, or arg H turning > π/2 between samples where Re H is below the answer")
+                  "ω, or arg H turning > π/2 between samples where Re H is below the answer, or (from the device) a "
+                  "cable resonance/anti-resonance below the grid or narrower than its spacing, or the delay winding "
+                  "the phase by π below it")
     elif method == "exact":
         res = critical_stiffness(device, damping)
         kcr, w, crossovers, reason, b_max = res.critical_stiffness, res.crossover_frequency, res.crossovers, res.reason, res.max_stable_damping

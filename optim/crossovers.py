@@ -69,8 +69,10 @@ def scan_grid(theta_min: float, delay_samples: float, hints: Sequence[float], wi
 def _refine(h: Callable[[np.ndarray], np.ndarray], grid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     values = h(grid)
     for _ in range(_MAX_REFINE_ROUNDS):
-        turn = np.abs(np.angle(values[1:] / values[:-1]))
-        bad = turn > _MAX_ARG_STEP
+        with np.errstate(divide="ignore", invalid="ignore"):
+            turn = np.abs(np.angle(values[1:] / values[:-1]))
+        # a sample exactly at 0 (an undamped pole of G sampled at its angle: 1/G = 0) has no argument
+        bad = (turn > _MAX_ARG_STEP) | (values[1:] == 0) | (values[:-1] == 0)
         width_ok = (grid[1:] - grid[:-1]) > 1e-14 * grid[1:]
         bad &= width_ok
         if not bad.any():

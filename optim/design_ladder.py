@@ -231,7 +231,7 @@ def design_stiffness_on_rung(device: Device, req: StiffnessRequirements | None =
     elif method == "grid":
         design, err = _grid_stiffness(device, req, grid_points)
         err = err if design.status == "optimal" else None
-        src = ("grid K_cr error at the chosen B (half the change of K across the bracketing interval); the B scan "
+        src = ("grid K_cr error at the chosen B (the whole change of K across the bracketing interval; null when the grid cannot see every crossover); the B scan "
                "may also miss the optimum by one B step")
     else:
         design = design_stiffness(device, req)

@@ -37,7 +37,7 @@ from optim.margins import critical_stiffness, gain_margin_db, max_stable_damping
 from optim.passivity import kernel, largest_passive_stiffness, passive_alpha_on_grid, passivity_margin
 from optim.stiffness.loop import loop_matrices
 from optim.stiffness.profile import BoundaryCurve, boundary_curve, coarse_critical, crossings_at
-from optim.stiffness.requirements import StiffnessRequirements
+from optim.stiffness.requirements import DESIGN_BACK_OFF, StiffnessRequirements
 
 from .box import STIFFNESS_PATHS, UncertaintyBox
 from .passivity import (PassivityCorner, describe_delays, largest_robust_passive_stiffness, passivity_corners,
@@ -77,6 +77,8 @@ class RobustStiffnessDesign:
     evaluations: int = 0
     """exact analyses spent by the worst-case searches."""
     active_constraints: tuple[str, ...] = ()
+    back_off: float | None = None
+    """K sits this far (relative) below its binding limit (optim.stiffness.requirements.DESIGN_BACK_OFF)."""
     ignored_paths: tuple[str, ...] = ()
     """uncertain paths that do not enter the stiffness loop (nor passivity, when it is required)."""
     passivity_worst_case: dict | None = None
@@ -208,7 +210,8 @@ def robust_design_stiffness(nominal: Device, requirements: StiffnessRequirements
     scenarios = [_scenario(box, p) for p in _initial_points(box)]
     if any(sc.device.damping <= 0.0 for sc in scenarios):
         return _done(t0, status="failed", ignored_paths=ignored, **pkw,
-                     reason="a device of the box has no physical damping, which the exact analysis does not handle")
+                     reason="a device of the box has no physical damping: robust designs do not handle b = 0 yet "
+                            "(the nominal design does: POST /v1/design/stiffness without uncertainty)")
     evals, last_wc, it, sol, k_nlp, b = 0, None, 0, None, 0.0, 0.0
     for it in range(1, _MAX_OUTER + 1):
         upper_b = min(min(sc.b_max for sc in scenarios), b_cap)
@@ -330,12 +333,13 @@ def _finish(t0, nominal, box, req, scenarios, sol, k_nlp, b, wc: WorstCase, it, 
             passivity: _Passivity | None, pkw: dict):
     g = req.gain_factor
     per_scenario = [critical_stiffness(sc.device, b, b_max=sc.b_max).critical_stiffness for sc in scenarios]
-    limits = [k_nlp, g * wc.critical_stiffness, *(g * v for v in per_scenario), *k_caps.values()]
+    analysed = [g * wc.critical_stiffness, *(g * v for v in per_scenario)]
     k_pass = None
     if passivity is not None:
         k_pass, _ = largest_robust_passive_stiffness(passivity.corners, b)
-        limits.append(k_pass)
-    k = min(limits)
+        analysed.append(k_pass)
+    # strictly inside the analysed limits, caps met as K ≤ cap (optim.stiffness.requirements.DESIGN_BACK_OFF)
+    k = min([k_nlp, *k_caps.values(), (1.0 - DESIGN_BACK_OFF) * min(analysed)])
     if not k > 0:
         what = "is passive and meets the gain margin" if passivity is not None else "meets the gain margin"
         return _done(t0, status="infeasible", iterations=it, evaluations=evals, ignored_paths=ignored, **pkw,
@@ -365,4 +369,5 @@ def _finish(t0, nominal, box, req, scenarios, sol, k_nlp, b, wc: WorstCase, it, 
     return _done(t0, status="optimal", stiffness=k, damping=b, gain_margin_db=worst["gain_margin_db"],
                  worst_case=worst, nominal_critical_stiffness=nom, nominal_gain_margin_db=gain_margin_db(nom, k),
                  scenarios=tuple(box.describe(sc.point) for sc in scenarios), iterations=it, evaluations=evals,
-                 active_constraints=tuple(active), ignored_paths=ignored, solver=solver, **pkw)
+                 active_constraints=tuple(active), back_off=DESIGN_BACK_OFF, ignored_paths=ignored, solver=solver,
+                 **pkw)

@@ -23,13 +23,14 @@ import numpy as np
 
 from models.device import Device
 from optim.margins import critical_stiffness, gain_margin_db, linear_estimate, max_stable_damping
-from optim.passivity import (kernel, largest_passive_stiffness, passive_alpha_on_grid, passivity_margin,
+from optim.passivity import (kernel, largest_passive_stiffness, passivity_margin,
                              passivity_samples)
 
+from . import safeguards
 from .loop import loop_matrices
 from .problem import N_CUTS, ProblemKey, ProblemSolution, solve_problem
 from .profile import BoundaryCurve, boundary_curve, coarse_critical, crossings_at
-from .requirements import StiffnessRequirements
+from .requirements import DESIGN_BACK_OFF, StiffnessRequirements
 
 __all__ = ["StiffnessDesign", "Sensitivity", "design_stiffness"]
 
@@ -75,6 +76,10 @@ class StiffnessDesign:
     max_stable_damping: float | None = None
     """B_max [N·s/m]."""
     active_constraints: tuple[str, ...] = ()
+    """limits within 1e-6 (relative) of binding K or B."""
+    back_off: float | None = None
+    """K sits at least this far (relative) below g·K_cr(B) and the passive K(B), the limits the analysis checks
+    (DESIGN_BACK_OFF; caps on K are met as K ≤ cap); None on the rungs that do not apply it."""
     sensitivities: tuple[Sensitivity, ...] = ()
     sensitivity_note: str | None = None
     passivity_delay_samples: int | None = None
@@ -119,14 +124,10 @@ def design_stiffness(device: Device, requirements: StiffnessRequirements | None 
         pass_note = (f"passivity tested with {d_pass} whole samples of delay"
                      + (" (the fractional delay rounded up: conservative)" if conservative else ""))
         if device.damping <= 0.0:
-            return _infeasible("passivity required but the device has no physical damping: no stiffness is passive "
-                               "(b must exceed P(θ) ≥ 0 at some θ)", t0, passivity_delay_samples=d_pass, passivity_note=pass_note)
-    if device.damping <= 0.0:
-        # optim.margins scans from θ_min ∝ δ, which is 0 here (a ZeroDivisionError there): rather than return a
-        # design the exact analysis cannot re-check, say so.
-        return StiffnessDesign(status="failed", reason="the exact analysis (optim.margins) does not yet handle a "
-                               "device with zero physical damping, so no design can be verified",
-                               elapsed_ms=(time.perf_counter() - t0) * 1e3)
+            return _infeasible("passivity is impossible on this device: it has no physical damping (b = 0), and a "
+                               "passive wall needs b > P(θ) ≥ 0 at some θ for every K > 0 and B ≥ 0; without "
+                               "passivity, virtual damping B can still stabilise a wall", t0,
+                               passivity_delay_samples=d_pass, passivity_note=pass_note)
     b_max = max_stable_damping(device)
     if not b_max > 0.0:
         return _infeasible("no positive stiffness is stable for any virtual damping on this device", t0,
@@ -143,18 +144,39 @@ def design_stiffness(device: Device, requirements: StiffnessRequirements | None 
     betas, objective, pass_theta = _coarse_profile(ctx)
     i = int(np.argmax(objective))
     if not objective[i] > 0.0:
+        # the coarse profile is a seed, not a proof: "infeasible" rests on the exact analysis
+        betas, objective, pass_theta = safeguards.exact_profile(ctx)
+        i = int(np.argmax(objective))
+    if not objective[i] > 0.0:
         why = ("passivity and the gain margin leave no positive stiffness for any B in [0, "
                f"{upper_b:.6g}] N·s/m" if req.passivity else
                f"no positive stiffness meets the gain margin for any B in [0, {upper_b:.6g}] N·s/m")
+        why += f" (the exact K_cr{' and passivity' if req.passivity else ''} at {betas.size} values of B confirm it)"
         return _infeasible(why, t0, max_stable_damping=_fin(b_max), passivity_delay_samples=d_pass if req.passivity
                            else None, passivity_note=pass_note)
     if not objective[i] < 1e29:
         return _infeasible("every positive stiffness is stable at this damping and no stiffness limit was given: "
                            "the design is unbounded", t0)
     setup_ms = (time.perf_counter() - t0) * 1e3
-    best = _solve_from(ctx, float(betas[i]), float(objective[i]), pass_theta[i])
+    best, first, failures = None, None, 0
+    for j in safeguards.starts(ctx, betas, objective):
+        if best is not None and not objective[j] > safeguards.value(ctx, best) / ks * (1 + 1e-6):
+            break                 # no other interval's seed can beat the verified answer
+        at = _solve_from(ctx, float(betas[j]), float(objective[j]), pass_theta[j])
+        first = first or at
+        v = safeguards.value(ctx, at)
+        if v > 0 and (best is None or v > safeguards.value(ctx, best)) and safeguards.locally_optimal(ctx, at):
+            best = at
+        failures += not safeguards.settled(at)
+        if failures >= 2:
+            break
+    fallback = None
+    if best is None:
+        # Ipopt failed on every start (seen with passivity at long delays, where the kernel has ~d local maxima,
+        # and on undamped cables): the 1-D problem in B is solved on the exact analysis instead
+        best, fallback = safeguards.scan_attempt(ctx, first), first.sol.return_status if first else "no start"
     solve_ms = (time.perf_counter() - t0) * 1e3 - setup_ms
-    return _finish(ctx, best, b_max, k_caps, b_caps, pass_note, t0, setup_ms, solve_ms)
+    return _finish(ctx, best, b_max, k_caps, b_caps, pass_note, t0, setup_ms, solve_ms, fallback)
 
 
 def _fin(x: float | None) -> float | None:
@@ -169,10 +191,14 @@ def _coarse_profile(ctx: _Context) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
                                       inside[:: max(1, inside.size // 300)], np.array(ctx.curve.breakpoints)]))
     betas = betas[(betas >= 0) & (betas <= hi * (1 - 1e-9))]
     obj = ctx.req.gain_factor * coarse_critical(ctx.curve, betas)
+    if ctx.device.delta <= 0.0:
+        # b = 0: at B = 0 the loop is a bare double integrator, K_cr = 0 (optim.margins); the curve's lowest
+        # crossover θ ≈ sqrt(β/(d+½)) → 0 with α → 0 there, below any sampled θ, so the profile must be told
+        obj[betas <= 0.0] = 0.0
     obj = np.minimum(obj, ctx.alpha_cap)
     theta = np.zeros_like(betas)
     if ctx.req.passivity:
-        pa, theta = passive_alpha_on_grid(ctx.device.delta, ctx.d_pass, betas)
+        pa, theta = safeguards.passive_profile(ctx.device.delta, ctx.d_pass, betas)
         obj = np.minimum(obj, pa)
     return betas, obj, theta
 
@@ -223,6 +249,10 @@ def _piece_bounds(ctx: _Context, theta: float) -> tuple[float, float]:
 
 def _solve_from(ctx: _Context, beta0: float, alpha0: float, pass_theta0: float) -> _Attempt:
     interval = _interval(ctx, beta0)
+    if ctx.device.delta <= 0.0 and interval[0] <= 0.0:
+        # b = 0: as β → 0 the lowest crossover runs to θ → 0 with α → 0, a degenerate corner (Im H/|H| → 0
+        # along it) where Ipopt stalls; there K_cr ≈ 2β/(1+2d) ≪ α0, so the optimum is not below 1e-3·β0
+        interval = (1e-3 * beta0, interval[1])
     beta_ref = max(beta0, 1e-2 * ctx.beta_hi)
     alpha_ref = alpha0
     # crossovers far above the objective cannot bind nearby; the exact re-check adds any that do
@@ -235,7 +265,8 @@ def _solve_from(ctx: _Context, beta0: float, alpha0: float, pass_theta0: float) 
     x_start = [alpha0 / alpha_ref, beta0 / beta_ref]
     attempt = None
     for _ in range(_MAX_EXCHANGES):
-        nyquist = bool(ctx.curve.nyquist_alpha(np.array([beta0]))[0] > 0)
+        nyq = float(ctx.curve.nyquist_alpha(np.array([beta0]))[0])
+        nyquist = bool(0 < nyq <= far)
         key = ProblemKey(ctx.n_states, len(crossings), nyquist, N_CUTS if ctx.req.passivity else 0)
         params = _params(ctx, ctx.loop_flat, dev.delta, ctx.alpha_cap, ctx.beta_cap, alpha_ref, beta_ref, cuts)
         x0 = np.array(x_start + [t for t, _ in crossings])
@@ -245,7 +276,7 @@ def _solve_from(ctx: _Context, beta0: float, alpha0: float, pass_theta0: float) 
         pk = largest_passive_stiffness(dev, b) if ctx.req.passivity else None
         attempt = _Attempt(sol, key, params, alpha_ref, beta_ref, interval, k, b, exact, pk.stiffness if pk else None,
                            False)
-        if not sol.success:
+        if not (sol.success or sol.return_status in safeguards.STUCK):
             return attempt
         changed = False
         g_k = ctx.req.gain_factor * exact.critical_stiffness
@@ -273,24 +304,27 @@ def at_reason(at: _Attempt) -> str | None:
 
 
 def _finish(ctx: _Context, at: _Attempt, b_max: float, k_caps: dict, b_caps: dict, pass_note: str | None,
-            t0: float, setup_ms: float, solve_ms: float) -> StiffnessDesign:
+            t0: float, setup_ms: float, solve_ms: float, fallback: str | None = None) -> StiffnessDesign:
     from .sensitivity import sensitivities
 
     dev, req = ctx.device, ctx.req
     solver = {"name": "ipopt", "return_status": at.sol.return_status, "iterations": at.sol.iterations,
               "structure": {"states": at.key.n_states, "crossovers": at.key.n_crossovers,
                             "nyquist": at.key.nyquist, "passivity_cuts": at.key.cuts}}
+    if fallback is not None:
+        solver = {"name": "exact B scan", "why": f"Ipopt did not converge ({fallback}) from any seed",
+                  "method": "the exact objective min(g·K_cr(B), passive K(B), caps) at 63 values of B (even, "
+                            "log-spaced near 0, next to B_max), then bounded Brent refinement around the two best "
+                            "(optimal to the scan's resolution in B)"}
     common = dict(max_stable_damping=_fin(b_max), passivity_delay_samples=ctx.d_pass if req.passivity else None,
                   passivity_note=pass_note, solver=solver, setup_ms=setup_ms, solve_ms=solve_ms)
-    if not at.sol.success or not at.converged:
-        why = (f"Ipopt did not converge: {at.sol.return_status}" if not at.sol.success else
+    if not safeguards.settled(at):
+        why = (f"Ipopt did not converge: {at.sol.return_status}" if not safeguards.ipopt_ok(at) else
                "the exchange of crossovers and passivity angles did not settle")
         return StiffnessDesign(status="failed", reason=why, elapsed_ms=(time.perf_counter() - t0) * 1e3, **common)
     kcr = at.exact.critical_stiffness
-    limits = [at.stiffness, req.gain_factor * kcr, *k_caps.values()]
-    if at.passive_k is not None:
-        limits.append(at.passive_k)
-    k = min(limits)
+    analysed = [req.gain_factor * kcr] + ([at.passive_k] if at.passive_k is not None else [])
+    k = min([at.stiffness, *k_caps.values(), (1.0 - DESIGN_BACK_OFF) * min(analysed)])
     if not k > 0:
         why = (at_reason(at) or "no positive stiffness satisfies the requirements")
         return StiffnessDesign(status="infeasible", reason=why,
@@ -302,10 +336,17 @@ def _finish(ctx: _Context, at: _Attempt, b_max: float, k_caps: dict, b_caps: dic
         active.append("passivity")
     active += [name for name, cap in k_caps.items() if k >= cap * (1 - _ACTIVE_RTOL)]
     active += [name for name, cap in b_caps.items() if at.damping >= cap * (1 - _ACTIVE_RTOL)]
-    sens, note = sensitivities(ctx, at)
+    if fallback is None and at.sol.success:
+        sens, note = sensitivities(ctx, at)
+    elif fallback is None:
+        sens, note = (), (f"no sensitivities: Ipopt stalled ({at.sol.return_status}) next to the optimum (kept after "
+                          "an exact check at B ± 1e-4 of the B range), and its multipliers are not trusted")
+    else:
+        sens, note = (), "no sensitivities: the design comes from the exact B scan, which has no multipliers"
     lin = linear_estimate(dev, at.damping)
     return StiffnessDesign(
         status="optimal", stiffness=k, damping=at.damping, critical_stiffness=kcr,
         gain_margin_db=gain_margin_db(kcr, k), crossover_frequency=at.exact.crossover_frequency,
         linear_estimate=lin, linear_estimate_error=(lin - kcr) / kcr, active_constraints=tuple(active),
-        sensitivities=sens, sensitivity_note=note, elapsed_ms=(time.perf_counter() - t0) * 1e3, **common)
+        back_off=DESIGN_BACK_OFF, sensitivities=sens, sensitivity_note=note,
+        elapsed_ms=(time.perf_counter() - t0) * 1e3, **common)

@@ -17,7 +17,7 @@ answer comes from the NLP and is re-checked by the exact analysis).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.optimize import minimize_scalar
@@ -52,6 +52,8 @@ class BoundaryCurve:
     """(a, b) with H(π, β) = a − 2β... stored as (−Re 1/G_n(−1), 2)."""
     breakpoints: tuple[float, ...]
     """β values (dimensionless) where crossovers appear or vanish."""
+    plant: object = field(default=None, compare=False, repr=False)
+    """the sampled plant the curve came from: a segment whose α changes sign is solved on it (``_straddle_alpha``)."""
 
     def nyquist_alpha(self, beta: np.ndarray) -> np.ndarray:
         return self.nyquist[0] - self.nyquist[1] * beta
@@ -89,10 +91,21 @@ def boundary_curve(device: Device, beta_hi: float) -> BoundaryCurve:
         order = np.argsort(theta)
         theta, beta, alpha = theta[order], np.concatenate([beta, mb])[order], np.concatenate([alpha, ma])[order]
     pieces, folds = _pieces(plant, theta, beta, alpha, b_scale)
-    inv_pi = complex(plant.inverse_response(np.array([math.pi]))[0])
     ends = [p.beta_lo for p in pieces] + [p.beta_hi for p in pieces]
     brk = sorted({float(v) for v in ends + folds if 1e-9 * beta_hi < v < beta_hi * (1 - 1e-9)})
-    return BoundaryCurve(theta, beta, alpha, tuple(pieces), (-inv_pi.real, 2.0), tuple(brk))
+    return BoundaryCurve(theta, beta, alpha, tuple(pieces), (_nyquist_offset(plant), 2.0), tuple(brk), plant)
+
+
+def _nyquist_offset(plant) -> float:
+    """−1/G_n(−1), real by symmetry, as −1/Re G_n(−1) (−inf: G_n(−1) = 0, no Nyquist crossover).
+
+    Taken from G, not 1/G: when G has its zero at z = −1 (the ZOH of a bare double integrator, b = 0 with a
+    whole delay) 1/G(−1) is 0/0 in rounding (−8 − 6.5e16j for m = 5.4, T = 1 ms), its real part meaningless,
+    while Re G(−1) is a rounding-sized number whose reciprocal is far above any design (or negative)."""
+    g = complex(plant.response(np.array([math.pi]))[0])
+    if not (math.isfinite(g.real) and g.real != 0.0):
+        return -math.inf if g.real == 0.0 else 0.0
+    return -1.0 / g.real
 
 
 def _pieces(plant, theta, beta, alpha, b_scale) -> tuple[list[Piece], list[float]]:
@@ -134,9 +147,39 @@ def _segments(curve: BoundaryCurve, betas: np.ndarray):
     cross = (np.minimum(b0, b1) <= x) & (x < np.maximum(b0, b1))
     with np.errstate(divide="ignore", invalid="ignore"):
         w = np.where(cross, (x - b0) / (b1 - b0), 0.0)
-    # a segment that straddles α = 0 (near B_max) counts, its α clamped at 0: K_cr → 0 there
-    alpha = np.maximum(a0 + w * (a1 - a0), 0.0)
-    return cross, w, alpha, keep
+    alpha = a0 + w * (a1 - a0)
+    straddle = cross & (a0 * a1 < 0)
+    if straddle.any():
+        rows, cols = np.nonzero(straddle)
+        alpha[rows, cols] = _straddle_alpha(curve, keep[cols], betas[rows])
+    return cross & (alpha > 0), w, np.maximum(alpha, 0.0), keep
+
+
+def _straddle_alpha(curve: BoundaryCurve, segments: np.ndarray, betas: np.ndarray) -> np.ndarray:
+    """α_c where the curve crosses β inside segments whose ends have α of opposite signs, solved on the plant.
+
+    Linear interpolation is no estimate there: a segment the sampling left long (near θ = π with a long delay,
+    β_c swings by ~d/(π − θ)² between neighbours) joins a large negative α to a positive one, and its
+    interpolated α ≤ 0 would read as "K_cr = 0 at every β it spans" — a false "infeasible" (issue 17: 18 of
+    301 delays between 200 and 1,700 samples).  Bisection of β_c(θ) = β in the segment (to 1 ulp of θ) gives
+    the crossing's own α; near B_max, where the curve truly reaches α = 0, it gives the small true α.
+    A crossing with α ≤ 0 is a crossover of negative stiffness: not a bound on K > 0 (the callers drop it).
+    """
+    if curve.plant is None:
+        return np.full(betas.shape, 1e-300)   # no plant to solve on: the conservative reading, K_cr → 0⁺
+    lo, hi = curve.theta[segments].copy(), curve.theta[segments + 1].copy()
+    s_lo = np.sign(curve.beta[segments] - betas)
+    for _ in range(64):
+        mid = 0.5 * (lo + hi)
+        bm, _ = _curve_values(curve.plant, mid)
+        same = np.sign(bm - betas) == s_lo
+        lo, hi = np.where(same, mid, lo), np.where(same, hi, mid)
+        if np.all(hi - lo <= 4e-16 * hi):
+            break
+    # the end of the final bracket nearer the asked β in value
+    bl, al = _curve_values(curve.plant, lo)
+    bh, ah = _curve_values(curve.plant, hi)
+    return np.where(np.abs(bl - betas) <= np.abs(bh - betas), al, ah)
 
 
 def coarse_critical(curve: BoundaryCurve, betas: np.ndarray) -> np.ndarray:
@@ -164,9 +207,11 @@ def coarse_critical(curve: BoundaryCurve, betas: np.ndarray) -> np.ndarray:
         idx = np.repeat(start, counts) + (np.arange(total) - first)
         x = sb[idx]
         w = (x - b0[seg]) / (b1[seg] - b0[seg])
-        # a segment that straddles α = 0 (near B_max) counts, its α clamped at 0: K_cr → 0 there
-        alpha = np.maximum(a0[seg] + w * (a1[seg] - a0[seg]), 0.0)
-        np.minimum.at(kcr, idx, alpha)
+        alpha = a0[seg] + w * (a1[seg] - a0[seg])
+        straddle = a0[seg] * a1[seg] < 0
+        if straddle.any():
+            alpha[straddle] = _straddle_alpha(curve, np.nonzero(keep)[0][seg[straddle]], x[straddle])
+        np.minimum.at(kcr, idx, np.where(alpha > 0, alpha, np.inf))
     out = np.empty_like(kcr)
     out[order] = kcr
     nyq = curve.nyquist_alpha(betas)

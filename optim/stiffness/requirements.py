@@ -6,7 +6,14 @@ import math
 from dataclasses import dataclass
 from ..errors import InputError
 
-__all__ = ["StiffnessRequirements"]
+__all__ = ["StiffnessRequirements", "DESIGN_BACK_OFF"]
+
+#: A design sits strictly inside the limits the analysis checks: K ≤ (1 − DESIGN_BACK_OFF)·g·K_cr(B) and
+#: K ≤ (1 − DESIGN_BACK_OFF)·sup passive K(B); a cap on K (max_stiffness, max_force) is met as K ≤ cap.
+#: At the limit itself the project's own analysis disagrees with the label (K = K_cr is not stable at
+#: min_gain_margin_db = 0; b equals the required damping to 1 ulp and is not passive, the passive set being
+#: strict).  1e-9 is far above the exact analysis' 1e-12 and far below any engineering meaning (8.7e-9 dB).
+DESIGN_BACK_OFF = 1e-9
 
 
 def _check_positive(name: str, value: float | None) -> None:

@@ -74,20 +74,42 @@ def _device_params(ctx, device: Device, like: np.ndarray, at) -> np.ndarray:
     return p
 
 
-def _step(device: Device, parameter: str) -> float:
-    """A signed one-sided difference step that keeps the whole samples of delay fixed.
-
-    One-sided (error ~1e-7 relative) halves the matrix exponentials a central
-    difference would need; the map device → ZOH matrices is smooth.
-    """
+def _step_size(device: Device, parameter: str) -> float:
+    """The size of a one-sided difference step (error ~1e-7 relative; the map device → ZOH matrices is smooth)."""
     value = getattr(device, parameter)
-    h = 1e-7 * max(abs(value), {"damping": 1e-2 * device.damping_scale, "delay": device.sample_time,
-                                "sample_time": device.sample_time, "mass": device.mass}[parameter])
-    if parameter in ("delay", "sample_time") and device.delay > 0:
-        _, f = split_delay(device.delay_samples)
-        if f == 0.0 and parameter == "sample_time":
-            return -h          # on a whole sample the delay may only grow: T down
-    return h
+    return 1e-7 * max(abs(value), {"damping": 1e-2 * device.damping_scale, "delay": device.sample_time,
+                                   "sample_time": device.sample_time, "mass": device.mass}[parameter])
+
+
+def _perturbed(device: Device, parameter: str) -> tuple[float, Device] | str:
+    """(signed step, perturbed device) inside the input domain with the same whole samples of delay, or why not.
+
+    One-sided steps halve the matrix exponentials a central difference would need.  Forward first; backward at
+    an edge of the input domain (T = 1 s, a 10,000-sample delay, a 1e12 bound).  The NLP is built on the whole
+    samples of delay d, so a step must keep d: on a whole sample the delay may only grow (T only shrink).
+    """
+    h = _step_size(device, parameter)
+    value = getattr(device, parameter)
+    whole, frac = split_delay(device.delay_samples)
+    signs = (1.0, -1.0)
+    why = []
+    if device.delay > 0 and frac == 0.0 and parameter in ("delay", "sample_time"):
+        signs = (1.0,) if parameter == "delay" else (-1.0,)
+        why.append(f"on a whole sample of delay only a {'longer delay' if parameter == 'delay' else 'shorter T'} "
+                   "keeps the whole samples the design is built on")
+    for sign in signs:
+        try:
+            dev = perturbed_device(device, parameter, value + sign * h)
+        except ValueError as exc:          # pydantic's ValidationError too: the step left the input domain
+            errors = getattr(exc, "errors", None)
+            msg = errors()[0]["msg"].removeprefix("Value error, ") if callable(errors) else str(exc)
+            why.append(f"a step of {sign * h:+.3g} leaves the input domain: {msg}")
+            continue
+        if split_delay(dev.delay_samples)[0] != whole:
+            why.append("the step changes the whole samples of delay the design is built on")
+            continue
+        return sign * h, dev
+    return "; ".join(dict.fromkeys(why))
 
 
 def sensitivities(ctx, at) -> tuple[tuple, str | None]:
@@ -110,12 +132,16 @@ def sensitivities(ctx, at) -> tuple[tuple, str | None]:
             skip = ("delay", "sample_time")
             note = ("passivity is active and counts whole samples of delay (a fraction rounds up): at this "
                     "whole-sample delay K* jumps with the delay, so no delay or sample-time sensitivity is given")
+    edge = []
     for name, step, label in PARAMETERS:
         if name in skip:
             continue
-        value = getattr(device, name)
-        h = _step(device, name)
-        dp = (_device_params(ctx, perturbed_device(device, name, value + h), at.params, at) - at.params) / h
+        moved = _perturbed(device, name)
+        if isinstance(moved, str):
+            edge.append(f"no {name} sensitivity: no one-sided step stays in the input domain ({moved})")
+            continue
+        h, dev = moved
+        dp = (_device_params(ctx, dev, at.params, at) - at.params) / h
         dalpha = at.alpha_ref * float(at.sol.lam_p @ dp)
         scale = device.stiffness_scale
         dscale = {"mass": scale / device.mass, "sample_time": -2 * scale / device.sample_time}.get(name, 0.0)
@@ -124,4 +150,6 @@ def sensitivities(ctx, at) -> tuple[tuple, str | None]:
         verb = "buys" if change >= 0 else "costs"
         out.append(Sensitivity(name, dk, step, label, change,
                                f"{label} {verb} {abs(change):.4g} N/m of stiffness"))
+    if edge:
+        note = "; ".join(([note] if note else []) + edge)
     return tuple(out), note
