@@ -29,7 +29,7 @@ import numpy as np
 
 from models.device import Device
 from models.plants import stiffness_loop_plant
-from optim.analysis import analyse_stability, linear_error_estimate
+from optim.stability.analysis import analyse_stability, linear_error_estimate
 from optim.verification import verify_analysis, verify_force_feedforward
 
 RUNGS = ("linear", "grid", "exact", "reference")
@@ -150,7 +150,7 @@ def _rel(x: float | None, truth: float) -> float:
 
 
 def measure(names: tuple[str, ...] | None = None, repeats: int = 7) -> tuple[dict[str, Measure], list[dict]]:
-    from optim.relay import relay_rung
+    from optim.relay.experiment import relay_rung
 
     results = {k: Measure() for k in (*RUNGS, EXPERIMENT, *PEERS)}
     details = []
@@ -208,7 +208,7 @@ def measure_feedforward(names: tuple[str, ...] | None = None,
                         repeats: int = 7) -> tuple[dict[str, Measure], list[dict]]:
     """The same rungs on the force-feedforward loop: K_f,cr against the 40-digit residue reference."""
     from models.filters import ButterworthLowPass
-    from optim.feedforward_ladder import analyse_force_feedforward
+    from optim.transparency.feedforward_ladder import analyse_force_feedforward
 
     results = {k: Measure() for k in RUNGS}
     details = []
@@ -305,7 +305,7 @@ def render_feedforward(results: dict[str, Measure], details: list[dict]) -> str:
         "## Force feedforward: K_f,cr (chapter §5)", "",
         f"{len(details)} cases: LHifAM rigid and cable held by the eq. 30 grasp with the eq. 31 sensor, without a "
         "filter and with the chapter's 2nd-order 30 Hz Butterworth, delays 0, 1, 5, 50 and 2.37 samples. Truth: the "
-        "`reference` rung (40-digit mpmath residue z-transform, optim/feedforward_reference.py). `linear` is eq. 33, "
+        "`reference` rung (40-digit mpmath residue z-transform, optim/transparency/feedforward_reference.py). `linear` is eq. 33, "
         "K_f,cr ≈ 1 + m/m_h (a large-delay limit; its time includes its error estimate).", "",
         HEADER, RULE,
         *_summary_rows(results, RUNGS), "",

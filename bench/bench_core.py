@@ -28,8 +28,8 @@ import numpy as np
 
 from models.device import Device
 from models.plants import cable_tfs, stiffness_loop_plant
-from optim.margins import critical_stiffness, max_stable_damping
-from optim.reference import reference_critical_stiffness
+from optim.stability.margins import critical_stiffness, max_stable_damping
+from optim.stability.reference import reference_critical_stiffness
 from optim.robust.batch import batch_critical_stiffness
 
 #: (name, device, B as a fraction of B_max)
@@ -176,7 +176,7 @@ def render(rows: list[Row], batch: BatchRow | None = None) -> str:
         f"{platform.processor() or 'cpu'}; python-control {control.__version__}.",
         "Same ZOH-discretised loop for both (the damper B(1 − z⁻¹)/T closed with `feedback` when B > 0, a "
         "fractional delay as the modified z-transform); truth = the 40-digit reference rung. zwidth: the public "
-        "`optim.margins.critical_stiffness(device, B)` (B_max included when B > 0), its *path* `fast` (no scan) "
+        "`optim.stability.margins.critical_stiffness(device, B)` (B_max included when B > 0), its *path* `fast` (no scan) "
         "or `scan` (fallback). python-control: one `stability_margins` call (default) on its loop built beforehand "
         "(c2d and `feedback` outside the timing); zwidth likewise reuses the sampled plant of a device it has seen "
         "(an LRU cache: a first call on a new device adds the discretisation, ~20 µs rigid). Median / p95 per call, "

@@ -1,6 +1,6 @@
 """Benchmark: time per inertia design (K_f and filter cutoff), rigid and cable LHifAM.
 
-Writes docs/bench_inertia.md: median and p95 per design of ``optim.inertia.design_inertia``
+Writes docs/bench_inertia.md: median and p95 per design of ``optim.transparency.inertia.design_inertia``
 (exact Pareto scan with its jumps bracketed + CasADi crossover NLP + exchange + exact re-check), and side by side in
 the same run a dense-scan comparator (the exact K_f,cr at 200 cutoffs, best grid point),
 with the time ratio and how far the comparator's answer is from the design's.
@@ -29,8 +29,8 @@ import numpy as np  # noqa: E402
 
 from models.device import Device  # noqa: E402
 from models.feedforward import feedforward_plant  # noqa: E402
-from optim.feedforward import critical_force_gain_of_plant  # noqa: E402
-from optim.inertia import InertiaRequirements, design_inertia  # noqa: E402
+from optim.transparency.feedforward import critical_force_gain_of_plant  # noqa: E402
+from optim.transparency.inertia import InertiaRequirements, design_inertia  # noqa: E402
 
 HUMAN = {"mass": 2.0, "damping": 2.0, "stiffness": 10.0}
 SENSOR = {"time_constant": 0.005}
@@ -43,7 +43,7 @@ CASES = {
     "cable, target 0.9 kg": (Device(preset="lhifam"), InertiaRequirements(target_apparent_mass=0.9)),
     "cable, 4th order, interior optimum": (Device(preset="lhifam"),
                                            InertiaRequirements(filter_order=4, cutoff_min_hz=20.0)),
-    # tests/optim/test_inertia_band.py: the maximum sits just past a jump of K_f,cr (issue 17)
+    # tests/optim/transparency/test_inertia_band.py: the maximum sits just past a jump of K_f,cr (issue 17)
     "cable, 3rd order, optimum at a jump": (Device(
         sample_time=0.001, delay=0.005, cable={"motor_mass": 0.13083075775577963, "motor_damping": 0.1,
                                                "body_mass": 1.2976995679619583, "body_damping": 3.4,

@@ -5,7 +5,7 @@ Starts ``python -m uvicorn service.app:app`` on a free port, then measures in th
 1. one client, sequential requests (latency without queueing),
 2. C concurrent clients (threads, one keep-alive connection each) for D seconds (throughput),
 3. comparators: the same request through starlette's TestClient in-process (no socket, no HTTP
-   parsing by uvicorn) and the bare numerics call ``optim.analysis.analyse_stability``.
+   parsing by uvicorn) and the bare numerics call ``optim.stability.analysis.analyse_stability``.
 
 The request is the rigid LHifAM (chapter Table 2), exact rung: the service's fast path.  Clients use
 the standard library's http.client rather than httpx: on a 2-core machine the load generator shares the
@@ -125,7 +125,7 @@ def in_process(n: int) -> list[float]:
 
 def numerics(n: int) -> list[float]:
     from models.device import Device
-    from optim.analysis import analyse_stability
+    from optim.stability.analysis import analyse_stability
 
     out = []
     for _ in range(max(20, n // 10)):

@@ -3,7 +3,7 @@
 Scenes: the LHifAM (chapter Table 2) released from 1 mm into a wall at half its K_cr, T = 1 ms.
 Each row adds one effect to the row above and reports the marginal cost.  Comparators run
 side by side in the same process: solve_ivp (DOP853, rtol 1e-10) integrating the same sampled loop
-between samples, and the exact per-sample loop (models.sim_loop.run_sampled_loop) on the linear scene.
+between samples, and the exact per-sample loop (models.simulation.sim_loop.run_sampled_loop) on the linear scene.
 The solve_ivp comparator runs 1 s of the scene (it costs ~1 ms per sample); its per-sample cost is
 scaled to the row's length and the table says so.
 
@@ -28,10 +28,10 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from models.device import Device
-from models.scene import Scene
-from models.simulate import simulate
-from models.sim_loop import linear_step, run_sampled_loop
-from models.simulate import loop_spec
+from models.simulation.scene import Scene
+from models.simulation.simulate import simulate
+from models.simulation.sim_loop import linear_step, run_sampled_loop
+from models.simulation.simulate import loop_spec
 
 TARGET_MS = 20.0       # issue 13: 10 s of a 1 kHz linear scene in ≤ 20 ms
 
@@ -118,8 +118,8 @@ def run(quick: bool) -> str:
     ode_ms = _ode_comparator(rigid, k, ode_seconds) * seconds / ode_seconds
     lines += ["", "## Comparators (same run, rigid linear scene)", "",
               "| propagation | median [ms] | p95 [ms] | ratio to exact-linear-recursion |", "|---|---|---|---|",
-              f"| exact-linear-recursion (block powers, models/propagate.py) | {lin_med:.2f} | {lin_p95:.2f} | 1 |",
-              f"| exact per-sample Python loop (models/sim_loop.py) | {loop_med:.2f} | {loop_p95:.2f} | {loop_med / lin_med:.0f}× |",
+              f"| exact-linear-recursion (block powers, models/simulation/propagate.py) | {lin_med:.2f} | {lin_p95:.2f} | 1 |",
+              f"| exact per-sample Python loop (models/simulation/sim_loop.py) | {loop_med:.2f} | {loop_p95:.2f} | {loop_med / lin_med:.0f}× |",
               f"| solve_ivp DOP853 per sample (measured on {ode_seconds:g} s, scaled ×{seconds / ode_seconds:g}) | "
               f"{ode_ms:.0f} | – | {ode_ms / lin_med:.0f}× |", "",
               f"Target (issue 13): 10 s of a 1 kHz linear scene in ≤ {TARGET_MS:g} ms — "

@@ -22,8 +22,8 @@ from pathlib import Path
 import numpy as np
 
 from models.device import Device
-from optim.analysis import analyse_stability
-from optim.studies import ProblemUnavailable, evaluate_point, get_problem
+from optim.stability.analysis import analyse_stability
+from optim.studies.problems import ProblemUnavailable, evaluate_point, get_problem
 from service.studies.executors import DaskExecutor, LocalExecutor
 from service.studies.runner import StudyRunner, plan_from_request
 from service.studies.store import StudyStore
@@ -163,7 +163,7 @@ def measure(points: int = 400, repeats: int = 3, workers: tuple[int, ...] = (1, 
             chunk_size: int = 64, analysis_points: int | None = None, critical_dask: bool = False) -> list[Row]:
     """``points`` stiffness designs; ``analysis_points`` (default 10 × points) for the two vectorised analysis
     problems.  ``chunk_size`` is the runner's (the service's default 64); vectorised problems take their
-    ``chunk_factor`` times it (optim.studies)."""
+    ``chunk_factor`` times it (optim.studies.problems)."""
     n_analysis = analysis_points or 10 * points
     studies = [(stability_study(n_analysis), chunk_size, dask),
                (critical_study(n_analysis), chunk_size, dask and critical_dask)]
@@ -212,8 +212,8 @@ def render(rows: list[Row], note: str = "", load: tuple[float, float] | None = N
         "by the CPU time of the processes that evaluated the points (this process, the pool's workers via psutil, "
         "the Dask workers via `client.run`): what one free core gives, whatever else shares the machine; "
         "n free cores give about n times that. Both analysis problems are vectorised over a chunk: `stability` "
-        "(optim.stability_study: K_cr, B_max, margin, passivity, eq. 10, Q and the rigid comparison of every "
-        "point) and `critical_stiffness` (optim.critical_study: the boundary alone), over the same wall and "
+        "(optim.studies.stability_study: K_cr, B_max, margin, passivity, eq. 10, Q and the rigid comparison of every "
+        "point) and `critical_stiffness` (optim.studies.critical_study: the boundary alone), over the same wall and "
         "sweep." + load_text,
         "",
         "| problem | executor | points | median [s] | p95 [s] | points/s | ratio vs baseline | points per CPU-s | failed points | points per chunk |",

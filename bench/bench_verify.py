@@ -47,7 +47,7 @@ def main() -> None:
         f"| confirmed | {r['confirmed']} |",
         f"| not checkable | {len(nc)} |",
         f"| contradicted (damped devices) | {len(r['contradicted'])} |",
-        f"| contradicted (undamped cables: optim.margins' known gap) | {len(r['undamped_contradicted'])} |",
+        f"| contradicted (undamped cables: optim.stability.margins' known gap) | {len(r['undamped_contradicted'])} |",
         f"| refused with 422 (not answers) | {r['refused']} |",
         f"| verify time p50 / p90 / max [ms] | {np.percentile(ms, 50):.1f} / {np.percentile(ms, 90):.1f} / "
         f"{ms.max():.1f} |",

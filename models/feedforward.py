@@ -33,8 +33,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .device import Device, Human
-from .discretize import StateSpaceZOH, _fold, split_delay
+from models.device import Device, Human
+from models.discretize import StateSpaceZOH, _fold, split_delay
 
 __all__ = ["CHAPTER_HUMAN", "FeedforwardPlant", "feedforward_plant", "feedforward_state_space"]
 
@@ -153,7 +153,7 @@ def feedforward_plant(device: Device, human: Human) -> FeedforwardPlant:
     theta_min = min(1e-2, max(1e-9, 1e-2 * min(rates)))
     # Dense scans only around lightly damped poles and zeros (ζ < 0.2, e.g. the cable
     # mode): a well-damped grasp turns the phase slowly and the adaptive bisection of
-    # optim/crossovers.py resolves it; every extra cluster costs ~320 evaluations.
+    # optim/stability/crossovers.py resolves it; every extra cluster costs ~320 evaluations.
     light = [v for v in list(lam) + list(zeros) if abs(v.imag) > 0 and -v.real < 0.2 * abs(v)]
     hints = tuple(sorted({_fold(abs(v.imag)) for v in light}))
     width = min((abs(v.real) for v in light), default=0.0)

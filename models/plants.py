@@ -6,9 +6,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .device import Device
-from .discretize import RigidZOH, StateSpaceZOH, cable_state_space, split_delay
-from .errors import InputError
+from models.device import Device
+from models.discretize import RigidZOH, StateSpaceZOH, cable_state_space, split_delay
+from models.errors import InputError
 
 __all__ = ["TransferFunction", "rigid_tf", "cable_tfs", "stiffness_loop_plant", "Q_criterion"]
 

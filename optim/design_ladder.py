@@ -1,6 +1,6 @@
 """Stiffness and inertia designs on every rung of the accuracy ladder (issue 6: "every design accepts method").
 
-A thin dispatcher: ``exact`` is the existing design (optim.stiffness, optim.inertia),
+A thin dispatcher: ``exact`` is the existing design (optim.stiffness, optim.transparency.inertia),
 untouched.  The other rungs:
 
 * ``linear`` — the closed-form design.  Stiffness: maximise K ≤ 10^(−GM/20)·(b + B)/(T/2 + t_d)
@@ -32,16 +32,16 @@ import numpy as np
 from models.device import Device, Human
 from models.filters import ButterworthLowPass
 
-from .analysis import DEFAULT_GRID_POINTS, METHODS, MAX_GRID_POINTS, grid_critical_stiffness, linear_error_estimate
-from .feedforward import critical_force_gain
-from .feedforward_ladder import grid_critical_force_gain, linear_force_gain_error
-from .feedforward_reference import REFERENCE_DIGITS, reference_critical_force_gain
-from .inertia import InertiaDesign, InertiaRequirements, _band, _humans, design_inertia
-from .margins import critical_stiffness, gain_margin_db, linear_estimate, loop_plant
-from .passivity import passive_alpha_on_grid, passivity_margin, passivity_samples
-from .reference import reference_critical_stiffness
-from .stiffness import StiffnessDesign, StiffnessRequirements, design_stiffness
-from .errors import InputError
+from optim.stability.analysis import DEFAULT_GRID_POINTS, METHODS, MAX_GRID_POINTS, grid_critical_stiffness, linear_error_estimate
+from optim.transparency.feedforward import critical_force_gain
+from optim.transparency.feedforward_ladder import grid_critical_force_gain, linear_force_gain_error
+from optim.transparency.feedforward_reference import REFERENCE_DIGITS, reference_critical_force_gain
+from optim.transparency.inertia import InertiaDesign, InertiaRequirements, _band, _humans, design_inertia
+from optim.stability.margins import critical_stiffness, gain_margin_db, linear_estimate, loop_plant
+from optim.stability.passivity import passive_alpha_on_grid, passivity_margin, passivity_samples
+from optim.stability.reference import reference_critical_stiffness
+from optim.stiffness import StiffnessDesign, StiffnessRequirements, design_stiffness
+from optim.errors import InputError
 
 __all__ = ["ExactCheck", "RungInfo", "design_stiffness_on_rung", "design_inertia_on_rung", "DESIGN_SCAN_POINTS"]
 
@@ -226,7 +226,7 @@ def design_stiffness_on_rung(device: Device, req: StiffnessRequirements | None =
     if method == "linear":
         design = _linear_stiffness(device, req)
         err = linear_error_estimate(device, design.damping) if design.status == "optimal" else None
-        src = ("eq. 10's error at the design's B (the linear rung's estimate, optim.analysis); the exact margin "
+        src = ("eq. 10's error at the design's B (the linear rung's estimate, optim.stability.analysis); the exact margin "
                "of the design is in exact_check")
     elif method == "grid":
         design, err = _grid_stiffness(device, req, grid_points)
@@ -326,7 +326,7 @@ def design_inertia_on_rung(device: Device, req: InertiaRequirements | None = Non
             design = _inertia_answer(device, req, humans, human_src, lo, hi, band_src, kf, cutoff if kf else None,
                                      kcr_lin, worst, solver, "optimal" if kf else "infeasible", why)
             err = linear_force_gain_error(device, worst, filt)
-            src = ("eq. 33's error at the design's cutoff for the heaviest grasp (optim.feedforward_ladder); the "
+            src = ("eq. 33's error at the design's cutoff for the heaviest grasp (optim.transparency.feedforward_ladder); the "
                    "exact margin of the design is in exact_check")
         else:
             cutoffs = np.geomspace(lo, hi, DESIGN_SCAN_POINTS)

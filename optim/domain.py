@@ -14,7 +14,7 @@ tests/optim/test_domain.py, where every analysis returns finite numbers.  The sa
 and filter cutoffs a request gives beside its device (check_human_domain, check_cutoff_domain), and every
 device of a robust design's uncertainty box (optim.robust.box).
 
-optim.analysis and optim.boundary also turn any floating-point overflow into a
+optim.stability.analysis and optim.stability.boundary also turn any floating-point overflow into a
 ValueError naming the device; this check comes first and names the field and
 the rule.
 """
@@ -22,7 +22,7 @@ the rule.
 from __future__ import annotations
 
 from models.device import Device, Human
-from .errors import InputError
+from optim.errors import InputError
 
 __all__ = ["DELTA_MIN", "DELTA_MAX", "SCALE_MIN", "SCALE_MAX", "RATIO_MIN", "RATIO_MAX", "CUTOFF_RATIO_MIN",
            "check_device_domain", "check_human_domain", "check_human_mass", "check_cutoff_domain",

@@ -1,7 +1,7 @@
 """``verify: true``: an independent proof of a critical gain, a design's margin and its passivity.
 
-The check shares no code with the crossover scan (optim.crossovers, optim.margins, models.discretize):
-it closes the loop in optim.closed_loop, built again from the device's physical parameters, and asks
+The check shares no code with the crossover scan (optim.stability.crossovers, optim.stability.margins, models.discretize):
+it closes the loop in optim.stability.closed_loop, built again from the device's physical parameters, and asks
 whether the loop is stable just below the answer and unstable just above it:
 
 * ``eigenvalues``: the spectral radius of the closed-loop state matrix (whole-sample delay as a shift
@@ -26,7 +26,7 @@ from scipy.optimize import minimize_scalar
 
 from models.device import Device
 
-from .closed_loop import (
+from optim.stability.closed_loop import (
     SampledPlant,
     radius_excess,
     sampled_plant,
@@ -56,8 +56,8 @@ DEFAULT_EPSILON = 1e-6
 #: closed-loop states up to which the dense eigenvalue method is tried (cost ~ n³; ≈ 5 ms at 160)
 EIG_MAX_STATES = 160
 
-EIGEN = "eigenvalues of the closed-loop state matrix (optim.closed_loop)"
-ARGUMENT = "argument principle: winding of 1 + C·G on the unit circle (optim.closed_loop)"
+EIGEN = "eigenvalues of the closed-loop state matrix (optim.stability.closed_loop)"
+ARGUMENT = "argument principle: winding of 1 + C·G on the unit circle (optim.stability.closed_loop)"
 
 
 @dataclass(frozen=True)
@@ -199,7 +199,7 @@ def verify_critical_stiffness(device: Device, damping: float, critical: float | 
 def _required_damping(device: Device, stiffness: float, damping: float, whole: int) -> tuple[float, float]:
     """sup over θ ∈ (0, π] of (T/2)·Re[(1 − e^{−jθ})·e^{−jdθ}·C(e^{jθ})]/(1 − cos θ), and its θ.
 
-    The same theorem as optim.passivity but evaluated from the complex form (no Dirichlet kernel):
+    The same theorem as optim.stability.passivity but evaluated from the complex form (no Dirichlet kernel):
     a dense grid (≥ 64 points per period of the delay's phase) and a bounded refinement of its best cells.
     """
     t = device.sample_time
@@ -285,7 +285,7 @@ def verify_stiffness_design(device: Device, stiffness: float, damping: float, ga
 
 
 def verify_analysis(device: Device, analysis) -> Verification:
-    """Verify an optim.analysis.StabilityAnalysis on whatever rung produced it.
+    """Verify an optim.stability.analysis.StabilityAnalysis on whatever rung produced it.
 
     Exact and reference answers are checked at ±:data:`DEFAULT_EPSILON`; an approximate rung (linear, grid)
     at ± its own error estimate (its claim), and not at all when it claims no bound.  The labels of a given
@@ -298,7 +298,7 @@ def verify_analysis(device: Device, analysis) -> Verification:
         if est is None or not math.isfinite(est):
             return _not_checkable(t0, f"the {analysis.method} rung states no error bound (its estimate is unbounded): "
                                       "there is no claim to check")
-        # the linear rung documents its estimate as within 2× of the true error (optim.analysis): check that claim
+        # the linear rung documents its estimate as within 2× of the true error (optim.stability.analysis): check that claim
         eps = max(float(est) * (2.0 if analysis.method == "linear" else 1.0), DEFAULT_EPSILON)
     kcr = analysis.critical_stiffness
     above = [c.stiffness for c in analysis.crossovers
@@ -312,7 +312,7 @@ def verify_analysis(device: Device, analysis) -> Verification:
 # --- force feedforward: K_f,cr of 1 + K_f·D·G_1 --------------------------------------------------------------
 
 def _ff_point(loop, force_gain: float) -> _Point:
-    from .closed_loop_feedforward import (
+    from optim.transparency.closed_loop_feedforward import (
         feedforward_closed_loop,
         feedforward_unstable_count,
     )
@@ -332,7 +332,7 @@ def verify_critical_force_gain(device: Device, human, critical: float | None, or
                                next_crossing: float | None = None, design_gain: float | None = None) -> Verification:
     """Is 1 + K_f·D·G_1 stable at K_f,cr·(1 − ε) and unstable at K_f,cr·(1 + ε)?  ``design_gain``: a
     designed K_f, checked stable too (its spectral radius is reported as design_radius)."""
-    from .closed_loop_feedforward import feedforward_loop
+    from optim.transparency.closed_loop_feedforward import feedforward_loop
 
     t0 = time.perf_counter()
     loop = feedforward_loop(device, human, order, cutoff_hz)
@@ -371,7 +371,7 @@ def verify_critical_force_gain(device: Device, human, critical: float | None, or
 
 
 def verify_force_feedforward(device: Device, analysis, order: int | None, cutoff_hz: float | None) -> Verification:
-    """Verify an optim.feedforward_ladder.ForceFeedforwardAnalysis on its rung (ε as for the stiffness rungs)."""
+    """Verify an optim.transparency.feedforward_ladder.ForceFeedforwardAnalysis on its rung (ε as for the stiffness rungs)."""
     t0 = time.perf_counter()
     if analysis.method in ("exact", "reference"):
         eps = DEFAULT_EPSILON
@@ -389,7 +389,7 @@ def verify_force_feedforward(device: Device, analysis, order: int | None, cutoff
 # --- the stability boundary: every point, the optimum's record -----------------------------------------------
 
 def verify_boundary(device: Device, boundary, epsilon: float = DEFAULT_EPSILON) -> Verification:
-    """Verify every K_cr(B) of an optim.boundary.Boundary; the record is the optimum's, the verdict the worst
+    """Verify every K_cr(B) of an optim.stability.boundary.Boundary; the record is the optimum's, the verdict the worst
     over the points, and the reason counts them (a contradicted point is named)."""
     t0 = time.perf_counter()
     counts = {"confirmed": 0, "contradicted": 0, "not_checkable": 0}

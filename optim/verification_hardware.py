@@ -14,9 +14,9 @@ from dataclasses import replace
 
 from models.device import Device
 
-from .feedforward import resolve_human
-from .hardware_targets import device_with
-from .verification import (
+from optim.transparency.feedforward import resolve_human
+from optim.hardware.hardware_targets import device_with
+from optim.verification import (
     Verification,
     verify_critical_force_gain,
     verify_stiffness_design,

@@ -10,8 +10,8 @@ design.
 """
 
 from models.device import PRESETS, Device
-from optim.analysis import analyse_stability
-from optim.boundary import stability_boundary
+from optim.stability.analysis import analyse_stability
+from optim.stability.boundary import stability_boundary
 from optim.stiffness import design_stiffness
 
 for _name in sorted(PRESETS):

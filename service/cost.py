@@ -118,13 +118,13 @@ def force_feedforward_cost_ms(device: Device, method: str, grid_points: int) -> 
     return 3.0 * cable * _delay_factor(device)
 
 
-#: Cost per simulated sample [ms] of each propagation method of models.simulate.
+#: Cost per simulated sample [ms] of each propagation method of models.simulation.simulate.
 _SIM_MS_PER_SAMPLE = {"exact-linear-recursion": 1e-3, "exact-sampled-loop": 1e-2, "event-integrator": 4e-2}
 
 
 def simulation_cost_ms(device: Device, scene) -> float:
     """Estimated cost [ms] of one simulation (and, for a relay, its analysis ≈ 0.1 s: a worker)."""
-    from models.simulate import propagation_method, sample_count
+    from models.simulation.simulate import propagation_method, sample_count
 
     ms = 1.0 + _SIM_MS_PER_SAMPLE[propagation_method(scene)] * sample_count(device, scene)
     # the verdict's closed-loop poles: dense eigenvalues of ~(delay line + 8) states (≤ 600), O(n³)

@@ -13,12 +13,12 @@ import dataclasses
 
 from models.device import Device
 from models.filters import ButterworthLowPass
-from models.scene import Scene
-from models.simulate import SimulationResult, simulate
-from optim.feedforward import critical_force_gain
-from optim.hardware import HardwareTarget, design_hardware
-from optim.feedforward_ladder import ForceFeedforwardAnalysis, analyse_force_feedforward
-from optim.relay import RelayReport, relay_experiment
+from models.simulation.scene import Scene
+from models.simulation.simulate import SimulationResult, simulate
+from optim.transparency.feedforward import critical_force_gain
+from optim.hardware.design import HardwareTarget, design_hardware
+from optim.transparency.feedforward_ladder import ForceFeedforwardAnalysis, analyse_force_feedforward
+from optim.relay.experiment import RelayReport, relay_experiment
 from optim.scene_verdict import with_margin_verdict
 from optim.robust.box import UncertaintyBox
 from optim.robust.stiffness import robust_design_stiffness

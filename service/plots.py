@@ -1,7 +1,7 @@
 """PNG and SVG figures of the stability boundary and of the loop's Bode diagram (headless matplotlib).
 
-Figures are drawn from the numerics' own results (optim.boundary.Boundary,
-optim.frequency_response.FrequencyResponse) without recomputing anything: the
+Figures are drawn from the numerics' own results (optim.stability.boundary.Boundary,
+optim.stability.frequency_response.FrequencyResponse) without recomputing anything: the
 plotted arrays are those objects' arrays.  ``matplotlib.figure.Figure`` is used
 directly (no pyplot): no global figure registry, so concurrent requests in the
 thread pool do not share state.
@@ -22,11 +22,11 @@ matplotlib.rcParams["svg.hashsalt"] = "zwidth"
 import numpy as np  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
-from optim.boundary import Boundary  # noqa: E402
-from optim.frequency_response import FrequencyResponse  # noqa: E402
+from optim.stability.boundary import Boundary  # noqa: E402
+from optim.stability.frequency_response import FrequencyResponse  # noqa: E402
 
 if TYPE_CHECKING:
-    from optim.frequency_response import CrossoverPoint as Crossover
+    from optim.stability.frequency_response import CrossoverPoint as Crossover
 
 __all__ = ["boundary_figure", "bode_figure", "render", "MEDIA_TYPES", "ImageFormat", "MAX_CROSSOVER_LABELS",
            "labelled_crossovers", "boundary_plot", "bode_plot"]
@@ -125,13 +125,13 @@ def render(fig: Figure, fmt: ImageFormat) -> bytes:
 def boundary_plot(device, damping_max: float | None, points: int, fmt: ImageFormat) -> bytes:
     """Compute and draw the boundary figure: what a compute worker runs for /v1/plots/boundary (the drawing is
     under the request time budget too, and the server process never holds a figure)."""
-    from optim.boundary import stability_boundary
+    from optim.stability.boundary import stability_boundary
 
     return render(boundary_figure(stability_boundary(device, damping_max, points)), fmt)
 
 
 def bode_plot(device, damping: float, points: int, stiffness: float | None, fmt: ImageFormat) -> bytes:
     """Compute and draw the Bode figure: what a compute worker runs for /v1/plots/bode."""
-    from optim.frequency_response import loop_frequency_response
+    from optim.stability.frequency_response import loop_frequency_response
 
     return render(bode_figure(loop_frequency_response(device, damping, points), stiffness), fmt)

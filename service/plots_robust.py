@@ -14,7 +14,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from optim.hardware import HardwareDesign, HardwareTarget
+from optim.hardware.design import HardwareDesign, HardwareTarget
 from optim.robust.box import UncertaintyBox
 from optim.robust.worst_case import box_critical_stiffness
 

@@ -10,7 +10,7 @@ import io
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from models.simulate import SimulationResult
+from models.simulation.simulate import SimulationResult
 
 __all__ = ["plot_simulation", "MEDIA_TYPES"]
 

@@ -34,7 +34,7 @@ def device_params(spec: str) -> dict:
 #: (2.9 × K_cr), and two cable devices like the issue's (T = 1 ms, 1.7 ms delay, k_c = 147 kN/m) found by
 #: a random search for releases at 1.05 × K_cr the old verdict called stable at 5 s ("B", a 787.5 rad/s
 #: cable mode with spectral radius 1.0000615) and still at 20 s ("A", 771.8 rad/s, 1.0000364).  Their
-#: K_cr comes from optim.margins at test time; the poles are checked against tests/optim/independent.py.
+#: K_cr comes from optim.stability.margins at test time; the poles are checked against tests/optim/independent.py.
 ISSUE17_RIGID = {"mass": 5.4, "damping": 3.5, "sample_time": 0.001}
 ISSUE17_CABLES = {
     "B": {"sample_time": 0.001, "delay": 0.0017,

@@ -5,8 +5,8 @@ fractional delay), or a weighted complex fit of a measured frequency response.  
 :func:`optim.identification.identify.identify`.
 """
 
-from .data import FrequencyResponseData, TimeSeriesData
-from .identify import identify
-from .result import IdentificationResult
+from optim.identification.data import FrequencyResponseData, TimeSeriesData
+from optim.identification.identify import identify
+from optim.identification.result import IdentificationResult
 
 __all__ = ["FrequencyResponseData", "IdentificationResult", "TimeSeriesData", "identify"]

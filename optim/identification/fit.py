@@ -16,9 +16,9 @@ import numpy as np
 from pydantic import ValidationError
 from scipy.optimize import least_squares
 
-from .models import POSITIVE, ModelName
-from .problem import Problem
-from .starts import cable_starts, rigid_starts
+from optim.identification.models import POSITIVE, ModelName
+from optim.identification.problem import Problem
+from optim.identification.starts import cable_starts, rigid_starts
 
 __all__ = ["REFINED_STARTS", "FitOutcome", "fit_model"]
 

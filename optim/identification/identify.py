@@ -14,8 +14,8 @@ import time
 import numpy as np
 from pydantic import ValidationError
 
-from ..domain import check_device_domain
-from .data import (
+from optim.domain import check_device_domain
+from optim.identification.data import (
     BAND_RATIO,
     FrequencyResponseData,
     TimeSeriesData,
@@ -24,11 +24,11 @@ from .data import (
     excited_band,
     warnings_for,
 )
-from .fit import FitOutcome, fit_model, refine_friction
-from .models import PARAMS, POSITIVE, ModelName
-from .problem import Problem
-from .result import Comparison, FitQuality, IdentificationResult, Parameter
-from .stats import IDENTIFIABLE_RCOND, covariance, information_criteria, ljung_box, nrmse, quantile
+from optim.identification.fit import FitOutcome, fit_model, refine_friction
+from optim.identification.models import PARAMS, POSITIVE, ModelName
+from optim.identification.problem import Problem
+from optim.identification.result import Comparison, FitQuality, IdentificationResult, Parameter
+from optim.identification.stats import IDENTIFIABLE_RCOND, covariance, information_criteria, ljung_box, nrmse, quantile
 from optim.errors import InputError
 
 __all__ = ["DEFAULT_MAX_DELAY_SAMPLES", "MAX_DELAY_SEARCH_SAMPLES", "identify"]

@@ -9,7 +9,7 @@ Coulomb friction (time series only) is the force −F_c·sign(v[k]) held over ea
 mass, without the loop delay (it is physical, not commanded), where v[k] is the velocity read from the
 measured position (a Savitzky–Golay derivative).  That makes F_c a linear parameter with an exact
 regressor, at the price of an approximation: stick and the sign change inside a sample are not
-modelled (the scene simulator's event integrator, models/friction.py, models them; the tests generate
+modelled (the scene simulator's event integrator, models/simulation/friction.py, models them; the tests generate
 their data with it and measure the bias this leaves).
 
 The Jacobian is exact for the linear parameters (offset, F_c) and central differences of the exact
@@ -23,8 +23,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.signal import savgol_filter
 
-from .data import FrequencyResponseData, TimeSeriesData
-from .models import PARAMS, POSITIVE, ModelName, device_from, response, simulate_position
+from optim.identification.data import FrequencyResponseData, TimeSeriesData
+from optim.identification.models import PARAMS, POSITIVE, ModelName, device_from, response, simulate_position
 
 __all__ = ["Problem", "friction_regressor"]
 

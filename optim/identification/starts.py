@@ -16,9 +16,9 @@ import math
 import numpy as np
 from scipy.signal import csd, welch
 
-from .data import FrequencyResponseData, TimeSeriesData
-from .models import device_from, response, simulate_position
-from .problem import Problem
+from optim.identification.data import FrequencyResponseData, TimeSeriesData
+from optim.identification.models import device_from, response, simulate_position
+from optim.identification.problem import Problem
 
 __all__ = ["cable_starts", "rigid_starts"]
 

@@ -1,6 +1,6 @@
-"""Exact K_cr(B) of many devices at once: the analysis of optim.margins, vectorised across devices.
+"""Exact K_cr(B) of many devices at once: the analysis of optim.stability.margins, vectorised across devices.
 
-Same mathematics as optim.margins.critical_stiffness (every phase crossover of
+Same mathematics as optim.stability.margins.critical_stiffness (every phase crossover of
 H(θ) = −1/G_n(e^{jθ}) + β(e^{−jθ} − 1) bracketed and refined to full double
 precision, the Nyquist point counted, K_cr = 0 at or above B_max), but every
 device of a batch is scanned at once in numpy arrays, because the worst-case
@@ -8,7 +8,7 @@ search and the verification of a robust design need thousands of devices and
 numpy's per-call overhead dominates one device at a time (FIELD-NOTES.md).
 
 How it stays exact:
-* each device gets its own grid, built like optim.crossovers.scan_grid (a log part
+* each device gets its own grid, built like optim.stability.crossovers.scan_grid (a log part
   from far below the lowest crossover, a linear part fine enough for the delay's
   phase, dense clusters at its resonances and anti-resonances), all rows of equal
   length so the batch is one 2-D array;
@@ -16,9 +16,9 @@ How it stays exact:
   (recursively, in flat arrays) so consecutive samples cannot hide a crossing;
 * a near-tangent pair of crossings between two samples (a fold of the boundary) is
   found by minimising the signed arg over each interval where |arg H| dips below 0.05;
-* each bracket is refined by the vectorised Illinois solver of optim.crossovers.
+* each bracket is refined by the vectorised Illinois solver of optim.stability.crossovers.
 
-It is checked against optim.margins.critical_stiffness device by device
+It is checked against optim.stability.margins.critical_stiffness device by device
 (tests/optim/robust/test_batch.py).
 """
 
@@ -33,16 +33,16 @@ import numpy as np
 from models.device import Device
 from models.discretize import RigidZOH, StateSpaceZOH
 from models.plants import stiffness_loop_plant
-from optim.crossovers import (CLUSTER_GEOM, CLUSTER_HALF_WIDTH, CLUSTER_POINTS, LIN_STEP, LOG_END, LOG_MIN_SAMPLES,
+from optim.stability.crossovers import (CLUSTER_GEOM, CLUSTER_HALF_WIDTH, CLUSTER_POINTS, LIN_STEP, LOG_END, LOG_MIN_SAMPLES,
                               LOG_PER_DECADE, STEPS_PER_DELAY_TURN, _solve_brackets)
-from optim.fast_batch import fast_rigid_batch
+from optim.stability.fast_batch import fast_rigid_batch
 from optim.golden import golden_minimum
-from ..errors import InputError
+from optim.errors import InputError
 
 __all__ = ["BatchCritical", "batch_critical_stiffness"]
 
-_MAX_ARG_STEP = 0.25          # as optim.crossovers: largest turn of arg H between samples [rad]
-_TANGENT_ARG = 0.05           # as optim.crossovers: |arg H| below which a near-tangency is looked for
+_MAX_ARG_STEP = 0.25          # as optim.stability.crossovers: largest turn of arg H between samples [rad]
+_TANGENT_ARG = 0.05           # as optim.stability.crossovers: |arg H| below which a near-tangency is looked for
 _MAX_SPLITS = 60
 _GOLDEN_STEPS = 48            # golden-section steps: 0.618^48 ≈ 1e-10 of the interval (the dip only needs detecting)
 
@@ -58,7 +58,7 @@ class BatchCritical:
     max_stable_damping: np.ndarray
     """B_max [N·s/m] (inf when the damper-only loop has no crossover)."""
     scanned: int = 0
-    """How many devices the scan decided (cable devices, and rigid ones where optim.fast_batch's bounds
+    """How many devices the scan decided (cable devices, and rigid ones where optim.stability.fast_batch's bounds
     did not close); the others took the fast path."""
 
 
@@ -135,11 +135,11 @@ def _unit_steps(counts: np.ndarray) -> np.ndarray:
 
 
 def _grids(devices: Sequence[Device], plants, betas: np.ndarray) -> np.ndarray:
-    """One sorted grid per device (rows of equal length), as optim.crossovers.scan_grid builds it."""
+    """One sorted grid per device (rows of equal length), as optim.stability.crossovers.scan_grid builds it."""
     delta = np.array([d.delta for d in devices])
     ds = np.array([d.delay_samples for d in devices])
     scale = 1.0 / (1.0 + 2.0 * ds)
-    # θ_min of optim.margins with β = 0 (the damper-only loop's scan, the lower of the two)
+    # θ_min of optim.stability.margins with β = 0 (the damper-only loop's scan, the lower of the two)
     damp = np.maximum(delta, 0.0)
     theta_min = np.where(damp > 0, 1e-4 * np.minimum(np.minimum(1.0, np.sqrt(damp * scale)), 10 * damp), 1e-4 * scale)
     theta_lin = np.maximum(LOG_END, theta_min * 10)       # as scan_grid (its constants)
@@ -226,7 +226,7 @@ def _dip_brackets(h: _Loop, r, lo, hi, vlo, vhi, sign):
 
 
 def _tangent_candidates_grid(grid, values, bad):
-    """As optim.crossovers._tangential_pairs on the base grid: a local minimum of |arg H| below 0.05 at sample i
+    """As optim.stability.crossovers._tangential_pairs on the base grid: a local minimum of |arg H| below 0.05 at sample i
     with the same sign at i − 1, i, i + 1 (intervals that were bisected are searched leaf by leaf instead)."""
     arg = np.angle(values)
     mag = np.abs(arg)
@@ -279,7 +279,7 @@ def _min_crossing(h: _Loop, grid: np.ndarray, values: np.ndarray) -> tuple[np.nd
     cr, ct, cv = (np.concatenate(x) for x in (cand_r, cand_t, cand_v))
     v_pi = h(np.full((n, 1), math.pi)).real[:, 0]
     nyq = v_pi > 0
-    # as optim.crossovers: with a Nyquist crossover, a rounding-level crossing just below π is the same one
+    # as optim.stability.crossovers: with a Nyquist crossover, a rounding-level crossing just below π is the same one
     keep = (cv > 0) & ~(nyq[cr] & (math.pi - ct <= 1e-9))
     cr, ct, cv = cr[keep], ct[keep], cv[keep]
     order = np.lexsort((cv, cr))
@@ -297,7 +297,7 @@ def _min_crossing(h: _Loop, grid: np.ndarray, values: np.ndarray) -> tuple[np.nd
 def batch_critical_stiffness(devices: Sequence[Device], damping: float | np.ndarray) -> BatchCritical:
     """Exact K_cr [N/m] of every device at virtual damping B [N·s/m] (one B for all, or one per device).
 
-    Devices may mix rigid and cable models.  Rigid devices take the fast exact path of optim.fast_batch
+    Devices may mix rigid and cable models.  Rigid devices take the fast exact path of optim.stability.fast_batch
     (no scan); the rows its bounds leave open, and each other structure, are scanned as one batch.
     """
     n = len(devices)
@@ -323,7 +323,7 @@ def batch_critical_stiffness(devices: Sequence[Device], damping: float | np.ndar
 
 
 def _fast_rigid_rows(devices, bvec, idx, kcr, ang, bmax) -> list[int]:
-    """optim.fast_batch on the rigid rows idx (results written in place); returns the rows it leaves to the scan."""
+    """optim.stability.fast_batch on the rigid rows idx (results written in place); returns the rows it leaves to the scan."""
     m, b_phys, t, td = np.array([(d.mass, d.damping, d.sample_time, d.delay) for d in devices]).T
     ks, bs = m / t**2, m / t                  # Device.stiffness_scale, damping_scale
     b = bvec[idx]

@@ -19,8 +19,8 @@ from pydantic import ValidationError
 
 from models.device import Device
 
-from ..domain import check_device_domain
-from ..errors import InputError
+from optim.domain import check_device_domain
+from optim.errors import InputError
 
 __all__ = ["PATHS", "STIFFNESS_PATHS", "UncertaintyBox", "MAX_UNCERTAIN"]
 

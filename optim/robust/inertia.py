@@ -7,9 +7,9 @@ of the box may move K_f,cr.  Scenario exchange, as for the stiffness
 
 1. scenarios: the nominal device (clipped into the box) and every corner, each with
    its grasp (the device's human block, else the chapter's eq. 30);
-2. the design over the scenarios is optim.inertia's own method with the scenarios
+2. the design over the scenarios is optim.transparency.inertia's own method with the scenarios
    in place of its grasps: an exact Pareto scan of min_s K_f,cr(f_c; s) over the
-   band, then its CasADi crossover NLP (optim.inertia_nlp) with one margin
+   band, then its CasADi crossover NLP (optim.transparency.inertia_nlp) with one margin
    constraint per scenario crossover, and its exchange of crossovers;
 3. the whole box is searched for the device with the smallest K_f,cr at the
    design's cutoff (Sobol + corners + pattern search, exact analysis);
@@ -39,15 +39,15 @@ import numpy as np
 
 from models.device import Device
 from models.feedforward import feedforward_plant
-from optim.feedforward import resolve_human
-from optim.inertia import InertiaRequirements, ParetoPoint, RigidComparison, _band, _Loop, _rigid, pareto_points
-from optim.inertia_band import band_profile, highest_feasible, maximise
-from optim.inertia_nlp import modal_plant
+from optim.transparency.feedforward import resolve_human
+from optim.transparency.inertia import InertiaRequirements, ParetoPoint, RigidComparison, _band, _Loop, _rigid, pareto_points
+from optim.transparency.inertia_band import band_profile, highest_feasible, maximise
+from optim.transparency.inertia_nlp import modal_plant
 
-from .box import UncertaintyBox
-from .stiffness import TOLERANCE_DB
-from .worst_case import minimise_over_box
-from ..errors import InputError
+from optim.robust.box import UncertaintyBox
+from optim.robust.stiffness import TOLERANCE_DB
+from optim.robust.worst_case import minimise_over_box
+from optim.errors import InputError
 
 __all__ = ["RobustInertiaDesign", "robust_design_inertia"]
 
@@ -88,7 +88,7 @@ class RobustInertiaDesign:
 
 
 class _ScenarioLoop(_Loop):
-    """optim.inertia's worst-grasp loop with one plant per scenario device, each at its own cutoff angle
+    """optim.transparency.inertia's worst-grasp loop with one plant per scenario device, each at its own cutoff angle
     θ_ref·T_s/T_ref (the cutoff is one frequency in Hz)."""
 
     def __init__(self, devices: list[Device], order: int, t_ref: float):
@@ -178,8 +178,8 @@ def _with(d: RobustInertiaDesign, t0, it, evals, box, points, lo_hz, hi_hz) -> R
 
 
 def _design(loop: _ScenarioLoop, req, rho, lo_hz, hi_hz, t_of, mass, objective, info):
-    """A _Step (K_f, θ_ref, the scan) over the current scenarios (optim.inertia's method and band search,
-    optim/inertia_band.py), or a finished design (infeasible/failed)."""
+    """A _Step (K_f, θ_ref, the scan) over the current scenarios (optim.transparency.inertia's method and band search,
+    optim/transparency/inertia_band.py), or a finished design (infeasible/failed)."""
     cutoffs = np.geomspace(lo_hz, hi_hz, max(2, req.pareto_points))
     t = cutoffs * t_of
     kcrs = np.array([loop.exact(th)[0] for th in t])

@@ -1,6 +1,6 @@
 """Passivity over an uncertainty box: the finitely many devices that decide it, found exactly (no search).
 
-Passivity of (K, B) on a device (ARCHITECTURE.md, optim.passivity) reads
+Passivity of (K, B) on a device (ARCHITECTURE.md, optim.stability.passivity) reads
 
     b > P(θ) = (K·T/2)·s_n(θ) − B·cos((n+1)θ)   for every θ ∈ (0, π],   n = ⌈t_d/T⌉,
 
@@ -23,7 +23,7 @@ have n samples, and their passivity tends to the corner's (the passive set is st
 supremum is the same).  Such a corner is ``approached``, not attained, by the box.
 
 A fractional delay is rounded up to the next whole sample (conservative), as in
-optim.passivity.  The number of whole delays a box allows is capped (each is a corner).
+optim.stability.passivity.  The number of whole delays a box allows is capped (each is a corner).
 """
 
 from __future__ import annotations
@@ -34,10 +34,10 @@ import numpy as np
 
 from models.device import Device
 from models.discretize import split_delay
-from optim.passivity import PassivityCheck, largest_passive_stiffness, passivity_margin, passivity_samples
+from optim.stability.passivity import PassivityCheck, largest_passive_stiffness, passivity_margin, passivity_samples
 
-from .box import UncertaintyBox
-from ..errors import InputError
+from optim.robust.box import UncertaintyBox
+from optim.errors import InputError
 
 __all__ = ["PASSIVITY_PATHS", "MAX_PASSIVITY_DELAYS", "PassivityCorner", "PassivityWorst", "passivity_corners",
            "worst_passivity", "largest_robust_passive_stiffness", "describe_delays"]
@@ -65,7 +65,7 @@ class PassivityCorner:
     approached: bool
     """True when no device of the box has exactly (T, n): the devices with T just below it do."""
     device: Device
-    """a rigid device with exactly (b, T, n) (mass irrelevant): what optim.passivity evaluates."""
+    """a rigid device with exactly (b, T, n) (mass irrelevant): what optim.stability.passivity evaluates."""
 
 
 def _ceil_samples(ratio: float) -> int:

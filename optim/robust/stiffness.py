@@ -33,17 +33,17 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from models.device import Device
-from optim.margins import critical_stiffness, gain_margin_db, max_stable_damping
-from optim.passivity import kernel, largest_passive_stiffness, passive_alpha_on_grid, passivity_margin
+from optim.stability.margins import critical_stiffness, gain_margin_db, max_stable_damping
+from optim.stability.passivity import kernel, largest_passive_stiffness, passive_alpha_on_grid, passivity_margin
 from optim.stiffness.loop import loop_matrices
 from optim.stiffness.profile import BoundaryCurve, boundary_curve, coarse_critical, crossings_at
 from optim.stiffness.requirements import DESIGN_BACK_OFF, StiffnessRequirements
 
-from .box import STIFFNESS_PATHS, UncertaintyBox
-from .passivity import (PassivityCorner, describe_delays, largest_robust_passive_stiffness, passivity_corners,
+from optim.robust.box import STIFFNESS_PATHS, UncertaintyBox
+from optim.robust.passivity import (PassivityCorner, describe_delays, largest_robust_passive_stiffness, passivity_corners,
                         worst_passivity)
-from .problem import RobustKey, cut_slots, solve_robust
-from .worst_case import WorstCase, worst_case_stiffness
+from optim.robust.problem import RobustKey, cut_slots, solve_robust
+from optim.robust.worst_case import WorstCase, worst_case_stiffness
 
 __all__ = ["RobustStiffnessDesign", "robust_design_stiffness", "TOLERANCE_DB"]
 
@@ -164,7 +164,7 @@ class _Passivity:
         return np.array(rows, float).reshape(-1, 3)
 
     def coarse(self, bgrid: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """On the B grid, per corner (rows): passive K [N/m] and the angle that binds (a seed on optim.passivity's
+        """On the B grid, per corner (rows): passive K [N/m] and the angle that binds (a seed on optim.stability.passivity's
         θ grid); and per B the corner with the smallest."""
         ks, thetas = [], []
         for c in self.corners:

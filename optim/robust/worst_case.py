@@ -26,8 +26,8 @@ from scipy.stats import qmc
 
 from models.device import Device
 
-from .batch import batch_critical_stiffness
-from .box import STIFFNESS_PATHS, UncertaintyBox
+from optim.robust.batch import batch_critical_stiffness
+from optim.robust.box import STIFFNESS_PATHS, UncertaintyBox
 
 __all__ = ["WorstCase", "worst_case_stiffness", "box_critical_stiffness", "minimise_over_box"]
 

@@ -6,7 +6,7 @@ Steps (each a function below):
    and seeds every crossover angle;
 2. the CasADi NLP (problem.py) maximises α on that interval with the tracked
    crossovers, the Nyquist crossover, the limits and passivity cuts;
-3. the answer is re-checked by the exact analysis (optim.margins.critical_stiffness
+3. the answer is re-checked by the exact analysis (optim.stability.margins.critical_stiffness
    at the chosen B, and the passivity scan): a crossover or passivity angle the NLP
    did not know about is added and the NLP solved again (an exchange method);
 4. the optimum's sensitivities to the device come from Ipopt's multipliers
@@ -22,15 +22,15 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from models.device import Device
-from optim.margins import critical_stiffness, gain_margin_db, linear_estimate, max_stable_damping
-from optim.passivity import (kernel, largest_passive_stiffness, passivity_margin,
+from optim.stability.margins import critical_stiffness, gain_margin_db, linear_estimate, max_stable_damping
+from optim.stability.passivity import (kernel, largest_passive_stiffness, passivity_margin,
                              passivity_samples)
 
-from . import safeguards
-from .loop import loop_matrices
-from .problem import N_CUTS, ProblemKey, ProblemSolution, solve_problem
-from .profile import BoundaryCurve, boundary_curve, coarse_critical, crossings_at
-from .requirements import DESIGN_BACK_OFF, StiffnessRequirements
+from optim.stiffness import safeguards
+from optim.stiffness.loop import loop_matrices
+from optim.stiffness.problem import N_CUTS, ProblemKey, ProblemSolution, solve_problem
+from optim.stiffness.profile import BoundaryCurve, boundary_curve, coarse_critical, crossings_at
+from optim.stiffness.requirements import DESIGN_BACK_OFF, StiffnessRequirements
 
 __all__ = ["StiffnessDesign", "Sensitivity", "design_stiffness"]
 
@@ -192,7 +192,7 @@ def _coarse_profile(ctx: _Context) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     betas = betas[(betas >= 0) & (betas <= hi * (1 - 1e-9))]
     obj = ctx.req.gain_factor * coarse_critical(ctx.curve, betas)
     if ctx.device.delta <= 0.0:
-        # b = 0: at B = 0 the loop is a bare double integrator, K_cr = 0 (optim.margins); the curve's lowest
+        # b = 0: at B = 0 the loop is a bare double integrator, K_cr = 0 (optim.stability.margins); the curve's lowest
         # crossover θ ≈ sqrt(β/(d+½)) → 0 with α → 0 there, below any sampled θ, so the profile must be told
         obj[betas <= 0.0] = 0.0
     obj = np.minimum(obj, ctx.alpha_cap)
@@ -305,7 +305,7 @@ def at_reason(at: _Attempt) -> str | None:
 
 def _finish(ctx: _Context, at: _Attempt, b_max: float, k_caps: dict, b_caps: dict, pass_note: str | None,
             t0: float, setup_ms: float, solve_ms: float, fallback: str | None = None) -> StiffnessDesign:
-    from .sensitivity import sensitivities
+    from optim.stiffness.sensitivity import sensitivities
 
     dev, req = ctx.device, ctx.req
     solver = {"name": "ipopt", "return_status": at.sol.return_status, "iterations": at.sol.iterations,

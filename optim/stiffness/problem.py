@@ -21,8 +21,8 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from ..solver_cache import thread_solver
-from .loop import casadi_loop_function
+from optim.solver_cache import thread_solver
+from optim.stiffness.loop import casadi_loop_function
 
 __all__ = ["ProblemKey", "ProblemSolution", "solve_problem", "N_CUTS", "IPOPT_OPTIONS"]
 

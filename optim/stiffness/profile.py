@@ -24,7 +24,7 @@ from scipy.optimize import minimize_scalar
 
 from models.device import Device
 from models.plants import stiffness_loop_plant
-from optim.crossovers import scan_grid
+from optim.stability.crossovers import scan_grid
 
 __all__ = ["Piece", "BoundaryCurve", "boundary_curve", "coarse_critical", "crossings_at"]
 

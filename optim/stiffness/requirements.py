@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from ..errors import InputError
+from optim.errors import InputError
 
 __all__ = ["StiffnessRequirements", "DESIGN_BACK_OFF"]
 

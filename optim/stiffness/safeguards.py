@@ -1,7 +1,7 @@
 """Safeguards of the stiffness design's search (issue 17): seeds per interval, stalled Ipopt iterates, the exact
 B scan when Ipopt fails, the exact profile behind an "infeasible", and the passive profile at long delays.
 
-Each works on the exact analysis (optim.margins, optim.passivity), never on the coarse interpolation alone.
+Each works on the exact analysis (optim.stability.margins, optim.stability.passivity), never on the coarse interpolation alone.
 """
 
 from __future__ import annotations
@@ -12,13 +12,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from optim.margins import critical_stiffness
-from optim.passivity import largest_passive_stiffness, passive_alpha_on_grid
+from optim.stability.margins import critical_stiffness
+from optim.stability.passivity import largest_passive_stiffness, passive_alpha_on_grid
 
-from .problem import ProblemKey, ProblemSolution
+from optim.stiffness.problem import ProblemKey, ProblemSolution
 
 if TYPE_CHECKING:
-    from .design import _Attempt, _Context
+    from optim.stiffness.design import _Attempt, _Context
 
 __all__ = ["starts", "value", "settled", "ipopt_ok", "locally_optimal", "scan_attempt", "exact_profile",
            "passive_profile"]
@@ -108,7 +108,7 @@ def scan_attempt(ctx: _Context, like: _Attempt | None) -> _Attempt:
     pk = largest_passive_stiffness(dev, b).stiffness if ctx.req.passivity else None
     sol = ProblemSolution(True, "exact B scan", 0, best_a, best_b, (), np.zeros(0), np.zeros(0), np.zeros(0))
     key = like.key if like is not None else ProblemKey(ctx.n_states, 0, False, 0)
-    from .design import _Attempt
+    from optim.stiffness.design import _Attempt
 
     return _Attempt(sol, key, np.zeros(0), 1.0, 1.0, (0.0, ctx.beta_hi), best_a * ks, b, exact, pk, True)
 
@@ -139,7 +139,7 @@ def passive_profile(delta: float, d: int, betas: np.ndarray) -> tuple[np.ndarray
 
 
 def exact_profile(ctx: _Context, points: int = 33) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The objective of ``_coarse_profile`` from the exact analysis (optim.margins, optim.passivity) at a few β:
+    """The objective of ``_coarse_profile`` from the exact analysis (optim.stability.margins, optim.stability.passivity) at a few β:
     evenly spaced, next to B_max, and log-spaced near 0 (a passive wall needs B of the order of b, often ≪ B_max:
     at m = 5.4 kg, b = 3.5 N·s/m, 2 samples of delay the passive optimum is at B = 2.65 of a 2,896 N·s/m range)."""
     hi = ctx.beta_hi

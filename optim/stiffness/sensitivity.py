@@ -21,8 +21,8 @@ import numpy as np
 from models.device import Device
 from models.discretize import split_delay
 
-from .loop import loop_matrices
-from ..errors import InputError
+from optim.stiffness.loop import loop_matrices
+from optim.errors import InputError
 
 __all__ = ["perturbed_device", "sensitivities", "PARAMETERS"]
 
@@ -63,7 +63,7 @@ def perturbed_device(device: Device, parameter: str, value: float) -> Device:
 
 def _device_params(ctx, device: Device, like: np.ndarray, at) -> np.ndarray:
     """The NLP parameter vector for another device, same structure and scalings."""
-    from .design import _params
+    from optim.stiffness.design import _params
 
     ks, bs = device.stiffness_scale, device.damping_scale
     k_cap = min(ctx.req.stiffness_caps().values(), default=math.inf)
@@ -113,7 +113,7 @@ def _perturbed(device: Device, parameter: str) -> tuple[float, Device] | str:
 
 
 def sensitivities(ctx, at) -> tuple[tuple, str | None]:
-    from .design import Sensitivity
+    from optim.stiffness.design import Sensitivity
 
     lo, hi = at.interval
     b = at.sol.b * at.beta_ref

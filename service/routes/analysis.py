@@ -9,8 +9,8 @@ from typing import Annotated
 from fastapi import APIRouter, Body
 from pydantic import ValidationError
 
-from optim.analysis import analyse_stability
-from optim.boundary import stability_boundary
+from optim.stability.analysis import analyse_stability
+from optim.stability.boundary import stability_boundary
 from optim.errors import InputError
 from optim.verification import verify_analysis, verify_boundary
 

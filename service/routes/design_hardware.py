@@ -9,7 +9,7 @@ import time
 from fastapi import APIRouter
 
 from optim.errors import InputError
-from optim.hardware import HardwareDesign, HardwareTarget, design_hardware, loose_direction
+from optim.hardware.design import HardwareDesign, HardwareTarget, design_hardware, loose_direction
 from optim.verification_hardware import verify_hardware_design
 from service.executor import BoundedExecutor, Compute
 from service.schemas.design_hardware import HardwareDesignRequest, HardwareDesignResponse

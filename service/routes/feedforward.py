@@ -10,8 +10,8 @@ from fastapi import APIRouter
 from models.filters import ButterworthLowPass
 from optim.design_ladder import design_inertia_on_rung
 from optim.errors import InputError
-from optim.feedforward import apparent_mass, resolve_human
-from optim.inertia import RIGID_OPTIMISM_FLAG, InertiaRequirements
+from optim.transparency.feedforward import apparent_mass, resolve_human
+from optim.transparency.inertia import RIGID_OPTIMISM_FLAG, InertiaRequirements
 from optim.verification import verify_critical_force_gain, verify_force_feedforward
 
 from ..cost import force_feedforward_cost_ms, inertia_design_cost_ms, verify_cost_ms

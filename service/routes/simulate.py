@@ -1,4 +1,4 @@
-"""POST /v1/simulate: run a scene (models.simulate) and, for a relay, read it like a lab (optim.relay)."""
+"""POST /v1/simulate: run a scene (models.simulation.simulate) and, for a relay, read it like a lab (optim.relay.experiment)."""
 
 from __future__ import annotations
 
@@ -10,10 +10,10 @@ from typing import TYPE_CHECKING, Any, Callable
 from fastapi import APIRouter
 
 from models.device import Device
-from models.scene import Scene
-from models.simulate import SimulationResult, check_cost
+from models.simulation.scene import Scene
+from models.simulation.simulate import SimulationResult, check_cost
 from optim.errors import InputError
-from optim.relay import RelayReport
+from optim.relay.experiment import RelayReport
 
 from ..cost import simulation_cost_ms
 from ..executor import BoundedExecutor, Compute
@@ -21,7 +21,7 @@ from ..jobs import simulate_job
 from ..schemas.simulate import SimulateRequest, SimulateResponse
 
 if TYPE_CHECKING:
-    from optim.relay import RelayReport
+    from optim.relay.experiment import RelayReport
 
 router = APIRouter(tags=["simulation"])
 
@@ -102,7 +102,7 @@ def _poles(p, linearised: bool) -> dict:
 
 def verdict_out(res: SimulationResult) -> dict:
     """The verdict block: the answer (its old fields unchanged) plus the measured verdict, the poles and any
-    disagreement (models/verdict.py)."""
+    disagreement (models/simulation/verdict.py)."""
     j, v = res.judgement, res.verdict
     return {"state": v.state, "frequency": _finite(v.frequency), "amplitude": float(v.amplitude),
             "growth_rate": _finite(v.growth_rate), "reason": v.reason, "decided_by": j.decided_by,

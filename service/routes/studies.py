@@ -14,7 +14,7 @@ from fastapi.responses import JSONResponse, StreamingResponse
 from starlette.concurrency import run_in_threadpool
 
 from optim.errors import InputError
-from optim.studies import StudyInputError
+from optim.studies.problems import StudyInputError
 
 from ..errors import StoreUnavailable
 from ..executor import Compute

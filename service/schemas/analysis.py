@@ -6,8 +6,8 @@ from typing import Literal
 
 from pydantic import BaseModel, Field
 
-from optim.analysis import DEFAULT_GRID_POINTS, MAX_GRID_POINTS
-from optim.boundary import MAX_BOUNDARY_POINTS
+from optim.stability.analysis import DEFAULT_GRID_POINTS, MAX_GRID_POINTS
+from optim.stability.boundary import MAX_BOUNDARY_POINTS
 
 from .common import LHIFAM_RIGID, STRICT, Controller, CrossoverOut, Device
 from .verification import VerificationOut, VerifyField

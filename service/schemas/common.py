@@ -7,7 +7,7 @@ from typing import Annotated, Any, Callable, TypeVar
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidatorFunctionWrapHandler, WrapValidator
 
 from models.device import Device as CoreDevice
-from models.scene import Scene as CoreScene
+from models.simulation.scene import Scene as CoreScene
 from optim.domain import check_device_domain
 
 #: Every request model: unknown fields refused, finite numbers only, and a number must be a JSON number
@@ -35,7 +35,7 @@ def _in_domain(device: CoreDevice) -> CoreDevice:
 
 #: The device of every request: models.device.Device, inside the numerics' validated domain (optim.domain).
 Device = Annotated[CoreDevice, WrapValidator(json_numbers(CoreDevice)), AfterValidator(_in_domain)]
-#: The scene of a simulation: models.scene.Scene with JSON numbers only.
+#: The scene of a simulation: models.simulation.scene.Scene with JSON numbers only.
 Scene = Annotated[CoreScene, WrapValidator(json_numbers(CoreScene))]
 
 LHIFAM_RIGID = {"mass": 5.4, "damping": 3.5, "sample_time": 0.001}

@@ -8,8 +8,8 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from models.filters import MAX_FILTER_ORDER
 from optim.domain import check_controller_domain, check_cutoff_domain
-from optim.hardware_range import check_range
-from optim.hardware_targets import HardwareTarget
+from optim.hardware.hardware_range import check_range
+from optim.hardware.hardware_targets import HardwareTarget
 
 from .common import Device  # the numerics' validated domain (optim.domain) applies
 from .verification import VerificationOut, VerifyField
@@ -71,7 +71,7 @@ class HardwareDesignRequest(BaseModel):
 
     @model_validator(mode="after")
     def _in_domain(self) -> "HardwareDesignRequest":
-        """The target's rules (optim.hardware_targets) and optim.domain: the target K, the cap on B and the lowest
+        """The target's rules (optim.hardware.hardware_targets) and optim.domain: the target K, the cap on B and the lowest
         cutoff, made dimensionless by the device, within range."""
         t = self.target
         # The target's own rules (one of each kind, what applies to which target): optim's, one source.

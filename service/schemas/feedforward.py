@@ -8,7 +8,7 @@ from pydantic import BaseModel, Field, model_validator
 
 from models.device import Human
 from models.filters import MAX_FILTER_ORDER
-from optim.analysis import DEFAULT_GRID_POINTS, MAX_GRID_POINTS
+from optim.stability.analysis import DEFAULT_GRID_POINTS, MAX_GRID_POINTS
 from optim.domain import check_cutoff_domain, check_human_domain, check_human_mass
 
 from .common import STRICT, Device

@@ -8,7 +8,7 @@ from typing import Literal
 
 from pydantic import BaseModel, Field
 
-from optim.analysis import DEFAULT_GRID_POINTS, MAX_GRID_POINTS
+from optim.stability.analysis import DEFAULT_GRID_POINTS, MAX_GRID_POINTS
 
 __all__ = ["Method", "MethodField", "GridPointsField", "ExactCheckOut", "rung_fields"]
 

@@ -6,8 +6,8 @@ from typing import Literal
 
 from pydantic import BaseModel, Field
 
-from optim.boundary import MAX_BOUNDARY_POINTS
-from optim.frequency_response import MAX_RESPONSE_POINTS
+from optim.stability.boundary import MAX_BOUNDARY_POINTS
+from optim.stability.frequency_response import MAX_RESPONSE_POINTS
 
 from .common import STRICT, Controller, Device
 

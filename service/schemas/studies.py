@@ -6,7 +6,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, Field
 
-from optim.studies import MAX_STUDY_POINTS
+from optim.studies.problems import MAX_STUDY_POINTS
 
 from .common import LHIFAM_RIGID, STRICT
 

@@ -1,5 +1,5 @@
 """Batch design-space studies: the store (SQLAlchemy + Alembic), the runner and its executors.
 
-The numerics of a study (sweeps, points, problem functions) are in ``optim.studies``; this
+The numerics of a study (sweeps, points, problem functions) are in ``optim.studies.problems``; this
 package only persists, schedules and serves them.
 """

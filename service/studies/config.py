@@ -17,4 +17,4 @@ class StudySettings(BaseSettings):
     chunk_size: int = Field(default=64, ge=1, le=100_000,
                             description="points per task: large enough to amortise a task's overhead, small enough "
                                         "for progress and a prompt cancel (vectorised problems take their "
-                                        "chunk_factor times this, optim.studies)")
+                                        "chunk_factor times this, optim.studies.problems)")

@@ -25,7 +25,7 @@ from concurrent.futures import CancelledError
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any, Callable, Iterator
 
-from optim.studies import StudyInputError, StudyPlan, evaluate_chunk, get_problem, plan_study, point_hash
+from optim.studies.problems import StudyInputError, StudyPlan, evaluate_chunk, get_problem, plan_study, point_hash
 
 from .executors import Executor
 from .store import StudyStore

@@ -1,7 +1,7 @@
 """The study benchmark runs and renders (a tiny local-only version, so the script cannot rot)."""
 
 from bench import bench_studies
-from optim.studies import ProblemUnavailable, get_problem
+from optim.studies.problems import ProblemUnavailable, get_problem
 
 
 def test_bench_studies_tiny():

@@ -106,7 +106,7 @@ def test_no_server_exits_3(dead_url):
 # ------------------------------------------------------------------------------------------------ design
 def test_design_stiffness_local_and_remote_are_identical():
     r = local_equals_remote("design", "stiffness", "lhifam", "--set", "device.delay=1e-3", "--margin", "6")
-    assert r["status"] == "optimal" and r["gain_margin_db"] == pytest.approx(6.0, abs=1e-9)
+    assert r["status"] == "optimal" and 6.0 < r["gain_margin_db"] < 6.0 + 1e-7   # the design back-off (DESIGN_BACK_OFF)
     assert "stiffness design" in run("design", "stiffness", "lhifam", "--set", "device.delay=1e-3").stdout
 
 

@@ -10,8 +10,8 @@ import pytest
 
 from clients import (APIError, AsyncZwidthClient, Plot, Retries, TransportError, ValidationFailed, ZwidthClient)
 from models.device import Device
-from optim.analysis import analyse_stability
-from optim.boundary import stability_boundary
+from optim.stability.analysis import analyse_stability
+from optim.stability.boundary import stability_boundary
 from service.schemas.analysis import BoundaryResponse, StabilityResponse
 from service.schemas.design_stiffness import StiffnessDesignResponse
 from service.schemas.simulate import SimulateResponse
@@ -151,7 +151,7 @@ def test_connection_refused_is_retried_then_raised(dead_url):
 @pytest.mark.skipif(not has_route("/v1/analysis/force-feedforward"),
                     reason="POST /v1/analysis/force-feedforward is not in this build yet (branch inertia)")
 def test_force_feedforward(zw):
-    from optim.feedforward import critical_force_gain
+    from optim.transparency.feedforward import critical_force_gain
     from service.schemas.feedforward import ForceFeedforwardResponse
 
     r = zw.force_feedforward({"preset": "lhifam", "cable": None})

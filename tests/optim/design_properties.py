@@ -5,7 +5,7 @@ Shared by the CI property test (tests/optim/test_design_properties.py, reduced s
 
 A design's labels must agree with zwidth's own analysis of it:
 
-* ``optimal`` ⇒ optim.analysis (exact rung) at (K, B) says stable, its gain margin ≥ the requirement, passive
+* ``optimal`` ⇒ optim.stability.analysis (exact rung) at (K, B) says stable, its gain margin ≥ the requirement, passive
   when passivity is required, K and B within their caps, and the design's K_cr is the analysis' K_cr;
 * ``infeasible`` ⇒ the dense B scan of tests/optim/stiffness_scan.py (exact K_cr at ~130 values of B, then
   bounded refinement; it shares no code with optim.stiffness) finds no (K > 0, B) meeting the requirements;
@@ -24,10 +24,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from models.device import MAX_DELAY_SAMPLES, Device
-from optim.analysis import analyse_stability
+from optim.stability.analysis import analyse_stability
 from optim.stiffness import StiffnessRequirements, design_stiffness
 
-from .stiffness_scan import scan_best
+from tests.optim.stiffness_scan import scan_best
 
 OPTIMALITY_MAX_DELAY = 200
 OPTIMALITY_RTOL = 1e-4

@@ -1,6 +1,6 @@
 """A second, independent way to K_cr: eigenvalues of the closed-loop state matrix.
 
-Shares no code with models.discretize / optim.margins: the plant is discretised
+Shares no code with models.discretize / optim.stability.margins: the plant is discretised
 in *physical* coordinates (positions and velocities of each mass, not the
 centre-of-mass form the core uses), the delay is a shift register of past
 forces, and the stiffness that puts a closed-loop eigenvalue on the unit circle

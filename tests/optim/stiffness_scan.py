@@ -1,7 +1,7 @@
 """Independent comparator for the stiffness design: a dense scan of B with the exact K_cr, then refinement.
 
 It shares nothing with optim.stiffness except the exact analysis it is meant to agree with
-(optim.margins.critical_stiffness) and the passivity module (itself checked against a dense θ scan).
+(optim.stability.margins.critical_stiffness) and the passivity module (itself checked against a dense θ scan).
 """
 
 from __future__ import annotations
@@ -12,8 +12,8 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from models.device import Device
-from optim.margins import critical_stiffness, max_stable_damping
-from optim.passivity import max_passive_stiffness
+from optim.stability.margins import critical_stiffness, max_stable_damping
+from optim.stability.passivity import max_passive_stiffness
 
 
 def objective(device: Device, req, b: float) -> float:

@@ -8,9 +8,9 @@ import pytest
 
 from models.device import Device
 from optim.design_ladder import design_inertia_on_rung, design_stiffness_on_rung
-from optim.inertia import InertiaRequirements
-from optim.margins import critical_stiffness
-from optim.passivity import passivity_margin
+from optim.transparency.inertia import InertiaRequirements
+from optim.stability.margins import critical_stiffness
+from optim.stability.passivity import passivity_margin
 from optim.stiffness import StiffnessRequirements
 from tests.feedforward_reference import HUMAN_EQ30, LHIFAM_CABLE, LHIFAM_RIGID, SENSOR_EQ31
 
@@ -44,7 +44,7 @@ def test_linear_stiffness_is_eq10_at_the_damping_limit_and_reports_the_exact_mar
 def test_linear_stiffness_with_passivity_closed_form():
     """d = 0: K_stab = g(b+B)/(T/2) meets K_pass = (b−B)/(T/2) at B = b(1−g)/(1+g), K = 2gb/((1+g)T/2);
     at d = 0 the sufficient condition is eq. 3 itself, so the design sits exactly on the passivity boundary:
-    the exact delayed test (optim.passivity) needs exactly the device's damping b there."""
+    the exact delayed test (optim.stability.passivity) needs exactly the device's damping b there."""
     req = StiffnessRequirements(max_damping=20.0, passivity=True)
     d, info = design_stiffness_on_rung(RIGID, req, "linear")
     g, b = req.gain_factor, 3.5

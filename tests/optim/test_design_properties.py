@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from .design_properties import check, random_case
+from tests.optim.design_properties import check, random_case
 
 CI_CASES = 24
 CI_SEED = 2017

@@ -11,7 +11,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from models.device import Device
-from optim.analysis import analyse_stability
+from optim.stability.analysis import analyse_stability
 from optim.domain import DELTA_MAX, DELTA_MIN, check_device_domain
 
 
@@ -60,7 +60,7 @@ from models.device import Human  # noqa: E402
 from models.filters import ButterworthLowPass  # noqa: E402
 from optim.domain import (CUTOFF_RATIO_MIN, RATIO_MIN, check_cutoff_domain, check_human_domain,  # noqa: E402
                           check_human_mass)
-from optim.feedforward_ladder import analyse_force_feedforward  # noqa: E402
+from optim.transparency.feedforward_ladder import analyse_force_feedforward  # noqa: E402
 
 _FF = Device(mass=5.4, damping=3.5, human={"mass": 2, "damping": 2, "stiffness": 10},
              force_sensor={"time_constant": 0.005})

@@ -1,8 +1,8 @@
 """The grid rung's error estimate is honest on every device: the answer is within its estimate of the exact K_cr,
 or the estimate is null (unbounded) — issue 17.
 
-The exact K_cr (optim.margins) is the truth here; it is held to the 40-digit reference and to closed-loop
-eigenvalues elsewhere (tests/optim/test_margins.py, tests/optim/closed_loop.py).
+The exact K_cr (optim.stability.margins) is the truth here; it is held to the 40-digit reference and to closed-loop
+eigenvalues elsewhere (tests/optim/stability/test_margins.py, tests/optim/closed_loop.py).
 """
 
 from __future__ import annotations
@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from models.device import Device
-from optim.analysis import analyse_stability, grid_blind_spot, grid_critical_stiffness
-from optim.margins import critical_stiffness, max_stable_damping
+from optim.stability.analysis import analyse_stability, grid_blind_spot, grid_critical_stiffness
+from optim.stability.margins import critical_stiffness, max_stable_damping
 
 # Lightly damped cables at fast sampling that the grid answered with a small estimate and a wrong K_cr
 # (before the modal check): found by random sampling around issue 17's device (m_r ≈ 5.5 kg, m_d ≈ 9.5 kg,
@@ -39,7 +39,7 @@ def test_missed_crossovers_below_the_grid_give_a_null_estimate(device, old_estim
     assert res.error_estimate == math.inf and "anti-resonance" in res.error_source
     assert grid_blind_spot(device, np.geomspace(1e-3, math.pi, 1000)) is not None
     # what the samples alone said: a small estimate, far from the truth
-    import optim.analysis as analysis
+    import optim.stability.analysis as analysis
     monkeypatch.setattr(analysis, "grid_blind_spot", lambda *a: None)
     k, _, _, err = grid_critical_stiffness(device, 0.0, 1000)
     assert err < 1.0 and abs(k / exact - 1) > 5 * err

@@ -6,10 +6,10 @@ from __future__ import annotations
 import pytest
 
 from models.device import Device
-from models.scene import Scene
-from models.scene_poles import MAX_EXACT_STATES
-from models.simulate import simulate
-from optim.margins import critical_stiffness
+from models.simulation.scene import Scene
+from models.simulation.scene_poles import MAX_EXACT_STATES
+from models.simulation.simulate import simulate
+from optim.stability.margins import critical_stiffness
 from optim.scene_verdict import margin_verdict, with_margin_verdict
 from tests.optim.independent import spectral_radius
 

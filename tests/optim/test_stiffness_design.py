@@ -7,12 +7,12 @@ import numpy as np
 import pytest
 
 from models.device import Device
-from optim.margins import critical_stiffness, gain_margin_db
-from optim.passivity import max_passive_stiffness
+from optim.stability.margins import critical_stiffness, gain_margin_db
+from optim.stability.passivity import max_passive_stiffness
 from optim.stiffness import StiffnessRequirements, design_stiffness
 from optim.stiffness.sensitivity import perturbed_device
 
-from .stiffness_scan import scan_best
+from tests.optim.stiffness_scan import scan_best
 
 LH = Device(preset="lhifam")
 PH = Device(preset="phantom-1.0")

@@ -1,6 +1,6 @@
 """Stiffness designs at the edges issue 17 found: long delays, zero damping, the input limits, labels at the limit.
 
-Every design is re-checked by the project's own analysis (optim.analysis, exact rung) at its (K, B).
+Every design is re-checked by the project's own analysis (optim.stability.analysis, exact rung) at its (K, B).
 """
 
 from __future__ import annotations
@@ -11,13 +11,13 @@ import numpy as np
 import pytest
 
 from models.device import Device
-from optim.analysis import analyse_stability
-from optim.margins import critical_stiffness
-from optim.passivity import passivity_margin
+from optim.stability.analysis import analyse_stability
+from optim.stability.margins import critical_stiffness
+from optim.stability.passivity import passivity_margin
 from optim.stiffness import StiffnessRequirements, design_stiffness
 from optim.stiffness.requirements import DESIGN_BACK_OFF
 
-from .stiffness_scan import scan_best
+from tests.optim.stiffness_scan import scan_best
 
 # the issue's device: rigid m = 5.4 kg, b = 3.5 N·s/m, T = 1 ms
 _SWEEP = sorted({1055, 1056, *np.unique(np.geomspace(200, 10_000, 58).round().astype(int)).tolist()})

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from models.device import Device
-from optim.margins import critical_stiffness, max_stable_damping
+from optim.stability.margins import critical_stiffness, max_stable_damping
 from optim.stiffness.profile import _coarse_critical_dense, boundary_curve, coarse_critical
 
 LH = Device(preset="lhifam")

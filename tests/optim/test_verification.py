@@ -1,8 +1,8 @@
-"""optim.closed_loop / optim.verification against independent references, and the verify property test.
+"""optim.stability.closed_loop / optim.verification against independent references, and the verify property test.
 
 References: tests/optim/independent.py (closed loop in physical coordinates, its own discretisation and
 shift register) for the spectral radius; mpmath roots of the chapter's characteristic polynomial (eq. 12)
-for the count of unstable poles; the delayed Colgate–Schenkel kernel of optim.passivity for passivity.
+for the count of unstable poles; the delayed Colgate–Schenkel kernel of optim.stability.passivity for passivity.
 """
 
 from __future__ import annotations
@@ -15,15 +15,15 @@ import numpy as np
 import pytest
 
 from models.device import Device
-from optim.analysis import analyse_stability
-from optim.closed_loop import (
+from optim.stability.analysis import analyse_stability
+from optim.stability.closed_loop import (
     radius_excess,
     sampled_plant,
     stiffness_closed_loop,
     unstable_count,
 )
-from optim.margins import critical_stiffness, max_stable_damping
-from optim.passivity import passivity_margin
+from optim.stability.margins import critical_stiffness, max_stable_damping
+from optim.stability.passivity import passivity_margin
 from optim.verification import (
     verify_analysis,
     verify_critical_stiffness,
@@ -31,8 +31,8 @@ from optim.verification import (
     verify_stiffness_design,
 )
 
-from .independent import eq12_roots_mp, spectral_radius
-from .verify_cases import random_device, undamped_cable
+from tests.optim.independent import eq12_roots_mp, spectral_radius
+from tests.optim.verify_cases import random_device, undamped_cable
 
 LHIFAM_RIGID = dict(mass=5.4, damping=3.5, sample_time=0.001)
 
@@ -90,11 +90,11 @@ def test_passivity_agrees_with_the_kernel_form(delay):
         assert verify_passivity(dev, k, b, not pm.passive).verdict == "contradicted"
 
 
-@pytest.mark.filterwarnings("ignore::RuntimeWarning")   # optim.margins on a pole on the unit circle
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")   # optim.stability.margins on a pole on the unit circle
 def test_undamped_cable_with_delay_is_caught():
     """All dampings zero and 3 samples of delay: the cable mode is undamped and B feeds it with the delay's
     wrong phase, so no K > 0 is stable (the independent closed loop of tests/optim/independent.py agrees:
-    radius 1.0004 at K → 0⁺, B = 0.5).  optim.margins answers a positive K_cr: verify must say so."""
+    radius 1.0004 at K → 0⁺, B = 0.5).  optim.stability.margins answers a positive K_cr: verify must say so."""
     dev = Device(preset="lhifam", delay=0.003, human=None, force_sensor=None,
                  cable={"motor_damping": 0, "body_damping": 0, "damping": 0})
     assert spectral_radius(dev, 1e-9, 0.5 * dev.sample_time / dev.mass) > 1.0
@@ -146,7 +146,7 @@ def run_property(n: int, seed: int) -> dict:
 @pytest.fixture(scope="module")
 def property_run():
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)   # optim.margins on undamped cables (then refused)
+        warnings.simplefilter("ignore", RuntimeWarning)   # optim.stability.margins on undamped cables (then refused)
         return run_property(120, seed=17)
 
 
@@ -160,7 +160,7 @@ def test_verify_confirms_every_exact_answer(property_run):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=False, reason="undamped cables with delay: optim.margins answers K_cr > 0 where no K is "
+@pytest.mark.xfail(strict=False, reason="undamped cables with delay: optim.stability.margins answers K_cr > 0 where no K is "
                                         "stable (B_max's premise fails for a mode on the unit circle); reported")
 def test_verify_undamped_cables(property_run):
     assert not property_run["undamped_contradicted"], property_run["undamped_contradicted"][:3]

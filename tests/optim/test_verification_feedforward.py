@@ -1,4 +1,4 @@
-"""optim.closed_loop_feedforward / verify of K_f,cr against tests/optim/closed_loop.py (its own filter
+"""optim.transparency.closed_loop_feedforward / verify of K_f,cr against tests/optim/closed_loop.py (its own filter
 state space and shift register) and on random feedforward devices."""
 
 from __future__ import annotations
@@ -9,16 +9,16 @@ import pytest
 from models.device import Device, Human
 from models.feedforward import feedforward_plant
 from models.filters import ButterworthLowPass
-from optim.closed_loop import radius_excess
-from optim.closed_loop_feedforward import (
+from optim.stability.closed_loop import radius_excess
+from optim.transparency.closed_loop_feedforward import (
     feedforward_closed_loop,
     feedforward_loop,
     feedforward_unstable_count,
 )
-from optim.feedforward_ladder import analyse_force_feedforward
+from optim.transparency.feedforward_ladder import analyse_force_feedforward
 from optim.verification import verify_critical_force_gain, verify_force_feedforward
 
-from .closed_loop import spectral_radius
+from tests.optim.closed_loop import spectral_radius
 
 HUMAN = Human(mass=2.0, damping=2.0, stiffness=10.0)
 

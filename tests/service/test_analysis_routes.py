@@ -15,8 +15,8 @@ from dataclasses import asdict
 import pytest
 
 from models.device import PRESETS, Device
-from optim.analysis import analyse_stability
-from optim.boundary import stability_boundary
+from optim.stability.analysis import analyse_stability
+from optim.stability.boundary import stability_boundary
 
 from .conftest import LHIFAM_RIGID
 

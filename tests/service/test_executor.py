@@ -8,7 +8,7 @@ import time
 import pytest
 
 from models.device import Device
-from optim.analysis import analyse_stability
+from optim.stability.analysis import analyse_stability
 from service.cost import boundary_cost_ms, stability_cost_ms
 from service.executor import BoundedExecutor, ComputeTimeout
 

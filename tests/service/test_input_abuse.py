@@ -61,7 +61,7 @@ def body_operations(spec: dict) -> Iterator[tuple[str, dict, dict]]:
 
 def numeric_fields(spec: dict, schema: dict, body: Any, at: tuple = ()) -> Iterator[tuple[tuple, str]]:
     """(path, "number" | "integer") of every numeric property reachable in ``body``'s objects (the parents must
-    exist in the example; models.device's and models.scene's blocks are reached through the example's)."""
+    exist in the example; models.device's and models.simulation.scene's blocks are reached through the example's)."""
     schema = _resolve(spec, schema)
     for alt in schema.get("anyOf", []) + schema.get("allOf", []):
         yield from numeric_fields(spec, alt, body, at)

@@ -10,8 +10,8 @@ import pytest
 
 from models.device import PRESETS, Device
 from models.plants import cable_tfs
-from optim.boundary import stability_boundary
-from optim.frequency_response import loop_frequency_response, plant_response
+from optim.stability.boundary import stability_boundary
+from optim.stability.frequency_response import loop_frequency_response, plant_response
 from service.plots import bode_figure, boundary_figure, render
 
 from .conftest import LHIFAM_RIGID

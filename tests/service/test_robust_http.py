@@ -11,9 +11,9 @@ with warnings.catch_warnings():
 
 from models.device import Device
 from models.feedforward import feedforward_plant
-from optim.feedforward import critical_force_gain_of_plant, resolve_human
-from optim.margins import critical_stiffness
-from optim.passivity import passivity_margin
+from optim.transparency.feedforward import critical_force_gain_of_plant, resolve_human
+from optim.stability.margins import critical_stiffness
+from optim.stability.passivity import passivity_margin
 from service.app import create_app
 
 LH_RIGID = {"preset": "lhifam", "cable": None}
@@ -93,7 +93,7 @@ def test_hardware_range(client):
     body = client.post("/v1/design/hardware", json={"device": dev, "target": {"stiffness": 75e3}, "free": "damping",
                                                     "points": 9, "range": {"min": 1, "max": 30}}).json()
     assert body["status"] == "optimal" and body["range_source"] == "request" and body["scanned_range"] == [1, 30]
-    assert 10 < body["value"] < 10.2                       # b ≈ 10.08 N·s/m (tests/optim/test_hardware_range.py)
+    assert 10 < body["value"] < 10.2                       # b ≈ 10.08 N·s/m (tests/optim/hardware/test_hardware_range.py)
     for rng, field, rule in (({"min": 3, "max": 3}, "min", "must be below range.max"),
                              ({"min": 1e-4, "max": 2}, "max", "outside the input limits"),
                              ({"min": -1, "max": 2}, "min", "greater than or equal to 0")):
@@ -190,7 +190,7 @@ def test_robust_inertia_with_sample_time(client):
     body = r.json()
     assert body["status"] == "optimal" and body["gain_margin_db"] == pytest.approx(6.0, abs=1e-6)
     worst = body["worst_case"]["device"]["device.sample_time"]
-    # the worst device at its own cutoff angle 2π·f_c·T (optim.feedforward, a fresh plant)
+    # the worst device at its own cutoff angle 2π·f_c·T (optim.transparency.feedforward, a fresh plant)
     dev = Device(preset="lhifam", sample_time=worst)
     human, _ = resolve_human(dev)
     theta_c = 2 * math.pi * body["filter_cutoff_hz"] * worst
@@ -217,7 +217,7 @@ def test_robust_with_passivity(client):
     assert body["status"] == "optimal" and "passivity" in body["active_constraints"]
     pw = body["passivity_worst_case"]
     assert pw["delay_samples_used"] == 3 and pw["approached"] is True and body["passivity_delay_samples"] == 3
-    # the least passive device, just below its sample time, re-checked by optim.passivity
+    # the least passive device, just below its sample time, re-checked by optim.stability.passivity
     dev = Device(mass=5.4, damping=3.5, sample_time=pw["device"]["device.sample_time"] * (1 - 1e-9),
                  delay=pw["device"]["device.delay"])
     check = passivity_margin(dev, body["stiffness"], body["damping"])

@@ -108,7 +108,7 @@ def test_cost_estimates_send_designs_and_long_runs_to_a_worker():
     """Designs, reference rungs, relays and long simulations are bounded; the cheap rungs and short runs
     stay inline (no round trip).  Robust and hardware designs pass cost None (always a worker)."""
     from models.device import Device
-    from models.scene import Scene
+    from models.simulation.scene import Scene
     from service.cost import (force_feedforward_cost_ms, inertia_design_cost_ms, simulation_cost_ms,
                               stiffness_design_cost_ms)
     from service.executor import BoundedExecutor

@@ -5,7 +5,7 @@ import math
 import pytest
 from fastapi.testclient import TestClient
 
-from models.scene import MAX_OUTPUT_POINTS
+from models.simulation.scene import MAX_OUTPUT_POINTS
 from service.app import create_app
 
 RIGID = {"mass": 5.4, "damping": 3.5, "sample_time": 0.001}

@@ -12,7 +12,7 @@ import pyarrow.parquet as pq
 import pytest
 from fastapi.testclient import TestClient
 
-from optim import studies as optim_studies
+from optim.studies import problems as optim_studies
 from service.app import create_app
 from service.settings import Settings
 from tests.reference_values import CASES
@@ -139,7 +139,7 @@ def test_non_finite_sweep_values_answer_422(client, token):
 
 
 def test_problem_missing_from_the_build_answers_422(client, monkeypatch):
-    monkeypatch.setitem(sys.modules, "optim.inertia", None)  # import now raises ImportError
+    monkeypatch.setitem(sys.modules, "optim.transparency.inertia", None)  # import now raises ImportError
     monkeypatch.setattr(optim_studies, "_CACHE", {})
     r = client.post("/v1/studies", json={**small_study(), "problem": "inertia",
                                          "sweep": {"device.delay": [0.0]}, "base": {"device": LHIFAM_RIGID}})
@@ -207,7 +207,7 @@ def test_stiffness_study_calls_the_design(client):
     assert wait_finished(_get(client), sid, timeout=120)["status"] == "done"
     rows = _all_json(client, sid, 100)
     from models.device import Device
-    from optim.margins import critical_stiffness
+    from optim.stability.margins import critical_stiffness
     for row in rows:
         dev = Device(**LHIFAM_RIGID, delay=row["device.delay"])
         direct = stiffness.design_stiffness(dev, stiffness.StiffnessRequirements(
@@ -224,7 +224,7 @@ def test_critical_stiffness_study_end_to_end(client):
     """The vectorised problem through the API: each row is the exact per-point analysis to 1e-12 (its stated
     accuracy; vectorised arithmetic, so not bit for bit), and a point invalid only in combination fails alone."""
     from models.device import Device
-    from optim.analysis import analyse_stability
+    from optim.stability.analysis import analyse_stability
 
     req = {"problem": "critical_stiffness",
            "base": {"device": LHIFAM_RIGID, "requirements": {"stiffness": 1500.0}},

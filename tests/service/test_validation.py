@@ -7,8 +7,8 @@ import json
 import pytest
 
 from models.device import MAX_DELAY_SAMPLES
-from optim.analysis import MAX_GRID_POINTS
-from optim.boundary import MAX_BOUNDARY_POINTS
+from optim.stability.analysis import MAX_GRID_POINTS
+from optim.stability.boundary import MAX_BOUNDARY_POINTS
 from service.cost import MAX_REFERENCE_DELAY_SAMPLES
 
 from .conftest import LHIFAM_RIGID, make_client

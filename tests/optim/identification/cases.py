@@ -20,7 +20,7 @@ import numpy as np
 from models.device import Device
 from optim.identification import TimeSeriesData
 
-from .synthetic import CABLE, RIGID, excitation, simulate_experiment
+from tests.optim.identification.synthetic import CABLE, RIGID, excitation, simulate_experiment
 
 T = 0.001
 N = 4000

@@ -1,8 +1,8 @@
-"""Synthetic lab data from the project's own scene simulator (models/sim_plant.py, models/friction.py).
+"""Synthetic lab data from the project's own scene simulator (models/simulation/sim_plant.py, models/simulation/friction.py).
 
 The scene simulator's plant (build_plant: rigid or two-mass cable, SI units) and its exact sampled form
 with the loop delay on the motor force (sample_plant) are stepped with the scene simulator's own
-steppers — models.sim_loop.linear_step, or models.friction.FrictionStepper (event-located Coulomb
+steppers — models.simulation.sim_loop.linear_step, or models.simulation.friction.FrictionStepper (event-located Coulomb
 friction) — driven by an open-loop motor command (a scene's wall controller cannot inject a chirp or
 a PRBS; POST /v1/simulate's push force acts on the body mass without the loop delay, so it cannot be the
 commanded force of an identification).  The encoder then quantises and adds Gaussian noise.
@@ -17,10 +17,10 @@ from __future__ import annotations
 import numpy as np
 
 from models.device import Device
-from models.friction import FrictionStepper
-from models.scene import Effects
-from models.sim_loop import linear_step
-from models.sim_plant import build_plant, sample_plant
+from models.simulation.friction import FrictionStepper
+from models.simulation.scene import Effects
+from models.simulation.sim_loop import linear_step
+from models.simulation.sim_plant import build_plant, sample_plant
 
 __all__ = ["CABLE", "RIGID", "excitation", "simulate_experiment"]
 

@@ -9,7 +9,7 @@ import pytest
 from optim.identification import FrequencyResponseData, TimeSeriesData, identify
 from optim.identification.data import MAX_SAMPLES
 
-from .cases import T, noisy_response, record
+from tests.optim.identification.cases import T, noisy_response, record
 
 
 def _ts(force, position):
@@ -71,8 +71,8 @@ def test_narrow_band_for_cable_but_enough_for_rigid():
     n = 4000
     t = np.arange(n) * T
     u = np.sin(2 * np.pi * 3 * t) + np.sin(2 * np.pi * 9 * t)
-    from .cases import device
-    from .synthetic import simulate_experiment
+    from tests.optim.identification.cases import device
+    from tests.optim.identification.synthetic import simulate_experiment
     y = simulate_experiment(device("rigid", 0.001), u, quantization=5e-6, noise=5e-6)
     with pytest.raises(ValueError, match=r"^data\.force: too narrow a band for the cable model"):
         identify(_ts(u, y), model="cable")

@@ -13,7 +13,7 @@ from models.device import Device
 from optim.identification import FrequencyResponseData, TimeSeriesData, identify
 from optim.identification.models import response, simulate_position
 
-from .synthetic import CABLE, excitation, simulate_experiment
+from tests.optim.identification.synthetic import CABLE, excitation, simulate_experiment
 
 devices = st.builds(
     lambda m, delta, d, t: Device(mass=m, damping=delta * m / t, delay=d * t, sample_time=t),

@@ -7,7 +7,7 @@ import pytest
 
 from optim.identification import identify
 
-from .cases import DAMPING_RTOL, DELAY_ATOL, DELAYS, FRICTION, MASS_RTOL, device, noisy_response, record
+from tests.optim.identification.cases import DAMPING_RTOL, DELAY_ATOL, DELAYS, FRICTION, MASS_RTOL, device, noisy_response, record
 
 
 def _check_rigid(res, dev):
@@ -132,8 +132,8 @@ def test_recovery_under_a_weak_pd(kind, delay):
     delayed, so output error stays consistent and the tolerances hold; `auto` still chooses the true model."""
     from optim.identification import TimeSeriesData
 
-    from .cases import AMPLITUDE, NOISE, QUANTIZATION, T, N
-    from .synthetic import excitation, simulate_experiment
+    from tests.optim.identification.cases import AMPLITUDE, NOISE, QUANTIZATION, T, N
+    from tests.optim.identification.synthetic import excitation, simulate_experiment
 
     u, y = simulate_experiment(device(kind, delay), excitation(N, T, amplitude=AMPLITUDE, seed=2),
                                quantization=QUANTIZATION, noise=NOISE, pd=(200.0, 5.0))

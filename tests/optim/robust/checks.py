@@ -8,7 +8,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from models.discretize import split_delay
-from optim.margins import max_stable_damping
+from optim.stability.margins import max_stable_damping
 from optim.robust.batch import batch_critical_stiffness
 from optim.robust.box import UncertaintyBox
 
@@ -47,8 +47,8 @@ def dense_best(box: UncertaintyBox, gain: float, per_axis: int = 9, b_points: in
     return (float(-res.fun), float(res.x)) if -res.fun > vals[i] else (float(vals[i]), float(grid[i]))
 
 
-# ---- passivity, computed independently of optim.passivity and optim.robust.passivity -------------------------
-# P(θ) = (K·T/2)·s_n(θ) − B·cos((n+1)θ) with s_n = 1 + 2·Σ_{k≤n} cos kθ summed term by term (optim.passivity
+# ---- passivity, computed independently of optim.stability.passivity and optim.robust.passivity -------------------------
+# P(θ) = (K·T/2)·s_n(θ) − B·cos((n+1)θ) with s_n = 1 + 2·Σ_{k≤n} cos kθ summed term by term (optim.stability.passivity
 # uses the closed form sin((n+½)θ)/sin(θ/2)); n = ⌈t_d/T⌉ by the device model's own rule
 # (models.discretize.split_delay).
 

@@ -1,4 +1,4 @@
-"""The batched exact analysis against optim.margins.critical_stiffness, device by device."""
+"""The batched exact analysis against optim.stability.margins.critical_stiffness, device by device."""
 
 import math
 
@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from models.device import Device
-from optim.margins import critical_stiffness
+from optim.stability.margins import critical_stiffness
 from optim.robust.batch import batch_critical_stiffness
 
-from ..test_stiffness_design import _random_devices
+from tests.optim.test_stiffness_design import _random_devices
 
 
 def _compare(devices, dampings):

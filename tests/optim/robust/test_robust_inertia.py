@@ -1,4 +1,4 @@
-"""Robust inertia design (issue 12): K_f and cutoff verified on the whole box, against optim.inertia's own
+"""Robust inertia design (issue 12): K_f and cutoff verified on the whole box, against optim.transparency.inertia's own
 grasp-range design and a dense (cutoff × box grid) search."""
 
 import itertools
@@ -10,8 +10,8 @@ from scipy.optimize import minimize_scalar
 
 from models.device import Device
 from models.feedforward import feedforward_plant
-from optim.feedforward import critical_force_gain_of_plant, resolve_human
-from optim.inertia import InertiaRequirements, design_inertia
+from optim.transparency.feedforward import critical_force_gain_of_plant, resolve_human
+from optim.transparency.inertia import InertiaRequirements, design_inertia
 from optim.robust.box import UncertaintyBox
 from optim.robust.inertia import robust_design_inertia
 from optim.robust.stiffness import TOLERANCE_DB
@@ -20,7 +20,7 @@ LH = Device(preset="lhifam")
 
 
 def kf_cr(device: Device, cutoff_hz: float, order: int = 2) -> float:
-    """Exact K_f,cr of one device at one cutoff (optim.feedforward, independent of the robust code)."""
+    """Exact K_f,cr of one device at one cutoff (optim.transparency.feedforward, independent of the robust code)."""
     human, _ = resolve_human(device)
     theta_c = 2 * math.pi * cutoff_hz * device.sample_time
     return critical_force_gain_of_plant(feedforward_plant(device, human), theta_c, order)[0]
@@ -40,7 +40,7 @@ def two_param():
 
 
 def test_grasp_mass_range_matches_optim_inertia():
-    """A box over the grasp mass alone is what optim.inertia's human_mass_range does (its own exchange)."""
+    """A box over the grasp mass alone is what optim.transparency.inertia's human_mass_range does (its own exchange)."""
     box = UncertaintyBox.from_ranges(LH, {"device.human.mass": (0.5, 4.0)})
     r = robust_design_inertia(LH, InertiaRequirements(), box)
     ref = design_inertia(LH, InertiaRequirements(human_mass_range=(0.5, 4.0)))
@@ -149,7 +149,7 @@ def test_sample_time_target_cutoff_is_the_highest(t_designs):
 
 
 def test_one_sample_time_is_the_nominal_design():
-    """A box of one sample time (other than the nominal device's): optim.inertia's design of that device."""
+    """A box of one sample time (other than the nominal device's): optim.transparency.inertia's design of that device."""
     box = UncertaintyBox.from_ranges(LH, {"device.sample_time": (0.0008, 0.0008)})
     for req in (InertiaRequirements(), InertiaRequirements(target_apparent_mass=1.5)):
         r = robust_design_inertia(LH, req, box)

@@ -7,13 +7,13 @@ import numpy as np
 import pytest
 
 from models.device import Device
-from optim.passivity import largest_passive_stiffness, passivity_margin, passivity_samples
+from optim.stability.passivity import largest_passive_stiffness, passivity_margin, passivity_samples
 from optim.robust.box import UncertaintyBox
 from optim.robust.passivity import MAX_PASSIVITY_DELAYS, passivity_corners
 from optim.robust.stiffness import TOLERANCE_DB, robust_design_stiffness
 from optim.stiffness import StiffnessRequirements, design_stiffness
 
-from .checks import box_sample, dense_best_passive, min_margin_db, passive_stiffness_bounds, sup_p, whole_delay
+from tests.optim.robust.checks import box_sample, dense_best_passive, min_margin_db, passive_stiffness_bounds, sup_p, whole_delay
 
 LH = Device(preset="lhifam")
 RIGID = LH.rigid()
@@ -64,7 +64,7 @@ def test_passive_and_margin_on_corners_and_2000_random_points(designs, name):
     t, delay, b = _columns(devices)
     # independent: P's supremum by the Dirichlet sum on a fine grid + Newton (tests/optim/robust/checks.py)
     assert np.min(b - sup_p(t, whole_delay(delay, t), d.stiffness, d.damping)) >= -PASSIVE_ATOL
-    # and optim.passivity's own check, device by device
+    # and optim.stability.passivity's own check, device by device
     margins = [dev.damping - passivity_margin(dev, d.stiffness, d.damping).required_damping for dev in devices]
     assert min(margins) >= -PASSIVE_ATOL
     # the reported least passive device and its margin, re-checked

@@ -1,0 +1,1 @@
+"""The relay experiment on a sampled loop and every cycle it admits."""

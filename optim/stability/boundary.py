@@ -1,0 +1,86 @@
+"""The stability boundary K_cr(B) of a device (chapter §3.2, Fig. 5 and 9) and its optimum."""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+
+from models.device import Device
+
+from optim.stability.margins import critical_stiffness, linear_estimate, max_stable_damping
+from optim.errors import InputError
+
+__all__ = ["BoundaryPoint", "Boundary", "stability_boundary", "MAX_BOUNDARY_POINTS"]
+
+#: Cost limit: points on one boundary request.
+MAX_BOUNDARY_POINTS = 2000
+
+
+@dataclass(frozen=True)
+class BoundaryPoint:
+    damping: float
+    """B [N·s/m]."""
+    critical_stiffness: float
+    """K_cr(B) [N/m] (0 at and above B_max)."""
+    crossover_frequency: float | None
+    """ω [rad/s] of the crossover that sets K_cr."""
+    linear_estimate: float
+    """(b + B)/(T/2 + t_d) [N/m], eq. 10."""
+
+
+@dataclass(frozen=True)
+class Boundary:
+    points: tuple[BoundaryPoint, ...]
+    optimum: BoundaryPoint
+    """The B that allows the stiffest stable wall, refined between grid points."""
+    max_stable_damping: float | None
+    """B_max [N·s/m]; None when no finite limit exists."""
+    elapsed_ms: float
+
+
+def _point(device: Device, b: float, b_max: float) -> BoundaryPoint:
+    r = critical_stiffness(device, b, b_max=b_max)     # B_max once per boundary, not once per point
+    k = r.critical_stiffness if math.isfinite(r.critical_stiffness) else math.nan
+    return BoundaryPoint(b, k, r.crossover_frequency, linear_estimate(device, b))
+
+
+def stability_boundary(device: Device, damping_max: float | None = None, points: int = 50) -> Boundary:
+    """K_cr(B) on ``points`` values of B from 0 to ``damping_max`` (default: B_max).
+
+    Raises ValueError (naming the field) for bad arguments or unrepresentable devices.
+    """
+    try:
+        with np.errstate(over="raise", invalid="raise"):
+            return _boundary(device, damping_max, points)
+    except (FloatingPointError, OverflowError, ZeroDivisionError) as exc:
+        raise InputError("device", f"the parameters are outside the numerically representable range ({exc})") from exc
+
+
+def _boundary(device: Device, damping_max: float | None, points: int) -> Boundary:
+    if not (2 <= points <= MAX_BOUNDARY_POINTS):
+        raise InputError("points", f"must be between 2 and {MAX_BOUNDARY_POINTS}")
+    if damping_max is not None and not (math.isfinite(damping_max) and damping_max > 0):
+        raise InputError("damping_max", "must be finite and > 0")
+    t0 = time.perf_counter()
+    b_max = max_stable_damping(device)
+    top = damping_max if damping_max is not None else b_max
+    if not math.isfinite(top):
+        raise InputError("damping_max", "this device has no finite B_max; give damping_max")
+    grid = np.linspace(0.0, top, points)
+    pts = tuple(_point(device, float(b), b_max) for b in grid)
+    valid = [p for p in pts if math.isfinite(p.critical_stiffness)]
+    best_i = int(np.argmax([p.critical_stiffness for p in valid]))
+    lo = valid[max(best_i - 1, 0)].damping
+    hi = valid[min(best_i + 1, len(valid) - 1)].damping
+    best = valid[best_i]
+    if hi > lo:
+        res = minimize_scalar(lambda b: -critical_stiffness(device, b, b_max=b_max).critical_stiffness,
+                              bounds=(lo, hi), method="bounded", options={"xatol": 1e-10 * max(hi, 1e-300)})
+        cand = _point(device, float(res.x), b_max)
+        if cand.critical_stiffness > best.critical_stiffness:
+            best = cand
+    return Boundary(pts, best, b_max if math.isfinite(b_max) else None, (time.perf_counter() - t0) * 1e3)

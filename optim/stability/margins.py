@@ -1,0 +1,233 @@
+"""Critical stiffness K_cr(B) of the sampled haptic loop, exactly (chapter §3.2, eq. 12-13, 20-21).
+
+K_cr(B) is the smallest K > 0 at which the loop 1 + (K + B(1 - z⁻¹)/T)·G(z) = 0
+gets a pole on the unit circle (ARCHITECTURE.md), the minimum over every phase
+crossover including the Nyquist frequency, and 0 when no K > 0 is stable.
+
+Why the minimum over crossovers is the answer: at K = 0⁺ every closed-loop pole
+is inside the unit circle provided the damper-only loop 1 + B(1 - z⁻¹)/T·G = 0 is
+stable (the pole at z = 1 then moves inwards with K).  That loop is stable for
+B below its own critical value B_max, found by the same crossover scan.  Above
+B_max nothing is stable: K_cr = 0 with that reason.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from functools import lru_cache
+from typing import Literal
+
+import numpy as np
+
+from models.device import Device
+from models.discretize import RigidZOH
+from models.plants import stiffness_loop_plant
+
+from optim.stability.crossovers import Crossing, positive_real_crossings, scan_grid
+from optim.errors import InputError
+from optim.stability.fast_rigid import fast_beta_max, fast_rigid, rigid_crossovers
+
+__all__ = ["Crossover", "CriticalStiffness", "critical_stiffness", "scan_critical_stiffness", "max_stable_damping",
+           "linear_estimate", "gain_margin_db", "loop_plant"]
+
+
+@dataclass(frozen=True)
+class Crossover:
+    """A phase crossover of the loop with the stiffness that puts a pole there."""
+
+    frequency: float
+    """ω [rad/s]."""
+    stiffness: float
+    """K [N/m or N·m/rad] giving a closed-loop pole at e^{jωT}."""
+
+
+Path = Literal["fast", "scan"]
+
+
+@dataclass(frozen=True)
+class CriticalStiffness:
+    """K_cr(B) of one device, with every crossover and the reason when it is 0."""
+
+    critical_stiffness: float
+    """K_cr [N/m]; 0 when no K > 0 is stable, inf when every K > 0 is."""
+    crossover_frequency: float | None
+    """ω [rad/s] of the crossover that sets K_cr (None when K_cr is 0 or inf)."""
+    all_crossovers: tuple[Crossover, ...] | Callable[[], tuple[Crossover, ...]] = field(repr=False, compare=False)
+    """The crossovers, or how to find them: read ``crossovers``."""
+    damping: float = 0.0
+    """B [N·s/m] the answer is for."""
+    max_stable_damping: float | None = None
+    """B_max [N·s/m]: with B ≥ B_max no K > 0 is stable (computed only when B > 0)."""
+    reason: str | None = None
+    method: str = "exact"
+    path: Path = "scan"
+    """"fast": closed-form brackets and Newton (optim.stability.fast_rigid), no scan; "scan": every crossover of a
+    frequency scan (optim.stability.crossovers), the fallback wherever the fast path's bounds do not close."""
+
+    def __getstate__(self) -> dict:
+        # results travel pickled between processes (service.jobs): send the list, never the closure
+        return {**self.__dict__, "all_crossovers": self.crossovers}
+
+    @property
+    def crossovers(self) -> tuple[Crossover, ...]:
+        """All phase crossovers with K > 0, by frequency (the fast path scans for them on first use only)."""
+        found = self.all_crossovers
+        if callable(found):
+            found = found()
+            object.__setattr__(self, "all_crossovers", found)
+        return found
+
+
+@lru_cache(maxsize=4096)
+def loop_plant(device: Device):
+    """The sampled plant of ``device`` (immutable; cached: a design or a boundary asks for it many times)."""
+    return stiffness_loop_plant(device)
+
+
+def linear_estimate(device: Device, damping: float = 0.0) -> float:
+    """K < (b + B)/(T/2 + t_d), chapter eq. 10 [N/m]."""
+    return (device.damping + damping) / (device.sample_time / 2 + device.delay)
+
+
+def gain_margin_db(critical: float, stiffness: float) -> float:
+    """20·log10(K_cr/K), chapter eq. 13/21 [dB]."""
+    if critical <= 0:
+        return -math.inf
+    return 20.0 * math.log10(critical / stiffness)
+
+
+def _theta_min(device: Device, beta: float) -> float:
+    """Far below the lowest crossover ≈ sqrt((δ+β)/(d+½)) of the K loop.
+
+    The damper-only loop (β = 0 here) has its crossovers at O(1/(1+d)); with no physical
+    damping (δ = 0) that is the only scale.
+    """
+    damp = device.delta + beta
+    scale = 1.0 / (1.0 + 2.0 * device.delay_samples)
+    if damp <= 0.0:
+        return 1e-4 * scale
+    return 1e-4 * min(1.0, math.sqrt(damp * scale), 10 * damp)
+
+
+def _grid(device: Device, plant, beta: float) -> np.ndarray:
+    hints = tuple(plant.pole_angles()) + tuple(plant.zero_angles())
+    return scan_grid(_theta_min(device, beta), device.delay_samples, hints, width_hint=max(device.delta, 1e-6))
+
+
+def _damper_crossings(device: Device, plant) -> list[Crossing]:
+    def h(theta: np.ndarray) -> np.ndarray:
+        return -plant.inverse_response(theta) / (-np.expm1(-1j * theta))
+    return positive_real_crossings(h, _grid(device, plant, 0.0))
+
+
+def max_stable_damping(device: Device) -> float:
+    """B_max [N·s/m]: the damper-only loop's critical gain; no K > 0 is stable at or above it."""
+    plant = loop_plant(device)
+    if isinstance(plant, RigidZOH):
+        fast = fast_beta_max(plant)
+        if fast is not None:
+            return fast * device.damping_scale
+    found = _damper_crossings(device, plant)
+    if not found:
+        return math.inf
+    return min(c.value for c in found) * device.damping_scale
+
+
+def _dead_reason(damping: float, b_max: float) -> str:
+    return (f"virtual damping B = {damping:.6g} N·s/m is at or above the largest "
+            f"stable virtual damping B_max = {b_max:.6g} N·s/m for this delay: "
+            "no positive stiffness is stable")
+
+
+def critical_stiffness(device: Device, damping: float = 0.0, *, b_max: float | None = None) -> CriticalStiffness:
+    """Exact K_cr(B) (the binding crossover refined to double precision, the minimum over all of them).
+
+    Rigid devices take the fast path of optim.stability.fast_rigid (``path="fast"``); where its bounds do not
+    close, and for cable devices, every crossover of a scan (``path="scan"``).
+    ``b_max``: the caller's ``max_stable_damping(device)`` of this same device, when it has it (a design
+    calls this many times on one device); computed here otherwise."""
+    if not (math.isfinite(damping) and damping >= 0.0):
+        raise InputError("damping", "virtual damping B must be finite and ≥ 0")
+    plant = loop_plant(device)
+    if device.damping + damping <= 0.0:
+        return CriticalStiffness(0.0, None, (), damping, 0.0,
+                                 reason="no physical or virtual damping: no positive stiffness is stable "
+                                        "(linear condition α < 2(δ+β)/(1+2d) with δ = β = 0)")
+    if isinstance(plant, RigidZOH):
+        fast = _fast(device, plant, damping, b_max)
+        if fast is not None:
+            return fast
+    return scan_critical_stiffness(device, damping, b_max=b_max)
+
+
+def _fast(device: Device, plant: RigidZOH, damping: float, b_max: float | None) -> CriticalStiffness | None:
+    bs = device.damping_scale
+    res = fast_rigid(plant, damping / bs, None if b_max is None or damping == 0.0 else b_max / bs)
+    if res is None:
+        return None
+    bm = None if damping == 0.0 else (b_max if b_max is not None else res.beta_max * bs)
+    if res.theta is None:
+        return CriticalStiffness(0.0, None, (), damping, bm, reason=_dead_reason(damping, bm), path="fast")
+    scale, t, beta = device.stiffness_scale, device.sample_time, damping / bs
+    k, w = res.alpha * scale, res.theta / t
+
+    def every() -> tuple[Crossover, ...]:
+        found = rigid_crossovers(
+            plant, beta, (res.theta, res.alpha), lambda lo: _tail_crossings(device, plant, beta, lo))
+        if found is None:
+            # the scan's list, its binding entry replaced by the fast path's (the same crossover, to ~1e-15)
+            found = [(c.frequency * t, c.stiffness / scale)
+                     for c in scan_critical_stiffness(device, damping, b_max=bm).crossovers]
+            near = min(range(len(found)), key=lambda i: abs(found[i][0] - res.theta), default=None)
+            if near is None or abs(found[near][0] / res.theta - 1) > 1e-9:
+                raise RuntimeError(f"fast path and scan disagree on {device!r}, B = {damping!r}")
+            found[near] = (res.theta, res.alpha)
+        return tuple(Crossover(th / t, a * scale) for th, a in found)
+
+    return CriticalStiffness(k, w, every, damping, bm, path="fast")
+
+
+def _tail_crossings(device: Device, plant: RigidZOH, beta: float, lo: float) -> list[tuple[float, float]]:
+    """The scan (optim.stability.crossovers) of the K loop restricted to [lo, π]: (θ, α) of each crossover there."""
+    def h(theta: np.ndarray) -> np.ndarray:
+        return -plant.inverse_response(theta) + beta * np.expm1(-1j * theta)
+
+    if lo >= math.pi:
+        v = float(h(np.array([math.pi]))[0].real)
+        return [(math.pi, v)] if v > 0 else []
+    grid = _grid(device, plant, beta)
+    grid = np.concatenate([[lo], grid[grid > lo]])
+    return [(c.angle, c.value) for c in positive_real_crossings(h, grid)]
+
+
+def scan_critical_stiffness(device: Device, damping: float = 0.0, *, b_max: float | None = None
+                            ) -> CriticalStiffness:
+    """K_cr(B) by the scan of every crossover (optim.stability.crossovers): the reference the fast path is held to."""
+    if not (math.isfinite(damping) and damping >= 0.0):
+        raise InputError("damping", "virtual damping B must be finite and ≥ 0")
+    plant = loop_plant(device)
+    beta = damping / device.damping_scale
+    if device.damping + damping <= 0.0:
+        return CriticalStiffness(0.0, None, (), damping, 0.0,
+                                 reason="no physical or virtual damping: no positive stiffness is stable "
+                                        "(linear condition α < 2(δ+β)/(1+2d) with δ = β = 0)")
+    if damping > 0.0:
+        b_max = max_stable_damping(device) if b_max is None else b_max
+    else:
+        b_max = None
+    if b_max is not None and damping >= b_max:
+        return CriticalStiffness(0.0, None, (), damping, b_max, reason=_dead_reason(damping, b_max))
+
+    def h(theta: np.ndarray) -> np.ndarray:
+        return -plant.inverse_response(theta) + beta * np.expm1(-1j * theta)
+
+    found = positive_real_crossings(h, _grid(device, plant, beta))
+    scale, t = device.stiffness_scale, device.sample_time
+    crossovers = tuple(Crossover(frequency=c.angle / t, stiffness=c.value * scale) for c in found)
+    if not crossovers:
+        return CriticalStiffness(math.inf, None, (), damping, b_max,
+                                 reason="no phase crossover: every positive stiffness is stable")
+    best = min(crossovers, key=lambda c: c.stiffness)
+    return CriticalStiffness(best.stiffness, best.frequency, crossovers, damping, b_max)

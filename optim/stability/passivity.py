@@ -1,0 +1,222 @@
+"""Passivity of the virtual wall (Colgate–Schenkel) with the loop delay (ARCHITECTURE.md "Passivity").
+
+Eq. 3 of the chapter, b > KT/2 + B, holds only without delay.  With d whole
+samples of delay the same theorem applied to z^(−d)·C(z) gives
+
+    b > P(θ) = (K·T/2)·s_d(θ) − B·cos((d+1)θ)   for every θ ∈ (0, π],
+    s_d(θ) = sin((d+½)θ)/sin(θ/2) = 1 + 2·Σ_{k=1..d} cos(kθ)   (Dirichlet kernel, 2d+1 at θ → 0),
+
+which is eq. 3 at d = 0 and b > K(T/2 + t_d) at B = 0.  A fractional delay is
+rounded *up* to the next whole sample: conservative, and every answer says so.
+
+P is linear in (K, B) for each θ, so for a given B the passive stiffnesses form
+an interval: K < (b + B·c)/((T/2)·s) where s > 0 and K > (b + B·c)/((T/2)·s)
+where s < 0.  The passive set is strict (b > P), so the largest passive K is a
+supremum: every K below it is passive.
+
+Dimensionless form (Table 1): δ > (α/2)·s_d(θ) − β·cos((d+1)θ).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+
+from models.device import Device
+from models.discretize import split_delay
+
+from optim.golden import golden_minimum
+from optim.errors import InputError
+
+__all__ = ["PassivityCheck", "PassiveStiffness", "passivity_samples", "kernel", "passivity_margin",
+           "is_passive", "max_passive_stiffness", "largest_passive_stiffness", "passive_alpha_on_grid",
+           "batch_required_damping"]
+
+_GOLDEN_STEPS = 80         # a bracket of 2 grid steps shrinks by 0.618⁸⁰ ≈ 2e-17: θ to the last bit
+
+
+@dataclass(frozen=True)
+class PassivityCheck:
+    """Whether (K, B) is passive on this device."""
+
+    passive: bool
+    required_damping: float
+    """sup over θ of P(θ) [N·s/m]: the physical damping passivity needs (passive iff b exceeds it)."""
+    delay_samples_used: int
+    """whole samples of delay used (a fractional delay is rounded up)."""
+    conservative: bool
+    """True when a fractional delay was rounded up to the next whole sample."""
+    worst_angle: float | None = None
+    """θ = ωT [rad] where P(θ) is largest."""
+
+
+@dataclass(frozen=True)
+class PassiveStiffness:
+    """Largest passive stiffness for one virtual damping B."""
+
+    stiffness: float
+    """sup of passive K [N/m]; 0 with a reason when no K > 0 is passive."""
+    damping: float
+    """B [N·s/m] the answer is for."""
+    worst_angle: float | None
+    """θ = ωT [rad] where the passivity bound binds (0 means the limit θ → 0⁺)."""
+    delay_samples_used: int
+    conservative: bool
+    reason: str | None = None
+
+
+def passivity_samples(device: Device) -> tuple[int, bool]:
+    """(whole samples of delay used by the passivity test, whether a fraction was rounded up)."""
+    d, f = split_delay(device.delay_samples)
+    return (d + 1, True) if f > 0 else (d, False)
+
+
+def kernel(theta: np.ndarray, d: int) -> tuple[np.ndarray, np.ndarray]:
+    """(s_d(θ), cos((d+1)θ)); s_d through its closed form, exactly 2d+1 at θ = 0."""
+    theta = np.asarray(theta, dtype=float)
+    half = np.sin(theta / 2)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = np.where(half != 0.0, np.sin((d + 0.5) * theta) / np.where(half != 0.0, half, 1.0), 2 * d + 1.0)
+    return s, np.cos((d + 1) * theta)
+
+
+def _grid(d: int) -> np.ndarray:
+    # s_d has d zeros on (0, π); 64 samples per lobe, θ = 0 (the limit) and θ = π included.
+    return np.linspace(0.0, math.pi, 64 * (d + 1) + 257)
+
+
+def _refine_min(fun, grid: np.ndarray, values: np.ndarray, idx: int) -> tuple[float, float]:
+    lo, hi = grid[max(idx - 1, 0)], grid[min(idx + 1, grid.size - 1)]
+    best_t, best_v = float(grid[idx]), float(values[idx])
+    if hi > lo:
+        res = minimize_scalar(lambda t: float(fun(np.array([t]))[0]), bounds=(lo, hi), method="bounded",
+                              options={"xatol": 1e-14})
+        if res.fun < best_v:
+            best_t, best_v = float(res.x), float(res.fun)
+    return best_t, best_v
+
+
+def passivity_margin(device: Device, stiffness: float, damping: float) -> PassivityCheck:
+    """sup over θ ∈ (0, π] of P(θ), compared with the physical damping b."""
+    d, conservative = passivity_samples(device)
+    half_t = device.sample_time / 2
+
+    def minus_p(theta: np.ndarray) -> np.ndarray:
+        s, c = kernel(theta, d)
+        return -(stiffness * half_t * s - damping * c)
+
+    grid = _grid(d)
+    vals = minus_p(grid)
+    # the three deepest local minima of −P, refined (the global one may sit between samples)
+    order = np.argsort(vals)[:3]
+    t_best, v_best = min((_refine_min(minus_p, grid, vals, int(i)) for i in order), key=lambda tv: tv[1])
+    return PassivityCheck(device.damping > -v_best, -v_best, d, conservative, t_best)
+
+
+def is_passive(device: Device, stiffness: float, damping: float) -> bool:
+    """b > P(θ) for every θ (strict, as in eq. 3)."""
+    return passivity_margin(device, stiffness, damping).passive
+
+
+def largest_passive_stiffness(device: Device, damping: float) -> PassiveStiffness:
+    """sup of the passive K [N/m] at virtual damping B = ``damping`` [N·s/m]."""
+    if not (math.isfinite(damping) and damping >= 0.0):
+        raise InputError("damping", "virtual damping B must be finite and ≥ 0")
+    d, conservative = passivity_samples(device)
+    b, half_t = device.damping, device.sample_time / 2
+    theta = _grid(d)
+    s, _ = kernel(theta, d)
+
+    def ratio(t: np.ndarray) -> np.ndarray:
+        ss, cc = kernel(t, d)
+        sl = b + damping * cc
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(ss > 0, sl / (half_t * np.where(ss > 0, ss, 1.0)), np.inf)
+
+    def neg_ratio_lower(t: np.ndarray) -> np.ndarray:
+        ss, cc = kernel(t, d)
+        sl = b + damping * cc
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(ss < 0, -sl / (half_t * np.where(ss < 0, ss, -1.0)), np.inf)
+
+    # where s_d = 0 (and at every θ where it changes sign) P = −B·c must stay below b
+    zeros = np.array([2 * math.pi * k / (2 * d + 1) for k in range(1, d + 1)])
+    if zeros.size and np.any(b + damping * np.cos((d + 1) * zeros) <= 0):
+        return PassiveStiffness(0.0, damping, None, d, conservative,
+                                reason=f"with {d} samples of delay and B = {damping:.6g} N·s/m, b = {b:.6g} N·s/m "
+                                       "cannot exceed −B·cos((d+1)θ) where the kernel vanishes: no K is passive")
+    r = ratio(theta)
+    upper_t, upper = _refine_min(ratio, theta, r, int(np.argmin(r)))
+    # where s_d < 0 passivity bounds K from below; the set is empty when that bound reaches the upper one
+    lower = 0.0
+    if np.any(s < 0):
+        lr = neg_ratio_lower(theta)
+        lower = max(0.0, -_refine_min(neg_ratio_lower, theta, lr, int(np.argmin(lr)))[1])
+    if not (upper > 0.0) or upper <= lower:
+        return PassiveStiffness(0.0, damping, None, d, conservative,
+                                reason=f"no positive stiffness is passive with b = {b:.6g} N·s/m, B = {damping:.6g} "
+                                       f"N·s/m and {d} samples of delay"
+                                       + (" (fractional delay rounded up)" if conservative else ""))
+    return PassiveStiffness(float(upper), damping, upper_t, d, conservative)
+
+
+def max_passive_stiffness(device: Device, damping: float) -> float:
+    """sup of the passive K [N/m] at B = ``damping``; 0 when no K > 0 is passive."""
+    return largest_passive_stiffness(device, damping).stiffness
+
+
+def passive_alpha_on_grid(delta: float, d: int, betas: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Dimensionless sup of passive α for many β at once, on the θ grid (a seed, not refined).
+
+    Returns (α_max per β, 0 where nothing is passive; θ where the bound binds).
+    """
+    theta = _grid(d)
+    s, c = kernel(theta, d)
+    slack = delta + np.asarray(betas, float)[:, None] * c[None, :]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = 2 * slack / s[None, :]
+    upper = np.where(s[None, :] > 0, ratio, np.inf)
+    lower = np.where(s[None, :] < 0, ratio, -np.inf).max(axis=1)
+    j = np.argmin(upper, axis=1)
+    up = upper[np.arange(upper.shape[0]), j]
+    ok = (up > np.maximum(lower, 0.0)) & np.all(np.where(np.abs(s)[None, :] < 1e-12, slack > 0, True), axis=1)
+    return np.where(ok, up, 0.0), theta[j]
+
+
+def batch_required_damping(d: int, half_tk: np.ndarray, damping: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """sup over θ ∈ [0, π] of P(θ) = (K·T/2)·s_d(θ) − B·cos((d+1)θ) for many (K·T/2, B) with the same d.
+
+    The vectorised form of ``passivity_margin`` (the study path): the same grid, its three largest
+    samples per row refined by golden-section search over [θ_{i−1}, θ_{i+1}] in lock step (P is smooth
+    there; the bounded Brent search of ``passivity_margin`` is the second computation in the tests).
+    Returns (required damping [N·s/m], worst θ [rad]) per row.
+    """
+    half_tk = np.asarray(half_tk, float)
+    damping = np.asarray(damping, float)
+    theta = _grid(d)
+    s, c = kernel(theta, d)
+    p = half_tk[:, None] * s[None, :] - damping[:, None] * c[None, :]
+    n, m = p.shape
+    top = np.argpartition(-p, min(3, m) - 1, axis=1)[:, :3]
+    rows = np.repeat(np.arange(n), top.shape[1])
+    idx = top.ravel()
+    a, b = theta[np.maximum(idx - 1, 0)], theta[np.minimum(idx + 1, m - 1)]
+    kk, bb = half_tk[rows], damping[rows]
+
+    def f(t: np.ndarray) -> np.ndarray:
+        ss, cc = kernel(t, d)
+        return kk * ss - bb * cc
+
+    t_best, neg = golden_minimum(lambda t: -f(t), a, b, _GOLDEN_STEPS)
+    t_ref = t_best.reshape(n, -1)
+    v_ref = (-neg).reshape(n, -1)
+    # the grid samples themselves stay candidates (θ = 0 and π are ends no bracket interior reaches)
+    v_grid = p[np.arange(n)[:, None], top]
+    better = v_ref > v_grid
+    t_all = np.where(better, t_ref, theta[top])
+    v_all = np.where(better, v_ref, v_grid)
+    j = np.argmax(v_all, axis=1)
+    return v_all[np.arange(n), j], t_all[np.arange(n), j]

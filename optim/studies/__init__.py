@@ -1,0 +1,1 @@
+"""Batch design-space studies: problems evaluated point by point or a chunk at once."""

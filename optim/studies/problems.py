@@ -1,0 +1,552 @@
+"""Design-space studies: a sweep over dotted device/requirement paths, the points it spans, and
+the problem functions evaluated at each point (issue 8).  Pure functions on plain data, no I/O:
+the store, the runner and the executors live in ``service/studies``.
+
+A study is ``problem`` + ``base = {device, requirements}`` + ``sweep``; ``sweep`` maps a dotted
+path (``device.delay``, ``device.cable.stiffness``, ``requirements.damping`` …) to a value list
+or a range ``{start, stop, num, scale}``.  ``sampling`` chooses the Cartesian grid (default) or
+a Latin hypercube (scipy.stats.qmc) of ``samples`` points with a ``seed``.
+
+Points are plain dicts of floats so that they pickle to any worker (Dask may run a task twice:
+evaluation is a pure function and never writes).  Each point carries a content hash of what it
+computes (problem, base and swept values) so that a restarted study skips what is stored.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import hashlib
+import importlib
+import json
+import math
+import types
+import typing
+from dataclasses import dataclass
+from typing import Any, Callable, Mapping, Sequence
+
+import numpy as np
+
+from models.device import Device
+from optim.errors import InputError
+
+__all__ = ["MAX_STUDY_POINTS", "PROBLEMS", "StudyInputError", "ProblemUnavailable", "Axis", "StudyPlan",
+           "Problem", "get_problem", "plan_study", "device_paths", "evaluate_point", "evaluate_chunk",
+           "point_hash"]
+
+#: Cost limit: the largest number of points one study may have (grid product or LHS samples).
+MAX_STUDY_POINTS = 1_000_000
+PROBLEMS: tuple[str, ...] = ("stability", "critical_stiffness", "stiffness", "inertia")
+#: chunk_factor of the vectorised problems (the service's default chunk of 64 points becomes 256)
+VECTOR_CHUNK_FACTOR = 4
+SCALES = ("linear", "log")
+DESIGNS = ("grid", "latin_hypercube")
+
+
+class StudyInputError(InputError):
+    """A study request the planner rejects; ``field`` is the dotted location of the bad input."""
+
+    @property
+    def msg(self) -> str:
+        return self.rule
+
+
+class ProblemUnavailable(StudyInputError):
+    """The problem's design module is not part of this build (never replaced by a fake result)."""
+
+    def __init__(self, name: str, why: str):
+        super().__init__("problem", f"problem {name!r} is not available in this build ({why})")
+
+
+# ---------------------------------------------------------------------------------------- problems
+
+@dataclass(frozen=True)
+class Problem:
+    name: str
+    evaluate: Callable[[Device, Mapping[str, Any]], dict[str, Any]]
+    """(device, requirements) -> flat dict of scalars (floats finite or None, bools, strings)."""
+    requirement_kinds: Mapping[str, str]
+    """sweepable requirement fields -> "float" | "int"."""
+    check_requirements: Callable[[Mapping[str, Any]], None]
+    """raises ValueError("<field>: <rule>") for requirements the problem cannot take."""
+    evaluate_batch: Callable[[Sequence[Device], Sequence[Mapping[str, Any]]], list[tuple[dict | None, str | None]]] | None = None
+    """Optional: a whole chunk at once (valid devices and requirements) -> (results, None) | (None, reason) each."""
+    chunk_factor: int = 1
+    """Points per chunk relative to the runner's chunk size: a vectorised problem spreads its per-call numpy
+    overhead over a larger chunk (the stability problem: ~3600 points/CPU-s at 32 points, ~5200 at 256)."""
+
+
+def _clean(value: Any) -> Any:
+    """A JSON-safe scalar: non-finite floats become None (the row's ``reason`` says why)."""
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        return float(value) if math.isfinite(value) else None
+    return value
+
+
+# Wall-clock fields make two runs of the same point differ; a study stores what the point *is*.
+_VOLATILE = ("elapsed_ms", "setup_ms", "solve_ms", "time", "t_wall", "t_proc_total")
+
+
+def flatten_result(result: Any) -> dict[str, Any]:
+    """Scalar fields of a result dataclass (dicts one level deep as ``a.b``), without timings."""
+    out: dict[str, Any] = {}
+    items = dataclasses.asdict(result).items() if dataclasses.is_dataclass(result) else dict(result).items()
+    for key, value in items:
+        if key in _VOLATILE or key.endswith("_ms") or key.startswith("t_"):
+            continue
+        if isinstance(value, dict):
+            for sub, v in value.items():
+                if sub in _VOLATILE or str(sub).endswith("_ms") or str(sub).startswith("t_"):
+                    continue
+                if v is None or isinstance(v, (bool, int, float, str, np.generic)):
+                    out[f"{key}.{sub}"] = _clean(v)
+        elif isinstance(value, (list, tuple)):
+            if all(isinstance(v, str) for v in value):
+                out[key] = ";".join(value)
+            elif 0 < len(value) <= 4 and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value):
+                out.update({f"{key}.{i}": _clean(v) for i, v in enumerate(value)})  # a band, a pair
+            else:
+                out[f"n_{key}"] = len(value)
+        elif value is None or isinstance(value, (bool, int, float, str, np.generic)):
+            out[key] = _clean(value)
+    return out
+
+
+_STABILITY_REQUIREMENTS = {"stiffness": "float", "damping": "float"}
+
+
+def _is_finite_number(value: Any) -> bool:
+    """A JSON number that is a finite double (an integer of 400 digits is not: float() overflows)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return False
+    try:
+        return math.isfinite(value)
+    except OverflowError:
+        return False
+
+
+def _check_stability_requirements(req: Mapping[str, Any]) -> None:
+    for key, value in req.items():
+        if key not in _STABILITY_REQUIREMENTS:
+            raise InputError(key, f"unknown requirement of the stability problem "
+                             f"(known: {', '.join(_STABILITY_REQUIREMENTS)})")
+        if value is None:
+            continue
+        if not _is_finite_number(value):
+            raise InputError(key, "must be a finite number")
+    k, b = req.get("stiffness"), req.get("damping")
+    if k is not None and not k > 0:
+        raise InputError("stiffness", "the wall's K must be > 0 [N/m]")
+    if b is not None and not b >= 0:
+        raise InputError("damping", "the wall's B must be ≥ 0 [N·s/m]")
+
+
+def _dataclass_kinds(cls: type) -> dict[str, str]:
+    """Numeric fields of a requirements dataclass: the ones a sweep may set."""
+    hints = typing.get_type_hints(cls)
+    kinds = {}
+    for f in dataclasses.fields(cls):
+        args = set(typing.get_args(hints[f.name])) or {hints[f.name]}
+        args.discard(type(None))
+        if args == {float} or args == {int, float}:
+            kinds[f.name] = "float"
+        elif args == {int}:
+            kinds[f.name] = "int"
+    return kinds
+
+
+def _design_problem(name: str, module: str, function: str, requirements: str) -> Problem:
+    """A design problem of another module, imported only when asked for (None in the registry if absent)."""
+    try:
+        mod = importlib.import_module(module)
+        design = getattr(mod, function)
+        req_cls = getattr(mod, requirements, None) or getattr(importlib.import_module(design.__module__),
+                                                              requirements)
+    except (ImportError, AttributeError) as exc:
+        raise ProblemUnavailable(name, f"{module}.{function} cannot be imported: {exc}") from None
+    field_names = {f.name for f in dataclasses.fields(req_cls)}
+
+    def build(req: Mapping[str, Any]):
+        unknown = sorted(set(req) - field_names)
+        if unknown:
+            raise InputError(unknown[0], f"unknown requirement of the {name} problem "
+                             f"(known: {', '.join(sorted(field_names))})")
+        kinds = _dataclass_kinds(req_cls)
+        for key, value in req.items():
+            # A number is a JSON number: true and "5.4" are refused, not taken as 1 and 5.4.
+            if key in kinds and value is not None and not _is_finite_number(value):
+                raise InputError(key, f"must be a finite number, got {str(value)[:40]!r}")
+        try:
+            return req_cls(**req)
+        except TypeError as exc:  # wrong type for a field
+            raise InputError(next(iter(req), "requirements"), str(exc)) from None
+
+    def evaluate(device: Device, req: Mapping[str, Any]) -> dict[str, Any]:
+        return flatten_result(design(device, build(req)))
+
+    return Problem(name, evaluate, _dataclass_kinds(req_cls), lambda req: build(req) and None)
+
+
+_LAZY = {"stiffness": ("optim.stiffness", "design_stiffness", "StiffnessRequirements"),
+         "inertia": ("optim.transparency.inertia", "design_inertia", "InertiaRequirements")}
+_CACHE: dict[str, Problem] = {}
+
+
+def get_problem(name: str) -> Problem:
+    """The registered problem; ``ProblemUnavailable`` when its design module is not in this build."""
+    if name in _CACHE:
+        return _CACHE[name]
+    if name in ("stability", "critical_stiffness"):
+        # both vectorised over a chunk: the full exact analysis (optim.studies.stability_study) or K_cr(B) alone
+        mod = importlib.import_module(".stability_study" if name == "stability" else ".critical_study", __package__)
+
+        def one(device: Device, req: Mapping[str, Any]) -> dict[str, Any]:
+            _check_stability_requirements(req)
+            return mod.evaluate_one(device, req)
+
+        problem = Problem(name, one, _STABILITY_REQUIREMENTS, _check_stability_requirements, mod.evaluate_batch,
+                          chunk_factor=VECTOR_CHUNK_FACTOR)
+    elif name in _LAZY:
+        problem = _design_problem(name, *_LAZY[name])
+    else:
+        raise StudyInputError("problem", f"unknown problem {name!r}; known: {', '.join(PROBLEMS)}")
+    _CACHE[name] = problem  # safe across processes: each builds its own
+    return problem
+
+
+# ------------------------------------------------------------------------------------------ sweeps
+
+def _model_paths(model: type, prefix: str) -> dict[str, str]:
+    paths: dict[str, str] = {}
+    for name, info in model.model_fields.items():
+        ann = info.annotation
+        args = set(typing.get_args(ann)) if isinstance(ann, types.UnionType) or typing.get_origin(ann) else {ann}
+        args.discard(type(None))
+        if args == {float}:
+            paths[f"{prefix}.{name}"] = "float"
+        elif len(args) == 1 and isinstance(next(iter(args)), type) and hasattr(next(iter(args)), "model_fields"):
+            paths.update(_model_paths(next(iter(args)), f"{prefix}.{name}"))
+    return paths
+
+
+def device_paths() -> dict[str, str]:
+    """Every numeric device field a sweep may set (``device.mass`` … ``device.force_sensor.time_constant``)."""
+    return _model_paths(Device, "device")
+
+
+@dataclass(frozen=True)
+class Axis:
+    """One swept parameter: explicit values (grid) or a range a Latin hypercube samples."""
+
+    path: str
+    kind: str
+    values: tuple[float, ...] | None
+    start: float | None = None
+    stop: float | None = None
+    scale: str = "linear"
+
+    def at(self, u: np.ndarray) -> np.ndarray:
+        """Map LHS coordinates u ∈ [0, 1) to this axis (a list axis picks among its values)."""
+        if self.values is not None:
+            vals = np.asarray(self.values, dtype=float)
+            return vals[np.minimum((u * len(vals)).astype(np.int64), len(vals) - 1)]
+        if self.scale == "log":
+            return np.exp(math.log(self.start) + u * (math.log(self.stop) - math.log(self.start)))
+        return self.start + u * (self.stop - self.start)
+
+
+def _number(field: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise StudyInputError(field, f"must be a number, got {value!r}")
+    if not _is_finite_number(value):
+        raise StudyInputError(field, "must be finite")
+    return float(value)
+
+
+def _axis(path: str, kind: str, spec: Any, design: str) -> Axis:
+    field = f"sweep.{path}"
+    if isinstance(spec, (list, tuple)):
+        if not spec:
+            raise StudyInputError(field, "the value list is empty")
+        if len(spec) > MAX_STUDY_POINTS:
+            raise StudyInputError(field, f"more than {MAX_STUDY_POINTS} values")
+        values = tuple(_number(f"{field}.{i}", v) for i, v in enumerate(spec))
+    elif isinstance(spec, Mapping):
+        unknown = sorted(set(spec) - {"start", "stop", "num", "scale"})
+        if unknown:
+            raise StudyInputError(f"{field}.{unknown[0]}", "unknown key (a range has start, stop, num, scale)")
+        for key in ("start", "stop"):
+            if key not in spec:
+                raise StudyInputError(f"{field}.{key}", "a range needs start and stop")
+        start, stop = _number(f"{field}.start", spec["start"]), _number(f"{field}.stop", spec["stop"])
+        scale = spec.get("scale", "linear")
+        if scale not in SCALES:
+            raise StudyInputError(f"{field}.scale", f"must be one of {', '.join(SCALES)}, got {scale!r}")
+        if scale == "log" and not (start > 0 and stop > 0):
+            raise StudyInputError(f"{field}.start", "a log range needs start > 0 and stop > 0")
+        num = spec.get("num")
+        if design == "latin_hypercube" and num is None:
+            if kind == "int":
+                raise StudyInputError(f"{field}.num", "an integer parameter needs num (or a value list)")
+            return Axis(path, kind, None, start, stop, scale)
+        if isinstance(num, bool) or not isinstance(num, int) or not 1 <= num <= MAX_STUDY_POINTS:
+            raise StudyInputError(f"{field}.num", f"must be an integer from 1 to {MAX_STUDY_POINTS}")
+        with np.errstate(over="ignore", invalid="ignore"):  # a range across ±1.8e308 overflows its step
+            grid = np.geomspace(start, stop, num) if scale == "log" else np.linspace(start, stop, num)
+        if not np.all(np.isfinite(grid)):
+            raise StudyInputError(field, "the range's values overflow double precision")
+        values = tuple(float(v) for v in grid)
+    else:
+        raise StudyInputError(field, "must be a list of values or a range {start, stop, num, scale}")
+    if kind == "int":
+        if any(v != round(v) for v in values):
+            raise StudyInputError(field, "this parameter takes whole numbers")
+        values = tuple(float(round(v)) for v in values)
+    return Axis(path, kind, values)
+
+
+def _set(tree: dict, path: str, value: Any) -> None:
+    keys = path.split(".")
+    node = tree
+    for key in keys[:-1]:
+        child = node.get(key)
+        if not isinstance(child, dict):
+            child = {}
+            node[key] = child
+        node = child
+    node[keys[-1]] = value
+
+
+@dataclass(frozen=True)
+class StudyPlan:
+    """What a study computes: every point, in a fixed order, reproducible from the request alone."""
+
+    problem: str
+    device: Mapping[str, Any]
+    requirements: Mapping[str, Any]
+    axes: tuple[Axis, ...]
+    design: str
+    samples: int | None
+    seed: int | None
+
+    @property
+    def paths(self) -> list[str]:
+        return [a.path for a in self.axes]
+
+    @property
+    def total(self) -> int:
+        if self.design == "latin_hypercube":
+            return int(self.samples)
+        return math.prod(len(a.values) for a in self.axes)
+
+    def values(self, start: int, stop: int) -> np.ndarray:
+        """Swept values of points start..stop-1, shape (n, len(axes)); grid order is row-major."""
+        idx = np.arange(start, min(stop, self.total), dtype=np.int64)
+        if not self.axes:
+            return np.zeros((len(idx), 0))
+        if self.design == "latin_hypercube":
+            u = self._lhs()[idx]
+            return np.column_stack([a.at(u[:, j]) for j, a in enumerate(self.axes)])
+        shape = tuple(len(a.values) for a in self.axes)
+        sub = np.unravel_index(idx, shape)
+        return np.column_stack([np.asarray(a.values)[s] for a, s in zip(self.axes, sub)])
+
+    def _lhs(self) -> np.ndarray:
+        cached = _LHS_CACHE.get(self._lhs_key())
+        if cached is None:
+            from scipy.stats import qmc
+            cached = qmc.LatinHypercube(d=len(self.axes), seed=self.seed).random(self.samples)
+            _LHS_CACHE.clear()  # one study's sample at a time: bounded memory
+            _LHS_CACHE[self._lhs_key()] = cached
+        return cached
+
+    def _lhs_key(self) -> tuple:
+        return (len(self.axes), self.samples, self.seed)
+
+    def inputs(self, values: Sequence[float]) -> tuple[dict, dict]:
+        """(device dict, requirements dict) of one point."""
+        tree = {"device": copy.deepcopy(dict(self.device)), "requirements": copy.deepcopy(dict(self.requirements))}
+        for axis, v in zip(self.axes, values):
+            _set(tree, axis.path, int(v) if axis.kind == "int" else float(v))
+        return tree["device"], tree["requirements"]
+
+    def digest(self) -> bytes:
+        """Hash prefix of everything a point shares: problem and base."""
+        text = json.dumps({"problem": self.problem, "device": self.device, "requirements": self.requirements},
+                          sort_keys=True, separators=(",", ":"))
+        return hashlib.blake2b(text.encode(), digest_size=16).digest()
+
+
+_LHS_CACHE: dict[tuple, np.ndarray] = {}
+
+
+def point_hash(prefix: bytes, index: int, paths: Sequence[str], values: Sequence[float]) -> str:
+    """Content hash of one point: the shared prefix, its place in the plan and its swept values.
+
+    The place keeps two equal points of one study (a value listed twice, a Latin hypercube over
+    short lists) apart, so that every point is stored exactly once; ``repr`` is exact for floats.
+    """
+    text = f"{index}|" + ";".join(f"{p}={float(v)!r}" for p, v in zip(paths, values))
+    return hashlib.blake2b(prefix + text.encode(), digest_size=16).hexdigest()
+
+
+def plan_study(problem: str, device: Mapping[str, Any], requirements: Mapping[str, Any] | None,
+               sweep: Mapping[str, Any], sampling: Mapping[str, Any] | None = None) -> StudyPlan:
+    """Validate a study request and plan its points; ``StudyInputError`` names the bad field."""
+    prob = get_problem(problem)
+    requirements = dict(requirements or {})
+    sampling = dict(sampling or {})
+    design = sampling.get("design", "grid")
+    if design not in DESIGNS:
+        raise StudyInputError("sampling.design", f"must be one of {', '.join(DESIGNS)}, got {design!r}")
+    samples, seed = sampling.get("samples"), sampling.get("seed")
+    if design == "latin_hypercube":
+        if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
+            raise StudyInputError("sampling.samples", "a Latin hypercube needs samples, an integer ≥ 1")
+        if samples > MAX_STUDY_POINTS:
+            raise StudyInputError("sweep", f"{samples} samples exceed the maximum of {MAX_STUDY_POINTS} points per study")
+        if seed is None or isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**63:
+            raise StudyInputError("sampling.seed", "a Latin hypercube needs a seed, an integer in [0, 2^63)")
+    elif samples is not None or seed is not None:
+        raise StudyInputError("sampling.samples" if samples is not None else "sampling.seed",
+                              "applies only to design latin_hypercube")
+    if not isinstance(sweep, Mapping) or not sweep:
+        raise StudyInputError("sweep", "must map at least one dotted parameter path to values")
+    dev_paths = device_paths()
+    axes = []
+    for path, spec in sweep.items():
+        if path in dev_paths:
+            kind = dev_paths[path]
+        elif path.startswith("requirements.") and path.removeprefix("requirements.") in prob.requirement_kinds:
+            kind = prob.requirement_kinds[path.removeprefix("requirements.")]
+        else:
+            known = sorted(dev_paths) + [f"requirements.{k}" for k in prob.requirement_kinds]
+            raise StudyInputError(f"sweep.{path}", f"unknown parameter path; known: {', '.join(known)}")
+        axes.append(_axis(path, kind, spec, design))
+    if design == "grid":
+        total = math.prod(len(a.values) for a in axes)
+        if total > MAX_STUDY_POINTS:
+            raise StudyInputError("sweep", f"the grid has {total} points; the maximum is {MAX_STUDY_POINTS} per study")
+    plan = StudyPlan(problem, dict(device), requirements, tuple(axes), design, samples, seed)
+    _check_base_and_extremes(plan, prob)
+    return plan
+
+
+def _check_base_and_extremes(plan: StudyPlan, prob: Problem) -> None:
+    """The base must be valid, and so must each axis's extreme values applied alone to it."""
+    try:
+        # strict: a number must be a JSON number (true and "5.4" are not 1 and 5.4), as in every request body.
+        Device.model_validate(dict(plan.device), strict=True)
+    except ValueError as exc:
+        field, rule = _first_error_at(exc)
+        raise StudyInputError(f"base.device.{field}" if field else "base.device", rule) from None
+    try:
+        prob.check_requirements(plan.requirements)
+    except InputError as exc:
+        raise StudyInputError(f"base.requirements.{exc.field}", exc.rule) from None
+    except ValueError as exc:
+        raise StudyInputError("base.requirements", str(exc)) from None
+    for axis in plan.axes:
+        ends = (min(axis.values), max(axis.values)) if axis.values is not None else (axis.start, axis.stop)
+        for v in ends:
+            tree = {"device": copy.deepcopy(dict(plan.device)), "requirements": dict(plan.requirements)}
+            _set(tree, axis.path, int(v) if axis.kind == "int" else float(v))
+            try:
+                Device.model_validate(tree["device"])
+                prob.check_requirements(tree["requirements"])
+            except ValueError as exc:
+                raise StudyInputError(f"sweep.{axis.path}", f"value {v:g}: {_first_error(exc)}") from None
+
+
+def _first_error_at(exc: ValueError) -> tuple[str, str]:
+    """(dotted field, rule) of the first error of a device validation (pydantic's, or an InputError)."""
+    errors = getattr(exc, "errors", None)
+    if callable(errors):
+        e = errors()[0]
+        loc = [str(x) for x in e.get("loc", ())]
+        cause = (e.get("ctx") or {}).get("error")
+        if isinstance(cause, InputError):
+            return ".".join([*loc, cause.field]), cause.rule
+        return ".".join(loc), e["msg"]
+    if isinstance(exc, InputError):
+        return exc.field, exc.rule
+    return "", str(exc)
+
+
+def _first_error(exc: ValueError) -> str:
+    field, rule = _first_error_at(exc)
+    return f"{field}: {rule}" if field else rule
+
+
+# ------------------------------------------------------------------------------------- evaluation
+
+def evaluate_point(problem: str, device: Mapping[str, Any], requirements: Mapping[str, Any]) -> tuple[dict | None, str | None]:
+    """(results, None) or (None, reason) for one point; a point's bad input never stops the study."""
+    try:
+        dev = Device.model_validate(dict(device))
+    except ValueError as exc:
+        return None, f"invalid device: {_first_error(exc)}"
+    try:
+        return get_problem(problem).evaluate(dev, requirements), None
+    except Exception as exc:  # noqa: BLE001 - recorded against the point (failed), never dropped
+        return None, f"{type(exc).__name__}: {exc}"
+
+
+def evaluate_chunk(problem: str, device: Mapping[str, Any], requirements: Mapping[str, Any],
+                   axes: Sequence[tuple[str, str]], rows: Sequence[tuple[int, str, Sequence[float]]]) -> list[tuple]:
+    """Evaluate points (index, hash, values) of one study; returns (index, hash, values, results, error).
+
+    Runs in a worker (local process or Dask): plain data in, plain data out, no writes, so a task
+    that runs twice is harmless.  ``axes`` is ((path, kind), …) of the swept values.
+    """
+    try:
+        prob = get_problem(problem)
+    except StudyInputError:
+        prob = None  # every point records the reason (evaluate_point below)
+    if prob is not None and prob.evaluate_batch is not None:
+        return _evaluate_chunk_batch(prob, device, requirements, axes, rows)
+    out = []
+    for index, digest, values in rows:
+        tree = {"device": copy.deepcopy(dict(device)), "requirements": copy.deepcopy(dict(requirements))}
+        for (path, kind), v in zip(axes, values):
+            _set(tree, path, int(v) if kind == "int" else float(v))
+        result, error = evaluate_point(problem, tree["device"], tree["requirements"])
+        out.append((index, digest, [float(v) for v in values], result, error))
+    return out
+
+
+def _evaluate_chunk_batch(prob: Problem, device: Mapping[str, Any], requirements: Mapping[str, Any],
+                          axes: Sequence[tuple[str, str]], rows: Sequence[tuple[int, str, Sequence[float]]]) -> list[tuple]:
+    """evaluate_chunk of a vectorised problem: each point validated alone, the valid ones evaluated together."""
+    errors: list[str | None] = []
+    devices: list[Device] = []
+    reqs: list[Mapping[str, Any]] = []
+    for _, _, values in rows:
+        tree = {"device": copy.deepcopy(dict(device)), "requirements": copy.deepcopy(dict(requirements))}
+        for (path, kind), v in zip(axes, values):
+            _set(tree, path, int(v) if kind == "int" else float(v))
+        try:
+            dev = Device.model_validate(tree["device"])
+        except ValueError as exc:
+            errors.append(f"invalid device: {_first_error(exc)}")
+            continue
+        try:
+            prob.check_requirements(tree["requirements"])
+        except ValueError as exc:
+            errors.append(f"ValueError: {exc}")
+            continue
+        errors.append(None)
+        devices.append(dev)
+        reqs.append(tree["requirements"])
+    results = iter(prob.evaluate_batch(devices, reqs))
+    out = []
+    for (index, digest, values), error in zip(rows, errors):
+        result = None
+        if error is None:
+            result, error = next(results)
+        out.append((index, digest, [float(v) for v in values], result, error))
+    return out
