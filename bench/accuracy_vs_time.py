@@ -49,7 +49,7 @@ def suite() -> list[tuple[str, dict, float]]:
     for d in (0, 1, 5, 50, 200):
         cases.append((f"LHifAM rigid d={d}", {"mass": 5.4, "damping": 3.5, "delay": d * 1e-3}, 0.0))
     for d in (0.5, 2.25, 3 - 1e-6, 3 + 1e-6, 17.5):
-        cases.append((f"LHifAM rigid d={d:g}", {"mass": 5.4, "damping": 3.5, "delay": d * 1e-3}, 0.0))
+        cases.append((f"LHifAM rigid d={d:.7g}", {"mass": 5.4, "damping": 3.5, "delay": d * 1e-3}, 0.0))
     for delta in (1e-3, 1e-6, 1e-9, 1e-12):
         for d in (0, 20, 200):
             cases.append((f"rigid δ={delta:g} d={d}", _rigid(delta, d), 0.0))

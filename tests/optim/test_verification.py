@@ -167,7 +167,6 @@ def test_verify_undamped_cables(property_run):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=False, reason="grid estimate fix in branch stiffedge")
 def test_grid_answers_within_their_estimate(property_run):
     assert not property_run["grid_contradicted"], property_run["grid_contradicted"][:3]
 
