@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Annotated
 
 from pydantic import BaseModel, ConfigDict, Field
@@ -21,6 +22,13 @@ class Cable(BaseModel):
     body_damping: Annotated[float, Field(description="b_d, damping of the body mass to ground [N·s/m or N·m·s/rad]")]
     stiffness: Annotated[float, Field(description="k_c, cable stiffness [N/m or N·m/rad]")]
     damping: Annotated[float, Field(description="b_c, cable damping [N·s/m or N·m·s/rad]")]
+
+    # Added by hand (the presets table shows it): eq. 24, as models.device.Cable has it.
+    @property
+    def natural_frequency(self) -> float:
+        """ω_n of eq. 24 [rad/s]: the first vibration mode of the transmission."""
+        m_r, m_d = self.motor_mass, self.body_mass
+        return math.sqrt(self.stiffness * (m_r + m_d) / (m_r * m_d))
 
 
 class ForceSensor(BaseModel):

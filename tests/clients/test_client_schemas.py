@@ -180,3 +180,14 @@ def _all_models() -> set[type[BaseModel]]:
         for f in m.model_fields.values():
             todo.extend(_client_field(f.annotation)[1])
     return seen
+
+
+def test_the_client_cable_has_the_servers_natural_frequency():
+    """The one derived quantity the client computes itself (the presets table's ω_n, eq. 24) is the model's."""
+    from models.device import PRESETS, Device
+
+    cables = [Device(preset=name).cable for name in PRESETS]
+    assert any(cables)
+    for cable in filter(None, cables):
+        mine = schemas.Cable.model_validate(cable.model_dump(mode="json"))
+        assert mine.natural_frequency == cable.natural_frequency

@@ -18,8 +18,9 @@ SERVER = ("service", "optim", "models")
 NUMERICS = ("numpy", "scipy", "mpmath", "casadi", "matplotlib", "fastapi", "starlette", "uvicorn", "sqlalchemy",
             "dask", "pyarrow")
 HELP = [["--help"], ["analyze", "--help"], ["feedforward", "--help"], ["design", "stiffness", "--help"],
-        ["robust", "hardware", "--help"], ["plot", "bode", "--help"], ["study", "run", "--help"], ["identify", "--help"],
-        ["simulate", "--help"], ["presets", "--help"], ["serve", "--help"], ["bench", "--help"]]
+        ["robust", "hardware", "--help"], ["plot", "bode", "--help"], ["study", "run", "--help"],
+        ["identify", "--help"], ["simulate", "--help"], ["presets", "--help"], ["serve", "--help"],
+        ["bench", "--help"]]
 
 
 def _run(code: str) -> dict:
@@ -101,3 +102,19 @@ def test_a_client_only_install_works_without_the_server(stability_answer):
     for what in ("local", "serve"):
         code, output = report[what]
         assert code == 2 and "full install" in output, (what, code, output)
+
+
+def test_the_client_only_distribution_lists_every_client_package_and_no_numerics():
+    """clients/pyproject.toml (`pip install ./clients`): every package of clients/ is in it, and its
+    dependencies are the client's own (checked once by installing it into an empty venv: no numpy, no scipy)."""
+    import tomllib
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2] / "clients"
+    project = tomllib.loads((root / "pyproject.toml").read_text(encoding="utf-8"))
+    packages = {"clients", *("clients." + ".".join(p.parent.relative_to(root).parts)
+                             for p in root.rglob("__init__.py") if p.parent != root and "build" not in p.relative_to(root).parts)}
+    assert set(project["tool"]["setuptools"]["packages"]) == packages
+    deps = {d.split(">")[0].split("=")[0].split("[")[0].strip().lower() for d in project["project"]["dependencies"]}
+    assert deps == {"httpx", "pydantic", "typer", "rich", "pyyaml"}
+    assert project["project"]["scripts"] == {"zwidth": "clients.cli:app"}
