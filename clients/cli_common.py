@@ -48,7 +48,7 @@ err = Console(stderr=True, highlight=False, soft_wrap=True, width=None if sys.st
 
 # ------------------------------------------------------------------------------------------------ options
 Local = Annotated[bool, typer.Option("--local", help="compute in this process with the service's own code "
-                                                     "(no server); answers are identical to a server's")]
+                                                     "(no server; needs the full install); answers are identical to a server's")]
 Url = Annotated[str, typer.Option("--url", envvar="ZWIDTH_URL", help="service URL")]
 Token = Annotated[str | None, typer.Option("--token", envvar="ZWIDTH_API_TOKEN", show_default=False,
                                            help="bearer token (ZWIDTH_API_TOKEN)")]
