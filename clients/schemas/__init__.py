@@ -1,7 +1,8 @@
 """The answers this client parses, as its own pydantic models: the client never imports the server.
 
 Generated once from the service's ``/openapi.json`` with datamodel-code-generator (not a dependency of
-zwidth), keeping only the response models and the types nested in them, one module per area:
+zwidth), keeping only the response models and the types nested in them, one module per area
+(``scripts/client_schemas.py`` does both steps):
 
     datamodel-codegen --input openapi.json --input-file-type openapi \\
         --output-model-type pydantic_v2.BaseModel --target-python-version 3.11 --use-annotated \\
@@ -11,9 +12,10 @@ zwidth), keeping only the response models and the types nested in them, one modu
 with the components renamed ``<module>.<Name>`` and the input rules (bounds, lengths, patterns, property
 titles) dropped before generating: the server has already validated what it sends, and an older client
 must read a newer server's answers.  For the same reason every model has ``extra="allow"``: a field the
-server adds later is kept (and shown by ``--json``), not refused.  Two edits after generating: black at
-120 columns, and the list and map fields that the server fills with an empty default (a default the
-schema does not show) given ``default_factory`` instead of the generator's ``| None = None``.
+server adds later is kept (and shown by ``--json``), not refused.  Three edits after generating: black
+at 120 columns; ``Cable.natural_frequency`` (eq. 24, shown by the presets table); and the list and map
+fields that the server fills with an empty default (a default the schema does not show) given
+``default_factory`` instead of the generator's ``| None = None``.
 
 ``tests/clients/test_client_schemas.py`` holds these models against ``/openapi.json`` of the current
 app: the same field names, the same required and nullable fields, recursively.  A field added on the
