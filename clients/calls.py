@@ -6,8 +6,9 @@ of a successful answer).  The clients only send calls; nothing here touches the
 network, so the request a method sends can be inspected (``calls.stability(...)``)
 and tested without a server.
 
-Answers are read into the service's own response models (``service/schemas``),
-so a field renamed on one side fails loudly on the other.  Arguments that are left
+Answers are read into the client's own response models (:mod:`clients.schemas`, held
+against the server's /openapi.json by a test), so the client imports neither the
+server nor the numerics, and a field renamed on one side fails loudly.  Arguments that are left
 ``None`` are not sent: the server's defaults apply, as they do for ``curl``.
 """
 
@@ -15,23 +16,14 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable, Mapping
-from typing import TYPE_CHECKING, Any, Generic, Literal, TypeVar
+from typing import Any, Generic, Literal, Protocol, TypeVar, runtime_checkable
 
 import httpx
 from pydantic import BaseModel, TypeAdapter
 
-from models.device import Device
-from service.schemas.analysis import BoundaryResponse, StabilityResponse
-from service.schemas.design_stiffness import StiffnessDesignResponse
-from service.schemas.simulate import SimulateResponse
-
-from .models import Health
-
-if TYPE_CHECKING:  # modules of endpoints that may not be in every build (imported when called)
-    from service.schemas.design_hardware import HardwareDesignResponse
-    from service.schemas.identify import IdentifyResponse
-    from service.schemas.feedforward import ForceFeedforwardResponse, InertiaResponse
-    from service.schemas.studies import StudyCreated, StudyList, StudyResults, StudyStatus
+from .schemas import (BoundaryResponse, Device, ForceFeedforwardResponse, HardwareDesignResponse, Health,
+                      IdentifyResponse, InertiaResponse, SimulateResponse, StabilityResponse, StiffnessDesignResponse,
+                      StudyCreated, StudyList, StudyResults, StudyStatus)
 
 __all__ = ["Call", "Kind", "Plot", "health", "presets", "stability", "boundary", "force_feedforward",
            "design_stiffness", "design_inertia", "design_hardware", "plot_hardware", "simulate", "plot_simulation",
@@ -42,8 +34,17 @@ R = TypeVar("R")
 #: Kinds of call, each with its own timeout (see :class:`clients.client.Timeouts`).
 Kind = Literal["health", "read", "analysis", "design", "simulate", "plot", "submit", "results"]
 ImageFormat = Literal["png", "svg"]
-DeviceLike = Device | Mapping[str, Any]
-PartLike = BaseModel | Mapping[str, Any]
+
+
+@runtime_checkable
+class Dumpable(Protocol):
+    """Anything pydantic-like: a ``models.device.Device`` built by the caller, or a model of :mod:`clients.schemas`."""
+
+    def model_dump(self, *, mode: str = ..., exclude: Any = ..., exclude_unset: bool = ...) -> dict[str, Any]: ...
+
+
+DeviceLike = Dumpable | Mapping[str, Any]
+PartLike = Dumpable | Mapping[str, Any]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -73,19 +74,21 @@ class Plot:
 def device_json(device: DeviceLike) -> dict[str, Any]:
     """The device object to send.
 
-    A :class:`~models.device.Device` is sent fully resolved without its ``preset``
-    name (its preset was applied when it was built; sending the name again would
-    re-apply the preset's blocks that the model deliberately removed, e.g. a
-    ``cable=None`` rigid variant).  A mapping is sent as given and validated by
-    the server.
+    A model (anything with pydantic's ``model_dump``: the server's
+    ``models.device.Device``, which this module never imports, or a
+    :class:`clients.schemas.Device` from :func:`presets`) is sent fully resolved
+    without its ``preset`` name (its preset was applied when it was built; sending
+    the name again would re-apply the preset's blocks that the model deliberately
+    removed, e.g. a ``cable=None`` rigid variant).  A mapping is sent as given and
+    validated by the server.
     """
-    if isinstance(device, BaseModel):
+    if not isinstance(device, Mapping) and isinstance(device, Dumpable):
         return device.model_dump(mode="json", exclude={"preset"})
     return dict(device)
 
 
 def _part(value: PartLike) -> dict[str, Any]:
-    if isinstance(value, BaseModel):
+    if not isinstance(value, Mapping) and isinstance(value, Dumpable):
         return value.model_dump(mode="json", exclude_unset=True)
     return dict(value)
 
@@ -97,7 +100,7 @@ def _body(**fields: Any) -> dict[str, Any]:
         if value is None:
             continue
         out[key] = device_json(value) if key == "device" else (
-            _part(value) if isinstance(value, (BaseModel, Mapping)) else value)
+            _part(value) if isinstance(value, (Dumpable, Mapping)) else value)
     return out
 
 
@@ -158,8 +161,6 @@ def force_feedforward(device: DeviceLike, filter: PartLike | None = None, *,  # 
     ``filter`` is the Butterworth D(z), ``{"cutoff_hz": f_c [Hz], "order": n}``.  ``verify=True`` adds
     ``.verification`` (docs/verification.md).
     """
-    from service.schemas.feedforward import ForceFeedforwardResponse
-
     return Call("POST", "/v1/analysis/force-feedforward", "analysis", _model(ForceFeedforwardResponse),
                 json=_body(device=device, filter=filter, verify=verify or None))
 
@@ -178,8 +179,6 @@ def design_inertia(device: DeviceLike, requirements: PartLike | None = None, *,
     """``POST /v1/design/inertia``: force-feedforward gain K_f, filter cutoff [Hz] and apparent mass [kg].
 
     ``verify=True`` adds ``.verification``: the margin and K_f checked on the closed loop."""
-    from service.schemas.feedforward import InertiaResponse
-
     return Call("POST", "/v1/design/inertia", "design", _model(InertiaResponse),
                 json=_body(device=device, requirements=requirements, verify=verify or None))
 
@@ -206,8 +205,6 @@ def design_hardware(device: DeviceLike, free: str, *, stiffness: float | None = 
     K_f or ``apparent_mass`` [kg], with the controller and the trade-off curve.  ``value_range`` (min, max)
     scans exactly that range of ``free`` (the request's ``range``); by default the span is widened as needed.
     ``verify=True`` adds ``.verification``: the controller checked on the closed loop at the answer's value."""
-    from service.schemas.design_hardware import HardwareDesignResponse
-
     body = _hardware_body(device, free, stiffness, force_gain, apparent_mass, min_gain_margin_db, max_damping,
                           cutoff_min_hz, filter_order, points, value_range)
     if verify:
@@ -248,8 +245,6 @@ def identify(data: Mapping[str, Any], *, model: str | None = None, known: Mappin
     """``POST /v1/identify``: a device, its parameters' intervals and the ``uncertainty`` box from measured
     ``data`` ({"kind": "time_series", "sample_time", "force", "position"} or {"kind": "frequency_response",
     "frequency", "real", "imag"}); ``model`` rigid, cable or auto."""
-    from service.schemas.identify import IdentifyResponse
-
     return Call("POST", "/v1/identify", "design", _model(IdentifyResponse),
                 json=_identify_body(data, model, known, friction, confidence, sample_time, max_delay))
 
@@ -290,22 +285,16 @@ def plot_bode(device: DeviceLike, controller: PartLike | None = None, *, points:
 
 def submit_study(request: PartLike) -> Call[StudyCreated]:
     """``POST /v1/studies``: queue a design-space study (problem, base device, sweep); answers its id."""
-    from service.schemas.studies import StudyCreated
-
     return Call("POST", "/v1/studies", "submit", _model(StudyCreated), json=_part(request))
 
 
 def study(study_id: str) -> Call[StudyStatus]:
     """``GET /v1/studies/{id}``: status, progress and rate of a study."""
-    from service.schemas.studies import StudyStatus
-
     return Call("GET", f"/v1/studies/{_id(study_id)}", "read", _model(StudyStatus))
 
 
 def studies(*, offset: int | None = None, limit: int | None = None, status: str | None = None) -> Call[StudyList]:
     """``GET /v1/studies``: the studies, newest first."""
-    from service.schemas.studies import StudyList
-
     params = {k: v for k, v in (("offset", offset), ("limit", limit), ("status", status)) if v is not None}
     return Call("GET", "/v1/studies", "read", _model(StudyList), params=params)
 
@@ -313,8 +302,6 @@ def studies(*, offset: int | None = None, limit: int | None = None, status: str 
 def cancel_study(study_id: str, *, purge: bool = False) -> Call[StudyStatus | None]:
     """``DELETE /v1/studies/{id}``: cancel a queued or running study (stored rows stay); ``purge`` also deletes
     the study and its rows (the answer is then None: 204)."""
-    from service.schemas.studies import StudyStatus
-
     def parse(response: httpx.Response) -> StudyStatus | None:
         return None if response.status_code == 204 else StudyStatus.model_validate_json(response.content)
 
@@ -336,8 +323,6 @@ def export_study(study_id: str, format: Literal["csv", "parquet"] = "csv") -> Ca
 
 def study_results(study_id: str, *, offset: int | None = None, limit: int | None = None) -> Call[StudyResults]:
     """``GET /v1/studies/{id}/results``: one page of result rows (``next_offset`` gives the next)."""
-    from service.schemas.studies import StudyResults
-
     params = {k: v for k, v in (("offset", offset), ("limit", limit)) if v is not None}
     return Call("GET", f"/v1/studies/{_id(study_id)}/results", "results", _model(StudyResults), params=params)
 

@@ -250,10 +250,11 @@ def serve(host: str = typer.Option("127.0.0.1", help="interface to bind (0.0.0.0
           workers: int = typer.Option(1, min=1, help="uvicorn worker processes (each with its own compute pool)"),
           log_level: str = typer.Option("info", help="log level (logs are JSON lines on stderr)")) -> None:
     """Serve the HTTP API with uvicorn (settings from ZWIDTH_* environment variables)."""
-    import uvicorn
+    with c.full_install("zwidth serve"):
+        import uvicorn
 
-    from service.logs import uvicorn_log_config
-    from service.settings import Settings, describe_store
+        from service.logs import uvicorn_log_config
+        from service.settings import Settings, describe_store
 
     c.err.print(f"zwidth: studies are stored in {describe_store(Settings().database_url)} "
                 "(ZWIDTH_DATABASE_URL to change)")

@@ -48,7 +48,7 @@ err = Console(stderr=True, highlight=False, soft_wrap=True, width=None if sys.st
 
 # ------------------------------------------------------------------------------------------------ options
 Local = Annotated[bool, typer.Option("--local", help="compute in this process with the service's own code "
-                                                     "(no server); answers are identical to a server's")]
+                                                     "(no server; needs the full install); answers are identical to a server's")]
 Url = Annotated[str, typer.Option("--url", envvar="ZWIDTH_URL", help="service URL")]
 Token = Annotated[str | None, typer.Option("--token", envvar="ZWIDTH_API_TOKEN", show_default=False,
                                            help="bearer token (ZWIDTH_API_TOKEN)")]
@@ -83,12 +83,26 @@ def open_client(conn: Connection) -> Iterator[ZwidthClient]:
     if conn.local:
         from .local import LocalTransport
 
-        transport = LocalTransport()
+        with full_install("--local"):
+            transport = LocalTransport()
         with ZwidthClient("http://zwidth.local", transport=transport) as client:
             yield client
     else:
         with ZwidthClient(conn.url, token=conn.token) as client:
             yield client
+
+
+@contextlib.contextmanager
+def full_install(what: str) -> Iterator[None]:
+    """``--local`` and ``serve`` run the server's code: in a client-only install that is a usage error (exit 2)."""
+    try:
+        yield
+    except ModuleNotFoundError as exc:
+        if (exc.name or "").split(".")[0] in ("clients", "typer", "httpx", "pydantic", "rich"):
+            raise
+        raise usage_error(f"{what} runs the service's code in this process, which needs the full install of zwidth "
+                          f"(server and numerics: `pip install zwidth`); this one has the client only "
+                          f"(no module named {exc.name!r}). Without it, use --url of a running service.") from None
 
 
 # ------------------------------------------------------------------------------------------------ errors

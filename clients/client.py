@@ -1,7 +1,7 @@
 """Typed Python clients of the zwidth HTTP API: :class:`ZwidthClient` (sync) and :class:`AsyncZwidthClient`.
 
 Both expose one method per endpoint with the same signature (the builders of
-:mod:`clients.calls`) and return the service's own response models::
+:mod:`clients.calls`) and return the client's own response models (:mod:`clients.schemas`)::
 
     with ZwidthClient("http://127.0.0.1:8000") as zw:
         r = zw.stability({"preset": "lhifam", "delay": 0.001}, {"stiffness": 3500, "damping": 5})

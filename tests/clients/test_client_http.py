@@ -8,13 +8,11 @@ import dataclasses
 import httpx
 import pytest
 
-from clients import (APIError, AsyncZwidthClient, Plot, Retries, TransportError, ValidationFailed, ZwidthClient)
+from clients import (APIError, AsyncZwidthClient, Plot, Retries, TransportError, ValidationFailed, ZwidthClient, calls,
+                     schemas)
 from models.device import Device
 from optim.stability.analysis import analyse_stability
 from optim.stability.boundary import stability_boundary
-from service.schemas.analysis import BoundaryResponse, StabilityResponse
-from service.schemas.design_stiffness import StiffnessDesignResponse
-from service.schemas.simulate import SimulateResponse
 
 from .conftest import has_route
 
@@ -45,14 +43,14 @@ def test_health_and_presets_are_typed(zw):
     assert (h.status, h.version) == ("ok", __import__("service.app").app.VERSION)
     presets = zw.presets()
     assert set(presets) == {"lhifam", "lhifam-reduced-pretension", "phantom-1.0"}
-    assert all(isinstance(d, Device) for d in presets.values())
+    assert all(isinstance(d, schemas.Device) for d in presets.values())
     # the server's resolved preset is the same device as the one built here from its name
-    assert presets["lhifam"] == Device(preset="lhifam").model_copy(update={"preset": None})
+    assert calls.device_json(presets["lhifam"]) == calls.device_json(Device(preset="lhifam"))
 
 
 def test_stability_equals_the_numerics_exactly(zw):
     r = zw.stability(DELAYED, WALL)
-    assert isinstance(r, StabilityResponse)
+    assert isinstance(r, schemas.StabilityResponse)
     direct = analyse_stability(Device(**DELAYED), WALL["stiffness"], WALL["damping"], "exact", 2000)
     # same function, same double-precision inputs through JSON (repr round-trips): bit-identical
     assert r.critical_stiffness == direct.critical_stiffness
@@ -72,7 +70,7 @@ def test_a_device_model_is_sent_resolved(zw):
 
 def test_boundary(zw):
     r = zw.boundary(DELAYED, points=12)
-    assert isinstance(r, BoundaryResponse) and len(r.points) == 12
+    assert isinstance(r, schemas.BoundaryResponse) and len(r.points) == 12
     direct = stability_boundary(Device(**DELAYED), None, 12)
     assert [p.critical_stiffness for p in r.points] == [p.critical_stiffness for p in direct.points]
     assert r.optimum.damping == direct.optimum.damping
@@ -80,7 +78,7 @@ def test_boundary(zw):
 
 def test_design_stiffness_keeps_its_margin(zw):
     r = zw.design_stiffness(DELAYED, {"min_gain_margin_db": 6})
-    assert isinstance(r, StiffnessDesignResponse) and r.status == "optimal"
+    assert isinstance(r, schemas.StiffnessDesignResponse) and r.status == "optimal"
     # independent check through another endpoint: the designed wall's exact margin
     check = zw.stability(DELAYED, {"stiffness": r.stiffness, "damping": r.damping})
     assert check.gain_margin_db == pytest.approx(6.0, abs=1e-6)   # the design's margin constraint is active
@@ -90,7 +88,7 @@ def test_simulate_and_its_plot(zw):
     scene = {"experiment": "release", "duration": 0.5, "controller": {"stiffness": 3000}, "initial": {"position": 1e-3}}
     dev = {"preset": "lhifam", "cable": None}
     r = zw.simulate(dev, scene)
-    assert isinstance(r, SimulateResponse) and r.verdict.state == "stable"
+    assert isinstance(r, schemas.SimulateResponse) and r.verdict.state == "stable"
     plot = zw.plot_simulation(dev, scene, format="svg")
     assert isinstance(plot, Plot) and plot.media_type == "image/svg+xml" and b"<svg" in plot.content[:500]
 
@@ -152,20 +150,17 @@ def test_connection_refused_is_retried_then_raised(dead_url):
                     reason="POST /v1/analysis/force-feedforward is not in this build yet (branch inertia)")
 def test_force_feedforward(zw):
     from optim.transparency.feedforward import critical_force_gain
-    from service.schemas.feedforward import ForceFeedforwardResponse
 
     r = zw.force_feedforward({"preset": "lhifam", "cable": None})
-    assert isinstance(r, ForceFeedforwardResponse)
+    assert isinstance(r, schemas.ForceFeedforwardResponse)
     assert r.critical_force_gain == critical_force_gain(Device(preset="lhifam", cable=None)).critical_force_gain
 
 
 @pytest.mark.skipif(not has_route("/v1/design/inertia"),
                     reason="POST /v1/design/inertia is not in this build yet (branch inertia)")
 def test_design_inertia(zw):
-    from service.schemas.feedforward import InertiaResponse
-
     r = zw.design_inertia({"preset": "lhifam", "cable": None}, {"min_gain_margin_db": 6, "pareto_points": 3})
-    assert isinstance(r, InertiaResponse) and r.status == "optimal"
+    assert isinstance(r, schemas.InertiaResponse) and r.status == "optimal"
     ff = zw.force_feedforward({"preset": "lhifam", "cable": None},
                               {"cutoff_hz": r.filter_cutoff_hz, "order": r.filter_order})
     assert r.force_gain == pytest.approx(ff.critical_force_gain / 10 ** (6 / 20), rel=1e-6)

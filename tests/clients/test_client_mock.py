@@ -100,6 +100,22 @@ def test_device_model_is_sent_resolved_without_its_preset():
     assert dev["human"] == {"mass": 2.0, "damping": 2.0, "stiffness": 10.0}
 
 
+def test_device_json_takes_a_mapping_a_client_model_or_anything_with_model_dump():
+    """A mapping is sent as given; a model (the server's Device, the client's, or any object with pydantic's
+    model_dump) is sent resolved without its preset name."""
+    assert calls.device_json({"preset": "lhifam", "delay": 1e-3}) == {"preset": "lhifam", "delay": 1e-3}
+    server = Device(preset="lhifam", cable=None)
+    client = clients.schemas.Device.model_validate(server.model_dump(mode="json"))
+    assert calls.device_json(client) == calls.device_json(server)
+    assert "preset" not in calls.device_json(client) and calls.device_json(client)["cable"] is None
+
+    class Duck:                                  # neither a Mapping nor a pydantic model
+        def model_dump(self, *, mode="python", exclude=None, exclude_unset=False):
+            return {k: v for k, v in {"preset": "x", "mass": 2.0, "damping": 1.0}.items() if k not in (exclude or ())}
+
+    assert calls.stability(Duck()).json == {"device": {"mass": 2.0, "damping": 1.0}}
+
+
 def test_pydantic_parts_send_only_what_was_set():
     from service.schemas.design_stiffness import StiffnessRequirementsIn
 

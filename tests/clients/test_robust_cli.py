@@ -75,7 +75,7 @@ def test_zwidth_client_design_hardware_in_process():
     """ZwidthClient.design_hardware / plot_hardware through the app itself (clients.local: no socket)."""
     from clients import ZwidthClient
     from clients.local import LocalTransport
-    from service.schemas.design_hardware import HardwareDesignResponse
+    from clients.schemas import HardwareDesignResponse
 
     with ZwidthClient(transport=LocalTransport()) as zw:
         r = zw.design_hardware({"preset": "lhifam", "cable": None}, "delay", force_gain=5.0, points=9)

@@ -1,0 +1,119 @@
+"""The service's analysis answers as this client reads them (generated: see clients/schemas/__init__.py)."""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from . import common
+
+
+class BoundaryPointOut(BaseModel):
+    model_config = ConfigDict(
+        extra="allow",
+    )
+    damping: Annotated[float, Field(description="B [N·s/m]")]
+    critical_stiffness: Annotated[float | None, Field(description="K_cr(B) [N/m]")]
+    crossover_frequency: Annotated[float | None, Field(description="ω [rad/s]")]
+    linear_estimate: Annotated[float, Field(description="eq. 10 [N/m]")]
+
+
+class ForceCrossoverOut(BaseModel):
+    model_config = ConfigDict(
+        extra="allow",
+    )
+    frequency: Annotated[float, Field(description="ω [rad/s]")]
+    force_gain: Annotated[float, Field(description="K_f putting a closed-loop pole at e^{jωT}")]
+
+
+class BoundaryResponse(BaseModel):
+    model_config = ConfigDict(
+        extra="allow",
+    )
+    points: list[BoundaryPointOut]
+    optimum: Annotated[BoundaryPointOut, Field(description="the B allowing the stiffest stable wall")]
+    max_stable_damping: Annotated[float | None, Field(description="B_max [N·s/m]")]
+    method: str
+    elapsed_ms: float
+    verification: Annotated[
+        common.VerificationOut | None,
+        Field(
+            description="present when verify was true: every point verified; the optimum's record, the worst verdict"
+        ),
+    ] = None
+
+
+class ForceFeedforwardResponse(BaseModel):
+    model_config = ConfigDict(
+        extra="allow",
+    )
+    critical_force_gain: Annotated[
+        float | None, Field(description="K_f,cr (eq. 32/34); null when no K_f > 0 is unstable")
+    ]
+    crossover_frequency: Annotated[
+        float | None, Field(description="ω [rad/s] of the crossover setting K_f,cr; π/T is Nyquist")
+    ]
+    crossovers: Annotated[list[ForceCrossoverOut], Field(description="every phase crossover with K_f > 0")]
+    worst_case_force_gain: Annotated[float, Field(description="1 + m/m_h, eq. 33")]
+    apparent_mass_at_critical: Annotated[
+        float | None, Field(description="m/(1 + K_f,cr) [kg], the limit, not a design")
+    ]
+    model: Literal["rigid", "cable"]
+    rigid_critical_force_gain: Annotated[float | None, Field(description="what the rigid model claims (cable devices)")]
+    rigid_optimistic: Annotated[
+        bool | None, Field(description="the rigid model's K_f,cr exceeds the cable model's by > 20 %")
+    ]
+    human: common.HumanOut
+    human_source: Annotated[str, Field(description="request device, or the chapter's eq. 30 grasp when absent")]
+    force_sensor_time_constant: Annotated[float, Field(description="T_f [s] used (0: no sensor filter)")]
+    method: str
+    elapsed_ms: float
+    error_estimate: Annotated[
+        float | None, Field(description="relative error bound/estimate of critical_force_gain (null when not finite)")
+    ] = None
+    error_source: str | None = None
+    reason: str | None
+    notes: list[str]
+    verification: Annotated[common.VerificationOut | None, Field(description="present when verify was true")] = None
+
+
+class StabilityResponse(BaseModel):
+    model_config = ConfigDict(
+        extra="allow",
+    )
+    critical_stiffness: Annotated[
+        float | None, Field(description="K_cr(B) [N/m]; 0 when no K > 0 is stable; null when every K is")
+    ]
+    crossover_frequency: Annotated[float | None, Field(description="ω [rad/s] of the crossover that sets K_cr")]
+    crossovers: Annotated[list[common.CrossoverOut], Field(description="every phase crossover with K > 0")]
+    gain_margin_db: Annotated[float | None, Field(description="20·log10(K_cr/K) [dB] when a controller is given")]
+    stable: bool | None
+    passive: Annotated[bool | None, Field(description="delayed Colgate–Schenkel condition (ARCHITECTURE.md)")]
+    passivity_required_damping: Annotated[float | None, Field(description="physical damping passivity needs [N·s/m]")]
+    passivity_conservative: Annotated[bool, Field(description="a fractional delay was rounded up for passivity")]
+    linear_estimate: Annotated[float, Field(description="(b + B)/(T/2 + t_d) [N/m], eq. 10")]
+    linear_error: Annotated[float | None, Field(description="relative error of eq. 10 against this K_cr")]
+    max_stable_damping: Annotated[
+        float | None, Field(description="B_max [N·s/m]: no K > 0 is stable above it (computed when B > 0)")
+    ]
+    q_criterion: Annotated[float | None, Field(description="Q ≈ m_r z_n ω_n [N/m], eq. 22 (cable devices)")]
+    mode_matters: Annotated[bool | None, Field(description="cable K_cr differs from the rigid model's by > 5 %")]
+    rigid_critical_stiffness: Annotated[
+        float | None, Field(description="K_cr of the rigid model [N/m] (cable devices)")
+    ]
+    damping: Annotated[float, Field(description="B [N·s/m] analysed")]
+    method: str
+    elapsed_ms: float
+    error_estimate: Annotated[
+        float | None,
+        Field(
+            description=(
+                "relative error bound/estimate of critical_stiffness; null when unbounded (grid rung: no crossover on"
+                " its grid, or its samples show crossovers it missed)"
+            )
+        ),
+    ]
+    error_source: str
+    reason: str | None
+    verification: Annotated[common.VerificationOut | None, Field(description="present when verify was true")] = None

@@ -1,0 +1,80 @@
+"""The service's common answers as this client reads them (generated: see clients/schemas/__init__.py)."""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+
+class CrossoverOut(BaseModel):
+    model_config = ConfigDict(
+        extra="allow",
+    )
+    frequency: Annotated[float, Field(description="ω [rad/s]")]
+    stiffness: Annotated[float, Field(description="K [N/m] that puts a closed-loop pole at e^{jωT}")]
+
+
+class HumanOut(BaseModel):
+    model_config = ConfigDict(
+        extra="allow",
+    )
+    mass: Annotated[float, Field(description="m_h [kg]")]
+    damping: Annotated[float, Field(description="b_h [N·s/m]")]
+    stiffness: Annotated[float, Field(description="k_h [N/m]")]
+
+
+class PassivityVerificationOut(BaseModel):
+    model_config = ConfigDict(
+        extra="allow",
+    )
+    verdict: Literal["confirmed", "contradicted", "not_checkable"]
+    required_damping: Annotated[
+        float | None, Field(description="the delayed Colgate–Schenkel bound recomputed from its complex form [N·s/m]")
+    ]
+    physical_damping: Annotated[float, Field(description="b [N·s/m]")]
+    reason: str | None
+
+
+class VerificationOut(BaseModel):
+    model_config = ConfigDict(
+        extra="allow",
+    )
+    verdict: Annotated[
+        Literal["confirmed", "contradicted", "not_checkable"],
+        Field(
+            description=(
+                "confirmed: stable below and unstable above the answer; contradicted: the closed loop says otherwise"
+                " (never silent); not_checkable: the reason says why"
+            )
+        ),
+    ]
+    method: Annotated[
+        str | None, Field(description="eigenvalues of the closed-loop state matrix, or the argument principle")
+    ]
+    epsilon: Annotated[float | None, Field(description="relative step ε of the two checked gains")]
+    gain_below: Annotated[float | None, Field(description="gain checked below the answer, K_cr·(1 − ε) [N/m]")]
+    gain_above: Annotated[float | None, Field(description="gain checked above the answer, K_cr·(1 + ε) [N/m]")]
+    radius_below: Annotated[
+        float | None, Field(description="closed-loop spectral radius at gain_below (eigenvalue method)")
+    ]
+    radius_above: Annotated[
+        float | None, Field(description="closed-loop spectral radius at gain_above (eigenvalue method)")
+    ]
+    unstable_poles_below: Annotated[
+        int | None, Field(description="poles outside the unit circle at gain_below (argument principle)")
+    ]
+    unstable_poles_above: Annotated[
+        int | None, Field(description="poles outside the unit circle at gain_above (argument principle)")
+    ]
+    design_radius: Annotated[
+        float | None, Field(description="spectral radius at the wall itself (designs, or a given controller)")
+    ] = None
+    design_unstable_poles: Annotated[
+        int | None, Field(description="poles outside the unit circle at the wall itself")
+    ] = None
+    passivity: Annotated[
+        PassivityVerificationOut | None, Field(description="independent check of a passivity label")
+    ] = None
+    elapsed_ms: Annotated[float, Field(description="time the verification took [ms]")]
+    reason: str | None
