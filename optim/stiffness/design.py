@@ -17,11 +17,13 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 
 from models.device import Device
+from optim.solver_info import NO_SOLVER, SolverInfo
 from optim.stability.margins import critical_stiffness, gain_margin_db, linear_estimate, max_stable_damping
 from optim.stability.passivity import (kernel, largest_passive_stiffness, passivity_margin,
                              passivity_samples)
@@ -57,8 +59,7 @@ class Sensitivity:
 
 @dataclass(frozen=True)
 class StiffnessDesign:
-    status: str
-    """optimal | infeasible | failed."""
+    status: Literal["optimal", "infeasible", "failed"]
     stiffness: float | None = None
     """K [N/m]."""
     damping: float | None = None
@@ -85,7 +86,8 @@ class StiffnessDesign:
     passivity_delay_samples: int | None = None
     passivity_note: str | None = None
     reason: str | None = None
-    solver: dict = field(default_factory=dict)
+    solver: SolverInfo = NO_SOLVER
+    """the method that answered (Ipopt, the exact B scan fallback, or a rung's own), how it ended, its structure."""
     elapsed_ms: float = 0.0
     setup_ms: float = 0.0
     solve_ms: float = 0.0
@@ -308,14 +310,15 @@ def _finish(ctx: _Context, at: _Attempt, b_max: float, k_caps: dict, b_caps: dic
     from optim.stiffness.sensitivity import sensitivities
 
     dev, req = ctx.device, ctx.req
-    solver = {"name": "ipopt", "return_status": at.sol.return_status, "iterations": at.sol.iterations,
-              "structure": {"states": at.key.n_states, "crossovers": at.key.n_crossovers,
-                            "nyquist": at.key.nyquist, "passivity_cuts": at.key.cuts}}
+    solver = SolverInfo("ipopt", at.sol.return_status, at.sol.iterations, details=(
+        ("structure", {"states": at.key.n_states, "crossovers": at.key.n_crossovers,
+                       "nyquist": at.key.nyquist, "passivity_cuts": at.key.cuts}),))
     if fallback is not None:
-        solver = {"name": "exact B scan", "why": f"Ipopt did not converge ({fallback}) from any seed",
-                  "method": "the exact objective min(g·K_cr(B), passive K(B), caps) at 63 values of B (even, "
-                            "log-spaced near 0, next to B_max), then bounded Brent refinement around the two best "
-                            "(optimal to the scan's resolution in B)"}
+        solver = SolverInfo("exact B scan", details=(
+            ("why", f"Ipopt did not converge ({fallback}) from any seed"),
+            ("method", "the exact objective min(g·K_cr(B), passive K(B), caps) at 63 values of B (even, "
+                       "log-spaced near 0, next to B_max), then bounded Brent refinement around the two best "
+                       "(optimal to the scan's resolution in B)")))
     common = dict(max_stable_damping=_fin(b_max), passivity_delay_samples=ctx.d_pass if req.passivity else None,
                   passivity_note=pass_note, solver=solver, setup_ms=setup_ms, solve_ms=solve_ms)
     if not safeguards.settled(at):
