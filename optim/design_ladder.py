@@ -36,7 +36,9 @@ from optim.stability.analysis import DEFAULT_GRID_POINTS, METHODS, MAX_GRID_POIN
 from optim.transparency.feedforward import critical_force_gain
 from optim.transparency.feedforward_ladder import grid_critical_force_gain, linear_force_gain_error
 from optim.transparency.feedforward_reference import REFERENCE_DIGITS, reference_critical_force_gain
-from optim.transparency.inertia import InertiaDesign, InertiaRequirements, _band, _humans, design_inertia
+from optim.solver_info import SolverInfo
+from optim.transparency.feedforward_loop import cutoff_band, design_humans
+from optim.transparency.inertia import InertiaDesign, InertiaRequirements, design_inertia
 from optim.stability.margins import critical_stiffness, gain_margin_db, linear_estimate, loop_plant
 from optim.stability.passivity import passive_alpha_on_grid, passivity_margin, passivity_samples
 from optim.stability.reference import reference_critical_stiffness
@@ -112,7 +114,7 @@ def _linear_stiffness(device: Device, req: StiffnessRequirements) -> StiffnessDe
     g, b, tau = req.gain_factor, device.damping, device.sample_time / 2 + device.delay
     k_caps, b_caps = req.stiffness_caps(), req.damping_caps(device.sample_time)
     k_cap, b_cap = min(k_caps.values(), default=math.inf), min(b_caps.values(), default=math.inf)
-    solver = {"name": "closed form (eq. 10)"}
+    solver = SolverInfo("closed form (eq. 10)")
     if not req.passivity and math.isinf(k_cap) and math.isinf(b_cap):
         return StiffnessDesign(status="infeasible", solver=solver, reason=(
             "eq. 10, K < (b + B)/(T/2 + t_d), grows without bound in B: without max_damping (or quantization and "
@@ -179,7 +181,7 @@ def _grid_stiffness(device: Device, req: StiffnessRequirements, points: int) -> 
     ks, bs = device.stiffness_scale, device.damping_scale
     k_caps, b_caps = req.stiffness_caps(), req.damping_caps(device.sample_time)
     k_cap, b_cap = min(k_caps.values(), default=math.inf), min(b_caps.values(), default=math.inf)
-    solver = {"name": f"B scan ({DESIGN_SCAN_POINTS} values) × frequency grid ({points} points)"}
+    solver = SolverInfo(f"B scan ({DESIGN_SCAN_POINTS} values) × frequency grid ({points} points)")
     beta_max = _grid_max_damping(device, points)
     b_max = beta_max * bs
     upper = min(b_max, b_cap)
@@ -313,8 +315,8 @@ def design_inertia_on_rung(device: Device, req: InertiaRequirements | None = Non
         elif method == "reference":
             err, src = None, "no design to verify"
     else:
-        lo, hi, band_src = _band(device, req)
-        humans, human_src = _humans(device, req)
+        lo, hi, band_src = cutoff_band(device, req)
+        humans, human_src = design_humans(device, req)
         rho = 10 ** (req.min_gain_margin_db / 20)
         if method == "linear":
             worst = _heaviest(device, humans)
@@ -322,7 +324,7 @@ def design_inertia_on_rung(device: Device, req: InertiaRequirements | None = Non
             cutoff = hi                 # eq. 33 does not see the filter: keep the widest force bandwidth
             kf, why = _choose_force_gain(device, req, kcr_lin, rho)
             filt = ButterworthLowPass(req.filter_order, cutoff, device.sample_time)
-            solver = {"name": "closed form (eq. 33)"}
+            solver = SolverInfo("closed form (eq. 33)")
             design = _inertia_answer(device, req, humans, human_src, lo, hi, band_src, kf, cutoff if kf else None,
                                      kcr_lin, worst, solver, "optimal" if kf else "infeasible", why)
             err = linear_force_gain_error(device, worst, filt)
@@ -343,7 +345,7 @@ def design_inertia_on_rung(device: Device, req: InertiaRequirements | None = Non
                 ok = np.nonzero(kcrs >= rho * kf_t)[0]
                 j = int(ok[-1]) if ok.size else int(np.argmax(kcrs))
             kf, why = _choose_force_gain(device, req, float(kcrs[j]), rho)
-            solver = {"name": f"cutoff scan ({DESIGN_SCAN_POINTS} values) × frequency grid ({grid_points} points)"}
+            solver = SolverInfo(f"cutoff scan ({DESIGN_SCAN_POINTS} values) × frequency grid ({grid_points} points)")
             design = _inertia_answer(device, req, humans, human_src, lo, hi, band_src, kf,
                                      float(cutoffs[j]) if kf else None, float(kcrs[j]), rows[j][4],
                                      solver, "optimal" if kf else "infeasible", why)

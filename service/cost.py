@@ -15,19 +15,21 @@ from models.device import Device
 
 from .errors import NumericInputError
 
-__all__ = ["MAX_REFERENCE_DELAY_SAMPLES", "check_reference_cost", "stability_cost_ms", "boundary_cost_ms", "bode_cost_ms",
+__all__ = ["REFERENCE_REQUEST_BUDGET_DELAY_SAMPLES", "check_reference_cost", "stability_cost_ms", "boundary_cost_ms", "bode_cost_ms",
            "stiffness_design_cost_ms", "inertia_design_cost_ms", "force_feedforward_cost_ms", "simulation_cost_ms"]
 
-#: Cost limit of the ``reference`` rung: the loop delay it accepts, in sample periods.
-#: At this limit one reference analysis costs ≈ 2.5 s (rigid) to ≈ 25 s (cable).
-MAX_REFERENCE_DELAY_SAMPLES = 200
+#: Request-time budget of ``method = reference`` on the analysis routes: the loop delay an HTTP request may ask
+#: the 40-digit rung for, in sample periods. At this limit one reference analysis costs ≈ 2.5 s (rigid) to ≈ 25 s
+#: (cable). A budget rule of the service, tighter than the rung's own cap (optim.stability.reference); see
+#: docs/limits.md.
+REFERENCE_REQUEST_BUDGET_DELAY_SAMPLES = 200
 
 
 def check_reference_cost(device: Device, method: str) -> None:
     """422 naming ``method`` when the 40-digit rung would exceed its documented cost limit."""
-    if method == "reference" and device.delay_samples > MAX_REFERENCE_DELAY_SAMPLES:
+    if method == "reference" and device.delay_samples > REFERENCE_REQUEST_BUDGET_DELAY_SAMPLES:
         raise NumericInputError(
-            "method", f"the reference rung accepts at most {MAX_REFERENCE_DELAY_SAMPLES} samples of delay "
+            "method", f"the reference rung accepts at most {REFERENCE_REQUEST_BUDGET_DELAY_SAMPLES} samples of delay "
                       f"(delay / sample_time = {device.delay_samples:.6g}); use method=exact, which is exact "
                       "to 1e-12 at any delay")
 

@@ -30,6 +30,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 from scipy.optimize import brentq
@@ -59,8 +60,7 @@ _WHAT = {"stiffness": ("achievable_stiffness", "achievable stiffness"),
 
 @dataclass(frozen=True)
 class HardwareDesign:
-    status: str
-    """optimal | infeasible | failed."""
+    status: Literal["optimal", "infeasible", "failed"]
     free: str
     direction: str
     """max | min: the direction in which the hardware gets looser."""

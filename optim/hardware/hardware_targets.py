@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Literal
 
 from models.device import Device
 from models.filters import MAX_FILTER_ORDER
@@ -152,8 +153,8 @@ def achievable_stiffness(device: Device, free: str, value: float, target: Hardwa
 class ForceGainAt:
     """The largest force-feedforward gain with the required margin at one value of the free parameter."""
 
-    status: str
-    """optimal | failed (the inertia design did not converge)."""
+    status: Literal["optimal", "failed"]
+    """failed: the inertia design did not converge."""
     force_gain: float
     """K_f* [dimensionless]: the inertia design's best over its cutoff band; 0 when the band is empty (no
     admissible filter: no feedforward), inf when the model bounds no K_f at some cutoff."""

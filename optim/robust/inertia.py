@@ -34,13 +34,16 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from typing import Literal
 
 import numpy as np
 
 from models.device import Device
 from models.feedforward import feedforward_plant
 from optim.transparency.feedforward import resolve_human
-from optim.transparency.inertia import InertiaRequirements, ParetoPoint, RigidComparison, _band, _Loop, _rigid, pareto_points
+from optim.solver_info import NO_SOLVER, SolverInfo
+from optim.transparency.feedforward_loop import FeedforwardLoop, RigidComparison, cutoff_band, rigid_comparison
+from optim.transparency.inertia import InertiaRequirements, ParetoPoint, pareto_points
 from optim.transparency.inertia_band import band_profile, highest_feasible, maximise
 from optim.transparency.inertia_nlp import modal_plant
 
@@ -57,9 +60,8 @@ _MODAL_RTOL = 1e-8
 
 @dataclass(frozen=True)
 class RobustInertiaDesign:
-    status: str
-    """optimal | infeasible | failed."""
-    objective: str
+    status: Literal["optimal", "infeasible", "failed"]
+    objective: Literal["min_apparent_mass", "target_apparent_mass"]
     force_gain: float | None = None
     filter_cutoff_hz: float | None = None
     filter_order: int = 2
@@ -83,11 +85,12 @@ class RobustInertiaDesign:
     iterations: int = 0
     evaluations: int = 0
     reason: str | None = None
-    solver: dict = field(default_factory=dict)
+    solver: SolverInfo = NO_SOLVER
+    """the statistics of the last solves that decided (Ipopt's or the exact step's), and the band's jumps."""
     elapsed_ms: float = 0.0
 
 
-class _ScenarioLoop(_Loop):
+class _ScenarioLoop(FeedforwardLoop):
     """optim.transparency.inertia's worst-grasp loop with one plant per scenario device, each at its own cutoff angle
     θ_ref·T_s/T_ref (the cutoff is one frequency in Hz)."""
 
@@ -102,6 +105,8 @@ class _Step:
     theta: float
     """the cutoff angle at T_ref [rad per sample]."""
     pareto: tuple[ParetoPoint, ...]
+    stats: dict = field(default_factory=dict)
+    """this round's solver statistics (the band's jumps, the deciding solve's)."""
 
 
 def _plant(device: Device):
@@ -115,7 +120,7 @@ def robust_design_inertia(nominal: Device, req: InertiaRequirements, box: Uncert
         raise InputError("requirements.uncertainty", "give the grasp's range as device.human.mass (with a human "
                          "block), not together with humans or human_mass_range")
     corners = box.devices(box.corners())
-    bands = [_band(d, req) for d in [box.device_at(box.nominal_point()), *corners]]
+    bands = [cutoff_band(d, req) for d in [box.device_at(box.nominal_point()), *corners]]
     lo_hz, hi_hz = bands[0][0], min(b[1] for b in bands)
     if not lo_hz < hi_hz:
         raise InputError("requirements.cutoff_min_hz", f"must be below the lowest upper cutoff of the box {hi_hz:g} Hz")
@@ -126,12 +131,14 @@ def robust_design_inertia(nominal: Device, req: InertiaRequirements, box: Uncert
     points = [box.nominal_point()] + [c for c in box.corners()]
     points = list(np.unique(np.array(points), axis=0))
     objective = "target_apparent_mass" if req.target_apparent_mass is not None else "min_apparent_mass"
-    evals, info, step = 0, {}, None
+    evals, stats, step = 0, {}, None
     for it in range(1, _MAX_OUTER + 1):
         loop = _ScenarioLoop(box.devices(np.array(points)), req.filter_order, t_ref)
-        out = _design(loop, req, rho, lo_hz, hi_hz, t_of, nominal.mass, objective, info)
+        out = _design(loop, req, rho, lo_hz, hi_hz, t_of, nominal.mass, objective)
         if isinstance(out, RobustInertiaDesign):
             return _with(out, t0, it, evals, box, points, lo_hz, hi_hz)
+        # a later round's statistics replace an earlier round's, key by key (a key it does not set stays)
+        stats = {**stats, **out.stats}
         step, theta = out, out.theta
 
         def evaluate(u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -161,13 +168,13 @@ def robust_design_inertia(nominal: Device, req: InertiaRequirements, box: Uncert
     worst = {"device": box.describe(box.to_box(wu)), "critical_force_gain": wk,
              "crossover_frequency": None if not math.isfinite(wa) else wa / wdev.sample_time,
              "gain_margin_db": 20 * math.log10(wk / kf)}
-    rigid = _rigid(wdev, [resolve_human(wdev)[0]], req, cutoff_hz, wk, rho) if wdev.cable is not None else None
+    rigid = rigid_comparison(wdev, [resolve_human(wdev)[0]], req.filter_order, cutoff_hz, wk, rho)
     d = RobustInertiaDesign(
         status="optimal", objective=objective, force_gain=kf, filter_cutoff_hz=cutoff_hz,
         filter_order=req.filter_order, apparent_mass=nominal.mass / (1 + kf),
         apparent_mass_range=(min(masses) / (1 + kf), max(masses) / (1 + kf)), critical_force_gain=wk,
         gain_margin_db=worst["gain_margin_db"], worst_case=worst, nominal_gain_margin_db=20 * math.log10(nom / kf),
-        pareto=step.pareto, rigid_model=rigid, solver=dict(info))
+        pareto=step.pareto, rigid_model=rigid, solver=SolverInfo.from_stats(None, stats))
     return _with(d, t0, it, evals, box, points, lo_hz, hi_hz)
 
 
@@ -177,7 +184,7 @@ def _with(d: RobustInertiaDesign, t0, it, evals, box, points, lo_hz, hi_hz) -> R
                                   "cutoff_band_hz": (lo_hz, hi_hz), "elapsed_ms": (time.perf_counter() - t0) * 1e3})
 
 
-def _design(loop: _ScenarioLoop, req, rho, lo_hz, hi_hz, t_of, mass, objective, info):
+def _design(loop: _ScenarioLoop, req, rho, lo_hz, hi_hz, t_of, mass, objective) -> _Step | RobustInertiaDesign:
     """A _Step (K_f, θ_ref, the scan) over the current scenarios (optim.transparency.inertia's method and band search,
     optim/transparency/inertia_band.py), or a finished design (infeasible/failed)."""
     cutoffs = np.geomspace(lo_hz, hi_hz, max(2, req.pareto_points))
@@ -202,10 +209,10 @@ def _design(loop: _ScenarioLoop, req, rho, lo_hz, hi_hz, t_of, mass, objective, 
     profile = band_profile(loop, t)
     if not np.all(np.isfinite(profile.kcrs)):
         return RobustInertiaDesign(status="infeasible", objective=objective, pareto=pareto, reason=no_crossover)
-    if profile.jumps:
-        info["crossover_structure_changes_hz"] = [[lo / t_of, hi / t_of] for lo, hi in profile.jumps]
+    jumps = {"crossover_structure_changes_hz": [[lo / t_of, hi / t_of] for lo, hi in profile.jumps]} \
+        if profile.jumps else {}
     if objective == "target_apparent_mass":
-        found = highest_feasible(loop, profile, modal, math.log(rho), rho * kf, info)
+        found = highest_feasible(loop, profile, modal, math.log(rho), rho * kf)
         if found.failed:
             return RobustInertiaDesign(status="failed", objective=objective, pareto=pareto,
                                        reason="Ipopt did not converge on the crossover conditions")
@@ -217,11 +224,12 @@ def _design(loop: _ScenarioLoop, req, rho, lo_hz, hi_hz, t_of, mass, objective, 
                                            f"K_f = {kf:.6g} needs K_f,cr ≥ {rho * kf:.6g} on every scenario device, "
                                            f"but their largest K_f,cr in [{lo_hz:g}, {hi_hz:g}] Hz is {k_best:.6g} "
                                            f"at {th_best / t_of:.4g} Hz; the best reachable is K_f = {best:.6g}"))
-        return _Step(kf, found.theta, pareto)
-    found = maximise(loop, profile, modal, math.log(rho), info)
+        return _Step(kf, found.theta, pareto, {**jumps, **found.stats})
+    found = maximise(loop, profile, modal, math.log(rho))
     if found.failed:   # the scan's best sample, unrefined, is still a valid design: the box search verifies it
         theta = found.best[0]
-        info.update(return_status="scan point kept: Ipopt did not converge on the crossover conditions")
+        stats = {**jumps, **found.stats,
+                 "return_status": "scan point kept: Ipopt did not converge on the crossover conditions"}
     else:
-        theta = found.theta
-    return _Step(loop.exact(theta)[0] / rho, theta, pareto)
+        theta, stats = found.theta, {**jumps, **found.stats}
+    return _Step(loop.exact(theta)[0] / rho, theta, pareto, stats)

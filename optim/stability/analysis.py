@@ -67,7 +67,7 @@ class StabilityAnalysis:
     mode_matters: bool | None
     """Cable devices: True when the exact cable K_cr differs from the rigid model's by more than 5 %."""
     rigid_critical_stiffness: float | None
-    method: str
+    method: Method
     elapsed_ms: float
     error_estimate: float
     """Relative error bound or estimate of critical_stiffness."""
@@ -217,6 +217,111 @@ def analyse_stability(device: Device, stiffness: float | None = None, damping: f
         raise InputError("device", f"the parameters are outside the numerically representable range ({exc})") from exc
 
 
+@dataclass(frozen=True)
+class RungAnswer:
+    """What one rung says about K_cr(B), before the wall's margin, stability and passivity are judged."""
+
+    critical_stiffness: float | None
+    """K_cr(B) [N/m]: 0 when no K > 0 is stable, ∞ when every K > 0 is (None only from a rung that cannot say)."""
+    crossover_frequency: float | None
+    """ω [rad/s] of the crossover that sets K_cr."""
+    crossovers: tuple[Crossover, ...]
+    error_estimate: float
+    """relative error bound or estimate of critical_stiffness (∞: the rung cannot vouch for it)."""
+    error_source: str
+    reason: str | None = None
+    max_stable_damping: float | None = None
+    """B_max [N·s/m] when the rung found it on the way."""
+
+
+def _linear_rung(device: Device, damping: float, lin: float) -> RungAnswer:
+    """Chapter eq. 10: K_cr ≈ (b + B)/(T/2 + t_d) at ω = sqrt(K/m)."""
+    w = math.sqrt(lin / device.mass) if lin > 0 else None
+    return RungAnswer(lin, w, (Crossover(frequency=w, stiffness=lin),) if w else (),
+                      linear_error_estimate(device, damping),
+                      "first- and second-order terms in (1+d)(δ+β) dropped by the linearisation (eq. 9/10), fitted on "
+                      "the test suite")
+
+
+def _grid_rung(device: Device, damping: float, grid_points: int) -> RungAnswer:
+    """A fixed log grid of ω, crossings interpolated (grid_critical_stiffness)."""
+    if not (10 <= grid_points <= MAX_GRID_POINTS):
+        raise InputError("grid_points", f"must be between 10 and {MAX_GRID_POINTS}")
+    kcr, w, crossovers, err = grid_critical_stiffness(device, damping, grid_points)
+    return RungAnswer(kcr, w, crossovers, err, (
+        f"the whole change of K across the bracketing grid interval ({grid_points} log-spaced ω from 1e-3/T "
+        "to π/T); null (unbounded) when the grid's samples show missed crossovers: Im H > 0 at its lowest "
+        "ω, or arg H turning > π/2 between samples where Re H is below the answer, or (from the device) a "
+        "cable resonance/anti-resonance below the grid or narrower than its spacing, or the delay winding "
+        "the phase by π below it"))
+
+
+def _exact_rung(device: Device, damping: float) -> RungAnswer:
+    """Every crossover bracketed and refined (optim.stability.margins)."""
+    res = critical_stiffness(device, damping)
+    source = ("rigid fast path: the binding crossover by bracketed Newton from closed-form bounds (every other "
+              "crossover proven above it; the list past the rising phase scanned)" if res.path == "fast" else
+              "every crossover bracketed and refined to 4 ulp in ω") + \
+        "; agrees with the 40-digit reference to 1e-12 on the test suite"
+    return RungAnswer(res.critical_stiffness, res.crossover_frequency, tuple(res.crossovers), EXACT_REL_ERROR, source,
+                      res.reason, res.max_stable_damping)
+
+
+def _reference_rung(device: Device, damping: float) -> RungAnswer:
+    """40-digit mpmath discretisation and bisection (optim.stability.reference)."""
+    res = reference_critical_stiffness(device, damping)
+    reason = ("virtual damping at or above the largest stable virtual damping: no positive stiffness is stable"
+              if res.critical_stiffness == 0.0 else None)
+    return RungAnswer(res.critical_stiffness, res.crossover_frequency,
+                      tuple(Crossover(frequency=a, stiffness=b) for a, b in res.crossovers),
+                      10.0 ** (-(res.digits - 5)), f"{res.digits}-digit mpmath discretisation and bisection", reason)
+
+
+@dataclass(frozen=True)
+class WallJudgement:
+    """The wall (K, B) against the rung's K_cr: margin, stability and passivity (all None without a stiffness)."""
+
+    gain_margin_db: float | None = None
+    stable: bool | None = None
+    passive: bool | None = None
+    passivity_required_damping: float | None = None
+    """max over θ of the delayed Colgate–Schenkel bound [N·s/m]."""
+    passivity_conservative: bool = False
+
+
+def _judge_wall(device: Device, stiffness: float | None, damping: float, kcr: float | None) -> WallJudgement:
+    if stiffness is None:
+        return WallJudgement()
+    stable = bool(kcr is not None and stiffness < kcr)
+    gm = gain_margin_db(kcr, stiffness) if kcr and math.isfinite(kcr) else None
+    if kcr == 0:
+        gm, stable = None, False
+    pm = passivity_margin(device, stiffness, damping)
+    return WallJudgement(gm, stable, pm.passive, pm.required_damping, pm.conservative)
+
+
+@dataclass(frozen=True)
+class CableJudgement:
+    """For a cable device: Q (eq. 22) and whether its mode moves K_cr against the rigid model's."""
+
+    q_criterion: float | None = None
+    """Q ≈ m_r z_n ω_n [N/m]."""
+    mode_matters: bool | None = None
+    rigid_critical_stiffness: float | None = None
+    """the rigid model's K_cr(B) [N/m] (exact and reference rungs)."""
+
+
+def _judge_cable(device: Device, damping: float, method: str, kcr: float | None) -> CableJudgement:
+    if device.cable is None:
+        return CableJudgement()
+    mode = rigid_k = None
+    if method in ("exact", "reference"):
+        rigid_k = critical_stiffness(device.rigid(), damping).critical_stiffness
+        if kcr is not None and math.isfinite(kcr) and rigid_k and math.isfinite(rigid_k):
+            mode = abs(kcr / rigid_k - 1) > MODE_MATTERS_RTOL
+    return CableJudgement(Q_criterion(device), mode, rigid_k)
+
+
 def _analyse(device: Device, stiffness: float | None, damping: float, method: str,
              grid_points: int) -> StabilityAnalysis:
     if method not in METHODS:
@@ -227,68 +332,28 @@ def _analyse(device: Device, stiffness: float | None, damping: float, method: st
         raise InputError("damping", "must be finite and ≥ 0")
     t0 = time.perf_counter()
     lin = linear_estimate(device, damping)
-    reason = None
-    b_max = None
     if method == "linear":
-        kcr = lin
-        w = math.sqrt(lin / device.mass) if lin > 0 else None
-        crossovers = (Crossover(frequency=w, stiffness=lin),) if w else ()
-        err = linear_error_estimate(device, damping)
-        source = "first- and second-order terms in (1+d)(δ+β) dropped by the linearisation (eq. 9/10), fitted on the test suite"
+        rung = _linear_rung(device, damping, lin)
     elif method == "grid":
-        if not (10 <= grid_points <= MAX_GRID_POINTS):
-            raise InputError("grid_points", f"must be between 10 and {MAX_GRID_POINTS}")
-        kcr, w, crossovers, err = grid_critical_stiffness(device, damping, grid_points)
-        source = (f"the whole change of K across the bracketing grid interval ({grid_points} log-spaced ω from 1e-3/T "
-                  "to π/T); null (unbounded) when the grid's samples show missed crossovers: Im H > 0 at its lowest "
-                  "ω, or arg H turning > π/2 between samples where Re H is below the answer, or (from the device) a "
-                  "cable resonance/anti-resonance below the grid or narrower than its spacing, or the delay winding "
-                  "the phase by π below it")
+        rung = _grid_rung(device, damping, grid_points)
     elif method == "exact":
-        res = critical_stiffness(device, damping)
-        kcr, w, crossovers, reason, b_max = res.critical_stiffness, res.crossover_frequency, res.crossovers, res.reason, res.max_stable_damping
-        err = EXACT_REL_ERROR
-        source = ("rigid fast path: the binding crossover by bracketed Newton from closed-form bounds (every other "
-                  "crossover proven above it; the list past the rising phase scanned)" if res.path == "fast" else
-                  "every crossover bracketed and refined to 4 ulp in ω") + \
-            "; agrees with the 40-digit reference to 1e-12 on the test suite"
+        rung = _exact_rung(device, damping)
     else:
-        res = reference_critical_stiffness(device, damping)
-        kcr, w = res.critical_stiffness, res.crossover_frequency
-        crossovers = tuple(Crossover(frequency=a, stiffness=b) for a, b in res.crossovers)
-        err = 10.0 ** (-(res.digits - 5))
-        source = f"{res.digits}-digit mpmath discretisation and bisection"
-        if kcr == 0.0:
-            reason = "virtual damping at or above the largest stable virtual damping: no positive stiffness is stable"
-    gm = stable = None
-    if stiffness is not None:
-        stable = bool(kcr is not None and stiffness < kcr)
-        gm = gain_margin_db(kcr, stiffness) if kcr and math.isfinite(kcr) else (None if kcr else None)
-        if kcr == 0:
-            gm = None
-            stable = False
-    passive = required = None
-    conservative = False
-    if stiffness is not None:
-        pm = passivity_margin(device, stiffness, damping)
-        passive, required, conservative = pm.passive, pm.required_damping, pm.conservative
-    q = mode = rigid_k = None
-    if device.cable is not None:
-        q = Q_criterion(device)
-        if method in ("exact", "reference"):
-            rigid_k = critical_stiffness(device.rigid(), damping).critical_stiffness
-            if kcr is not None and math.isfinite(kcr) and rigid_k and math.isfinite(rigid_k):
-                mode = abs(kcr / rigid_k - 1) > MODE_MATTERS_RTOL
+        rung = _reference_rung(device, damping)
+    kcr, reason, b_max = rung.critical_stiffness, rung.reason, rung.max_stable_damping
+    wall = _judge_wall(device, stiffness, damping, kcr)
+    cable = _judge_cable(device, damping, method, kcr)
     if damping > 0 and b_max is None and method == "exact":
         b_max = max_stable_damping(device)
-    kcr_out = _finite(kcr)
     lin_err = abs(lin / kcr - 1) if kcr and math.isfinite(kcr) else None
     if kcr is not None and math.isinf(kcr) and reason is None:
         reason = "no phase crossover: every positive stiffness is stable"
     return StabilityAnalysis(
-        critical_stiffness=kcr_out, crossover_frequency=w, crossovers=tuple(crossovers), damping=damping,
-        stiffness=stiffness, gain_margin_db=gm, stable=stable, passive=passive,
-        passivity_required_damping=required, passivity_conservative=conservative,
-        linear_estimate=lin, linear_error=lin_err, max_stable_damping=_finite(b_max), q_criterion=q,
-        mode_matters=mode, rigid_critical_stiffness=_finite(rigid_k), method=method,
-        elapsed_ms=(time.perf_counter() - t0) * 1e3, error_estimate=err, error_source=source, reason=reason)
+        critical_stiffness=_finite(kcr), crossover_frequency=rung.crossover_frequency, crossovers=rung.crossovers,
+        damping=damping, stiffness=stiffness, gain_margin_db=wall.gain_margin_db, stable=wall.stable,
+        passive=wall.passive, passivity_required_damping=wall.passivity_required_damping,
+        passivity_conservative=wall.passivity_conservative, linear_estimate=lin, linear_error=lin_err,
+        max_stable_damping=_finite(b_max), q_criterion=cable.q_criterion, mode_matters=cable.mode_matters,
+        rigid_critical_stiffness=_finite(cable.rigid_critical_stiffness), method=method,
+        elapsed_ms=(time.perf_counter() - t0) * 1e3, error_estimate=rung.error_estimate,
+        error_source=rung.error_source, reason=reason)

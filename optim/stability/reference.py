@@ -19,10 +19,10 @@ from models.device import Device
 from models.discretize import split_delay
 from optim.errors import InputError
 
-__all__ = ["ReferenceResult", "reference_critical_stiffness", "MAX_REFERENCE_DELAY_SAMPLES"]
+__all__ = ["ReferenceResult", "reference_critical_stiffness", "REFERENCE_STIFFNESS_MAX_DELAY_SAMPLES"]
 
-#: Cost cap of the reference rung: its scan grows with the delay in samples.
-MAX_REFERENCE_DELAY_SAMPLES = 2000
+#: Cap of the 40-digit K_cr rung itself (any caller): its scan grows with the delay in samples (docs/limits.md).
+REFERENCE_STIFFNESS_MAX_DELAY_SAMPLES = 2000
 
 
 @dataclass(frozen=True)
@@ -142,8 +142,8 @@ def _scan(h, device: Device, beta: float, digits: int) -> list[tuple[float, floa
 
 def reference_critical_stiffness(device: Device, damping: float = 0.0, digits: int = 40) -> ReferenceResult:
     """K_cr(B) in ``digits``-digit arithmetic (B below B_max is assumed; see optim.stability.margins)."""
-    if device.delay_samples > MAX_REFERENCE_DELAY_SAMPLES:
-        raise InputError("delay", f"the reference rung is capped at {MAX_REFERENCE_DELAY_SAMPLES} samples of delay")
+    if device.delay_samples > REFERENCE_STIFFNESS_MAX_DELAY_SAMPLES:
+        raise InputError("delay", f"the reference rung is capped at {REFERENCE_STIFFNESS_MAX_DELAY_SAMPLES} samples of delay")
     # The rigid closed form cancels like 1/δ² (partial fractions): carry extra digits for it.
     extra = 10 + 2 * max(0, int(-math.log10(max(device.delta, 1e-300))))
     with mp.workdps(digits + extra):

@@ -17,11 +17,13 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 
 from models.device import Device
+from optim.solver_info import NO_SOLVER, SolverInfo
 from optim.stability.margins import critical_stiffness, gain_margin_db, linear_estimate, max_stable_damping
 from optim.stability.passivity import (kernel, largest_passive_stiffness, passivity_margin,
                              passivity_samples)
@@ -32,7 +34,7 @@ from optim.stiffness.problem import N_CUTS, ProblemKey, ProblemSolution, solve_p
 from optim.stiffness.profile import BoundaryCurve, boundary_curve, coarse_critical, crossings_at
 from optim.stiffness.requirements import DESIGN_BACK_OFF, StiffnessRequirements
 
-__all__ = ["StiffnessDesign", "Sensitivity", "design_stiffness"]
+__all__ = ["StiffnessDesign", "Sensitivity", "design_stiffness", "DesignContext", "DesignAttempt", "problem_params"]
 
 _MAX_EXCHANGES = 16
 _PASSIVITY_RTOL = 1e-7   # cutting planes converge linearly at a smooth passivity optimum: stop here, then clip
@@ -57,8 +59,7 @@ class Sensitivity:
 
 @dataclass(frozen=True)
 class StiffnessDesign:
-    status: str
-    """optimal | infeasible | failed."""
+    status: Literal["optimal", "infeasible", "failed"]
     stiffness: float | None = None
     """K [N/m]."""
     damping: float | None = None
@@ -85,14 +86,18 @@ class StiffnessDesign:
     passivity_delay_samples: int | None = None
     passivity_note: str | None = None
     reason: str | None = None
-    solver: dict = field(default_factory=dict)
+    solver: SolverInfo = NO_SOLVER
+    """the method that answered (Ipopt, the exact B scan fallback, or a rung's own), how it ended, its structure."""
     elapsed_ms: float = 0.0
     setup_ms: float = 0.0
     solve_ms: float = 0.0
 
 
 @dataclass
-class _Context:
+class DesignContext:
+    """One design's device, requirements and boundary curve in dimensionless form (shared with safeguards.py and
+    sensitivity.py)."""
+
     device: Device
     req: StiffnessRequirements
     curve: BoundaryCurve
@@ -139,7 +144,7 @@ def design_stiffness(device: Device, requirements: StiffnessRequirements | None 
     beta_hi = upper_b / bs
     curve = boundary_curve(device, beta_hi)
     matrices = loop_matrices(device)
-    ctx = _Context(device, req, curve, beta_hi, k_cap / ks if math.isfinite(k_cap) else 1e30,
+    ctx = DesignContext(device, req, curve, beta_hi, k_cap / ks if math.isfinite(k_cap) else 1e30,
                    b_cap / bs if math.isfinite(b_cap) else 1e30, d_pass, matrices.flat(), matrices.n, b_max)
     betas, objective, pass_theta = _coarse_profile(ctx)
     i = int(np.argmax(objective))
@@ -183,7 +188,7 @@ def _fin(x: float | None) -> float | None:
     return x if x is not None and math.isfinite(x) else None
 
 
-def _coarse_profile(ctx: _Context) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _coarse_profile(ctx: DesignContext) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Objective min(g·K_cr, passive K, caps)/(m/T²) on a β grid that includes the curve's vertices."""
     hi = ctx.beta_hi
     inside = ctx.curve.beta[(ctx.curve.beta > 0) & (ctx.curve.beta < hi)]
@@ -203,7 +208,7 @@ def _coarse_profile(ctx: _Context) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return betas, obj, theta
 
 
-def _interval(ctx: _Context, beta: float) -> tuple[float, float]:
+def _interval(ctx: DesignContext, beta: float) -> tuple[float, float]:
     pts = [0.0] + [b for b in ctx.curve.breakpoints] + [ctx.beta_hi]
     lo = max(p for p in pts if p <= beta)
     hi = min(p for p in pts if p > beta) if any(p > beta for p in pts) else ctx.beta_hi
@@ -215,7 +220,9 @@ def _interval(ctx: _Context, beta: float) -> tuple[float, float]:
 
 
 @dataclass
-class _Attempt:
+class DesignAttempt:
+    """One NLP solve from one seed, with its exact re-check (shared with safeguards.py and sensitivity.py)."""
+
     sol: ProblemSolution
     key: ProblemKey
     params: np.ndarray
@@ -229,7 +236,7 @@ class _Attempt:
     converged: bool
 
 
-def _params(ctx: _Context, flat: np.ndarray, delta: float, alpha_cap: float, beta_cap: float,
+def problem_params(ctx: DesignContext, flat: np.ndarray, delta: float, alpha_cap: float, beta_cap: float,
             alpha_ref: float, beta_ref: float, cuts: list[float]) -> np.ndarray:
     s = np.zeros(N_CUTS if ctx.req.passivity else 0)
     c = np.zeros_like(s)
@@ -239,7 +246,7 @@ def _params(ctx: _Context, flat: np.ndarray, delta: float, alpha_cap: float, bet
     return np.concatenate([flat, [ctx.req.gain_factor, alpha_ref, beta_ref, alpha_cap, beta_cap, delta], s, c])
 
 
-def _piece_bounds(ctx: _Context, theta: float) -> tuple[float, float]:
+def _piece_bounds(ctx: DesignContext, theta: float) -> tuple[float, float]:
     for p in ctx.curve.pieces:
         lo, hi = min(p.theta_lo, p.theta_hi), max(p.theta_lo, p.theta_hi)
         if lo <= theta <= hi:
@@ -247,7 +254,7 @@ def _piece_bounds(ctx: _Context, theta: float) -> tuple[float, float]:
     return max(theta * 0.5, 1e-9), min(math.pi, theta * 1.5)
 
 
-def _solve_from(ctx: _Context, beta0: float, alpha0: float, pass_theta0: float) -> _Attempt:
+def _solve_from(ctx: DesignContext, beta0: float, alpha0: float, pass_theta0: float) -> DesignAttempt:
     interval = _interval(ctx, beta0)
     if ctx.device.delta <= 0.0 and interval[0] <= 0.0:
         # b = 0: as β → 0 the lowest crossover runs to θ → 0 with α → 0, a degenerate corner (Im H/|H| → 0
@@ -268,14 +275,15 @@ def _solve_from(ctx: _Context, beta0: float, alpha0: float, pass_theta0: float) 
         nyq = float(ctx.curve.nyquist_alpha(np.array([beta0]))[0])
         nyquist = bool(0 < nyq <= far)
         key = ProblemKey(ctx.n_states, len(crossings), nyquist, N_CUTS if ctx.req.passivity else 0)
-        params = _params(ctx, ctx.loop_flat, dev.delta, ctx.alpha_cap, ctx.beta_cap, alpha_ref, beta_ref, cuts)
+        params = problem_params(ctx, ctx.loop_flat, dev.delta, ctx.alpha_cap, ctx.beta_cap, alpha_ref, beta_ref,
+                                cuts)
         x0 = np.array(x_start + [t for t, _ in crossings])
         sol = solve_problem(key, params, x0, (interval[0] / beta_ref, interval[1] / beta_ref), [b for _, b in crossings])
         k, b = sol.a * alpha_ref * ks, max(sol.b * beta_ref * bs, 0.0)   # Ipopt may relax a bound by ~1e-8
         exact = critical_stiffness(dev, b, b_max=ctx.b_max)
         pk = largest_passive_stiffness(dev, b) if ctx.req.passivity else None
-        attempt = _Attempt(sol, key, params, alpha_ref, beta_ref, interval, k, b, exact, pk.stiffness if pk else None,
-                           False)
+        attempt = DesignAttempt(sol, key, params, alpha_ref, beta_ref, interval, k, b, exact,
+                                pk.stiffness if pk else None, False)
         if not (sol.success or sol.return_status in safeguards.STUCK):
             return attempt
         changed = False
@@ -299,23 +307,24 @@ def _solve_from(ctx: _Context, beta0: float, alpha0: float, pass_theta0: float) 
     return attempt
 
 
-def at_reason(at: _Attempt) -> str | None:
+def at_reason(at: DesignAttempt) -> str | None:
     return getattr(at.exact, "reason", None)
 
 
-def _finish(ctx: _Context, at: _Attempt, b_max: float, k_caps: dict, b_caps: dict, pass_note: str | None,
+def _finish(ctx: DesignContext, at: DesignAttempt, b_max: float, k_caps: dict, b_caps: dict, pass_note: str | None,
             t0: float, setup_ms: float, solve_ms: float, fallback: str | None = None) -> StiffnessDesign:
     from optim.stiffness.sensitivity import sensitivities
 
     dev, req = ctx.device, ctx.req
-    solver = {"name": "ipopt", "return_status": at.sol.return_status, "iterations": at.sol.iterations,
-              "structure": {"states": at.key.n_states, "crossovers": at.key.n_crossovers,
-                            "nyquist": at.key.nyquist, "passivity_cuts": at.key.cuts}}
+    solver = SolverInfo("ipopt", at.sol.return_status, at.sol.iterations, details=(
+        ("structure", {"states": at.key.n_states, "crossovers": at.key.n_crossovers,
+                       "nyquist": at.key.nyquist, "passivity_cuts": at.key.cuts}),))
     if fallback is not None:
-        solver = {"name": "exact B scan", "why": f"Ipopt did not converge ({fallback}) from any seed",
-                  "method": "the exact objective min(g·K_cr(B), passive K(B), caps) at 63 values of B (even, "
-                            "log-spaced near 0, next to B_max), then bounded Brent refinement around the two best "
-                            "(optimal to the scan's resolution in B)"}
+        solver = SolverInfo("exact B scan", details=(
+            ("why", f"Ipopt did not converge ({fallback}) from any seed"),
+            ("method", "the exact objective min(g·K_cr(B), passive K(B), caps) at 63 values of B (even, "
+                       "log-spaced near 0, next to B_max), then bounded Brent refinement around the two best "
+                       "(optimal to the scan's resolution in B)")))
     common = dict(max_stable_damping=_fin(b_max), passivity_delay_samples=ctx.d_pass if req.passivity else None,
                   passivity_note=pass_note, solver=solver, setup_ms=setup_ms, solve_ms=solve_ms)
     if not safeguards.settled(at):

@@ -18,7 +18,7 @@ from optim.stability.passivity import largest_passive_stiffness, passive_alpha_o
 from optim.stiffness.problem import ProblemKey, ProblemSolution
 
 if TYPE_CHECKING:
-    from optim.stiffness.design import _Attempt, _Context
+    from optim.stiffness.design import DesignAttempt, DesignContext
 
 __all__ = ["starts", "value", "settled", "ipopt_ok", "locally_optimal", "scan_attempt", "exact_profile",
            "passive_profile"]
@@ -30,15 +30,15 @@ MAX_STARTS = 6
 STUCK = ("Search_Direction_Becomes_Too_Small", "Solved_To_Acceptable_Level")
 
 
-def ipopt_ok(at: _Attempt) -> bool:
+def ipopt_ok(at: DesignAttempt) -> bool:
     return at.sol.success or at.sol.return_status in STUCK
 
 
-def settled(at: _Attempt) -> bool:
+def settled(at: DesignAttempt) -> bool:
     return ipopt_ok(at) and at.converged
 
 
-def exact_objective(ctx: _Context, b: float) -> float:
+def exact_objective(ctx: DesignContext, b: float) -> float:
     """min(g·K_cr(B), passive K(B), caps) [N/m] from the exact analysis."""
     k = ctx.req.gain_factor * critical_stiffness(ctx.device, b, b_max=ctx.b_max).critical_stiffness
     if ctx.req.passivity:
@@ -46,7 +46,7 @@ def exact_objective(ctx: _Context, b: float) -> float:
     return min([k, *ctx.req.stiffness_caps().values()])
 
 
-def locally_optimal(ctx: _Context, at: _Attempt) -> bool:
+def locally_optimal(ctx: DesignContext, at: DesignAttempt) -> bool:
     """A stalled Ipopt iterate is kept only if the exact objective at B ± 1e-4 of the B range does not beat it."""
     if at.sol.success:
         return True
@@ -59,7 +59,7 @@ def locally_optimal(ctx: _Context, at: _Attempt) -> bool:
     return True
 
 
-def starts(ctx: _Context, betas: np.ndarray, objective: np.ndarray) -> list[int]:
+def starts(ctx: DesignContext, betas: np.ndarray, objective: np.ndarray) -> list[int]:
     """Seeds in decreasing coarse objective, one per interval between the curve's breakpoints.
 
     The coarse profile interpolates the sampled curve: next to a fold it can miss a crossover that is about to
@@ -75,7 +75,7 @@ def starts(ctx: _Context, betas: np.ndarray, objective: np.ndarray) -> list[int]
     return sorted(best.values(), key=lambda j: -objective[j])[:MAX_STARTS]
 
 
-def value(ctx: _Context, at: _Attempt) -> float:
+def value(ctx: DesignContext, at: DesignAttempt) -> float:
     """The design K [N/m] an attempt gives (before the back-off): −inf unless Ipopt converged and settled."""
     if not settled(at):
         return -math.inf
@@ -85,7 +85,7 @@ def value(ctx: _Context, at: _Attempt) -> float:
     return min(ks)
 
 
-def scan_attempt(ctx: _Context, like: _Attempt | None) -> _Attempt:
+def scan_attempt(ctx: DesignContext, like: DesignAttempt | None) -> DesignAttempt:
     """Maximise the exact objective min(g·K_cr(B), passive K(B), caps) over B: the exact profile, then bounded
     Brent refinement around its two best points (the method of the independent test comparator)."""
     betas, obj, _ = exact_profile(ctx, 49)
@@ -108,9 +108,9 @@ def scan_attempt(ctx: _Context, like: _Attempt | None) -> _Attempt:
     pk = largest_passive_stiffness(dev, b).stiffness if ctx.req.passivity else None
     sol = ProblemSolution(True, "exact B scan", 0, best_a, best_b, (), np.zeros(0), np.zeros(0), np.zeros(0))
     key = like.key if like is not None else ProblemKey(ctx.n_states, 0, False, 0)
-    from optim.stiffness.design import _Attempt
+    from optim.stiffness.design import DesignAttempt
 
-    return _Attempt(sol, key, np.zeros(0), 1.0, 1.0, (0.0, ctx.beta_hi), best_a * ks, b, exact, pk, True)
+    return DesignAttempt(sol, key, np.zeros(0), 1.0, 1.0, (0.0, ctx.beta_hi), best_a * ks, b, exact, pk, True)
 
 
 _PASSIVE_WORK = 4_000_000     # β's × θ samples of one passive_alpha_on_grid call
@@ -138,7 +138,7 @@ def passive_profile(delta: float, d: int, betas: np.ndarray) -> tuple[np.ndarray
     return np.interp(betas, sub, pa), th[np.searchsorted(pick, near)]
 
 
-def exact_profile(ctx: _Context, points: int = 33) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def exact_profile(ctx: DesignContext, points: int = 33) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The objective of ``_coarse_profile`` from the exact analysis (optim.stability.margins, optim.stability.passivity) at a few β:
     evenly spaced, next to B_max, and log-spaced near 0 (a passive wall needs B of the order of b, often ≪ B_max:
     at m = 5.4 kg, b = 3.5 N·s/m, 2 samples of delay the passive optimum is at B = 2.65 of a 2,896 N·s/m range)."""

@@ -63,13 +63,13 @@ def perturbed_device(device: Device, parameter: str, value: float) -> Device:
 
 def _device_params(ctx, device: Device, like: np.ndarray, at) -> np.ndarray:
     """The NLP parameter vector for another device, same structure and scalings."""
-    from optim.stiffness.design import _params
+    from optim.stiffness.design import problem_params
 
     ks, bs = device.stiffness_scale, device.damping_scale
     k_cap = min(ctx.req.stiffness_caps().values(), default=math.inf)
     b_cap = min(ctx.req.damping_caps(device.sample_time).values(), default=math.inf)
-    p = _params(ctx, loop_matrices(device).flat(), device.delta, k_cap / ks if math.isfinite(k_cap) else 1e30,
-                b_cap / bs if math.isfinite(b_cap) else 1e30, at.alpha_ref, at.beta_ref, [])
+    p = problem_params(ctx, loop_matrices(device).flat(), device.delta, k_cap / ks if math.isfinite(k_cap) else 1e30,
+                       b_cap / bs if math.isfinite(b_cap) else 1e30, at.alpha_ref, at.beta_ref, [])
     p[len(p) - 2 * at.key.cuts:] = like[len(like) - 2 * at.key.cuts:]     # passivity cut angles: integers of delay
     return p
 

@@ -29,6 +29,7 @@ import numpy as np
 
 from models.device import Device
 from optim.errors import InputError
+from optim.solver_info import plain
 
 __all__ = ["MAX_STUDY_POINTS", "PROBLEMS", "StudyInputError", "ProblemUnavailable", "Axis", "StudyPlan",
            "Problem", "get_problem", "plan_study", "device_paths", "evaluate_point", "evaluate_chunk",
@@ -94,7 +95,7 @@ _VOLATILE = ("elapsed_ms", "setup_ms", "solve_ms", "time", "t_wall", "t_proc_tot
 def flatten_result(result: Any) -> dict[str, Any]:
     """Scalar fields of a result dataclass (dicts one level deep as ``a.b``), without timings."""
     out: dict[str, Any] = {}
-    items = dataclasses.asdict(result).items() if dataclasses.is_dataclass(result) else dict(result).items()
+    items = plain(result).items() if dataclasses.is_dataclass(result) else dict(result).items()
     for key, value in items:
         if key in _VOLATILE or key.endswith("_ms") or key.startswith("t_"):
             continue

@@ -24,7 +24,7 @@ numerical code with them.
   to ``digits`` digits; K_f = 1/|D·G_1| there.
 
 Cost cap: the grid grows with the delay (about 12 samples per radian of the
-delay's phase turn); delays above MAX_REFERENCE_DELAY_SAMPLES are refused.
+delay's phase turn); delays above REFERENCE_FORCE_GAIN_MAX_DELAY_SAMPLES are refused.
 A device without physical or grasp damping would put poles on the unit circle;
 that case is not a reference case and is refused too.
 """
@@ -40,10 +40,10 @@ from models.device import Device, Human
 from optim.errors import InputError
 
 __all__ = ["FeedforwardReference", "reference_critical_force_gain", "reference_g1",
-           "MAX_REFERENCE_DELAY_SAMPLES", "REFERENCE_DIGITS"]
+           "REFERENCE_FORCE_GAIN_MAX_DELAY_SAMPLES", "REFERENCE_DIGITS"]
 
-#: Cost cap of the reference rung: its scan grows linearly with the delay in samples.
-MAX_REFERENCE_DELAY_SAMPLES = 500
+#: Cap of the 40-digit K_f,cr rung (any caller): its scan grows linearly with the delay in samples (docs/limits.md).
+REFERENCE_FORCE_GAIN_MAX_DELAY_SAMPLES = 500
 REFERENCE_DIGITS = 40
 _GUARD = 20
 
@@ -203,8 +203,8 @@ def reference_critical_force_gain(device: Device, human: Human, filter_order: in
                                   cutoff_hz: float | None = None,
                                   digits: int = REFERENCE_DIGITS) -> FeedforwardReference:
     """K_f,cr of 1 + K_f·D(z)·G_1(z) at ``digits`` digits (see module doc); no filter when cutoff_hz is None."""
-    if device.delay_samples > MAX_REFERENCE_DELAY_SAMPLES:
-        raise InputError("device.delay", f"the reference rung is capped at {MAX_REFERENCE_DELAY_SAMPLES} samples of delay "
+    if device.delay_samples > REFERENCE_FORCE_GAIN_MAX_DELAY_SAMPLES:
+        raise InputError("device.delay", f"the reference rung is capped at {REFERENCE_FORCE_GAIN_MAX_DELAY_SAMPLES} samples of delay "
                          "(its cost grows linearly with the delay)")
     with mp.workdps(digits + _GUARD):
         g1 = _G1(device, human)

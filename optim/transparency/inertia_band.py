@@ -15,7 +15,7 @@ The profile therefore:
    1e-4, and to ``JUMP_RTOL`` = 1e-9 next to a sample within 10 % of the best, and keeps the samples on both
    sides of each change (a target's boundary at a jump is then bisected on the exact verdict to a few ulp);
 3. splits the samples into *pieces* of constant structure, inside which K_f,cr is continuous.  Each piece's
-   local maxima are refined with the crossover NLP inside the piece (optim.transparency.inertia._refine); a piece's edge
+   local maxima are refined with the crossover NLP inside the piece (``refine``); a piece's edge
    next to a jump is a sample of its own, so the higher side of every jump is examined.
 
 Changes that cancel within one interval of the base scan (a pair born and dying between two samples) are not
@@ -26,8 +26,8 @@ profile (the tolerance is stated there).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Callable
+from dataclasses import dataclass, field
+from typing import Any, Callable
 
 import numpy as np
 from scipy.optimize import brentq
@@ -88,7 +88,7 @@ class BandProfile:
 
 
 def band_profile(loop, scan_thetas: np.ndarray) -> BandProfile:
-    """The profile of ``loop`` (optim.transparency.inertia._Loop: exact(θ) and structure(θ)) over the scan's band.
+    """The profile of ``loop`` (optim.transparency.feedforward_loop.FeedforwardLoop: exact(θ) and structure(θ)) over the scan's band.
 
     Every change is first bracketed to _COARSE_RTOL; those next to a sample within _PEAK_FRACTION of the best
     (where the band's maximum may sit, at the higher side of a jump) are then narrowed to JUMP_RTOL."""
@@ -163,6 +163,8 @@ class BandAnswer:
     """the profile with its refined maxima: its largest K_f,cr is the band's maximum."""
     failed: bool = False
     """the crossover NLP did not converge where it decides the answer."""
+    stats: dict[str, Any] = field(default_factory=dict)
+    """the statistics of the solve (or exact step) that decided the answer: return_status, exchange_rounds, ..."""
 
     @property
     def best(self) -> tuple[float, float]:
@@ -183,7 +185,7 @@ def _nlp(loop, modal, log_rho: float):
     return local, stats
 
 
-def maximise(loop, profile: BandProfile, modal, log_rho: float, info: dict) -> BandAnswer:
+def maximise(loop, profile: BandProfile, modal, log_rho: float) -> BandAnswer:
     """The cutoff of the largest K_f,cr: every promising local maximum of every piece refined."""
     local, stats = _nlp(loop, modal, log_rho)
     top = float(np.max(profile.kcrs))
@@ -191,17 +193,16 @@ def maximise(loop, profile: BandProfile, modal, log_rho: float, info: dict) -> B
     out, failed = refine_peaks(loop, profile, local, _PEAK_FRACTION * top)
     theta, _ = BandAnswer(None, out).best
     if theta == start and start in failed:
-        info.update(stats[start])
-        return BandAnswer(None, out, failed=True)
-    info.update(stats.get(theta, {"return_status": "sample kept (a piece's edge, or no solve beat it)",
-                                  "exchange_rounds": 0}))
-    return BandAnswer(theta, out)
+        return BandAnswer(None, out, failed=True, stats=dict(stats[start]))
+    return BandAnswer(theta, out, stats=dict(stats.get(theta, {
+        "return_status": "sample kept (a piece's edge, or no solve beat it)", "exchange_rounds": 0})))
 
 
-def highest_feasible(loop, profile: BandProfile, modal, log_rho: float, need: float, info: dict) -> BandAnswer:
+def highest_feasible(loop, profile: BandProfile, modal, log_rho: float, need: float) -> BandAnswer:
     """The highest cutoff with K_f,cr ≥ ``need`` (theta None when no cutoff reaches it: then the profile's
     largest K_f,cr is the band's maximum, refined)."""
     local, _ = _nlp(loop, modal, log_rho)
+    info: dict[str, Any] = {}       # this answer's statistics (BandAnswer.stats)
     top = float(np.max(profile.kcrs))
     # only maxima that could reach the need are refined; with none feasible, the best (the reason's maximum)
     lo_k, hi_k = (_PEAK_FRACTION * need, need) if top >= need else (_PEAK_FRACTION * top, math.inf)
@@ -211,21 +212,22 @@ def highest_feasible(loop, profile: BandProfile, modal, log_rho: float, need: fl
         return BandAnswer(None, out)
     i = int(ok[-1])
     if i == len(out.thetas) - 1:
-        info.update(return_status="upper cutoff bound feasible (exact)", exchange_rounds=0)
-        return BandAnswer(float(out.thetas[-1]), out)
+        return BandAnswer(float(out.thetas[-1]), out, stats={"return_status": "upper cutoff bound feasible (exact)",
+                                                              "exchange_rounds": 0})
     a, b = float(out.thetas[i]), float(out.thetas[i + 1])
     if out.pieces[i] != out.pieces[i + 1]:
         # the boundary is a change of crossover structure (a jump of K_f,cr): no crossover condition
         # describes it, so the exact verdict is bisected
-        info.update(return_status="exact bisection (crossover branches change in the bracket)", exchange_rounds=0)
+        stats = {"return_status": "exact bisection (crossover branches change in the bracket)", "exchange_rounds": 0}
         theta = bisect_verdict(lambda th: loop.exact(th)[0] >= need, a, b)
         # 1e-12 back from the jump: the cutoff in Hz, converted back to an angle, must not round across it
         back = max(a, theta * (1 - 1e-12))
-        return BandAnswer(back if loop.exact(back)[0] >= need else theta, out)
+        return BandAnswer(back if loop.exact(back)[0] >= need else theta, out, stats=stats)
     theta = refine(loop, modal, log_rho, a, (a, b), "max_cutoff", math.log(need) - log_rho, info)
     if theta is None:
-        return BandAnswer(None, out, failed=True)
-    return BandAnswer(_exact_boundary(lambda th: math.log(loop.exact(th)[0] / need), a, theta, info), out)
+        return BandAnswer(None, out, failed=True, stats=info)
+    theta = _exact_boundary(lambda th: math.log(loop.exact(th)[0] / need), a, theta, info)
+    return BandAnswer(theta, out, stats=info)
 
 
 def _merge(tracked: list[tuple[int, float]], new: list[tuple[int, float]]) -> list[tuple[int, float]]:

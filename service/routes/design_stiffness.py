@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import time
 
@@ -13,6 +12,7 @@ from optim.design_ladder import design_stiffness_on_rung
 from optim.errors import InputError
 from optim.robust.box import UncertaintyBox
 from optim.robust.stiffness import robust_design_stiffness
+from optim.solver_info import plain
 from optim.stiffness import StiffnessRequirements
 from optim.verification import verify_stiffness_design
 from service.cost import stiffness_design_cost_ms, verify_cost_ms
@@ -57,7 +57,7 @@ async def design_stiffness_route(request: StiffnessDesignRequest, compute: Compu
     except (RuntimeError, ArithmeticError, ValueError) as exc:   # CasADi raises RuntimeError on solver trouble
         return StiffnessDesignResponse(status="failed", reason=f"solver trouble: {exc}",
                                        elapsed_ms=(time.perf_counter() - t0) * 1e3)
-    data = _finite(dataclasses.asdict(design))
+    data = _finite(plain(design))
     if request.verify and design.stiffness is not None and design.damping is not None:
         # the margin and (when required) the passivity the design claims, checked by the closed loop
         passive = True if req.passivity else None
@@ -90,7 +90,7 @@ async def _robust(request: StiffnessDesignRequest, req: StiffnessRequirements, t
     except (RuntimeError, ArithmeticError, ValueError) as exc:   # numerical trouble, as the nominal design
         return StiffnessDesignResponse(status="failed", reason=f"solver trouble: {exc}", robust=True,
                                        elapsed_ms=(time.perf_counter() - t0) * 1e3)
-    data = _finite(dataclasses.asdict(d))
+    data = _finite(plain(d))
     data.pop("nominal_critical_stiffness", None)
     worst = data.get("worst_case") or {}
     data["critical_stiffness"] = worst.get("critical_stiffness")

@@ -9,7 +9,7 @@ import pytest
 from models.device import MAX_DELAY_SAMPLES
 from optim.stability.analysis import MAX_GRID_POINTS
 from optim.stability.boundary import MAX_BOUNDARY_POINTS
-from service.cost import MAX_REFERENCE_DELAY_SAMPLES
+from service.cost import REFERENCE_REQUEST_BUDGET_DELAY_SAMPLES
 
 from .conftest import LHIFAM_RIGID, make_client
 
@@ -82,9 +82,9 @@ def test_delay_at_the_cost_limit_is_served(client):
 
 
 def test_reference_rung_beyond_its_cost_limit(client):
-    device = {**LHIFAM_RIGID, "delay": (MAX_REFERENCE_DELAY_SAMPLES + 1) * 0.001}
+    device = {**LHIFAM_RIGID, "delay": (REFERENCE_REQUEST_BUDGET_DELAY_SAMPLES + 1) * 0.001}
     (e,) = errors(client.post(STABILITY, json={"device": device, "method": "reference"}))
-    assert e["loc"] == ["body", "method"] and str(MAX_REFERENCE_DELAY_SAMPLES) in e["msg"]
+    assert e["loc"] == ["body", "method"] and str(REFERENCE_REQUEST_BUDGET_DELAY_SAMPLES) in e["msg"]
 
 
 @pytest.mark.parametrize("path,body,loc", [

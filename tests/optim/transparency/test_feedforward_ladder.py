@@ -12,7 +12,8 @@ from models.feedforward import feedforward_plant
 from models.filters import ButterworthLowPass
 from optim.transparency.feedforward import critical_force_gain
 from optim.transparency.feedforward_ladder import analyse_force_feedforward
-from optim.transparency.feedforward_reference import MAX_REFERENCE_DELAY_SAMPLES, reference_critical_force_gain, reference_g1
+from optim.transparency.feedforward_reference import (REFERENCE_FORCE_GAIN_MAX_DELAY_SAMPLES, reference_critical_force_gain,
+                                                      reference_g1)
 from tests.feedforward_reference import (EQ32_CRITICAL_FORCE_GAIN, EQ32_RTOL, EQ33_WORST_CASE, HUMAN_EQ30,
                                          LHIFAM_CABLE, LHIFAM_RIGID, SENSOR_EQ31)
 
@@ -92,7 +93,7 @@ def test_bad_rungs_and_caps_raise_naming_the_field():
         analyse_force_feedforward(dev, method="bisect")
     with pytest.raises(ValueError, match="^grid_points"):
         analyse_force_feedforward(dev, method="grid", grid_points=5)
-    far = _dev(LHIFAM_RIGID, (MAX_REFERENCE_DELAY_SAMPLES + 1) * 1e-3)
+    far = _dev(LHIFAM_RIGID, (REFERENCE_FORCE_GAIN_MAX_DELAY_SAMPLES + 1) * 1e-3)
     with pytest.raises(ValueError, match="^device.delay"):
         analyse_force_feedforward(far, method="reference")
 
