@@ -70,7 +70,9 @@ class IdentifyRequest(BaseModel):
     max_delay: float | None = Field(None, ge=0, le=1.0,
                                     description="the delay is searched in [0, max_delay] [s], one start per whole "
                                                 "sample (default 20 samples, at most 200)")
-    format: Literal["png", "svg"] = Field("png", description="image format (plot route only)")
+    format: Literal["png", "svg"] | None = Field(
+        None, json_schema_extra={"deprecated": True},
+        description="deprecated: give ?format=png|svg in the query of /v1/plots/identify (the query wins)")
 
 
 class ParameterOut(BaseModel):
