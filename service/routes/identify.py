@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import dataclasses
-import math
 import time
 import numpy as np
 from fastapi import APIRouter
@@ -19,15 +18,6 @@ from ..schemas.identify import IdentifyRequest, IdentifyResponse
 from ..schemas.plots import FormatQuery, image_format
 
 router = APIRouter(tags=["identification"])
-
-def _finite(value):
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if isinstance(value, dict):
-        return {k: _finite(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_finite(v) for v in value]
-    return value
 
 
 def _data(req: IdentifyRequest) -> TimeSeriesData | FrequencyResponseData:
@@ -58,7 +48,7 @@ def response_of(res: IdentificationResult) -> IdentifyResponse:
     out["warnings"] = list(out["warnings"])
     out["parameters"] = {k: {"value": p["value"], "std_error": p["std_error"], "interval": list(p["interval"])}
                          for k, p in out["parameters"].items()}
-    return IdentifyResponse(**_finite(out))
+    return IdentifyResponse(**out)   # non-finite numbers answer null (FiniteModel)
 
 
 @router.post("/v1/identify", response_model=IdentifyResponse)

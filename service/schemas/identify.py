@@ -12,6 +12,7 @@ from optim.identification.data import MAX_RESPONSE_POINTS, MAX_SAMPLES
 from optim.identification.models import response as _response
 
 from .common import STRICT
+from .finite import FiniteModel
 
 __all__ = ["FrequencyResponseIn", "IdentifyRequest", "IdentifyResponse", "TimeSeriesIn"]
 
@@ -106,7 +107,7 @@ class FitOut(BaseModel):
     starts: int
 
 
-class IdentifyResponse(BaseModel):
+class IdentifyResponse(FiniteModel):
     status: Literal["identified", "failed"]
     model: Literal["rigid", "cable"] | None
     reason: str
