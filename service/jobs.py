@@ -71,7 +71,7 @@ def hardware_plot_job(device: Device, target: HardwareTarget, free: str, points:
                       value_range: tuple[float, float] | None = None) -> bytes:
     """The hardware design and its trade-off figure, both in the worker (under the request time budget)."""
     design = design_hardware(device, target, free, points=points, value_range=value_range)
-    return plot_hardware(design, target, fmt, device_title(device), units(device))
+    return plot_hardware(design, target, fmt, f"{device_title(device)}; {free} free", units(device))
 
 
 def simulation_plot_job(device: Device, scene: Scene, fmt: str) -> bytes:
