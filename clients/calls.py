@@ -271,16 +271,16 @@ def plot_simulation(device: DeviceLike, scene: PartLike, *, format: ImageFormat 
 
 def plot_boundary(device: DeviceLike, *, damping_max: float | None = None, points: int | None = None,
                   format: ImageFormat = "png") -> Call[Plot]:  # noqa: A002
-    """``POST /v1/plots/boundary``: the stability boundary K_cr(B) with its optimum."""
+    """``POST /v1/plots/boundary?format=``: the stability boundary K_cr(B) with its optimum."""
     return Call("POST", "/v1/plots/boundary", "plot", _image,
-                json=_body(device=device, damping_max=damping_max, points=points, format=format))
+                json=_body(device=device, damping_max=damping_max, points=points), params={"format": format})
 
 
 def plot_bode(device: DeviceLike, controller: PartLike | None = None, *, points: int | None = None,
               format: ImageFormat = "png") -> Call[Plot]:  # noqa: A002
-    """``POST /v1/plots/bode``: Bode diagram of the sampled loop with the crossovers of K_cr(B) marked."""
+    """``POST /v1/plots/bode?format=``: Bode diagram of the sampled loop with the crossovers of K_cr(B) marked."""
     return Call("POST", "/v1/plots/bode", "plot", _image,
-                json=_body(device=device, controller=controller, points=points, format=format))
+                json=_body(device=device, controller=controller, points=points), params={"format": format})
 
 
 def submit_study(request: PartLike) -> Call[StudyCreated]:

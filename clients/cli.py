@@ -127,9 +127,12 @@ def analyze(preset: Annotated[str | None, typer.Argument(help="preset name, or '
         if len(results) == 1 and preset != "all":
             r = next(iter(results.values()))
             out.print(c.table(f"stability of {preset or 'the device'}",
-                              _stability_rows(r) + c.verification_rows(r.verification)))
+                              _stability_rows(r) + c.verification_rows(r.verification),
+                              device=body["device"]))
             return
-        t = Table(title="stability of every preset", title_justify="left")
+        rotary = sorted(n for n in results if n in c.ROTARY_PRESETS)
+        note = f" ({', '.join(rotary)} rotary: N·m/rad)" if rotary else ""
+        t = Table(title=f"stability of every preset{note}", title_justify="left")
         t.add_column("preset", no_wrap=True)
         for col in ("K_cr [N/m]", "ω_cr [rad/s]", "rigid K_cr [N/m]", "eq. 10 [N/m]", "margin [dB]", "stable"):
             t.add_column(Text(col), justify="right")
@@ -172,7 +175,7 @@ def feedforward(preset: Preset = None, sets: Sets = None, device_file: DeviceFil
         rows += [("reason", r.reason, "")] if r.reason else []
         rows += [("note", n, "") for n in r.notes]
         rows += c.verification_rows(r.verification)
-        out.print(c.table("force feedforward", rows))
+        out.print(c.table("force feedforward", rows, device=body["device"]))
     emit(r, as_json, human)
     c.exit_if_contradicted(r.verification)
 
@@ -234,7 +237,7 @@ def simulate(preset: Preset = None, sets: Sets = None, device_file: DeviceFile =
                      ("relay ω", s.frequency if s else None, "rad/s"),
                      ("exact K_cr of the loop", r.relay.critical_stiffness, "N/m"),
                      ("K_u error vs K_cr", r.relay.ultimate_gain_error, "")]
-        out.print(c.table("simulation", rows))
+        out.print(c.table("simulation", rows, device=body["device"]))
 
     emit(r, as_json, human)
     if r.verdict.state in ("unstable", "undetermined"):

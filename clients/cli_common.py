@@ -277,8 +277,25 @@ def fmt(value: Any, digits: int = 6) -> str:
     return str(value)
 
 
-def table(title: str, rows: Sequence[tuple[str, Any]], unit_col: bool = True) -> Table:
-    """A two- or three-column table of (name, value[, unit]) rows."""
+#: Presets whose numbers are about a joint (the service's models.device.ROTARY_PRESETS; a test holds them equal):
+#: their answers read in N·m/rad, N·m·s/rad and kg·m² where a linear device's read in N/m, N·s/m and kg.
+ROTARY_PRESETS = frozenset({"phantom-1.0"})
+_ROTARY_UNITS = {"N/m": "N·m/rad", "N·s/m": "N·m·s/rad", "kg": "kg·m²"}
+
+
+def is_rotary(device: Any) -> bool:
+    """The device dict sent (preset name, a device file's content) names a rotary preset."""
+    return isinstance(device, Mapping) and device.get("preset") in ROTARY_PRESETS
+
+
+def unit_of(unit: str, device: Any) -> str:
+    """``unit`` as the device reads it: N/m for a linear device, N·m/rad for a rotary one."""
+    return _ROTARY_UNITS.get(unit, unit) if is_rotary(device) else unit
+
+
+def table(title: str, rows: Sequence[tuple[str, Any]], unit_col: bool = True, device: Any = None) -> Table:
+    """A two- or three-column table of (name, value[, unit]) rows; ``device`` (the device dict of the request)
+    makes the units rotary for a rotary preset."""
     t = Table(title=title, show_header=False, title_justify="left")
     t.add_column("quantity", style="bold")
     t.add_column("value", justify="right")
@@ -288,7 +305,7 @@ def table(title: str, rows: Sequence[tuple[str, Any]], unit_col: bool = True) ->
         name, value, *unit = row
         # numbers line up on the right, sentences read from the left
         cell = Text(fmt(value), justify="left" if isinstance(value, str) else "right")
-        t.add_row(Text(name), cell, *([Text(str(u)) for u in unit[:1]] if unit_col else []))
+        t.add_row(Text(name), cell, *([Text(unit_of(str(u), device)) for u in unit[:1]] if unit_col else []))
     return t
 
 

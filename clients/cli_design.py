@@ -55,7 +55,7 @@ def stiffness(preset: Preset = None, sets: Sets = None, device_file: DeviceFile 
         rows += [("reason", r.reason, "")] if r.reason else []
         rows += [(f"sensitivity: {s.parameter}", s.statement, "") for s in r.sensitivities]
         rows += c.verification_rows(r.verification)
-        out.print(c.table("stiffness design", rows))
+        out.print(c.table("stiffness design", rows, device=body["device"]))
     emit(r, as_json, human)
     c.exit_if_contradicted(r.verification)
     c.exit_unless_optimal(r.status)
@@ -85,7 +85,7 @@ def inertia(preset: Preset = None, sets: Sets = None, device_file: DeviceFile = 
         rows += [("reason", r.reason, "")] if r.reason else []
         rows += [("note", n, "") for n in r.notes]
         rows += c.verification_rows(r.verification)
-        out.print(c.table("inertia design (force feedforward)", rows))
+        out.print(c.table("inertia design (force feedforward)", rows, device=body["device"]))
     emit(r, as_json, human)
     c.exit_if_contradicted(r.verification)
     c.exit_unless_optimal(r.status)

@@ -28,16 +28,27 @@ def _client(url: str, token: str | None) -> ZwidthClient:
     return ZwidthClient(url, token=token)
 
 
+def _duration(seconds: float) -> str:
+    s = int(round(seconds))
+    return f"{s // 3600}:{s // 60 % 60:02d}:{s % 60:02d}" if s >= 3600 else f"{s // 60}:{s % 60:02d}"
+
+
+def progress_fields(st) -> dict[str, str]:
+    """The bar's rate and ETA as the service measures them (points per second of this run, seconds left)."""
+    return {"rate": f"{st.rate:.3g} pts/s" if st.rate else "— pts/s",
+            "eta": f"ETA {_duration(st.eta_s)}" if st.eta_s is not None else "ETA —"}
+
+
 def _follow(zw: ZwidthClient, study_id: str, poll: float):
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
 
     with Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
-                  TextColumn("{task.fields[rate]}"), TimeRemainingColumn(), console=err, transient=False) as bar:
+                  TextColumn("points, {task.fields[rate]}, {task.fields[eta]}"), console=err,
+                  transient=False) as bar:
         st = zw.study(study_id)
-        task = bar.add_task(study_id[:8], total=st.total, rate="")
+        task = bar.add_task(study_id[:8], total=st.total, **progress_fields(st))
         while True:
-            rate = f"{st.rate:.0f} pts/s" if st.rate else ""
-            bar.update(task, completed=st.done, rate=rate, description=f"{study_id[:8]} {st.status}")
+            bar.update(task, completed=st.done, description=f"{study_id[:8]} {st.status}", **progress_fields(st))
             if st.status not in _ACTIVE:
                 return st
             time.sleep(poll)
@@ -84,8 +95,8 @@ def status(study_id: str = typer.Argument(None, help="study id; all studies when
         sys.stdout.write(data.model_dump_json(indent=2) + "\n")
         return
     for st in ([data] if study_id else data.studies):
-        eta = f", ETA {st.eta_s:.0f} s" if st.eta_s else ""
-        rate = f", {st.rate:.0f} pts/s" if st.rate else ""
+        eta = f", ETA {_duration(st.eta_s)}" if st.eta_s else ""
+        rate = f", {st.rate:.3g} pts/s" if st.rate else ""
         out.print(f"{st.id}  {st.problem:9} {st.status:9} {st.done}/{st.total} ({st.failed} failed){rate}{eta}")
 
 

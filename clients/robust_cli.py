@@ -96,7 +96,7 @@ def stiffness(preset: Preset = None, sets: Sets = None, device_file: DeviceFile 
                 ("exact analyses", r.evaluations, ""), ("elapsed", r.elapsed_ms, "ms")]
         rows += [("reason", r.reason, "")] if r.reason else []
         rows += [("ignored paths", ", ".join(r.ignored_paths), "")] if r.ignored_paths else []
-        out.print(c.table("robust stiffness design", rows))
+        out.print(c.table("robust stiffness design", rows, device=body["device"]))
     emit(r, as_json, human)
     c.exit_unless_optimal(r.status)
 
@@ -124,7 +124,7 @@ def inertia(preset: Preset = None, sets: Sets = None, device_file: DeviceFile = 
                 ("iterations", r.iterations, ""), ("elapsed", r.elapsed_ms, "ms")]
         rows += [("reason", r.reason, "")] if r.reason else []
         rows += [("note", n, "") for n in r.notes]
-        out.print(c.table("robust inertia design (force feedforward)", rows))
+        out.print(c.table("robust inertia design (force feedforward)", rows, device=body["device"]))
     emit(r, as_json, human)
     c.exit_unless_optimal(r.status)
 
@@ -187,7 +187,7 @@ def hardware(preset: Preset = None, sets: Sets = None, device_file: DeviceFile =
                  ("best achievable K_f", r.best_achievable_force_gain, ""), ("elapsed", r.elapsed_ms, "ms")]
         rows += [("reason", r.reason, "")] if r.reason else []
         rows += [("note", r.note, "")] if r.note else []
-        out.print(c.table("hardware design", rows))
+        out.print(c.table("hardware design", rows, device=body["device"]))
     emit(r, as_json, human)
     c.exit_unless_optimal(r.status)
 

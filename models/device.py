@@ -16,6 +16,7 @@ __all__ = [
     "ForceSensor",
     "Device",
     "PRESETS",
+    "ROTARY_PRESETS",
     "MAX_DELAY_SAMPLES",
     "preset_names",
 ]
@@ -103,6 +104,10 @@ PRESETS: dict[str, dict[str, Any]] = {
         "force_sensor": {"time_constant": 0.005},
     },
 }
+
+
+#: Presets whose axis is a joint: masses in kg·m², damping in N·m·s/rad, stiffness in N·m/rad (Table 2).
+ROTARY_PRESETS = frozenset({"phantom-1.0"})
 
 
 def preset_names() -> list[str]:
@@ -210,6 +215,16 @@ class Device(BaseModel):
     def damping_scale(self) -> float:
         """m/T [N·s/m]: B = β·m/T (Table 1)."""
         return self.mass / self.sample_time
+
+    @property
+    def rotary(self) -> bool:
+        """True for a rotary preset (its numbers are about a joint: N·m/rad, N·m·s/rad); from the preset, not
+        an input: a device without a preset is read as translational."""
+        return self.preset_is_rotary(self.preset)
+
+    @staticmethod
+    def preset_is_rotary(preset: str | None) -> bool:
+        return preset in ROTARY_PRESETS
 
     def rigid(self) -> "Device":
         """The same device without its cable block (m = m_r + m_d, b = b_r + b_d)."""

@@ -25,6 +25,7 @@ from optim.robust.stiffness import robust_design_stiffness
 from optim.stiffness import StiffnessRequirements
 
 from .errors import NumericInputError
+from .plot_labels import device_title, units
 from .plots_robust import margin_slice, plot_hardware, plot_robust_slice
 from .plots_simulation import plot_simulation
 
@@ -60,21 +61,23 @@ def robust_slice_job(device: Device, requirements: StiffnessRequirements, box: U
     worst = box.to_box(box.to_unit(list(design.worst_case["device"].values())))
     xs, ys, margin = margin_slice(box, design.stiffness, design.damping, worst, x, y, points)
     wxy = (worst[paths.index(x)], worst[paths.index(y)])
-    title = (f"K = {design.stiffness:.5g} N/m, B = {design.damping:.4g} N·s/m; worst margin "
-             f"{design.gain_margin_db:.4f} dB")
-    return plot_robust_slice(xs, ys, margin, wxy, min_gain_margin_db, (x, y), fmt, title)
+    u = units(device)
+    title = (f"{device_title(device)}\nK = {design.stiffness:.5g} {u.stiffness}, B = {design.damping:.4g} "
+             f"{u.damping}; worst margin {design.gain_margin_db:.4f} dB")
+    return plot_robust_slice(xs, ys, margin, wxy, min_gain_margin_db, (x, y), fmt, title, u)
 
 
 def hardware_plot_job(device: Device, target: HardwareTarget, free: str, points: int, fmt: str,
                       value_range: tuple[float, float] | None = None) -> bytes:
     """The hardware design and its trade-off figure, both in the worker (under the request time budget)."""
-    return plot_hardware(design_hardware(device, target, free, points=points, value_range=value_range), target, fmt)
+    design = design_hardware(device, target, free, points=points, value_range=value_range)
+    return plot_hardware(design, target, fmt, f"{device_title(device)}; {free} free", units(device))
 
 
 def simulation_plot_job(device: Device, scene: Scene, fmt: str) -> bytes:
     """The scene simulated and drawn in the worker: the per-sample trajectory never reaches the server."""
     result, _ = simulate_job(device, scene)
-    return plot_simulation(result, fmt)
+    return plot_simulation(result, fmt, device=device)
 
 
 def identify_plot_job(data, model: str, known, friction: bool, confidence: float, max_delay, fmt: str) -> bytes:
@@ -83,4 +86,5 @@ def identify_plot_job(data, model: str, known, friction: bool, confidence: float
 
     from .plots_identification import plot_identification
 
-    return plot_identification(identify(data, model, known, friction, confidence, max_delay), fmt)
+    return plot_identification(identify(data, model, known, friction, confidence, max_delay), fmt,
+                               sample_time=data.sample_time)

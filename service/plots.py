@@ -25,6 +25,8 @@ from matplotlib.figure import Figure  # noqa: E402
 from optim.stability.boundary import Boundary  # noqa: E402
 from optim.stability.frequency_response import FrequencyResponse  # noqa: E402
 
+from .plot_labels import TRANSLATIONAL, Units, device_title, units  # noqa: E402
+
 if TYPE_CHECKING:
     from optim.stability.frequency_response import CrossoverPoint as Crossover
 
@@ -45,70 +47,92 @@ def labelled_crossovers(crossovers: Sequence[Crossover]) -> list[Crossover]:
     return [crossovers[i] for i in sorted(keep)]
 
 
-def boundary_figure(boundary: Boundary, title: str = "") -> Figure:
+def boundary_figure(boundary: Boundary, title: str = "", unit: Units = TRANSLATIONAL) -> Figure:
     """K_cr(B) with eq. 10's linear estimate beside it and the optimum marked (chapter Fig. 5/9)."""
+    k_u, b_u = unit.stiffness, unit.damping
     fig = Figure(figsize=(6.4, 4.4), dpi=100)
     ax = fig.add_subplot()
     b = np.array([p.damping for p in boundary.points])
     k = np.array([p.critical_stiffness for p in boundary.points], dtype=float)  # NaN where every K is stable
     lin = np.array([p.linear_estimate for p in boundary.points])
-    ax.plot(b, k, "-", color="C0", label="exact K_cr(B)", gid="boundary")
+    ax.plot(b, k, "-", color="C0", label="exact $K_{cr}(B)$", gid="boundary")
     ax.plot(b, lin, "--", color="C7", label="linear estimate (eq. 10)", gid="linear")
     best = boundary.optimum
     ax.plot([best.damping], [best.critical_stiffness], "o", color="C3", gid="optimum",
-            label=f"optimum B = {best.damping:.4g} N·s/m, K = {best.critical_stiffness:.5g} N/m")
+            label=f"optimum B = {best.damping:.4g} {b_u}, K = {best.critical_stiffness:.5g} {k_u}")
     if boundary.max_stable_damping is not None:
         ax.axvline(boundary.max_stable_damping, color="C1", lw=0.8, ls=":", gid="b_max",
-                   label=f"B_max = {boundary.max_stable_damping:.4g} N·s/m")
+                   label=f"B_max = {boundary.max_stable_damping:.4g} {b_u}")
     finite = k[np.isfinite(k)]
     top = max(float(finite.max()) if finite.size else 1.0, best.critical_stiffness)
     ax.set_ylim(0.0, 1.15 * top)
-    ax.set_xlabel("virtual damping B [N·s/m]")
-    ax.set_ylabel("critical stiffness K_cr [N/m]")
-    ax.set_title(title or "Stability boundary")
+    ax.set_xlabel(f"virtual damping B [{b_u}]")
+    ax.set_ylabel(f"critical stiffness $K_{{cr}}$ [{k_u}]")
+    ax.set_title(title or "Stability boundary", fontsize=10)
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize="small")
     # Fixed margins: tight_layout would draw the figure once more just to measure it (half the cost).
-    fig.subplots_adjust(left=0.14, right=0.97, bottom=0.12, top=0.92)
+    fig.subplots_adjust(left=0.14, right=0.97, bottom=0.12, top=0.93)
     return fig
 
 
-def bode_figure(response: FrequencyResponse, stiffness: float | None = None, title: str = "") -> Figure:
+#: The sampled loop in mathtext: Z-transform of hold, plant and delay.
+LOOP_MATH = r"$\mathcal{Z}[H\,G_r\,e^{-t_d s}]$"
+
+
+def _label_offset(ax, x: float, y: float) -> tuple[tuple[float, float], str, str]:
+    """An offset and alignment that keep a point's label inside the axes (right of and above the point, unless
+    the point is in the right or top fifth of the view)."""
+    x0, x1 = ax.get_xlim()
+    y0, y1 = ax.get_ylim()
+    fx = (math.log10(x) - math.log10(x0)) / (math.log10(x1) - math.log10(x0)) if x > 0 and x0 > 0 else 0.5
+    fy = (y - y0) / (y1 - y0) if y1 > y0 else 0.5
+    right, top = fx > 0.8, fy > 0.8
+    return ((-4 if right else 4), (-6 if top else 6)), ("right" if right else "left"), ("top" if top else "bottom")
+
+
+def bode_figure(response: FrequencyResponse, stiffness: float | None = None, title: str = "",
+                unit: Units = TRANSLATIONAL) -> Figure:
     """|G(e^{jωT})| [dB re 1 m/N] and its phase [deg], the crossovers of K_cr(B) marked."""
+    k_u = unit.stiffness
+    g_u = "rad/(N·m)" if unit.stiffness != "N/m" else "m/N"
     fig = Figure(figsize=(6.4, 6.0), dpi=100)
     ax_m, ax_p = fig.subplots(2, 1, sharex=True)
     w = response.frequency
     with np.errstate(divide="ignore"):  # an exact zero of G (undamped anti-resonance) plots as a gap
         db = 20 * np.log10(response.magnitude)
-    ax_m.semilogx(w, db, color="C0", gid="magnitude", label="|G(e^{jωT})|")
+    ax_m.semilogx(w, db, color="C0", gid="magnitude", label=r"$|G(e^{j\omega T})|$")
     ax_p.semilogx(w, response.phase_deg, color="C0", gid="phase")
     crossovers = response.crossovers
     if crossovers:
         # One line artist for all crossovers (a long delay has thousands), labels on the binding few only.
         f = np.array([c.frequency for c in crossovers])
         ax_m.plot(f, [20 * math.log10(c.magnitude) for c in crossovers], "o", color="C3", ms=4, gid="crossovers",
-                  label="crossovers (K_i = 1/|G|)")
+                  label="crossovers ($K_i = 1/|G|$)")
         ax_p.plot(f, [c.phase_deg for c in crossovers], "o", color="C3", ms=4, gid="crossovers-phase")
+        ax_m.autoscale_view()   # the limits the labels are placed against
         for c in labelled_crossovers(crossovers):
-            ax_m.annotate(f"{c.stiffness:.4g} N/m", (c.frequency, 20 * math.log10(c.magnitude)),
-                          textcoords="offset points", xytext=(4, 6), fontsize="x-small")
+            xy = (c.frequency, 20 * math.log10(c.magnitude))
+            off, ha, va = _label_offset(ax_m, *xy)
+            ax_m.annotate(f"{c.stiffness:.4g} {k_u}", xy, textcoords="offset points", xytext=off, ha=ha, va=va,
+                          fontsize="x-small", gid="crossover-label")
         if len(crossovers) > MAX_CROSSOVER_LABELS:
             ax_m.text(0.01, 0.02, f"{len(crossovers)} crossovers; the {MAX_CROSSOVER_LABELS} of least K labelled",
                       transform=ax_m.transAxes, fontsize="x-small", color="C3", gid="crossover-summary")
     if stiffness is not None and response.damping == 0.0:
         # With B = 0 the gain margin is the gap between 1/K and |G| at the crossover that sets K_cr.
         ax_m.axhline(-20 * math.log10(stiffness), color="C2", ls="--", lw=0.8, gid="wall",
-                     label=f"1/K, K = {stiffness:.4g} N/m")
+                     label=f"1/K, K = {stiffness:.4g} {k_u}")
     ax_p.axhline(-180.0, color="C7", lw=0.6)
     ax_m.axvline(response.nyquist_frequency, color="C7", lw=0.6, ls=":")
-    ax_m.set_ylabel("|G| [dB re 1 m/N]")
+    ax_m.set_ylabel(f"|G| [dB re 1 {g_u}]")
     ax_p.set_ylabel("phase [deg]")
     ax_p.set_xlabel("ω [rad/s]")
-    ax_m.set_title(title or "Sampled loop Z[H·G_r·e^{-t_d s}]")
+    ax_m.set_title(title or f"Sampled loop {LOOP_MATH}", fontsize=10)
     for ax in (ax_m, ax_p):
         ax.grid(True, which="major", alpha=0.3)
     ax_m.legend(fontsize="small")
-    fig.subplots_adjust(left=0.14, right=0.97, bottom=0.09, top=0.94, hspace=0.08)
+    fig.subplots_adjust(left=0.14, right=0.97, bottom=0.09, top=0.92, hspace=0.08)
     return fig
 
 
@@ -127,11 +151,13 @@ def boundary_plot(device, damping_max: float | None, points: int, fmt: ImageForm
     under the request time budget too, and the server process never holds a figure)."""
     from optim.stability.boundary import stability_boundary
 
-    return render(boundary_figure(stability_boundary(device, damping_max, points)), fmt)
+    title = f"Stability boundary: {device_title(device)}"
+    return render(boundary_figure(stability_boundary(device, damping_max, points), title, units(device)), fmt)
 
 
 def bode_plot(device, damping: float, points: int, stiffness: float | None, fmt: ImageFormat) -> bytes:
     """Compute and draw the Bode figure: what a compute worker runs for /v1/plots/bode."""
     from optim.stability.frequency_response import loop_frequency_response
 
-    return render(bode_figure(loop_frequency_response(device, damping, points), stiffness), fmt)
+    title = f"{LOOP_MATH}, B = {damping:.4g} {units(device).damping}\n{device_title(device)}"
+    return render(bode_figure(loop_frequency_response(device, damping, points), stiffness, title, units(device)), fmt)

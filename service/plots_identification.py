@@ -11,7 +11,7 @@ from matplotlib.figure import Figure
 
 from optim.identification import IdentificationResult
 
-__all__ = ["MEDIA_TYPES", "plot_identification"]
+__all__ = ["MEDIA_TYPES", "plot_identification", "identification_figure", "identified_title"]
 
 MEDIA_TYPES = {"png": "image/png", "svg": "image/svg+xml"}
 
@@ -22,7 +22,27 @@ def _message(fig: Figure, text: str) -> None:
     ax.text(0.5, 0.5, text, ha="center", va="center", wrap=True, fontsize=10)
 
 
-def plot_identification(res: IdentificationResult, fmt: str = "png") -> bytes:
+def identified_title(res: IdentificationResult, sample_time: float | None) -> str:
+    """The identified device as the other plots name one: m, b (and k_c), rigid or cable, t_d and T."""
+    d = res.device or {}
+    cable = d.get("cable") or {}
+    parts = [f"{sym} = {v:.4g} {u}" for v, sym, u in ((d.get("mass"), "m", "kg"), (d.get("damping"), "b", "N·s/m"),
+                                                       (cable.get("stiffness"), "k_c", "N/m")) if v is not None]
+    head = ", ".join(parts) or "identified device"
+    tail = "".join(f", {sym} = {v * 1e3:.4g} ms" for sym, v in (("t_d", d.get("delay")),
+                                                                ("T", d.get("sample_time", sample_time)))
+                   if v is not None)
+    return f"{head} ({res.model}){tail}"
+
+
+def plot_identification(res: IdentificationResult, fmt: str = "png", sample_time: float | None = None) -> bytes:
+    buf = io.BytesIO()
+    identification_figure(res, sample_time).savefig(buf, format=fmt)
+    return buf.getvalue()
+
+
+def identification_figure(res: IdentificationResult, sample_time: float | None = None) -> Figure:
+    """Measured against fitted with the residual; the title names the identified device and the fit."""
     fig = Figure(figsize=(8, 6.5), dpi=100)
     FigureCanvasAgg(fig)
     cur = res.fitted
@@ -53,9 +73,7 @@ def plot_identification(res: IdentificationResult, fmt: str = "png") -> bytes:
         ax3.set_ylabel("|error| [%]")
         ax3.set_xlabel("ω [rad/s]")
     if res.status == "identified" and res.fit is not None:
-        fig.suptitle(f"{res.model}: NRMSE {res.fit.nrmse:.3g}, Ljung–Box p = "
+        fig.suptitle(f"{identified_title(res, sample_time)}\nNRMSE {res.fit.nrmse:.3g}, Ljung–Box p = "
                      f"{res.fit.residual_whiteness['p_value']:.2g}", fontsize=10)
     fig.tight_layout()
-    buf = io.BytesIO()
-    fig.savefig(buf, format=fmt)
-    return buf.getvalue()
+    return fig

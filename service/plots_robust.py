@@ -18,9 +18,11 @@ from optim.hardware.design import HardwareDesign, HardwareTarget
 from optim.robust.box import UncertaintyBox
 from optim.robust.worst_case import box_critical_stiffness
 
+from .plot_labels import TRANSLATIONAL, Units, path_label, path_scale
 from .plots_simulation import MEDIA_TYPES
 
-__all__ = ["plot_robust_slice", "plot_hardware", "MEDIA_TYPES", "margin_slice"]
+__all__ = ["plot_robust_slice", "robust_slice_figure", "plot_hardware", "hardware_figure", "MEDIA_TYPES",
+           "margin_slice"]
 
 
 def margin_slice(box: UncertaintyBox, stiffness: float, damping: float, worst: np.ndarray, x: str, y: str,
@@ -40,17 +42,20 @@ def margin_slice(box: UncertaintyBox, stiffness: float, damping: float, worst: n
 
 
 def _save(fig: Figure, fmt: str) -> bytes:
-    fig.tight_layout()
     buf = io.BytesIO()
     fig.savefig(buf, format=fmt)
     return buf.getvalue()
 
 
-def plot_robust_slice(xs, ys, margin, worst_xy, required_db: float, labels: tuple[str, str], fmt: str = "png",
-                      title: str | None = None) -> bytes:
+def robust_slice_figure(xs, ys, margin, worst_xy, required_db: float, paths: tuple[str, str],
+                        title: str | None = None, unit: Units = TRANSLATIONAL) -> Figure:
+    """The margin over the (x, y) slice; ``paths`` are the box's dotted paths (labelled with their units,
+    seconds shown in ms)."""
     fig = Figure(figsize=(7, 5.5), dpi=100)
     FigureCanvasAgg(fig)
     ax = fig.subplots()
+    sx, sy = path_scale(paths[0]), path_scale(paths[1])
+    xs, ys, worst_xy = np.asarray(xs) * sx, np.asarray(ys) * sy, (worst_xy[0] * sx, worst_xy[1] * sy)
     finite = np.where(np.isfinite(margin), margin, np.nan)
     mesh = ax.pcolormesh(xs, ys, finite, shading="auto", cmap="viridis")
     fig.colorbar(mesh, ax=ax, label="gain margin [dB]")
@@ -58,37 +63,54 @@ def plot_robust_slice(xs, ys, margin, worst_xy, required_db: float, labels: tupl
         ax.contour(xs, ys, finite, levels=[required_db], colors="w", linewidths=1.0)
     ax.plot([worst_xy[0]], [worst_xy[1]], marker="x", color="r", ms=12, mew=2.5, label="worst case")
     ax.legend(loc="upper right", fontsize=8)
-    ax.set_xlabel(labels[0])
-    ax.set_ylabel(labels[1])
+    ax.set_xlabel(path_label(paths[0], unit))
+    ax.set_ylabel(path_label(paths[1], unit))
     ax.set_title(title or "robust design: margin over the box", fontsize=10)
-    return _save(fig, fmt)
+    fig.tight_layout()
+    return fig
 
 
-#: target → (curve key, axis label, curve label); the target line is the target's own value
-_HW_PANELS = {
-    "stiffness": ("achievable_stiffness", "K* [N/m]", "achievable stiffness K*"),
-    "force_gain": ("achievable_force_gain", "K_f* [-]", "achievable force gain K_f*"),
-    "apparent_mass": ("apparent_mass", "m/(1 + K_f*) [kg]", "achievable apparent mass"),
-}
+def plot_robust_slice(xs, ys, margin, worst_xy, required_db: float, labels: tuple[str, str], fmt: str = "png",
+                      title: str | None = None, unit: Units = TRANSLATIONAL) -> bytes:
+    return _save(robust_slice_figure(xs, ys, margin, worst_xy, required_db, labels, title, unit), fmt)
 
 
-def plot_hardware(design: HardwareDesign, target: HardwareTarget, fmt: str = "png") -> bytes:
-    """One panel per target given (stiffness; force gain or apparent mass), sharing the free parameter's axis."""
+def _hw_panels(unit: Units) -> dict[str, tuple[str, str, str]]:
+    """target → (curve key, axis label, curve label); the target line is the target's own value."""
+    return {
+        "stiffness": ("achievable_stiffness", f"$K^*$ [{unit.stiffness}]", "achievable stiffness $K^*$"),
+        "force_gain": ("achievable_force_gain", "$K_f^*$ [-]", "achievable force gain $K_f^*$"),
+        "apparent_mass": ("apparent_mass", f"$m/(1 + K_f^*)$ [{unit.mass}]", "achievable apparent mass"),
+    }
+
+
+def plot_hardware(design: HardwareDesign, target: HardwareTarget, fmt: str = "png", title: str = "",
+                  unit: Units = TRANSLATIONAL) -> bytes:
+    return _save(hardware_figure(design, target, title, unit), fmt)
+
+
+def hardware_figure(design: HardwareDesign, target: HardwareTarget, title: str = "",
+                    unit: Units = TRANSLATIONAL) -> Figure:
+    """One panel per target given (stiffness; force gain or apparent mass), sharing the free parameter's axis;
+    ``title`` names the device (its first line)."""
     names = target.names
+    panels = _hw_panels(unit)
+    scale = path_scale(f"device.{design.free}")
     fig = Figure(figsize=(7, 3.2 + 2.3 * len(names)), dpi=100)
     FigureCanvasAgg(fig)
     axes = fig.subplots(len(names), 1, sharex=True, squeeze=False)[:, 0]
-    q = np.array([p["value"] for p in design.curve])
+    q = np.array([p["value"] for p in design.curve]) * scale
     for ax, name in zip(axes, names):
-        key, ylabel, label = _HW_PANELS[name]
+        key, ylabel, label = panels[name]
         v = np.array([np.nan if p[key] is None else p[key] for p in design.curve], dtype=float)
         shown = np.where((v > 0) & np.isfinite(v), v, np.nan)
         ax.plot(q, shown, "-o", ms=3, lw=1.2, label=label)
         ax.axhline(getattr(target, name), color="tab:red", lw=1, ls="--", label="target")
         for lo, hi in design.intervals:
-            ax.axvspan(lo, hi, color="tab:green", alpha=0.12)
+            ax.axvspan(lo * scale, hi * scale, color="tab:green", alpha=0.12)
         if design.value is not None:
-            ax.axvline(design.value, color="k", lw=1, label=f"loosest {design.free} = {design.value:.4g}")
+            ax.axvline(design.value * scale, color="k", lw=1,
+                       label=f"loosest {path_label(f'device.{design.free}', unit)} = {design.value * scale:.4g}")
         positive = shown[np.isfinite(shown)]   # empty when no design was scanned or none is stable
         if positive.size and positive.max() / positive.min() > 20:
             ax.set_yscale("log")
@@ -99,8 +121,10 @@ def plot_hardware(design: HardwareDesign, target: HardwareTarget, fmt: str = "pn
     if not design.curve and design.reason:
         axes[0].text(0.5, 0.5, design.reason, transform=axes[0].transAxes, ha="center", va="center", wrap=True,
                      fontsize=8)
-    axes[-1].set_xlabel(design.free)
+    axes[-1].set_xlabel(path_label(f"device.{design.free}", unit))
     limit = f", limited by {design.limiting_target}" if design.limiting_target else ""
-    axes[0].set_title(f"hardware trade-off: {design.status}{limit}" + (
+    head = f"{title}\n" if title else ""
+    axes[0].set_title(head + f"hardware trade-off: {design.status}{limit}" + (
         "" if design.matters else " (the parameter does not matter)"), fontsize=10)
-    return _save(fig, fmt)
+    fig.tight_layout()
+    return fig

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import asdict
 from typing import Annotated
 
@@ -37,11 +36,6 @@ def field_error(exc: ValueError, prefix: str = "") -> InputError:
     return InputError("device", str(exc))
 
 
-def _finite_or_null(answer: dict) -> dict:
-    """Top-level non-finite floats become null (JSON has no inf/NaN); each such field says so in the schema."""
-    return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in answer.items()}
-
-
 _STABILITY_EXAMPLES = {
     **device_examples(),
     "margin-of-a-wall": {"summary": "gain margin and passivity of K = 3500 N/m, B = 5 N·s/m with 1 ms delay",
@@ -64,7 +58,7 @@ async def stability(req: Annotated[StabilityRequest, Body(openapi_examples=_STAB
                                  cost_ms=stability_cost_ms(req.device, req.method, b, req.grid_points))
     except ValueError as exc:
         raise field_error(exc) from exc
-    out = _finite_or_null(asdict(res))
+    out = asdict(res)   # non-finite numbers answer null (FiniteModel)
     if req.verify:   # only when asked: the fast path does no extra work
         out["verification"] = verification_out(await compute.arun(verify_analysis, req.device, res,
                                                            cost_ms=verify_cost_ms(req.device)))
@@ -80,16 +74,10 @@ async def boundary(req: Annotated[BoundaryRequest, Body(openapi_examples=device_
                                  cost_ms=boundary_cost_ms(req.device, req.points))
     except ValueError as exc:
         raise field_error(exc) from exc
-
-    def clean(p):
-        d = asdict(p)
-        if d["critical_stiffness"] is not None and not math.isfinite(d["critical_stiffness"]):
-            d["critical_stiffness"] = None
-        return d
     verification = None
     if req.verify:
         verification = verification_out(await compute.arun(verify_boundary, req.device, res,
                                                     cost_ms=(req.points + 1) * verify_cost_ms(req.device)))
-    return BoundaryResponse(points=[clean(p) for p in res.points], optimum=clean(res.optimum),
+    return BoundaryResponse(points=[asdict(p) for p in res.points], optimum=asdict(res.optimum),
                             max_stable_damping=res.max_stable_damping, method="exact", elapsed_ms=res.elapsed_ms,
                             verification=verification)

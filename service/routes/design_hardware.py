@@ -15,7 +15,6 @@ from service.executor import BoundedExecutor, Compute
 from service.schemas.design_hardware import HardwareDesignRequest, HardwareDesignResponse
 from service.schemas.verification import verification_out
 
-from .design_stiffness import _finite
 
 router = APIRouter()
 
@@ -44,7 +43,7 @@ async def design_hardware_route(request: HardwareDesignRequest, compute: Compute
         return HardwareDesignResponse(status="failed", free=request.free,
                                       direction=loose_direction(request.free, hardware_target(request)),
                                       reason=f"solver trouble: {exc}", elapsed_ms=(time.perf_counter() - t0) * 1e3)
-    data = _finite(dataclasses.asdict(design))
+    data = dataclasses.asdict(design)   # non-finite numbers answer null (FiniteModel)
     if request.verify and design.status == "optimal":
         v = await compute.arun(verify_hardware_design, request.device, request.free, design.value,
                                design.controller, cost_ms=None)

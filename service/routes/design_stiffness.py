@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 import time
 
 from fastapi import APIRouter
@@ -24,15 +23,6 @@ from service.schemas.verification import verification_out
 router = APIRouter()
 
 
-def _finite(value):
-    """JSON has no inf/NaN: a non-finite number becomes null (its reason travels beside it)."""
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if isinstance(value, dict):
-        return {k: _finite(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_finite(v) for v in value]
-    return value
 
 
 @router.post("/v1/design/stiffness", response_model=StiffnessDesignResponse, tags=["design"])
@@ -57,7 +47,7 @@ async def design_stiffness_route(request: StiffnessDesignRequest, compute: Compu
     except (RuntimeError, ArithmeticError, ValueError) as exc:   # CasADi raises RuntimeError on solver trouble
         return StiffnessDesignResponse(status="failed", reason=f"solver trouble: {exc}",
                                        elapsed_ms=(time.perf_counter() - t0) * 1e3)
-    data = _finite(plain(design))
+    data = plain(design)   # non-finite numbers answer null (FiniteModel)
     if request.verify and design.stiffness is not None and design.damping is not None:
         # the margin and (when required) the passivity the design claims, checked by the closed loop
         passive = True if req.passivity else None
@@ -90,7 +80,7 @@ async def _robust(request: StiffnessDesignRequest, req: StiffnessRequirements, t
     except (RuntimeError, ArithmeticError, ValueError) as exc:   # numerical trouble, as the nominal design
         return StiffnessDesignResponse(status="failed", reason=f"solver trouble: {exc}", robust=True,
                                        elapsed_ms=(time.perf_counter() - t0) * 1e3)
-    data = _finite(plain(d))
+    data = plain(d)
     data.pop("nominal_critical_stiffness", None)
     worst = data.get("worst_case") or {}
     data["critical_stiffness"] = worst.get("critical_stiffness")

@@ -25,10 +25,6 @@ from ..schemas.feedforward import (ForceFeedforwardRequest, ForceFeedforwardResp
 router = APIRouter(tags=["transparency"])
 
 
-def _finite(x: float | None) -> float | None:
-    return x if x is not None and math.isfinite(x) else None
-
-
 def _field_error(exc: ValueError, prefix: str = "") -> InputError:
     """An InputError located in the body (its field under ``prefix`` unless it already starts at device or
     requirements); any other ValueError of the analysis is about the device."""
@@ -53,7 +49,7 @@ async def force_feedforward(req: ForceFeedforwardRequest, compute: Compute) -> F
                                         cost_ms=force_feedforward_cost_ms(dev, req.method, req.grid_points))
     except ValueError as exc:
         raise _field_error(exc, "filter.") from exc
-    kcr = _finite(res.critical_force_gain)
+    kcr = res.critical_force_gain
     notes = _human_notes(res.human_source)
     optimistic = None
     if rigid is not None:
@@ -71,10 +67,10 @@ async def force_feedforward(req: ForceFeedforwardRequest, compute: Compute) -> F
         crossovers=[{"frequency": c.frequency, "force_gain": c.force_gain} for c in res.crossovers],
         worst_case_force_gain=res.worst_case_force_gain,
         apparent_mass_at_critical=apparent_mass(dev, kcr) if kcr is not None else None,
-        model="cable" if dev.cable else "rigid", rigid_critical_force_gain=_finite(rigid), rigid_optimistic=optimistic,
+        model="cable" if dev.cable else "rigid", rigid_critical_force_gain=rigid, rigid_optimistic=optimistic,
         human=res.human.model_dump(), human_source=res.human_source,
         force_sensor_time_constant=dev.force_sensor.time_constant if dev.force_sensor else 0.0,
-        method=res.method, elapsed_ms=(time.perf_counter() - start) * 1e3, error_estimate=_finite(res.error_estimate),
+        method=res.method, elapsed_ms=(time.perf_counter() - start) * 1e3, error_estimate=res.error_estimate,
         error_source=res.error_source, reason=res.reason, notes=notes, verification=verification)
 
 
@@ -115,9 +111,9 @@ async def inertia(req: InertiaRequest, compute: Compute) -> InertiaResponse:
             verify_critical_force_gain, req.device, human, critical, d.filter_order, d.filter_cutoff_hz,
             design_gain=d.force_gain, cost_ms=verify_cost_ms(req.device)))
     return InertiaResponse(
-        status=d.status, objective=d.objective, force_gain=_finite(d.force_gain),
-        filter_cutoff_hz=d.filter_cutoff_hz, filter_order=d.filter_order, apparent_mass=_finite(d.apparent_mass),
-        critical_force_gain=_finite(d.critical_force_gain), gain_margin_db=_finite(d.gain_margin_db),
+        status=d.status, objective=d.objective, force_gain=d.force_gain,
+        filter_cutoff_hz=d.filter_cutoff_hz, filter_order=d.filter_order, apparent_mass=d.apparent_mass,
+        critical_force_gain=d.critical_force_gain, gain_margin_db=d.gain_margin_db,
         crossover_frequency=d.crossover_frequency, cutoff_band_hz=d.cutoff_band_hz,
         cutoff_max_source=d.cutoff_max_source,
         pareto=_pareto_out(d),
@@ -129,8 +125,8 @@ async def inertia(req: InertiaRequest, compute: Compute) -> InertiaResponse:
 
 def _pareto_out(d) -> list[dict]:
     """The design's exact scan of the band, non-finite values as null."""
-    return [{"filter_cutoff_hz": p.filter_cutoff_hz, "critical_force_gain": _finite(p.critical_force_gain),
-             "force_gain": _finite(p.force_gain), "apparent_mass": _finite(p.apparent_mass)} for p in d.pareto]
+    return [{"filter_cutoff_hz": p.filter_cutoff_hz, "critical_force_gain": p.critical_force_gain,
+             "force_gain": p.force_gain, "apparent_mass": p.apparent_mass} for p in d.pareto]
 
 
 def _rigid_out(d, notes: list[str], who: str) -> dict | None:
@@ -141,8 +137,8 @@ def _rigid_out(d, notes: list[str], who: str) -> dict | None:
     if rm.optimistic:
         notes.append(f"{who} is optimistic: it claims K_f,cr = {rm.critical_force_gain:.4g} at this cutoff, "
                      f"{100 * rm.optimism:.0f} % above the cable model's {d.critical_force_gain:.4g}")
-    return {"critical_force_gain": _finite(rm.critical_force_gain), "force_gain": _finite(rm.force_gain),
-            "optimism": _finite(rm.optimism), "optimistic": rm.optimistic}
+    return {"critical_force_gain": rm.critical_force_gain, "force_gain": rm.force_gain,
+            "optimism": rm.optimism, "optimistic": rm.optimistic}
 
 
 async def _robust_inertia(req: InertiaRequest, spec: InertiaRequirements, compute: Compute) -> InertiaResponse:
@@ -166,9 +162,9 @@ async def _robust_inertia(req: InertiaRequest, spec: InertiaRequirements, comput
                      "whole box")
     rigid = _rigid_out(d, notes, "the rigid model of the worst device")
     return InertiaResponse(
-        status=d.status, objective=d.objective, force_gain=_finite(d.force_gain), filter_cutoff_hz=d.filter_cutoff_hz,
-        filter_order=d.filter_order, apparent_mass=_finite(d.apparent_mass),
-        critical_force_gain=_finite(d.critical_force_gain), gain_margin_db=_finite(d.gain_margin_db),
+        status=d.status, objective=d.objective, force_gain=d.force_gain, filter_cutoff_hz=d.filter_cutoff_hz,
+        filter_order=d.filter_order, apparent_mass=d.apparent_mass,
+        critical_force_gain=d.critical_force_gain, gain_margin_db=d.gain_margin_db,
         crossover_frequency=(d.worst_case or {}).get("crossover_frequency"),
         cutoff_band_hz=d.cutoff_band_hz or (spec.cutoff_min_hz, spec.cutoff_min_hz),
         cutoff_max_source="requirements" if spec.cutoff_max_hz is not None else
@@ -176,6 +172,6 @@ async def _robust_inertia(req: InertiaRequest, spec: InertiaRequirements, comput
         pareto=_pareto_out(d),
         humans=[human.model_dump()], worst_human=None, human_source=source, rigid_model=rigid,
         solver=dict(d.solver), reason=d.reason, notes=notes, elapsed_ms=d.elapsed_ms, robust=True,
-        worst_case=d.worst_case, nominal_gain_margin_db=_finite(d.nominal_gain_margin_db),
+        worst_case=d.worst_case, nominal_gain_margin_db=d.nominal_gain_margin_db,
         apparent_mass_range=d.apparent_mass_range, scenarios=list(d.scenarios), iterations=d.iterations,
         evaluations=d.evaluations)

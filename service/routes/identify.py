@@ -3,12 +3,9 @@
 from __future__ import annotations
 
 import dataclasses
-import math
 import time
-from typing import Literal
-
 import numpy as np
-from fastapi import APIRouter, Query
+from fastapi import APIRouter
 from fastapi.responses import Response
 
 from optim.errors import InputError
@@ -18,17 +15,9 @@ from ..executor import Compute
 from ..jobs import identify_plot_job
 from ..plots_identification import MEDIA_TYPES
 from ..schemas.identify import IdentifyRequest, IdentifyResponse
+from ..schemas.plots import FormatQuery, image_format
 
 router = APIRouter(tags=["identification"])
-
-def _finite(value):
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if isinstance(value, dict):
-        return {k: _finite(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_finite(v) for v in value]
-    return value
 
 
 def _data(req: IdentifyRequest) -> TimeSeriesData | FrequencyResponseData:
@@ -59,7 +48,7 @@ def response_of(res: IdentificationResult) -> IdentifyResponse:
     out["warnings"] = list(out["warnings"])
     out["parameters"] = {k: {"value": p["value"], "std_error": p["std_error"], "interval": list(p["interval"])}
                          for k, p in out["parameters"].items()}
-    return IdentifyResponse(**_finite(out))
+    return IdentifyResponse(**out)   # non-finite numbers answer null (FiniteModel)
 
 
 @router.post("/v1/identify", response_model=IdentifyResponse)
@@ -73,8 +62,8 @@ async def identify_route(req: IdentifyRequest, compute: Compute) -> IdentifyResp
 @router.post("/v1/plots/identify", response_class=Response, tags=["plots"],
              responses={200: {"content": {"image/png": {}, "image/svg+xml": {}}}})
 async def identify_plot(req: IdentifyRequest, compute: Compute,
-                        format: Literal["png", "svg"] | None = Query(None)) -> Response:  # noqa: A002
-    fmt = format or req.format
+                        format: FormatQuery = None) -> Response:  # noqa: A002
+    fmt = image_format(format, req.format)
     # fitted and drawn in the worker, under the request time budget (the drawing is part of the cost)
     image = await compute.arun(identify_plot_job, _data(req), req.model, req.known, req.friction, req.confidence,
                                req.max_delay, fmt, cost_ms=None)

@@ -1,4 +1,4 @@
-"""POST /v1/plots/boundary and /v1/plots/bode: PNG or SVG figures of the numerics' results."""
+"""POST /v1/plots/boundary and /v1/plots/bode?format=png|svg: PNG or SVG figures of the numerics' results."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from fastapi.responses import Response
 from ..executor import Compute
 from ..plots import MEDIA_TYPES, bode_plot, boundary_plot
 from ..schemas.common import device_examples
-from ..schemas.plots import BodePlotRequest, BoundaryPlotRequest
+from ..schemas.plots import BodePlotRequest, BoundaryPlotRequest, FormatQuery, image_format
 from .analysis import field_error
 
 router = APIRouter(prefix="/v1/plots", tags=["plots"])
@@ -22,25 +22,27 @@ _IMAGE = {200: {"description": "the figure", "content": {
 
 @router.post("/boundary", response_class=Response, responses=_IMAGE, operation_id="plot_boundary",
              summary="Figure of the stability boundary K_cr(B) with its optimum (PNG or SVG)")
-async def plot_boundary(req: Annotated[BoundaryPlotRequest, Body(openapi_examples=device_examples(points=20, format="svg"))],
-                  compute: Compute) -> Response:
+async def plot_boundary(req: Annotated[BoundaryPlotRequest, Body(openapi_examples=device_examples(points=20))],
+                        compute: Compute, format: FormatQuery = None) -> Response:  # noqa: A002
+    fmt = image_format(format, req.format)
     try:
         # Computed and drawn in a compute worker under the budget: the drawing costs more than the numerics.
-        image = await compute.arun(boundary_plot, req.device, req.damping_max, req.points, req.format,
+        image = await compute.arun(boundary_plot, req.device, req.damping_max, req.points, fmt,
                                    cost_ms=None)
     except ValueError as exc:
         raise field_error(exc) from exc
-    return Response(image, media_type=MEDIA_TYPES[req.format])
+    return Response(image, media_type=MEDIA_TYPES[fmt])
 
 
 @router.post("/bode", response_class=Response, responses=_IMAGE, operation_id="plot_bode",
              summary="Bode diagram of the sampled loop with the crossovers of K_cr(B) marked (PNG or SVG)")
-async def plot_bode(req: Annotated[BodePlotRequest, Body(openapi_examples=device_examples(format="svg"))],
-              compute: Compute) -> Response:
+async def plot_bode(req: Annotated[BodePlotRequest, Body(openapi_examples=device_examples())],
+                    compute: Compute, format: FormatQuery = None) -> Response:  # noqa: A002
+    fmt = image_format(format, req.format)
     b = req.controller.damping if req.controller else 0.0
     k = req.controller.stiffness if req.controller else None
     try:
-        image = await compute.arun(bode_plot, req.device, b, req.points, k, req.format, cost_ms=None)
+        image = await compute.arun(bode_plot, req.device, b, req.points, k, fmt, cost_ms=None)
     except ValueError as exc:
         raise field_error(exc) from exc
-    return Response(image, media_type=MEDIA_TYPES[req.format])
+    return Response(image, media_type=MEDIA_TYPES[fmt])

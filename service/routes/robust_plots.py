@@ -2,9 +2,8 @@
 
 from __future__ import annotations
 
-from typing import Literal
 
-from fastapi import APIRouter, Query
+from fastapi import APIRouter
 from fastapi.responses import Response
 from pydantic import BaseModel, ConfigDict, Field
 
@@ -13,6 +12,7 @@ from optim.stiffness import StiffnessRequirements
 
 from optim.errors import InputError
 from ..executor import Compute
+from ..schemas.plots import FormatQuery, image_format
 from ..jobs import hardware_plot_job, robust_slice_job
 from ..plots_robust import MEDIA_TYPES
 from ..schemas.design_hardware import HardwareDesignRequest
@@ -33,7 +33,8 @@ class RobustPlotRequest(StiffnessDesignRequest):
 
 @router.post("/v1/plots/robust", response_class=Response, responses=_IMAGE)
 async def robust_plot(req: RobustPlotRequest, compute: Compute,
-                format: Literal["png", "svg"] = Query("png")) -> Response:  # noqa: A002
+                format: FormatQuery = None) -> Response:  # noqa: A002
+    format = image_format(format)  # noqa: A001
     unc = req.requirements.uncertainty
     if not unc:
         raise InputError("requirements.uncertainty", "the robust plot needs at least one uncertain path")
@@ -61,7 +62,8 @@ async def robust_plot(req: RobustPlotRequest, compute: Compute,
 
 @router.post("/v1/plots/hardware", response_class=Response, responses=_IMAGE)
 async def hardware_plot(req: HardwareDesignRequest, compute: Compute,
-                        format: Literal["png", "svg"] = Query("png")) -> Response:  # noqa: A002
+                        format: FormatQuery = None) -> Response:  # noqa: A002
+    format = image_format(format)  # noqa: A001
     if req.verify:
         raise InputError("verify", "a plot carries no verification: use POST /v1/design/hardware")
     value_range = None if req.range is None else (req.range.min, req.range.max)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 import time
 
 from typing import TYPE_CHECKING, Any, Callable
@@ -26,10 +25,6 @@ if TYPE_CHECKING:
 router = APIRouter(tags=["simulation"])
 
 
-def _finite(x: float | None) -> float | None:
-    return None if x is None or not math.isfinite(x) else float(x)
-
-
 def _field_error(exc: ValueError) -> InputError:
     """An InputError names its field; any other ValueError of the simulator is about the scene."""
     return exc if isinstance(exc, InputError) else InputError("scene", str(exc))
@@ -50,7 +45,7 @@ async def run_scene(device: Device, scene: Scene, compute: BoundedExecutor, job:
 def _cycle(c) -> dict:
     return {"pattern": list(c.pattern), "period_samples": c.period_samples, "frequency": c.frequency,
             "force_amplitude": c.force_amplitude, "position_amplitude": c.position_amplitude,
-            "ultimate_gain": _finite(c.ultimate_gain), "admissible": c.admissible, "sign_margin": c.sign_margin}
+            "ultimate_gain": c.ultimate_gain, "admissible": c.admissible, "sign_margin": c.sign_margin}
 
 
 def _runs(ns: list[int]) -> list[list[int]]:
@@ -76,7 +71,7 @@ def _relay_out(rep: "RelayReport") -> dict:
     crit = rep.critical_stiffness
     co = lambda c: {"frequency": c.frequency, "stiffness": c.stiffness}  # noqa: E731
     return {"amplitude": rep.amplitude, "start_position": rep.start_position, "start_velocity": rep.start_velocity,
-            "settled": settled, "reason": rep.reason, "critical_stiffness": _finite(crit.critical_stiffness),
+            "settled": settled, "reason": rep.reason, "critical_stiffness": crit.critical_stiffness,
             "crossovers": [co(c) for c in crit.crossovers],
             "nearest_crossover": co(rep.nearest_crossover) if rep.nearest_crossover else None,
             "ultimate_gain_error": rep.ultimate_gain_error, "cycles": [_cycle(c) for c in rep.cycles],
@@ -87,15 +82,15 @@ def _relay_out(rep: "RelayReport") -> dict:
 
 
 def _measured(m) -> dict:
-    return {"state": m.state, "frequency": _finite(m.frequency), "amplitude": float(m.amplitude),
-            "growth_rate": _finite(m.growth_rate), "reason": m.reason,
-            "decisive_duration": _finite(m.decisive_duration)}
+    return {"state": m.state, "frequency": m.frequency, "amplitude": float(m.amplitude),
+            "growth_rate": m.growth_rate, "reason": m.reason,
+            "decisive_duration": m.decisive_duration}
 
 
 def _poles(p, linearised: bool) -> dict:
     dom = {"modulus": p.dominant_modulus, "angle": p.dominant_angle, "frequency": p.dominant_frequency,
-           "growth_rate": _finite(p.growth_rate)}
-    return {"state": p.state, "spectral_radius": p.spectral_radius, "dominant_pole": dom, "rounding": _finite(p.rounding),
+           "growth_rate": p.growth_rate}
+    return {"state": p.state, "spectral_radius": p.spectral_radius, "dominant_pole": dom, "rounding": p.rounding,
             "states": p.states, "free_position_pole": p.free_position_pole, "linearised": linearised,
             "method": p.method, "reason": p.reason}
 
@@ -104,8 +99,8 @@ def verdict_out(res: SimulationResult) -> dict:
     """The verdict block: the answer (its old fields unchanged) plus the measured verdict, the poles and any
     disagreement (models/simulation/verdict.py)."""
     j, v = res.judgement, res.verdict
-    return {"state": v.state, "frequency": _finite(v.frequency), "amplitude": float(v.amplitude),
-            "growth_rate": _finite(v.growth_rate), "reason": v.reason, "decided_by": j.decided_by,
+    return {"state": v.state, "frequency": v.frequency, "amplitude": float(v.amplitude),
+            "growth_rate": v.growth_rate, "reason": v.reason, "decided_by": j.decided_by,
             "measured": _measured(j.measured), "poles": _poles(j.poles, j.poles_linearised) if j.poles else None,
             "poles_note": j.poles_note, "disagreement": j.disagreement}
 

@@ -18,6 +18,8 @@ from optim.studies.problems import StudyInputError
 
 from ..errors import StoreUnavailable
 from ..executor import Compute
+from ..plot_labels import base_device_title
+from ..schemas.plots import FormatQuery, image_format
 from ..schemas.studies import StudyCreated, StudyList, StudyRequest, StudyResults, StudyStatus
 from ..studies.export import columns, csv_chunks, flat_row, parquet_bytes, scan_columns
 from ..studies.lifespan import study_lifespan
@@ -179,8 +181,9 @@ def study_results(study_id: str, request: Request, format: Literal["json", "csv"
     "image/png": {"schema": {"type": "string", "format": "binary"}},
     "image/svg+xml": {"schema": {"type": "string", "format": "binary"}}}}})
 async def study_plot(study_id: str, request: Request, compute: Compute, y: str, x: str, x2: str | None = None,
-                     format: Literal["png", "svg"] = "png") -> Response:
+                     format: FormatQuery = None) -> Response:  # noqa: A002
     """Result ``y`` against swept ``x`` (line) or against ``x`` and ``x2`` (heatmap)."""
+    format = image_format(format)  # noqa: A001
     runner = _runner(request)
     row = await run_in_threadpool(_study, runner, study_id)
     paths = list(row["request"].get("sweep", {}))
@@ -194,8 +197,10 @@ async def study_plot(study_id: str, request: Request, compute: Compute, y: str, 
     sweep = row["request"].get("sweep", {})
     log_paths = {p: spec.get("scale") == "log" for p, spec in sweep.items() if isinstance(spec, dict)}
     try:  # read and drawn in a compute worker, under the request time budget
-        image = await compute.arun(plot_study, runner.store.url, study_id, paths, y, x, x2, format,
-                                   f"{row['problem']} study {study_id[:8]}: {y}", log_paths, cost_ms=None)
+        device = row["request"].get("base", {}).get("device") or {}
+        title = f"{row['problem']} study {study_id[:8]}: {y}\n{base_device_title(device, paths)}"
+        image = await compute.arun(plot_study, runner.store.url, study_id, paths, y, x, x2, format, title,
+                                   log_paths, device, cost_ms=None)
     except InputError as exc:
         raise _invalid(["query", exc.field], exc.rule) from None
     return Response(image, media_type="image/png" if format == "png" else "image/svg+xml")

@@ -11,6 +11,7 @@ from optim.stability.boundary import MAX_BOUNDARY_POINTS
 
 from .common import LHIFAM_RIGID, STRICT, Controller, CrossoverOut, Device
 from .verification import VerificationOut, VerifyField
+from .finite import FiniteModel
 
 
 class StabilityRequest(BaseModel):
@@ -27,7 +28,7 @@ class StabilityRequest(BaseModel):
     verify: bool = VerifyField()
 
 
-class StabilityResponse(BaseModel):
+class StabilityResponse(FiniteModel):
     critical_stiffness: float | None = Field(description="K_cr(B) [N/m]; 0 when no K > 0 is stable; null when every K is")
     crossover_frequency: float | None = Field(description="ω [rad/s] of the crossover that sets K_cr")
     crossovers: list[CrossoverOut] = Field(description="every phase crossover with K > 0")
@@ -70,7 +71,7 @@ class BoundaryPointOut(BaseModel):
     linear_estimate: float = Field(description="eq. 10 [N/m]")
 
 
-class BoundaryResponse(BaseModel):
+class BoundaryResponse(FiniteModel):
     points: list[BoundaryPointOut]
     optimum: BoundaryPointOut = Field(description="the B allowing the stiffest stable wall")
     max_stable_damping: float | None = Field(description="B_max [N·s/m]")

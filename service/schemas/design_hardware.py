@@ -13,6 +13,7 @@ from optim.hardware.hardware_targets import HardwareTarget
 
 from .common import Device  # the numerics' validated domain (optim.domain) applies
 from .verification import VerificationOut, VerifyField
+from .finite import FiniteModel
 
 __all__ = ["HardwareTargetIn", "ValueRangeIn", "HardwareDesignRequest", "HardwareDesignResponse", "CurvePoint", "EdgeOut",
            "ControllerOut"]
@@ -123,7 +124,7 @@ class ControllerOut(BaseModel):
     force_gain_margin_db: float | None = Field(None, description="20·log10(K_f,cr/force_gain) [dB]")
 
 
-class HardwareDesignResponse(BaseModel):
+class HardwareDesignResponse(FiniteModel):
     status: Literal["optimal", "infeasible", "failed"]
     free: str
     direction: Literal["max", "min"] = Field(description="the direction in which the hardware gets looser")

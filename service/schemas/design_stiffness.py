@@ -12,6 +12,7 @@ from .common import Device  # the numerics' validated domain (optim.domain) appl
 
 from .ladder import ExactCheckOut, GridPointsField, Method, MethodField
 from .verification import VerificationOut, VerifyField
+from .finite import FiniteModel
 
 __all__ = ["StiffnessRequirementsIn", "StiffnessDesignRequest", "SensitivityOut", "StiffnessDesignResponse",
            "RangeIn", "WorstCaseOut", "PassivityWorstCaseOut"]
@@ -117,7 +118,7 @@ class PassivityWorstCaseOut(BaseModel):
     worst_angle: float | None = Field(None, description="θ = ωT where P is largest [rad per sample]")
 
 
-class StiffnessDesignResponse(BaseModel):
+class StiffnessDesignResponse(FiniteModel):
     status: Literal["optimal", "infeasible", "failed"]
     stiffness: float | None = Field(None, description="K [N/m]")
     damping: float | None = Field(None, description="B [N·s/m]")

@@ -15,6 +15,7 @@ from .common import STRICT, Device
 from .design_stiffness import RangeIn
 from .verification import VerificationOut, VerifyField
 from .ladder import ExactCheckOut, GridPointsField, Method, MethodField
+from .finite import FiniteModel
 
 _LHIFAM_FF = {"mass": 5.4, "damping": 3.5, "sample_time": 0.001,
               "human": {"mass": 2, "damping": 2, "stiffness": 10}, "force_sensor": {"time_constant": 0.005}}
@@ -57,7 +58,7 @@ class HumanOut(BaseModel):
     stiffness: float = Field(description="k_h [N/m]")
 
 
-class ForceFeedforwardResponse(BaseModel):
+class ForceFeedforwardResponse(FiniteModel):
     critical_force_gain: float | None = Field(description="K_f,cr (eq. 32/34); null when no K_f > 0 is unstable")
     crossover_frequency: float | None = Field(description="ω [rad/s] of the crossover setting K_f,cr; π/T is Nyquist")
     crossovers: list[ForceCrossoverOut] = Field(description="every phase crossover with K_f > 0")
@@ -162,7 +163,7 @@ class RigidComparisonOut(BaseModel):
     optimistic: bool = Field(description="rigid model optimistic by more than 20 %")
 
 
-class InertiaResponse(BaseModel):
+class InertiaResponse(FiniteModel):
     status: Literal["optimal", "infeasible", "failed"]
     objective: Literal["min_apparent_mass", "target_apparent_mass"]
     force_gain: float | None = Field(description="K_f")

@@ -12,6 +12,7 @@ from optim.identification.data import MAX_RESPONSE_POINTS, MAX_SAMPLES
 from optim.identification.models import response as _response
 
 from .common import STRICT
+from .finite import FiniteModel
 
 __all__ = ["FrequencyResponseIn", "IdentifyRequest", "IdentifyResponse", "TimeSeriesIn"]
 
@@ -70,7 +71,9 @@ class IdentifyRequest(BaseModel):
     max_delay: float | None = Field(None, ge=0, le=1.0,
                                     description="the delay is searched in [0, max_delay] [s], one start per whole "
                                                 "sample (default 20 samples, at most 200)")
-    format: Literal["png", "svg"] = Field("png", description="image format (plot route only)")
+    format: Literal["png", "svg"] | None = Field(
+        None, json_schema_extra={"deprecated": True},
+        description="deprecated: give ?format=png|svg in the query of /v1/plots/identify (the query wins)")
 
 
 class ParameterOut(BaseModel):
@@ -104,7 +107,7 @@ class FitOut(BaseModel):
     starts: int
 
 
-class IdentifyResponse(BaseModel):
+class IdentifyResponse(FiniteModel):
     status: Literal["identified", "failed"]
     model: Literal["rigid", "cable"] | None
     reason: str

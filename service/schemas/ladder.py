@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import math
+from .finite import finite_or_null
 from dataclasses import asdict
 from typing import Literal
 
@@ -37,9 +37,6 @@ class ExactCheckOut(BaseModel):
 
 def rung_fields(info) -> dict:
     """method, error_estimate, error_source, exact_check of an optim.design_ladder.RungInfo, JSON-safe."""
-    err = info.error_estimate
     check = asdict(info.exact_check) if info.exact_check is not None else None
-    if check is not None:
-        check = {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in check.items()}
-    return {"method": info.method, "error_estimate": err if err is not None and math.isfinite(err) else None,
-            "error_source": info.error_source, "exact_check": check}
+    return finite_or_null({"method": info.method, "error_estimate": info.error_estimate,
+                           "error_source": info.error_source, "exact_check": check})

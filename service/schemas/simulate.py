@@ -7,6 +7,7 @@ from typing import Literal
 from pydantic import BaseModel, Field
 
 from .common import STRICT, CrossoverOut, Device, Scene
+from .finite import FiniteModel
 
 __all__ = ["SimulateRequest", "SimulateResponse", "TrajectoryOut", "VerdictOut", "MeasuredVerdictOut", "PolesOut",
            "DominantPoleOut", "CycleOut", "SettledOut",
@@ -139,7 +140,7 @@ class RelayOut(BaseModel):
     notes: list[str]
 
 
-class SimulateResponse(BaseModel):
+class SimulateResponse(FiniteModel):
     effects_simulated: list[str]
     not_simulated: list[str] = Field(description="device blocks left out because the scene does not name them")
     method: str = Field(description="exact-linear-recursion, exact-sampled-loop or event-integrator")

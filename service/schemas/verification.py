@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import math
+from .finite import finite_or_null
 from dataclasses import asdict
 from typing import Literal
 
@@ -46,8 +46,4 @@ class VerificationOut(BaseModel):
 
 def verification_out(v) -> dict:
     """An optim.verification.Verification as JSON-safe data (no inf/NaN)."""
-    def clean(x):
-        if isinstance(x, dict):
-            return {k: clean(val) for k, val in x.items()}
-        return None if isinstance(x, float) and not math.isfinite(x) else x
-    return clean(asdict(v))
+    return finite_or_null(asdict(v))

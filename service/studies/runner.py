@@ -37,6 +37,9 @@ log = logging.getLogger("zwidth.studies")
 _MAX_ATTEMPTS = 3
 _RENEW_EVERY = 5.0  # [s] lease renewal (the lease is store.LEASE_SECONDS)
 _BLOCK = 8192  # points planned (values + hashes) at a time: bounded memory for a 1e6-point study
+#: A chunk is sized to take about this long (from the measured time per point), so that `done` moves at least
+#: this often: a study of slow points advances point by point instead of sitting at 0 for a whole chunk.
+CHUNK_SECONDS = 0.5
 
 
 def plan_from_request(request: dict[str, Any]) -> StudyPlan:
@@ -122,20 +125,38 @@ class StudyRunner:
         except StudyInputError:   # unknown or unavailable: the study fails where it is planned, not here
             return self.chunk_size
 
-    def _blocks(self, plan: StudyPlan, stored: set[str]) -> Iterator[list[tuple[int, str, list[float]]]]:
+    def _points(self, plan: StudyPlan, stored: set[str]) -> Iterator[tuple[int, str, list[float]]]:
+        """The study's points not stored yet, in order (planned _BLOCK at a time)."""
         prefix, paths = plan.digest(), plan.paths
-        chunk: list[tuple[int, str, list[float]]] = []
-        size = self.chunk_size_for(plan.problem)
         for start in range(0, plan.total, _BLOCK):
             for k, row in enumerate(plan.values(start, start + _BLOCK).tolist()):
                 digest = point_hash(prefix, start + k, paths, row)
-                if digest in stored:
-                    continue
-                chunk.append((start + k, digest, row))
-                if len(chunk) == size:
-                    yield chunk
-                    chunk = []
-        if chunk:
+                if digest not in stored:
+                    yield (start + k, digest, row)
+
+    def adaptive_size(self, largest: int, seconds_per_point: float | None, remaining: int, parallel: int) -> int:
+        """Points in the next chunk: one while the time per point is unknown, then what takes CHUNK_SECONDS
+        (at most ``largest``, the configured chunk), and no more than an even share of what is left among the
+        chunks that run in parallel (so the last points spread over the workers and progress keeps moving)."""
+        if seconds_per_point is None:
+            return 1
+        size = largest if seconds_per_point <= 0 else int(CHUNK_SECONDS / seconds_per_point)
+        share = -(-remaining // max(1, parallel))
+        return max(1, min(largest, size, share))
+
+    def _blocks(self, plan: StudyPlan, stored: set[str], pace: dict[str, Any] | None = None,
+                parallel: int = 1) -> Iterator[list[tuple[int, str, list[float]]]]:
+        """Chunks of the points to do; with ``pace`` ({"per_point": seconds or None}, updated by the caller as
+        chunks come back) each chunk is sized by adaptive_size, else every chunk has the configured size."""
+        largest = self.chunk_size_for(plan.problem)
+        remaining = plan.total - len(stored)
+        points = self._points(plan, stored)
+        while True:
+            size = largest if pace is None else self.adaptive_size(largest, pace["per_point"], remaining, parallel)
+            chunk = [p for _, p in zip(range(size), points)]
+            if not chunk:
+                return
+            remaining -= len(chunk)
             yield chunk
 
     def _should_stop(self, study_id: str) -> bool:
@@ -164,9 +185,11 @@ class StudyRunner:
             return
         executor = self._executor()
         args = (plan.problem, dict(plan.device), dict(plan.requirements), [(a.path, a.kind) for a in plan.axes])
-        todo = self._blocks(plan, self.store.stored_hashes(study_id))
-        pending: dict[Any, tuple[list, int]] = {}
         limit = max(1, executor.slots * self.in_flight_per_slot)
+        pace: dict[str, Any] = {"per_point": None}   # seconds per point, measured from the chunks that came back
+        todo = self._blocks(plan, self.store.stored_hashes(study_id), pace, limit)
+        pending: dict[Any, tuple[list, int]] = {}
+        started: dict[Any, float] = {}
         exhausted = False
         last_check = time.monotonic()
         while True:
@@ -180,12 +203,14 @@ class StudyRunner:
                 if rows is None:
                     exhausted = True
                     break
-                pending[executor.submit(evaluate_chunk, *args, rows)] = (rows, 1)
+                fut = executor.submit(evaluate_chunk, *args, rows)
+                pending[fut], started[fut] = (rows, 1), time.monotonic()
             if not pending:
                 break
             done, _ = executor.wait(set(pending), timeout=self.poll)
             for fut in done:
                 rows, attempt = pending.pop(fut)
+                t0 = started.pop(fut, None)
                 try:
                     out = fut.result()
                 except (CancelledError, Exception) as exc:  # noqa: BLE001 - resubmitted or reported below
@@ -198,8 +223,14 @@ class StudyRunner:
                                           owner=self.owner)
                         return
                     log.warning("study %s: chunk failed (%s), resubmitting", study_id, exc)
-                    pending[executor.submit(evaluate_chunk, *args, rows)] = (rows, attempt + 1)
+                    retry = executor.submit(evaluate_chunk, *args, rows)
+                    pending[retry], started[retry] = (rows, attempt + 1), time.monotonic()
                     continue
+                if t0 is not None:
+                    # wall time per point, queueing included (an upper bound: chunks only get smaller for it);
+                    # the slowest recent chunk counts most so a slow region of the sweep shrinks chunks at once
+                    per = (time.monotonic() - t0) / len(rows)
+                    pace["per_point"] = per if pace["per_point"] is None else max(per, 0.5 * pace["per_point"])
                 if self.store.write_chunk(study_id, out, self.owner) is None:
                     self._cancelled.add(study_id)   # cancelled (through any server) or taken over: stop now
                     break

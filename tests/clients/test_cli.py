@@ -69,6 +69,19 @@ def test_analyze_all_presets():
     assert "stability of every preset" in run("analyze", "all").stdout
 
 
+def test_rotary_preset_tables_read_in_rotary_units():
+    """phantom-1.0 is about a joint: its tables say N·m/rad and N·m·s/rad, a linear device's N/m and N·s/m."""
+    from clients.cli_common import ROTARY_PRESETS
+    from models.device import ROTARY_PRESETS as SERVICE_ROTARY
+
+    assert ROTARY_PRESETS == SERVICE_ROTARY   # the client's copy of the service's list
+    text = run("analyze", "phantom-1.0").stdout
+    assert "N·m/rad" in text and "N·m·s/rad" in text and "N/m " not in text.replace("N·m/rad", "")
+    linear = run("analyze", "lhifam").stdout
+    assert "N·m/rad" not in linear and "N/m" in linear
+    assert "phantom-1.0 rotary: N·m/rad" in run("analyze", "all").stdout
+
+
 def test_analyze_an_unstable_wall_exits_1():
     r = run_json("analyze", "lhifam", "--set", "device.cable=null", "--stiffness", "8000", code=1)
     assert r["stable"] is False and r["gain_margin_db"] < 0

@@ -81,3 +81,21 @@ def test_unreadable_request_is_usage(zwidth, tmp_path):
     req.write_text("{not json")
     r = zwidth("run", str(req))
     assert r.exit_code == 2 and "cannot read" in r.output
+
+
+def test_progress_bar_shows_points_rate_and_eta():
+    """The bar's fields come from the service's own rate and ETA (points per second, seconds left)."""
+    from types import SimpleNamespace
+
+    fields = cli_study.progress_fields(SimpleNamespace(rate=12.345, eta_s=75.4))
+    assert fields == {"rate": "12.3 pts/s", "eta": "ETA 1:15"}
+    assert cli_study.progress_fields(SimpleNamespace(rate=None, eta_s=None)) == {"rate": "— pts/s", "eta": "ETA —"}
+    assert cli_study.progress_fields(SimpleNamespace(rate=0.25, eta_s=3725))["eta"] == "ETA 1:02:05"
+
+
+def test_run_bar_names_points(zwidth, tmp_path):
+    req = tmp_path / "study.json"
+    req.write_text(json.dumps(small_study(3)))
+    r = zwidth("run", str(req), "--poll", "0.05")
+    assert r.exit_code == 0, r.output
+    assert "points," in r.output and "pts/s" in r.output and "ETA" in r.output, r.output

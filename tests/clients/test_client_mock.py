@@ -198,7 +198,8 @@ def test_plot_bytes_and_media_type():
     zw, rec = client(lambda r: httpx.Response(200, content=png, headers={"content-type": "image/png"}))
     plot = zw.plot_boundary({"preset": "lhifam"}, points=10)
     assert plot.content == png and plot.media_type == "image/png"
-    assert json.loads(rec.requests[0].content) == {"device": {"preset": "lhifam"}, "points": 10, "format": "png"}
+    assert json.loads(rec.requests[0].content) == {"device": {"preset": "lhifam"}, "points": 10}
+    assert rec.requests[0].url.params["format"] == "png"   # every plot route takes ?format= (docs/clients.md)
     zw.plot_simulation({"preset": "lhifam"}, {"experiment": "release"}, format="svg")
     assert rec.requests[1].url.params["format"] == "svg"
 

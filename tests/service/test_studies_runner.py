@@ -107,3 +107,66 @@ def test_an_unreachable_executor_leaves_the_study_active_with_the_reason(tmp_pat
     row = store.get(sid)
     assert row["status"] == "running" and "Timed out trying to connect" in row["error"]
     assert row["done"] == 0
+
+
+class _Paced:
+    """Threads that evaluate the real chunk, taking ``seconds`` per point (a slow problem, made deterministic)."""
+
+    kind, slots = "paced", 2
+
+    def __init__(self, seconds: float):
+        self.pool = cf.ThreadPoolExecutor(self.slots)
+        self.seconds = seconds
+        self.sizes: list[int] = []
+
+    def submit(self, fn, *args):
+        self.sizes.append(len(args[-1]))
+
+        def run():
+            time.sleep(self.seconds * len(args[-1]))
+            return fn(*args)
+        return self.pool.submit(run)
+
+    wait, cancel, reset = _Failing.wait, _Failing.cancel, _Failing.reset
+
+    def close(self):
+        self.pool.shutdown()
+
+
+def test_progress_moves_per_point_not_per_chunk(tmp_path):
+    """16 points of 0.1 s each with chunks of up to 64: `done` takes intermediate values as results arrive
+    (it used to sit at 0 and jump to 16), and no chunk takes much longer than CHUNK_SECONDS."""
+    from service.studies.runner import CHUNK_SECONDS
+
+    store, sid = _store_with(tmp_path, small_study(8))        # 8 delays × 2 dampings = 16 points
+    executor = _Paced(0.1)
+    runner = StudyRunner(store, lambda: executor, chunk_size=64, poll=0.05)
+    seen = []
+    runner.start()
+    try:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline:
+            row = store.get(sid)
+            seen.append(row["done"])
+            if row["status"] == "done":
+                break
+            time.sleep(0.02)
+    finally:
+        runner.stop()
+        executor.close()
+    row = store.get(sid)
+    assert row["status"] == "done" and row["done"] == row["total"] == 16
+    intermediate = sorted(set(v for v in seen if 0 < v < 16))
+    assert len(intermediate) >= 4, (intermediate, executor.sizes)
+    assert seen == sorted(seen)                                 # never goes back
+    assert executor.sizes[0] == 1 and max(executor.sizes) * 0.1 <= 2 * CHUNK_SECONDS, executor.sizes
+    assert [r["idx"] for r in store.iter_results(sid)] == list(range(16))
+
+
+def test_adaptive_chunk_size():
+    runner = StudyRunner(None, lambda: None, chunk_size=64)
+    assert runner.adaptive_size(64, None, 1000, 4) == 1          # unknown pace: one point
+    assert runner.adaptive_size(64, 0.1, 1000, 4) == 5           # 0.5 s of 0.1 s points
+    assert runner.adaptive_size(64, 1e-5, 1000, 4) == 64         # fast points: the configured chunk
+    assert runner.adaptive_size(64, 1e-5, 12, 4) == 3            # the last points spread over the workers
+    assert runner.adaptive_size(64, 10.0, 1000, 4) == 1
