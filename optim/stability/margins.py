@@ -22,11 +22,12 @@ from typing import Literal
 import numpy as np
 
 from models.device import Device
-from models.discretize import RigidZOH
+from models.discretize import RigidZOH, StateSpaceZOH
 from models.plants import stiffness_loop_plant
 
 from optim.stability.crossovers import Crossing, positive_real_crossings, scan_grid
 from optim.errors import InputError
+from optim.stability.fast_cable import bounded_min_crossing
 from optim.stability.fast_rigid import fast_beta_max, fast_rigid, rigid_crossovers
 
 __all__ = ["Crossover", "CriticalStiffness", "critical_stiffness", "scan_critical_stiffness", "max_stable_damping",
@@ -43,7 +44,7 @@ class Crossover:
     """K [N/m or N·m/rad] giving a closed-loop pole at e^{jωT}."""
 
 
-Path = Literal["fast", "scan"]
+Path = Literal["fast", "bounded-scan", "scan"]
 
 
 @dataclass(frozen=True)
@@ -63,8 +64,10 @@ class CriticalStiffness:
     reason: str | None = None
     method: str = "exact"
     path: Path = "scan"
-    """"fast": closed-form brackets and Newton (optim.stability.fast_rigid), no scan; "scan": every crossover of a
-    frequency scan (optim.stability.crossovers), the fallback wherever the fast path's bounds do not close."""
+    """"fast": closed-form brackets and Newton (optim.stability.fast_rigid), no scan; "bounded-scan" (cable
+    devices): the scan's grid and brackets, only the brackets a bound on |H| cannot exclude solved
+    (optim.stability.fast_cable); "scan": every crossover of a frequency scan (optim.stability.crossovers), the
+    fallback wherever the other paths' bounds do not close."""
 
     def __getstate__(self) -> dict:
         # results travel pickled between processes (service.jobs): send the list, never the closure
@@ -159,7 +162,36 @@ def critical_stiffness(device: Device, damping: float = 0.0, *, b_max: float | N
         fast = _fast(device, plant, damping, b_max)
         if fast is not None:
             return fast
+    elif isinstance(plant, StateSpaceZOH) and plant.modal_form() is not None:
+        return _bounded(device, plant, damping, b_max)
     return scan_critical_stiffness(device, damping, b_max=b_max)
+
+
+def _bounded(device: Device, plant: StateSpaceZOH, damping: float, b_max: float | None) -> CriticalStiffness:
+    """The cable's bounded scan (optim.stability.fast_cable): same grid and brackets as the scan, fewer solves."""
+    beta = damping / device.damping_scale
+    if damping > 0.0:
+        b_max = max_stable_damping(device) if b_max is None else b_max
+        if damping >= b_max:
+            return CriticalStiffness(0.0, None, (), damping, b_max, reason=_dead_reason(damping, b_max),
+                                     path="bounded-scan")
+    else:
+        b_max = None
+
+    def h(theta: np.ndarray) -> np.ndarray:
+        return -plant.inverse_response(theta) + beta * np.expm1(-1j * theta)
+
+    best = bounded_min_crossing(h, plant.modal_form(), plant.d, beta, _grid(device, plant, beta))
+
+    def every() -> tuple[Crossover, ...]:
+        return scan_critical_stiffness(device, damping, b_max=b_max).crossovers
+
+    if best is None:
+        return CriticalStiffness(math.inf, None, (), damping, b_max, path="bounded-scan",
+                                 reason="no phase crossover: every positive stiffness is stable")
+    theta, alpha = best
+    return CriticalStiffness(alpha * device.stiffness_scale, theta / device.sample_time, every, damping, b_max,
+                             path="bounded-scan")
 
 
 def _fast(device: Device, plant: RigidZOH, damping: float, b_max: float | None) -> CriticalStiffness | None:
