@@ -13,9 +13,10 @@ nothing is lost in detection) and skips solving the brackets that cannot hold th
 * So any root in [a, b] has K = |H| ≥ 1/U − 2β sin(b/2) (padded by 1e-6 relative for the modal form's own
   rounding, ≤ cond(V)·ε ≤ 1e-12).
 
-The brackets are solved (a safeguarded Newton on Im H with its analytic derivative, all at once) in order of
-that bound until the smallest K found is below every unsolved bracket's bound; the binding K is then Re H at
-its root by the scan's own formula.  The scan's near-tangency search, exact zeros on samples and Nyquist point
+The bracket of the lowest bound is solved first, then at once every other one whose bound is below the K found,
+by the scan's own solver (Illinois to 4 ulp, elementwise: the same root as the full scan); K is Re H there by
+the scan's own formula.  (A Newton solver on Im H, _newton below, converges in ~4 steps but moved K by up to
+4e-12 where K is ill-conditioned in θ, so it is not used for the answer.)  The scan's near-tangency search, exact zeros on samples and Nyquist point
 are kept as they are.  ``path = "bounded-scan"``; where the modal form is missing (ill-conditioned V) the
 caller runs the full scan.  The crossover list is the full scan's, computed on first use only.
 """
@@ -26,7 +27,7 @@ import math
 
 import numpy as np
 
-from optim.stability.crossovers import _refine, _tangential_pairs
+from optim.stability.crossovers import _refine, _solve_brackets, _tangential_pairs
 
 __all__ = ["bounded_min_crossing", "modal_bound"]
 
@@ -59,7 +60,7 @@ def modal_bound(modal, beta: float, a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def _h_and_slope(modal, d: int, beta: float, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(Im H, d Im H/dθ) at t from the modal form."""
+    """(H, dH/dθ) at t from the modal form."""
     lam, c1, c2v, e12v, r0, r1, g0_1, g1_1 = modal
     z = np.exp(1j * t)
     w = np.expm1(1j * t)
@@ -79,7 +80,7 @@ def _h_and_slope(modal, d: int, beta: float, t: np.ndarray) -> tuple[np.ndarray,
     dg = (dg0 - 1j * d * g0) * delay
     h = -1.0 / g + beta * (zi - 1.0)
     dh = dg / g ** 2 - 1j * beta * zi
-    return h.imag, dh.imag
+    return h, dh
 
 
 def _newton(modal, d: int, beta: float, lo: np.ndarray, hi: np.ndarray, flo: np.ndarray,
@@ -92,7 +93,8 @@ def _newton(modal, d: int, beta: float, lo: np.ndarray, hi: np.ndarray, flo: np.
     eps = np.finfo(float).eps
     active = np.ones(lo.shape, bool)
     for it in range(100):
-        f, df = _h_and_slope(modal, d, beta, x)
+        hx, dhx = _h_and_slope(modal, d, beta, x)
+        f, df = hx.imag, dhx.imag
         if it >= 3:                       # near the root: Im H by the scan's own formula (its digits)
             f = f_scan(x)
         same = np.sign(f) == s_lo
@@ -110,6 +112,18 @@ def _newton(modal, d: int, beta: float, lo: np.ndarray, hi: np.ndarray, flo: np.
         if not active.any():
             break
     return x
+
+
+def _value_at_root(modal, d: int, beta: float, h, roots: np.ndarray) -> np.ndarray:
+    """K = Re H at the exact root, not at its rounding: Re H − Im H·Re H'/Im H' (first order in the sub-ulp
+    offset; where K moves fast with θ, one ulp of θ is ~1e-12 of K).  The scan's own H, the modal H' only for
+    the slope; the correction is kept only when it is that small (≤ 1e-9 K)."""
+    hv = h(roots)
+    _, dh = _h_and_slope(modal, d, beta, roots)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        corr = hv.imag * dh.real / dh.imag
+    small = np.isfinite(corr) & (np.abs(corr) <= 1e-9 * np.abs(hv.real))
+    return np.where(small, hv.real - corr, hv.real)
 
 
 def bounded_min_crossing(h, modal, d: int, beta: float, grid: np.ndarray) -> tuple[float, float] | None:
@@ -138,7 +152,8 @@ def bounded_min_crossing(h, modal, d: int, beta: float, grid: np.ndarray) -> tup
             sel = idx[:1] if first else idx[1:][lb[1:] < best]
             if sel.size == 0 or not lb[0] < best:
                 continue
-            roots = _newton(modal, d, beta, grid[sel], grid[sel + 1], im[sel], lambda t: h(t).imag)
+            # the scan's own solver on the scan's brackets: the same root, to the bit, as the full scan
+            roots = _solve_brackets(lambda t: h(t).imag, grid[sel], grid[sel + 1], im[sel], im[sel + 1])
             vals = h(roots).real
             for t, v in zip(roots, vals):
                 if v > 0 and not (nyquist and math.pi - t <= 1e-9):
