@@ -15,8 +15,8 @@ nothing is lost in detection) and skips solving the brackets that cannot hold th
 
 The bracket of the lowest bound is solved first, then at once every other one whose bound is below the K found,
 by the scan's own solver (Illinois to 4 ulp, elementwise: the same root as the full scan); K is Re H there by
-the scan's own formula.  (A Newton solver on Im H, _newton below, converges in ~4 steps but moved K by up to
-4e-12 where K is ill-conditioned in θ, so it is not used for the answer.)  The scan's near-tangency search, exact zeros on samples and Nyquist point
+the scan's own formula.  (A Newton solver on Im H converged in ~4 steps but moved K by up to 4e-12 where K is
+ill-conditioned in θ, so the scan's solver is kept.)  The scan's near-tangency search, exact zeros on samples and Nyquist point
 are kept as they are.  ``path = "bounded-scan"``; where the modal form is missing (ill-conditioned V) the
 caller runs the full scan.  The crossover list is the full scan's, computed on first use only.
 """
@@ -57,73 +57,6 @@ def modal_bound(modal, beta: float, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         u = (abs(c1) * (abs(g0_1) + abs(g1_1) + y @ np.abs(e12v)) / w + y @ np.abs(c2v)) * (1.0 + _PAD)
         lb = 1.0 / u - 2.0 * beta * np.sin(0.5 * b)
     return np.where(np.isfinite(lb) & (lb > 0.0), lb, 0.0)
-
-
-def _h_and_slope(modal, d: int, beta: float, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(H, dH/dθ) at t from the modal form."""
-    lam, c1, c2v, e12v, r0, r1, g0_1, g1_1 = modal
-    z = np.exp(1j * t)
-    w = np.expm1(1j * t)
-    zi = 1.0 / z
-    den = w[:, None] - lam[None, :]
-    num = r0[None, :] + zi[:, None] * r1[None, :]
-    y = num / den
-    dy = (-1j * zi[:, None] * r1[None, :] * den - num * 1j * z[:, None]) / den ** 2
-    n1 = g0_1 + zi * g1_1 + y @ e12v
-    dn1 = -1j * zi * g1_1 + dy @ e12v
-    x1 = n1 / w
-    dx1 = (dn1 * w - n1 * 1j * z) / w ** 2
-    g0 = c1 * x1 + y @ c2v
-    dg0 = c1 * dx1 + dy @ c2v
-    delay = np.exp(-1j * d * t)
-    g = g0 * delay
-    dg = (dg0 - 1j * d * g0) * delay
-    h = -1.0 / g + beta * (zi - 1.0)
-    dh = dg / g ** 2 - 1j * beta * zi
-    return h, dh
-
-
-def _newton(modal, d: int, beta: float, lo: np.ndarray, hi: np.ndarray, flo: np.ndarray,
-            f_scan) -> np.ndarray:
-    """Roots of Im H in every bracket [lo, hi] (Im H(lo) = flo ≠ 0 changes sign on it): Newton steps kept in the
-    bracket (bisection otherwise), to a bracket of 4 ulp or a step of 2 ulp; the last steps on the scan's own Im H."""
-    lo, hi = lo.copy(), hi.copy()
-    s_lo = np.sign(flo)
-    x = 0.5 * (lo + hi)
-    eps = np.finfo(float).eps
-    active = np.ones(lo.shape, bool)
-    for it in range(100):
-        hx, dhx = _h_and_slope(modal, d, beta, x)
-        f, df = hx.imag, dhx.imag
-        if it >= 3:                       # near the root: Im H by the scan's own formula (its digits)
-            f = f_scan(x)
-        same = np.sign(f) == s_lo
-        lo = np.where(active & same, x, lo)
-        hi = np.where(active & ~same & (f != 0.0), x, hi)
-        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            step = f / df
-        xn = x - step
-        conv = np.isfinite(step) & (np.abs(step) <= 2.0 * eps * x)       # converged: keep the last step
-        ok = np.isfinite(xn) & (xn > lo) & (xn < hi)
-        done = (f == 0.0) | (hi - lo <= 4.0 * eps * hi) | conv
-        nxt = np.where(conv, np.clip(xn, lo, hi), np.where(ok, xn, 0.5 * (lo + hi)))
-        x = np.where(active & (f != 0.0) & (~done | conv), nxt, x)
-        active &= ~done
-        if not active.any():
-            break
-    return x
-
-
-def _value_at_root(modal, d: int, beta: float, h, roots: np.ndarray) -> np.ndarray:
-    """K = Re H at the exact root, not at its rounding: Re H − Im H·Re H'/Im H' (first order in the sub-ulp
-    offset; where K moves fast with θ, one ulp of θ is ~1e-12 of K).  The scan's own H, the modal H' only for
-    the slope; the correction is kept only when it is that small (≤ 1e-9 K)."""
-    hv = h(roots)
-    _, dh = _h_and_slope(modal, d, beta, roots)
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        corr = hv.imag * dh.real / dh.imag
-    small = np.isfinite(corr) & (np.abs(corr) <= 1e-9 * np.abs(hv.real))
-    return np.where(small, hv.real - corr, hv.real)
 
 
 def bounded_min_crossing(h, modal, d: int, beta: float, grid: np.ndarray) -> tuple[float, float] | None:
