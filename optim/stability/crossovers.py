@@ -34,6 +34,7 @@ CLUSTER_HALF_WIDTH = 50       # a cluster of CLUSTER_POINTS around each resonanc
 CLUSTER_POINTS = 201
 CLUSTER_GEOM = (1e-9, 0.2, 60)  # and geometric steps h·(1 ± g) on both sides of it
 
+_GEOM_STEPS = np.geomspace(*CLUSTER_GEOM)   # the same steps for every hint: built once (geomspace is slow)
 _MAX_ARG_STEP = 0.25          # rad of arg H between consecutive samples after refinement
 _MAX_REFINE_ROUNDS = 60
 
@@ -55,13 +56,13 @@ def scan_grid(theta_min: float, delay_samples: float, hints: Sequence[float], wi
                           max(LOG_MIN_SAMPLES, int(LOG_PER_DECADE * math.log10(theta_lin / theta_min)) + 2))]
     step = min(LIN_STEP, math.pi / (STEPS_PER_DELAY_TURN * (delay_samples + 1.0)))
     parts.append(np.linspace(theta_lin, math.pi, int(math.ceil((math.pi - theta_lin) / step)) + 1))
-    for h in hints:
+    for h in dict.fromkeys(hints):           # a pole pair gives its angle twice: one cluster (np.unique would merge)
         if 0.0 < h <= math.pi:
             w = max(width_hint, 1e-6) * CLUSTER_HALF_WIDTH
             lo, hi = max(theta_min, h - w), min(math.pi, h + w)
             parts.append(np.linspace(lo, hi, CLUSTER_POINTS))
-            parts.append(h * (1.0 + np.geomspace(*CLUSTER_GEOM)))
-            parts.append(h * (1.0 - np.geomspace(*CLUSTER_GEOM)))
+            parts.append(h * (1.0 + _GEOM_STEPS))
+            parts.append(h * (1.0 - _GEOM_STEPS))
     grid = np.unique(np.clip(np.concatenate(parts), theta_min, math.pi))
     return grid
 

@@ -59,10 +59,12 @@ def modal_bound(modal, beta: float, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.where(np.isfinite(lb) & (lb > 0.0), lb, 0.0)
 
 
-def bounded_min_crossing(h, modal, d: int, beta: float, grid: np.ndarray) -> tuple[float, float] | None:
+def bounded_min_crossing(h, modal, d: int, beta: float, grid: np.ndarray, damper: bool = False
+                         ) -> tuple[float, float] | None:
     """(θ, α) of the K > 0 crossover with the smallest α on the scan's refined ``grid`` (the scan's
     positive_real_crossings, every candidate included, but only the brackets the bound cannot exclude solved);
-    None when there is no K > 0 crossover."""
+    None when there is no K > 0 crossover.  ``damper``: h is the damper-only loop −1/G_n/(1 − e^{−jθ}) (β = 0),
+    whose modulus is |1/G_n|/(2 sin(θ/2)) ≥ the bound over 2 sin(b/2); the answer is then (θ_b, β_max)."""
     grid, values = _refine(h, grid)
     im, re = values.imag, values.real
     cands: list[tuple[float, float]] = [(c.angle, c.value) for c in _tangential_pairs(h, grid, values)]
@@ -77,6 +79,8 @@ def bounded_min_crossing(h, modal, d: int, beta: float, grid: np.ndarray) -> tup
         cands.append((math.pi, v_pi.real))
     if idx.size:
         lb = modal_bound(modal, beta, grid[idx], grid[idx + 1])
+        if damper:
+            lb = lb / (2.0 * np.sin(0.5 * grid[idx + 1]))
         order = np.argsort(lb, kind="stable")
         idx, lb = idx[order], lb[order]
         best = min((v for _, v in cands), default=math.inf)

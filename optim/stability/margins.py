@@ -132,6 +132,12 @@ def max_stable_damping(device: Device) -> float:
         fast = fast_beta_max(plant)
         if fast is not None:
             return fast * device.damping_scale
+    if isinstance(plant, StateSpaceZOH) and plant.modal_form() is not None:
+        # the bounded scan (optim.stability.fast_cable): the scan's brackets, only the binding one(s) solved
+        def h(theta: np.ndarray) -> np.ndarray:
+            return -plant.inverse_response(theta) / (-np.expm1(-1j * theta))
+        best = bounded_min_crossing(h, plant.modal_form(), plant.d, 0.0, _grid(device, plant, 0.0), damper=True)
+        return math.inf if best is None else best[1] * device.damping_scale
     found = _damper_crossings(device, plant)
     if not found:
         return math.inf
