@@ -164,6 +164,9 @@ def critical_stiffness(device: Device, damping: float = 0.0, *, b_max: float | N
         return CriticalStiffness(0.0, None, (), damping, 0.0,
                                  reason="no physical or virtual damping: no positive stiffness is stable "
                                         "(linear condition α < 2(δ+β)/(1+2d) with δ = β = 0)")
+    dead = _undamped_mode_driven_out(device, damping)
+    if dead is not None:
+        return CriticalStiffness(0.0, None, (), damping, b_max, reason=dead)
     if isinstance(plant, RigidZOH):
         fast = _fast(device, plant, damping, b_max)
         if fast is not None:
@@ -171,6 +174,28 @@ def critical_stiffness(device: Device, damping: float = 0.0, *, b_max: float | N
     elif isinstance(plant, StateSpaceZOH) and plant.modal_form() is not None:
         return _bounded(device, plant, damping, b_max)
     return scan_critical_stiffness(device, damping, b_max=b_max)
+
+
+def _undamped_mode_driven_out(device: Device, damping: float) -> str | None:
+    """The reason no K > 0 is stable when a cable with every damping 0 is unstable at K → 0⁺ for this B, else None.
+
+    The module docstring's premise (the damper-only loop is stable below B_max) fails when the cable mode sits on
+    the unit circle: any B > 0 moves its poles off the circle, outwards when the delay turns the damper's phase
+    the wrong way, and no crossover marks that.  So for such a cable the closed loop at K = 10⁻⁶ of the linear
+    estimate and this B is counted by the argument principle (optim.stability.closed_loop.unstable_count)."""
+    cb = device.cable
+    if cb is None or damping <= 0.0 or cb.motor_damping or cb.body_damping or cb.damping:
+        return None
+    from optim.stability.closed_loop import sampled_plant, unstable_count
+
+    beta = damping / device.damping_scale
+    alpha = 1e-6 * 2.0 * beta / (1.0 + 2.0 * device.delay_samples)
+    count = unstable_count(device, sampled_plant(device), alpha, beta)
+    if count.count is None or count.count == 0:
+        return None
+    return (f"with every cable damping 0 the cable mode is on the unit circle, and virtual damping B = {damping:.6g} "
+            f"N·s/m drives it outwards through the delay: {count.count} closed-loop poles outside the unit circle "
+            "as K → 0⁺ (argument principle), so no positive stiffness is stable")
 
 
 def _bounded(device: Device, plant: StateSpaceZOH, damping: float, b_max: float | None) -> CriticalStiffness:
@@ -257,6 +282,9 @@ def scan_critical_stiffness(device: Device, damping: float = 0.0, *, b_max: floa
         b_max = None
     if b_max is not None and damping >= b_max:
         return CriticalStiffness(0.0, None, (), damping, b_max, reason=_dead_reason(damping, b_max))
+    dead = _undamped_mode_driven_out(device, damping)
+    if dead is not None:
+        return CriticalStiffness(0.0, None, (), damping, b_max, reason=dead)
 
     def h(theta: np.ndarray) -> np.ndarray:
         return -plant.inverse_response(theta) + beta * np.expm1(-1j * theta)
