@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-__all__ = ["Crossing", "positive_real_crossings", "scan_grid", "LOG_PER_DECADE", "LOG_END", "LOG_MIN_SAMPLES",
+__all__ = ["Crossing", "positive_real_crossings", "scan_grid", "theta_min", "LOG_PER_DECADE", "LOG_END", "LOG_MIN_SAMPLES",
            "LIN_STEP", "STEPS_PER_DELAY_TURN", "CLUSTER_HALF_WIDTH", "CLUSTER_POINTS", "CLUSTER_GEOM"]
 
 # The scan grid's constants, shared with the batched scan of optim.robust.batch (one place to change them):
@@ -45,6 +45,19 @@ class Crossing:
 
     angle: float
     value: float
+
+
+def theta_min(damp, delay_samples):
+    """The scan's lowest angle [rad/sample]: far below the lowest crossover ≈ sqrt(damp/(d + ½)) of the K loop
+    (damp = δ + β, dimensionless).  The damper-only loop (β = 0) has its crossovers at O(1/(1 + d)); with no
+    damping at all that is the only scale.  Floats or arrays (elementwise: the batched scan's rows get the same
+    bits as the scalar scan); the one definition for every scan of the stiffness loop (issue 19)."""
+    damp = np.asarray(damp, dtype=float)
+    scale = 1.0 / (1.0 + 2.0 * np.asarray(delay_samples, dtype=float))
+    with np.errstate(invalid="ignore"):
+        root = np.sqrt(np.maximum(damp, 0.0) * scale)
+    out = np.where(damp > 0.0, 1e-4 * np.minimum(np.minimum(1.0, root), 10 * damp), 1e-4 * scale)
+    return float(out) if out.ndim == 0 else out
 
 
 def scan_grid(theta_min: float, delay_samples: float, hints: Sequence[float], width_hint: float = 0.0) -> np.ndarray:

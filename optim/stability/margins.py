@@ -25,7 +25,7 @@ from models.device import Device
 from models.discretize import RigidZOH, StateSpaceZOH
 from models.plants import stiffness_loop_plant
 
-from optim.stability.crossovers import Crossing, positive_real_crossings, scan_grid
+from optim.stability.crossovers import Crossing, positive_real_crossings, scan_grid, theta_min
 from optim.errors import InputError
 from optim.stability.fast_cable import bounded_min_crossing
 from optim.stability.fast_rigid import fast_beta_max, fast_rigid, rigid_crossovers
@@ -102,16 +102,8 @@ def gain_margin_db(critical: float, stiffness: float) -> float:
 
 
 def _theta_min(device: Device, beta: float) -> float:
-    """Far below the lowest crossover ≈ sqrt((δ+β)/(d+½)) of the K loop.
-
-    The damper-only loop (β = 0 here) has its crossovers at O(1/(1+d)); with no physical
-    damping (δ = 0) that is the only scale.
-    """
-    damp = device.delta + beta
-    scale = 1.0 / (1.0 + 2.0 * device.delay_samples)
-    if damp <= 0.0:
-        return 1e-4 * scale
-    return 1e-4 * min(1.0, math.sqrt(damp * scale), 10 * damp)
+    """optim.stability.crossovers.theta_min of this device's K loop at β (dimensionless)."""
+    return theta_min(device.delta + beta, device.delay_samples)
 
 
 def _grid(device: Device, plant, beta: float) -> np.ndarray:
