@@ -42,11 +42,7 @@ def _cable(rng: np.random.Generator, i: int) -> Device:
                              stiffness=kc, damping=bc), sample_time=t, delay=ds * t)
 
 
-fast_device: list = [None]
-near_bmax: list = []
-
-
-def _agree(fast, scan, b_max: float | None):
+def _agree(dev: Device, fast, scan, b_max: float | None):
     assert fast.path in ("bounded-scan", "scan") and scan.path == "scan"
     kf, ks = fast.critical_stiffness, scan.critical_stiffness
     if math.isinf(ks) or ks == 0.0:
@@ -55,7 +51,6 @@ def _agree(fast, scan, b_max: float | None):
     tol = RTOL
     if b_max is not None and math.isfinite(b_max) and fast.damping > 0:
         # K = Re H is a difference of O(β sin(θ/2)) terms near B_max: its rounding, relative to K
-        dev = fast_device[0]
         theta = scan.crossover_frequency * dev.sample_time
         cancel = 2 * fast.damping / dev.damping_scale * math.sin(theta / 2) * dev.stiffness_scale / ks
         tol = RTOL + 64 * np.finfo(float).eps * max(cancel, fast.damping / max(b_max - fast.damping, 1e-300))
@@ -63,10 +58,9 @@ def _agree(fast, scan, b_max: float | None):
         return
     # beyond that (tiny δ within 1e-3 of B_max: both are ~1e-10 off): no worse than the scan against the
     # 40-digit reference rung
-    ref = reference_critical_stiffness(fast_device[0], fast.damping).critical_stiffness
+    ref = reference_critical_stiffness(dev, fast.damping).critical_stiffness
     ef, es = abs(kf / ref - 1), abs(ks / ref - 1)
     assert ef <= max(2 * es, RTOL), (kf, ks, ref, ef, es)
-    near_bmax.append((ef, es))
 
 
 @pytest.mark.slow
@@ -86,11 +80,10 @@ def test_bounded_scan_matches_scan_on_random_cables():
                 b = bm * (rng.uniform(0, 1) if kind == 1 else 1 - 10 ** rng.uniform(-4, -1))
         if dev.damping + b <= 0.0:
             continue
-        fast_device[0] = dev
         fast = critical_stiffness(dev, b, b_max=bm)
         scan = scan_critical_stiffness(dev, b, b_max=bm)
         bounded += fast.path == "bounded-scan"
-        _agree(fast, scan, bm)
+        _agree(dev, fast, scan, bm)
         if fast.crossover_frequency is not None and scan.crossover_frequency is not None:
             assert abs(fast.crossover_frequency / scan.crossover_frequency - 1) <= 1e-9
     assert bounded >= 0.9 * n * 0.97
