@@ -176,8 +176,8 @@ def render(rows: list[Row], batch: BatchRow | None = None) -> str:
         f"{platform.processor() or 'cpu'}; python-control {control.__version__}.",
         "Same ZOH-discretised loop for both (the damper B(1 − z⁻¹)/T closed with `feedback` when B > 0, a "
         "fractional delay as the modified z-transform); truth = the 40-digit reference rung. zwidth: the public "
-        "`optim.stability.margins.critical_stiffness(device, B)` (B_max included when B > 0), its *path* `fast` (no scan) "
-        "or `scan` (fallback). python-control: one `stability_margins` call (default) on its loop built beforehand "
+        "`optim.stability.margins.critical_stiffness(device, B)` (B_max included when B > 0), its *path* `fast` (no scan), "
+        "`bounded-scan` (cable) or `scan` (fallback). python-control: one `stability_margins` call (default) on its loop built beforehand "
         "(c2d and `feedback` outside the timing); zwidth likewise reuses the sampled plant of a device it has seen "
         "(an LRU cache: a first call on a new device adds the discretisation, ~20 µs rigid). Median / p95 per call, "
         "same run. *wrong* = more than 1 % from the truth. Target (issue 20): ratio ≤ "
@@ -210,8 +210,10 @@ def render(rows: list[Row], batch: BatchRow | None = None) -> str:
         f"Summary: zwidth wrong on {wrong_exact}/{len(rows)}; python-control default wrong on {wrong_ctrl}/{len(rows)}, "
         f"its returnall minimum wrong on {wrong_min}/{len(rows)}. Median time ratio zwidth/python-control: "
         f"{statistics.median(ratios):.4f} (max {max(ratios):.4f}); target met on {met}/{len(rows)}. "
-        f"Fallbacks to the scan: {sum(r.path == 'scan' for r in rows)}/{len(rows)} cases "
-        f"({sum(r.path == 'scan' and not r.cable for r in rows)} rigid; cable devices have no fast path yet).",
+        f"Paths: fast {sum(r.path == 'fast' for r in rows)}, bounded-scan {sum(r.path == 'bounded-scan' for r in rows)} "
+        f"(cable: the scan's grid and brackets, only the brackets a bound cannot exclude solved), "
+        f"fallbacks to the full scan {sum(r.path == 'scan' for r in rows)}/{len(rows)} cases "
+        f"({sum(r.path == 'scan' and not r.cable for r in rows)} rigid).",
         "",
     ]
     if batch is not None:

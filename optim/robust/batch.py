@@ -33,6 +33,7 @@ import numpy as np
 from models.device import Device
 from models.discretize import RigidZOH, StateSpaceZOH
 from models.plants import stiffness_loop_plant
+from optim.stability.crossovers import theta_min as scan_theta_min
 from optim.stability.crossovers import (CLUSTER_GEOM, CLUSTER_HALF_WIDTH, CLUSTER_POINTS, LIN_STEP, LOG_END, LOG_MIN_SAMPLES,
                               LOG_PER_DECADE, STEPS_PER_DELAY_TURN, _solve_brackets)
 from optim.stability.fast_batch import fast_rigid_batch
@@ -138,10 +139,8 @@ def _grids(devices: Sequence[Device], plants, betas: np.ndarray) -> np.ndarray:
     """One sorted grid per device (rows of equal length), as optim.stability.crossovers.scan_grid builds it."""
     delta = np.array([d.delta for d in devices])
     ds = np.array([d.delay_samples for d in devices])
-    scale = 1.0 / (1.0 + 2.0 * ds)
     # θ_min of optim.stability.margins with β = 0 (the damper-only loop's scan, the lower of the two)
-    damp = np.maximum(delta, 0.0)
-    theta_min = np.where(damp > 0, 1e-4 * np.minimum(np.minimum(1.0, np.sqrt(damp * scale)), 10 * damp), 1e-4 * scale)
+    theta_min = scan_theta_min(np.maximum(delta, 0.0), ds)
     theta_lin = np.maximum(LOG_END, theta_min * 10)       # as scan_grid (its constants)
     step = np.minimum(LIN_STEP, math.pi / (STEPS_PER_DELAY_TURN * (ds + 1.0)))
     # Each row's own sample counts (as scan_grid), padded to the batch's longest by repeating the row's last

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-__all__ = ["Crossing", "positive_real_crossings", "scan_grid", "LOG_PER_DECADE", "LOG_END", "LOG_MIN_SAMPLES",
+__all__ = ["Crossing", "positive_real_crossings", "scan_grid", "theta_min", "LOG_PER_DECADE", "LOG_END", "LOG_MIN_SAMPLES",
            "LIN_STEP", "STEPS_PER_DELAY_TURN", "CLUSTER_HALF_WIDTH", "CLUSTER_POINTS", "CLUSTER_GEOM"]
 
 # The scan grid's constants, shared with the batched scan of optim.robust.batch (one place to change them):
@@ -34,6 +34,7 @@ CLUSTER_HALF_WIDTH = 50       # a cluster of CLUSTER_POINTS around each resonanc
 CLUSTER_POINTS = 201
 CLUSTER_GEOM = (1e-9, 0.2, 60)  # and geometric steps h·(1 ± g) on both sides of it
 
+_GEOM_STEPS = np.geomspace(*CLUSTER_GEOM)   # the same steps for every hint: built once (geomspace is slow)
 _MAX_ARG_STEP = 0.25          # rad of arg H between consecutive samples after refinement
 _MAX_REFINE_ROUNDS = 60
 
@@ -46,6 +47,19 @@ class Crossing:
     value: float
 
 
+def theta_min(damp, delay_samples):
+    """The scan's lowest angle [rad/sample]: far below the lowest crossover ≈ sqrt(damp/(d + ½)) of the K loop
+    (damp = δ + β, dimensionless).  The damper-only loop (β = 0) has its crossovers at O(1/(1 + d)); with no
+    damping at all that is the only scale.  Floats or arrays (elementwise: the batched scan's rows get the same
+    bits as the scalar scan); the one definition for every scan of the stiffness loop (issue 19)."""
+    damp = np.asarray(damp, dtype=float)
+    scale = 1.0 / (1.0 + 2.0 * np.asarray(delay_samples, dtype=float))
+    with np.errstate(invalid="ignore"):
+        root = np.sqrt(np.maximum(damp, 0.0) * scale)
+    out = np.where(damp > 0.0, 1e-4 * np.minimum(np.minimum(1.0, root), 10 * damp), 1e-4 * scale)
+    return float(out) if out.ndim == 0 else out
+
+
 def scan_grid(theta_min: float, delay_samples: float, hints: Sequence[float], width_hint: float = 0.0) -> np.ndarray:
     """Initial samples on [theta_min, π]."""
     # 60 samples per decade all the way up to 0.05 rad, then a linear grid that the delay's
@@ -55,13 +69,13 @@ def scan_grid(theta_min: float, delay_samples: float, hints: Sequence[float], wi
                           max(LOG_MIN_SAMPLES, int(LOG_PER_DECADE * math.log10(theta_lin / theta_min)) + 2))]
     step = min(LIN_STEP, math.pi / (STEPS_PER_DELAY_TURN * (delay_samples + 1.0)))
     parts.append(np.linspace(theta_lin, math.pi, int(math.ceil((math.pi - theta_lin) / step)) + 1))
-    for h in hints:
+    for h in dict.fromkeys(hints):           # a pole pair gives its angle twice: one cluster (np.unique would merge)
         if 0.0 < h <= math.pi:
             w = max(width_hint, 1e-6) * CLUSTER_HALF_WIDTH
             lo, hi = max(theta_min, h - w), min(math.pi, h + w)
             parts.append(np.linspace(lo, hi, CLUSTER_POINTS))
-            parts.append(h * (1.0 + np.geomspace(*CLUSTER_GEOM)))
-            parts.append(h * (1.0 - np.geomspace(*CLUSTER_GEOM)))
+            parts.append(h * (1.0 + _GEOM_STEPS))
+            parts.append(h * (1.0 - _GEOM_STEPS))
     grid = np.unique(np.clip(np.concatenate(parts), theta_min, math.pi))
     return grid
 

@@ -22,11 +22,12 @@ from typing import Literal
 import numpy as np
 
 from models.device import Device
-from models.discretize import RigidZOH
+from models.discretize import RigidZOH, StateSpaceZOH
 from models.plants import stiffness_loop_plant
 
-from optim.stability.crossovers import Crossing, positive_real_crossings, scan_grid
+from optim.stability.crossovers import Crossing, positive_real_crossings, scan_grid, theta_min
 from optim.errors import InputError
+from optim.stability.fast_cable import bounded_min_crossing
 from optim.stability.fast_rigid import fast_beta_max, fast_rigid, rigid_crossovers
 
 __all__ = ["Crossover", "CriticalStiffness", "critical_stiffness", "scan_critical_stiffness", "max_stable_damping",
@@ -43,7 +44,7 @@ class Crossover:
     """K [N/m or N·m/rad] giving a closed-loop pole at e^{jωT}."""
 
 
-Path = Literal["fast", "scan"]
+Path = Literal["fast", "bounded-scan", "scan"]
 
 
 @dataclass(frozen=True)
@@ -63,8 +64,10 @@ class CriticalStiffness:
     reason: str | None = None
     method: str = "exact"
     path: Path = "scan"
-    """"fast": closed-form brackets and Newton (optim.stability.fast_rigid), no scan; "scan": every crossover of a
-    frequency scan (optim.stability.crossovers), the fallback wherever the fast path's bounds do not close."""
+    """"fast": closed-form brackets and Newton (optim.stability.fast_rigid), no scan; "bounded-scan" (cable
+    devices): the scan's grid and brackets, only the brackets a bound on |H| cannot exclude solved
+    (optim.stability.fast_cable); "scan": every crossover of a frequency scan (optim.stability.crossovers), the
+    fallback wherever the other paths' bounds do not close."""
 
     def __getstate__(self) -> dict:
         # results travel pickled between processes (service.jobs): send the list, never the closure
@@ -99,16 +102,8 @@ def gain_margin_db(critical: float, stiffness: float) -> float:
 
 
 def _theta_min(device: Device, beta: float) -> float:
-    """Far below the lowest crossover ≈ sqrt((δ+β)/(d+½)) of the K loop.
-
-    The damper-only loop (β = 0 here) has its crossovers at O(1/(1+d)); with no physical
-    damping (δ = 0) that is the only scale.
-    """
-    damp = device.delta + beta
-    scale = 1.0 / (1.0 + 2.0 * device.delay_samples)
-    if damp <= 0.0:
-        return 1e-4 * scale
-    return 1e-4 * min(1.0, math.sqrt(damp * scale), 10 * damp)
+    """optim.stability.crossovers.theta_min of this device's K loop at β (dimensionless)."""
+    return theta_min(device.delta + beta, device.delay_samples)
 
 
 def _grid(device: Device, plant, beta: float) -> np.ndarray:
@@ -129,6 +124,12 @@ def max_stable_damping(device: Device) -> float:
         fast = fast_beta_max(plant)
         if fast is not None:
             return fast * device.damping_scale
+    if isinstance(plant, StateSpaceZOH) and plant.modal_form() is not None:
+        # the bounded scan (optim.stability.fast_cable): the scan's brackets, only the binding one(s) solved
+        def h(theta: np.ndarray) -> np.ndarray:
+            return -plant.inverse_response(theta) / (-np.expm1(-1j * theta))
+        best = bounded_min_crossing(h, plant.modal_form(), plant.d, 0.0, _grid(device, plant, 0.0), damper=True)
+        return math.inf if best is None else best[1] * device.damping_scale
     found = _damper_crossings(device, plant)
     if not found:
         return math.inf
@@ -155,11 +156,65 @@ def critical_stiffness(device: Device, damping: float = 0.0, *, b_max: float | N
         return CriticalStiffness(0.0, None, (), damping, 0.0,
                                  reason="no physical or virtual damping: no positive stiffness is stable "
                                         "(linear condition α < 2(δ+β)/(1+2d) with δ = β = 0)")
+    dead = _undamped_mode_driven_out(device, damping)
+    if dead is not None:
+        return CriticalStiffness(0.0, None, (), damping, b_max, reason=dead)
     if isinstance(plant, RigidZOH):
         fast = _fast(device, plant, damping, b_max)
         if fast is not None:
             return fast
+    elif isinstance(plant, StateSpaceZOH) and plant.modal_form() is not None:
+        return _bounded(device, plant, damping, b_max)
     return scan_critical_stiffness(device, damping, b_max=b_max)
+
+
+def _undamped_mode_driven_out(device: Device, damping: float) -> str | None:
+    """The reason no K > 0 is stable when a cable with every damping 0 is unstable at K → 0⁺ for this B, else None.
+
+    The module docstring's premise (the damper-only loop is stable below B_max) fails when the cable mode sits on
+    the unit circle: any B > 0 moves its poles off the circle, outwards when the delay turns the damper's phase
+    the wrong way, and no crossover marks that.  So for such a cable the closed loop at K = 10⁻⁶ of the linear
+    estimate and this B is counted by the argument principle (optim.stability.closed_loop.unstable_count)."""
+    cb = device.cable
+    if cb is None or damping <= 0.0 or cb.motor_damping or cb.body_damping or cb.damping:
+        return None
+    from optim.stability.closed_loop import sampled_plant, unstable_count
+
+    beta = damping / device.damping_scale
+    alpha = 1e-6 * 2.0 * beta / (1.0 + 2.0 * device.delay_samples)
+    count = unstable_count(device, sampled_plant(device), alpha, beta)
+    if count.count is None or count.count == 0:
+        return None
+    return (f"with every cable damping 0 the cable mode is on the unit circle, and virtual damping B = {damping:.6g} "
+            f"N·s/m drives it outwards through the delay: {count.count} closed-loop poles outside the unit circle "
+            "as K → 0⁺ (argument principle), so no positive stiffness is stable")
+
+
+def _bounded(device: Device, plant: StateSpaceZOH, damping: float, b_max: float | None) -> CriticalStiffness:
+    """The cable's bounded scan (optim.stability.fast_cable): same grid and brackets as the scan, fewer solves."""
+    beta = damping / device.damping_scale
+    if damping > 0.0:
+        b_max = max_stable_damping(device) if b_max is None else b_max
+        if damping >= b_max:
+            return CriticalStiffness(0.0, None, (), damping, b_max, reason=_dead_reason(damping, b_max),
+                                     path="bounded-scan")
+    else:
+        b_max = None
+
+    def h(theta: np.ndarray) -> np.ndarray:
+        return -plant.inverse_response(theta) + beta * np.expm1(-1j * theta)
+
+    best = bounded_min_crossing(h, plant.modal_form(), plant.d, beta, _grid(device, plant, beta))
+
+    def every() -> tuple[Crossover, ...]:
+        return scan_critical_stiffness(device, damping, b_max=b_max).crossovers
+
+    if best is None:
+        return CriticalStiffness(math.inf, None, (), damping, b_max, path="bounded-scan",
+                                 reason="no phase crossover: every positive stiffness is stable")
+    theta, alpha = best
+    return CriticalStiffness(alpha * device.stiffness_scale, theta / device.sample_time, every, damping, b_max,
+                             path="bounded-scan")
 
 
 def _fast(device: Device, plant: RigidZOH, damping: float, b_max: float | None) -> CriticalStiffness | None:
@@ -219,6 +274,9 @@ def scan_critical_stiffness(device: Device, damping: float = 0.0, *, b_max: floa
         b_max = None
     if b_max is not None and damping >= b_max:
         return CriticalStiffness(0.0, None, (), damping, b_max, reason=_dead_reason(damping, b_max))
+    dead = _undamped_mode_driven_out(device, damping)
+    if dead is not None:
+        return CriticalStiffness(0.0, None, (), damping, b_max, reason=dead)
 
     def h(theta: np.ndarray) -> np.ndarray:
         return -plant.inverse_response(theta) + beta * np.expm1(-1j * theta)

@@ -25,6 +25,7 @@ from scipy.optimize import minimize_scalar
 from models.device import Device
 from models.plants import stiffness_loop_plant
 from optim.stability.crossovers import scan_grid
+from optim.stability.crossovers import theta_min as scan_theta_min
 
 __all__ = ["Piece", "BoundaryCurve", "boundary_curve", "coarse_critical", "crossings_at"]
 
@@ -69,9 +70,8 @@ def _curve_values(plant, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def boundary_curve(device: Device, beta_hi: float) -> BoundaryCurve:
     """Sample the boundary curve finely where it matters for β ∈ [0, beta_hi] (dimensionless)."""
     plant = stiffness_loop_plant(device)
-    dl = max(device.delta, 1e-12)
     ds = device.delay_samples
-    theta_min = 1e-4 * min(1.0, math.sqrt(dl / (1.0 + 2.0 * ds)), 10 * dl)
+    theta_min = scan_theta_min(max(device.delta, 1e-12), ds)
     hints = tuple(plant.pole_angles()) + tuple(plant.zero_angles())
     theta = scan_grid(theta_min, ds, hints, width_hint=device.delta)
     theta = theta[theta < math.pi * (1 - 1e-7)]

@@ -160,8 +160,6 @@ def test_verify_confirms_every_exact_answer(property_run):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=False, reason="undamped cables with delay: optim.stability.margins answers K_cr > 0 where no K is "
-                                        "stable (B_max's premise fails for a mode on the unit circle); reported")
 def test_verify_undamped_cables(property_run):
     assert not property_run["undamped_contradicted"], property_run["undamped_contradicted"][:3]
 
