@@ -32,7 +32,7 @@ from optim.errors import InputError
 
 __all__ = ["MAX_STUDY_POINTS", "PROBLEMS", "StudyInputError", "ProblemUnavailable", "Axis", "StudyPlan",
            "Problem", "get_problem", "plan_study", "device_paths", "evaluate_point", "evaluate_chunk",
-           "point_hash"]
+           "point_hash", "point_hashes", "point_builder"]
 
 #: Cost limit: the largest number of points one study may have (grid product or LHS samples).
 MAX_STUDY_POINTS = 1_000_000
@@ -369,10 +369,7 @@ class StudyPlan:
 
     def inputs(self, values: Sequence[float]) -> tuple[dict, dict]:
         """(device dict, requirements dict) of one point."""
-        tree = {"device": copy.deepcopy(dict(self.device)), "requirements": copy.deepcopy(dict(self.requirements))}
-        for axis, v in zip(self.axes, values):
-            _set(tree, axis.path, int(v) if axis.kind == "int" else float(v))
-        return tree["device"], tree["requirements"]
+        return point_builder(self.device, self.requirements, [(a.path, a.kind) for a in self.axes])(values)
 
     def digest(self) -> bytes:
         """Hash prefix of everything a point shares: problem and base."""
@@ -384,6 +381,36 @@ class StudyPlan:
 _LHS_CACHE: dict[tuple, np.ndarray] = {}
 
 
+def point_builder(device: Mapping[str, Any], requirements: Mapping[str, Any], axes: Sequence[tuple[str, str]]
+                  ) -> Callable[[Sequence[float]], tuple[dict, dict]]:
+    """values -> (device dict, requirements dict) of one point, without a deep copy per point.
+
+    The base is deep-copied once; each point gets fresh dicts only along its swept paths and shares
+    every other (never mutated) branch with the base: the device validator copies what it changes."""
+    base = {"device": copy.deepcopy(dict(device)), "requirements": copy.deepcopy(dict(requirements))}
+    steps = [(path.split("."), kind == "int") for path, kind in axes]
+
+    def build(values: Sequence[float]) -> tuple[dict, dict]:
+        tree = {"device": dict(base["device"]), "requirements": dict(base["requirements"])}
+        fresh = {id(tree["device"]), id(tree["requirements"])}
+        for (keys, is_int), v in zip(steps, values):
+            node = tree
+            for key in keys[:-1]:
+                child = node.get(key)
+                if not isinstance(child, dict):
+                    child = {}
+                elif id(child) not in fresh:
+                    child = dict(child)
+                if id(child) not in fresh:
+                    fresh.add(id(child))
+                    node[key] = child
+                node = child
+            node[keys[-1]] = int(v) if is_int else float(v)
+        return tree["device"], tree["requirements"]
+
+    return build
+
+
 def point_hash(prefix: bytes, index: int, paths: Sequence[str], values: Sequence[float]) -> str:
     """Content hash of one point: the shared prefix, its place in the plan and its swept values.
 
@@ -392,6 +419,23 @@ def point_hash(prefix: bytes, index: int, paths: Sequence[str], values: Sequence
     """
     text = f"{index}|" + ";".join(f"{p}={float(v)!r}" for p, v in zip(paths, values))
     return hashlib.blake2b(prefix + text.encode(), digest_size=16).hexdigest()
+
+
+def point_hashes(prefix: bytes, start: int, paths: Sequence[str], values: Sequence[Sequence[float]]) -> list[str]:
+    """``point_hash`` of points start, start+1, … (the same strings), with each axis's ``p=repr(v)`` text
+    made once per distinct value: a grid repeats few values many times."""
+    texts: list[dict[float, str]] = [{} for _ in paths]
+    blake = hashlib.blake2b
+    out = []
+    for k, row in enumerate(values):
+        parts = []
+        for cache, p, v in zip(texts, paths, row):
+            t = cache.get(v)
+            if t is None:
+                t = cache[v] = f"{p}={float(v)!r}"
+            parts.append(t)
+        out.append(blake(prefix + f"{start + k}|{';'.join(parts)}".encode(), digest_size=16).hexdigest())
+    return out
 
 
 def plan_study(problem: str, device: Mapping[str, Any], requirements: Mapping[str, Any] | None,
@@ -510,11 +554,10 @@ def evaluate_chunk(problem: str, device: Mapping[str, Any], requirements: Mappin
     if prob is not None and prob.evaluate_batch is not None:
         return _evaluate_chunk_batch(prob, device, requirements, axes, rows)
     out = []
+    build = point_builder(device, requirements, axes)
     for index, digest, values in rows:
-        tree = {"device": copy.deepcopy(dict(device)), "requirements": copy.deepcopy(dict(requirements))}
-        for (path, kind), v in zip(axes, values):
-            _set(tree, path, int(v) if kind == "int" else float(v))
-        result, error = evaluate_point(problem, tree["device"], tree["requirements"])
+        dev, req = build(values)
+        result, error = evaluate_point(problem, dev, req)
         out.append((index, digest, [float(v) for v in values], result, error))
     return out
 
@@ -525,23 +568,36 @@ def _evaluate_chunk_batch(prob: Problem, device: Mapping[str, Any], requirements
     errors: list[str | None] = []
     devices: list[Device] = []
     reqs: list[Mapping[str, Any]] = []
+    build = point_builder(device, requirements, axes)
+    # the requirements are checked once per distinct set (a grid repeats a few), each point's device alone
+    checked: dict[tuple, str | None] = {}
+    validate = Device.model_validate
     for _, _, values in rows:
-        tree = {"device": copy.deepcopy(dict(device)), "requirements": copy.deepcopy(dict(requirements))}
-        for (path, kind), v in zip(axes, values):
-            _set(tree, path, int(v) if kind == "int" else float(v))
+        dev_in, req = build(values)
         try:
-            dev = Device.model_validate(tree["device"])
+            dev = validate(dev_in)
         except ValueError as exc:
             errors.append(f"invalid device: {_first_error(exc)}")
             continue
+        key = tuple((k, type(v), v) for k, v in req.items())
         try:
-            prob.check_requirements(tree["requirements"])
-        except ValueError as exc:
-            errors.append(f"ValueError: {exc}")
+            bad = checked[key]
+        except (KeyError, TypeError):   # TypeError: an unhashable requirement value, checked every time
+            try:
+                prob.check_requirements(req)
+                bad = None
+            except ValueError as exc:
+                bad = f"ValueError: {exc}"
+            try:
+                checked[key] = bad
+            except TypeError:
+                pass
+        if bad is not None:
+            errors.append(bad)
             continue
         errors.append(None)
         devices.append(dev)
-        reqs.append(tree["requirements"])
+        reqs.append(req)
     results = iter(prob.evaluate_batch(devices, reqs))
     out = []
     for (index, digest, values), error in zip(rows, errors):

@@ -19,7 +19,7 @@ from optim.studies.problems import StudyInputError
 from ..errors import StoreUnavailable
 from ..executor import Compute
 from ..schemas.studies import StudyCreated, StudyList, StudyRequest, StudyResults, StudyStatus
-from ..studies.export import columns, csv_chunks, flat_row, parquet_bytes, scan_columns
+from ..studies.export import columns, csv_chunks, flat_row, parquet_chunks, scan_columns
 from ..studies.lifespan import study_lifespan
 from ..studies.plot import plot_study
 from ..studies.runner import StudyRunner, plan_from_request
@@ -171,8 +171,8 @@ def study_results(study_id: str, request: Request, format: Literal["json", "csv"
     headers = {"Content-Disposition": f'attachment; filename="study-{study_id}.{format}"'}
     if format == "csv":
         return StreamingResponse(csv_chunks(cols, rows()), media_type="text/csv", headers=headers)
-    return Response(parquet_bytes(cols, kinds, rows()), media_type="application/vnd.apache.parquet",
-                    headers=headers)
+    return StreamingResponse(parquet_chunks(cols, kinds, rows()), media_type="application/vnd.apache.parquet",
+                             headers=headers)
 
 
 @router.get("/{study_id}/plot", response_class=Response, responses={200: {"description": "the figure", "content": {

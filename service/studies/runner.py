@@ -25,8 +25,9 @@ from concurrent.futures import CancelledError
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any, Callable, Iterator
 
-from optim.studies.problems import StudyInputError, StudyPlan, evaluate_chunk, get_problem, plan_study, point_hash
+from optim.studies.problems import StudyInputError, StudyPlan, get_problem, plan_study, point_hashes
 
+from .encode import evaluate_encoded
 from .executors import Executor
 from .store import StudyStore
 
@@ -127,8 +128,8 @@ class StudyRunner:
         chunk: list[tuple[int, str, list[float]]] = []
         size = self.chunk_size_for(plan.problem)
         for start in range(0, plan.total, _BLOCK):
-            for k, row in enumerate(plan.values(start, start + _BLOCK).tolist()):
-                digest = point_hash(prefix, start + k, paths, row)
+            values = plan.values(start, start + _BLOCK).tolist()
+            for k, (row, digest) in enumerate(zip(values, point_hashes(prefix, start, paths, values))):
                 if digest in stored:
                     continue
                 chunk.append((start + k, digest, row))
@@ -180,7 +181,7 @@ class StudyRunner:
                 if rows is None:
                     exhausted = True
                     break
-                pending[executor.submit(evaluate_chunk, *args, rows)] = (rows, 1)
+                pending[executor.submit(evaluate_encoded, *args, rows)] = (rows, 1)
             if not pending:
                 break
             done, _ = executor.wait(set(pending), timeout=self.poll)
@@ -198,7 +199,7 @@ class StudyRunner:
                                           owner=self.owner)
                         return
                     log.warning("study %s: chunk failed (%s), resubmitting", study_id, exc)
-                    pending[executor.submit(evaluate_chunk, *args, rows)] = (rows, attempt + 1)
+                    pending[executor.submit(evaluate_encoded, *args, rows)] = (rows, attempt + 1)
                     continue
                 if self.store.write_chunk(study_id, out, self.owner) is None:
                     self._cancelled.add(study_id)   # cancelled (through any server) or taken over: stop now
