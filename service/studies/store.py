@@ -76,6 +76,8 @@ def _sqlite_pragmas(dbapi_conn, _record, synchronous: str = "FULL") -> None:
     cur.execute(f"PRAGMA synchronous={synchronous}")   # FULL: a 202 means the request is on disk
     cur.execute("PRAGMA busy_timeout=30000")    # the API's single-row writes wait instead of failing
     cur.execute("PRAGMA foreign_keys=ON")
+    if synchronous == "NORMAL":   # the results' writer: its inserts land in two text-keyed indexes at random
+        cur.execute("PRAGMA cache_size=-65536")   # places: 64 MB of page cache instead of 2 MB
     cur.close()
 
 
