@@ -440,8 +440,12 @@ def point_hashes(prefix: bytes, start: int, paths: Sequence[str], values: Sequen
 
 
 def plan_study(problem: str, device: Mapping[str, Any], requirements: Mapping[str, Any] | None,
-               sweep: Mapping[str, Any], sampling: Mapping[str, Any] | None = None) -> StudyPlan:
-    """Validate a study request and plan its points; ``StudyInputError`` names the bad field."""
+               sweep: Mapping[str, Any], sampling: Mapping[str, Any] | None = None,
+               max_points: int = MAX_STUDY_POINTS) -> StudyPlan:
+    """Validate a study request and plan its points; ``StudyInputError`` names the bad field.
+
+    ``max_points`` bounds the study's total (grid product or samples; a deployment may raise it, each axis
+    stays within MAX_STUDY_POINTS values)."""
     prob = get_problem(problem)
     requirements = dict(requirements or {})
     sampling = dict(sampling or {})
@@ -452,8 +456,8 @@ def plan_study(problem: str, device: Mapping[str, Any], requirements: Mapping[st
     if design == "latin_hypercube":
         if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
             raise StudyInputError("sampling.samples", "a Latin hypercube needs samples, an integer ≥ 1")
-        if samples > MAX_STUDY_POINTS:
-            raise StudyInputError("sweep", f"{samples} samples exceed the maximum of {MAX_STUDY_POINTS} points per study")
+        if samples > max_points:
+            raise StudyInputError("sweep", f"{samples} samples exceed the maximum of {max_points} points per study")
         if seed is None or isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**63:
             raise StudyInputError("sampling.seed", "a Latin hypercube needs a seed, an integer in [0, 2^63)")
     elif samples is not None or seed is not None:
@@ -474,8 +478,8 @@ def plan_study(problem: str, device: Mapping[str, Any], requirements: Mapping[st
         axes.append(_axis(path, kind, spec, design))
     if design == "grid":
         total = math.prod(len(a.values) for a in axes)
-        if total > MAX_STUDY_POINTS:
-            raise StudyInputError("sweep", f"the grid has {total} points; the maximum is {MAX_STUDY_POINTS} per study")
+        if total > max_points:
+            raise StudyInputError("sweep", f"the grid has {total} points; the maximum is {max_points} per study")
     plan = StudyPlan(problem, dict(device), requirements, tuple(axes), design, samples, seed)
     _check_base_and_extremes(plan, prob)
     return plan

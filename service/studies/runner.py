@@ -27,6 +27,7 @@ from typing import Any, Callable, Iterator
 
 from optim.studies.problems import StudyInputError, StudyPlan, get_problem, plan_study, point_hashes
 
+from .config import StudySettings
 from .encode import evaluate_encoded
 from .executors import Executor
 from .store import StudyStore
@@ -43,7 +44,7 @@ _BLOCK = 8192  # points planned (values + hashes) at a time: bounded memory for 
 def plan_from_request(request: dict[str, Any]) -> StudyPlan:
     base = request.get("base") or {}
     return plan_study(request["problem"], base.get("device") or {}, base.get("requirements") or {},
-                      request.get("sweep") or {}, request.get("sampling"))
+                      request.get("sweep") or {}, request.get("sampling"), max_points=StudySettings().max_points)
 
 
 class StudyRunner:

@@ -179,3 +179,19 @@ def test_bulk_hashes_and_point_builder_equal_the_one_point_forms():
         assert dev["preset"] == "lhifam" and req["stiffness"] == 1000.0
     assert len({id(dev["cable"]) for dev, _ in built}) == len(built)
     assert plan.device == base and base["cable"] == {"stiffness": 5e4}
+
+
+def test_the_total_limit_is_the_callers():
+    """A deployment may raise the study size (ZWIDTH_STUDY_MAX_POINTS, issue 20's 10-million-point study);
+    the default stays MAX_STUDY_POINTS and the refusal names the sweep."""
+    from optim.studies.problems import MAX_STUDY_POINTS, StudyInputError
+
+    sweep = {"device.mass": {"start": 1.0, "stop": 2.0, "num": 1000}, "device.delay": [0.0, 0.001, 0.002]}
+    assert plan_study("critical_stiffness", RIGID, {}, sweep, max_points=3000).total == 3000
+    with pytest.raises(StudyInputError) as err:
+        plan_study("critical_stiffness", RIGID, {}, sweep, max_points=2999)
+    assert err.value.field == "sweep" and "2999" in err.value.rule
+    big = {"device.mass": {"start": 1.0, "stop": 2.0, "num": MAX_STUDY_POINTS}, "device.delay": [0.0, 0.001]}
+    with pytest.raises(StudyInputError):
+        plan_study("critical_stiffness", RIGID, {}, big)
+    assert plan_study("critical_stiffness", RIGID, {}, big, max_points=2 * MAX_STUDY_POINTS).total == 2 * MAX_STUDY_POINTS
