@@ -563,8 +563,11 @@ def evaluate_chunk(problem: str, device: Mapping[str, Any], requirements: Mappin
     for index, digest, values in rows:
         dev, req = build(values)
         result, error = evaluate_point(problem, dev, req)
-        out.append((index, digest, [float(v) for v in values], result, error))
+        out.append((index, digest, list(map(float, values)), result, error))
     return out
+
+
+_UNCHECKED = object()
 
 
 def _evaluate_chunk_batch(prob: Problem, device: Mapping[str, Any], requirements: Mapping[str, Any],
@@ -575,7 +578,9 @@ def _evaluate_chunk_batch(prob: Problem, device: Mapping[str, Any], requirements
     reqs: list[Mapping[str, Any]] = []
     build = point_builder(device, requirements, axes)
     # the requirements are checked once per distinct set (a grid repeats a few), each point's device alone
+    # (the base requirements are the same for every point: the swept requirement values are the key)
     checked: dict[tuple, str | None] = {}
+    req_axes = [j for j, (path, _) in enumerate(axes) if path.startswith("requirements.")]
     validate = Device.model_validate
     for _, _, values in rows:
         dev_in, req = build(values)
@@ -584,19 +589,15 @@ def _evaluate_chunk_batch(prob: Problem, device: Mapping[str, Any], requirements
         except ValueError as exc:
             errors.append(f"invalid device: {_first_error(exc)}")
             continue
-        key = tuple((k, type(v), v) for k, v in req.items())
-        try:
-            bad = checked[key]
-        except (KeyError, TypeError):   # TypeError: an unhashable requirement value, checked every time
+        key = tuple([values[j] for j in req_axes])
+        bad = checked.get(key, _UNCHECKED)
+        if bad is _UNCHECKED:
             try:
                 prob.check_requirements(req)
                 bad = None
             except ValueError as exc:
                 bad = f"ValueError: {exc}"
-            try:
-                checked[key] = bad
-            except TypeError:
-                pass
+            checked[key] = bad
         if bad is not None:
             errors.append(bad)
             continue
@@ -609,5 +610,5 @@ def _evaluate_chunk_batch(prob: Problem, device: Mapping[str, Any], requirements
         result = None
         if error is None:
             result, error = next(results)
-        out.append((index, digest, [float(v) for v in values], result, error))
+        out.append((index, digest, list(map(float, values)), result, error))
     return out
