@@ -54,7 +54,7 @@ def critical_study(points: int) -> dict:
 
 def grid_study(problem: str, points: int) -> dict:
     """Issue 20's study: mass × delay (0 … 20 whole samples at T = 1 ms) on a wall K = 1500 N/m, B = 2 N·s/m."""
-    n_mass = max(1, round(points / 21))
+    n_mass = max(1, points // 21)
     return {"problem": problem,
             "base": {"device": {"mass": 5.4, "damping": 3.5, "sample_time": 0.001},
                      "requirements": {"stiffness": 1500.0, "damping": 2.0}},

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import functools
 import hashlib
 import importlib
 import json
@@ -354,7 +355,12 @@ class StudyPlan:
             return np.column_stack([a.at(u[:, j]) for j, a in enumerate(self.axes)])
         shape = tuple(len(a.values) for a in self.axes)
         sub = np.unravel_index(idx, shape)
-        return np.column_stack([np.asarray(a.values)[s] for a, s in zip(self.axes, sub)])
+        return np.column_stack([v[s] for v, s in zip(self._axis_values, sub)])
+
+    @functools.cached_property
+    def _axis_values(self) -> list[np.ndarray]:
+        """Each grid axis's values as an array, made once (a block of points no longer converts a long axis)."""
+        return [np.asarray(a.values, dtype=float) for a in self.axes]
 
     def _lhs(self) -> np.ndarray:
         cached = _LHS_CACHE.get(self._lhs_key())
