@@ -2,9 +2,15 @@
 single-point baseline (the same evaluations one by one in this process, no store), side by side.
 
     PYTHONPATH=. python -m bench.bench_studies          # writes docs/bench_studies.md
+    PYTHONPATH=. python -m bench.bench_studies --huge   # also a 10-million-point study on a local Dask cluster
 
 Each configuration runs the same study ``repeats`` times on a fresh SQLite store; the pool (or
 the Dask cluster) is started and warmed before timing, as a running service's would be.
+
+The second table (issue 20) goes through the HTTP contract: a live uvicorn server with 2 local workers
+(or a local Dask cluster of 2 single-thread workers), a mass × delay grid with delays of 0 … 20 samples
+submitted with POST /v1/studies, timed from the study's ``started_at`` to its ``finished_at``, with the
+service process's peak RSS (VmHWM) and the sampled peak of the server and its pool together.
 """
 
 from __future__ import annotations
@@ -23,7 +29,7 @@ import numpy as np
 
 from models.device import Device
 from optim.stability.analysis import analyse_stability
-from optim.studies.problems import ProblemUnavailable, evaluate_point, get_problem
+from optim.studies.problems import VECTOR_CHUNK_FACTOR, ProblemUnavailable, evaluate_point, get_problem
 from service.studies.executors import DaskExecutor, LocalExecutor
 from service.studies.runner import StudyRunner, plan_from_request
 from service.studies.store import StudyStore
@@ -44,6 +50,16 @@ def stability_study(points: int) -> dict:
 def critical_study(points: int) -> dict:
     """The stability study's wall and sweep, on the vectorised K_cr problem (a whole chunk per batch)."""
     return {**stability_study(points), "problem": "critical_stiffness"}
+
+
+def grid_study(problem: str, points: int) -> dict:
+    """Issue 20's study: mass × delay (0 … 20 whole samples at T = 1 ms) on a wall K = 1500 N/m, B = 2 N·s/m."""
+    n_mass = max(1, points // 21)
+    return {"problem": problem,
+            "base": {"device": {"mass": 5.4, "damping": 3.5, "sample_time": 0.001},
+                     "requirements": {"stiffness": 1500.0, "damping": 2.0}},
+            "sweep": {"device.mass": {"start": 0.5, "stop": 10.0, "num": n_mass},
+                      "device.delay": [i * 0.001 for i in range(21)]}}
 
 
 def stiffness_study(points: int) -> dict:
@@ -193,6 +209,122 @@ def measure(points: int = 400, repeats: int = 3, workers: tuple[int, ...] = (1, 
     return rows
 
 
+@dataclass(frozen=True)
+class HttpRow:
+    problem: str
+    executor: str
+    points: int
+    seconds: float
+    """started_at → finished_at of the study as GET /v1/studies/{id} reports it [s]."""
+    failed: int
+    service_peak_mib: float
+    """VmHWM of the service process (the coordinator: plans, hashes, writes) [MiB]."""
+    all_peak_mib: float | None
+    """sampled peak of the service and its local pool together [MiB] (None with Dask: workers elsewhere)."""
+    chunk: int
+
+    @property
+    def rate(self) -> float:
+        return self.points / self.seconds
+
+
+def _peak_kib(pid: int) -> int:
+    try:
+        for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+            if line.startswith("VmHWM:"):
+                return int(line.split()[1])
+    except OSError:
+        pass
+    return 0
+
+
+def _submit_and_wait(client, srv, study: dict, timeout: float) -> tuple[dict, int]:
+    """(final status, sampled peak RSS of the server's session [KiB])."""
+    from bench.live_server import rss_kib
+
+    r = client.post("/v1/studies", json=study)
+    r.raise_for_status()
+    sid = r.json()["id"]
+    deadline = time.monotonic() + timeout
+    peak = 0
+    while True:
+        st = client.get(f"/v1/studies/{sid}").json()
+        peak = max(peak, sum(rss_kib(p) for p in srv.session_pids()))
+        if st["status"] not in ("queued", "running", "cancelling"):
+            return st, peak
+        if time.monotonic() > deadline:
+            raise RuntimeError(f"study {sid} not finished after {timeout} s: {st}")
+        time.sleep(0.2)
+
+
+def http_study(problem: str, points: int, dask_address: str | None = None, timeout: float = 3600.0,
+               max_points: int | None = None) -> HttpRow:
+    """One study through a live server's HTTP contract (warmed by a small study first)."""
+    import httpx
+
+    from bench.live_server import LiveServer
+    from optim.studies.problems import VECTOR_CHUNK_FACTOR
+    from service.studies.config import StudySettings
+
+    with tempfile.TemporaryDirectory() as tmp:
+        env = {"ZWIDTH_DATABASE_URL": f"sqlite:///{tmp}/studies.db", "ZWIDTH_STUDY_WORKERS": "2",
+               "ZWIDTH_DASK_SCHEDULER": dask_address, "ZWIDTH_STUDY_MAX_POINTS": str(max_points or 1_000_000)}
+        srv = LiveServer(env, ready_path="/v1/studies", timeout=180)
+        try:
+            with httpx.Client(base_url=srv.url, timeout=120) as client:
+                _submit_and_wait(client, srv, grid_study(problem, 2100), timeout)     # pool or cluster warm
+                st, peak = _submit_and_wait(client, srv, grid_study(problem, points), timeout)
+                hwm = _peak_kib(srv.pid)
+        finally:
+            srv.stop()
+    if st["status"] != "done":
+        raise RuntimeError(f"{problem} study ended {st['status']}: {st['error']}")
+    label = "Dask, 2 workers × 1 thread (loopback)" if dask_address else "local pool, 2 workers"
+    return HttpRow(problem, label, st["total"], st["finished_at"] - st["started_at"], st["failed"], hwm / 1024,
+                   None if dask_address else peak / 1024, StudySettings().chunk_size * VECTOR_CHUNK_FACTOR)
+
+
+def measure_http(points: int, dask: bool = True) -> list[HttpRow]:
+    rows = []
+    for problem in ("critical_stiffness", "stability"):
+        rows.append(http_study(problem, points))
+        if dask:
+            from bench.dask_cluster import local_dask_cluster
+
+            with local_dask_cluster(workers=2) as address:
+                rows.append(http_study(problem, points, address))
+    return rows
+
+
+#: issue 20's targets through the HTTP contract, 2 workers [points/s]
+HTTP_GOALS = {"critical_stiffness": 300_000, "stability": 50_000}
+
+
+def render_http(rows: list[HttpRow]) -> str:
+    lines = ["", "## Through the HTTP contract (issue 20)", "",
+             "A live `uvicorn service.app:app` (one process) with `ZWIDTH_STUDY_WORKERS=2` or a local Dask cluster "
+             "(2 workers × 1 thread); a mass × delay grid (delays 0 … 20 samples, T = 1 ms; wall K = 1500 N/m, "
+             "B = 2 N·s/m) submitted by POST /v1/studies after a warm-up study, points/s from the study's "
+             "`started_at` to its `finished_at`. *Service peak RSS* is the server process's VmHWM (it plans, hashes "
+             "and writes every point); *with pool* is the sampled peak of the server and its worker processes.",
+             "",
+             "| problem | executor | points | started → finished [s] | points/s | target | failed | service peak RSS [MiB] "
+             "| with pool [MiB] | points per chunk |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        pool = f"{r.all_peak_mib:.0f}" if r.all_peak_mib is not None else "—"
+        goal = HTTP_GOALS.get(r.problem)
+        lines.append(f"| {r.problem} | {r.executor} | {r.points} | {r.seconds:.2f} | {r.rate:.0f} | "
+                     f"{'≥ %d' % goal if goal else '—'} | {r.failed} | {r.service_peak_mib:.0f} | {pool} | {r.chunk} |")
+    for prob in HTTP_GOALS:
+        local = [r for r in rows if r.problem == prob and r.all_peak_mib is not None]
+        dask = [r for r in rows if r.problem == prob and r.all_peak_mib is None]
+        if local and dask:
+            lines += ["", f"{prob}: Dask at {dask[0].rate / local[0].rate:.2f} × local (target within 25 %: "
+                      f"{'met' if dask[0].rate >= 0.75 * local[0].rate else 'not met'})."]
+    return "\n".join(lines) + "\n"
+
+
 def render(rows: list[Row], note: str = "", load: tuple[float, float] | None = None) -> str:
     import os
 
@@ -205,7 +337,7 @@ def render(rows: list[Row], note: str = "", load: tuple[float, float] | None = N
         f"CPython {platform.python_version()}, {os.cpu_count()} cores (shared with other work while measured).",
         "A *study* row is a whole study run by the service's runner: planning, content hashes, chunks on the "
         "executor, results written to a fresh SQLite (WAL) store (the runner's chunk of 64 points, times the "
-        "problem's chunk_factor: 4 for the vectorised analyses). The *baseline* (points per chunk —) evaluates "
+        f"problem's chunk_factor: {VECTOR_CHUNK_FACTOR} for the vectorised analyses). The *baseline* (points per chunk —) evaluates "
         "the same points one by one in this process without a store: for `stability` and `critical_stiffness` "
         "the previous version's path, one full exact `analyse_stability` per point. Wall time per run (median / p95 over the repeats); the ratio is "
         "points/s against the baseline of the same problem, measured in the same run. *Points per CPU-s* divides "
@@ -256,13 +388,34 @@ def main() -> None:
     ap.add_argument("--analysis-points", type=int, default=None,
                     help="points of the stability and critical_stiffness studies (default 10 × points)")
     ap.add_argument("--no-dask", action="store_true")
+    ap.add_argument("--http-points", type=int, default=210_000,
+                    help="points of the mass × delay studies through the HTTP contract (0: skip that table)")
+    ap.add_argument("--no-runner", action="store_true", help="skip the in-process runner table")
+    ap.add_argument("--huge", type=int, nargs="?", const=10_000_000, default=None,
+                    help="also a study of this many points (default 10 million) on a local Dask cluster, peak RSS "
+                         "printed")
     ap.add_argument("--out", default=str(ROOT / "docs" / "bench_studies.md"))
     args = ap.parse_args()
     import os
 
     before = os.getloadavg()[0]
-    rows = measure(args.points, args.repeats, dask=not args.no_dask, analysis_points=args.analysis_points)
-    text = render(rows, load=(before, os.getloadavg()[0]))
+    text = ""
+    if not args.no_runner:
+        rows = measure(args.points, args.repeats, dask=not args.no_dask, analysis_points=args.analysis_points)
+        text = render(rows, load=(before, os.getloadavg()[0]))
+    if args.http_points:
+        before = os.getloadavg()[0]
+        http_rows = measure_http(args.http_points, dask=not args.no_dask)
+        if args.huge:
+            from bench.dask_cluster import local_dask_cluster
+
+            with local_dask_cluster(workers=2) as address:
+                huge = http_study("critical_stiffness", args.huge, address, timeout=24 * 3600.0, max_points=args.huge)
+            http_rows.append(huge)
+            print(f"huge study: {huge.points} points in {huge.seconds:.1f} s ({huge.rate:.0f}/s), service peak RSS "
+                  f"{huge.service_peak_mib:.0f} MiB (bound 1024 MiB: {'met' if huge.service_peak_mib <= 1024 else 'not met'})")
+        text += render_http(http_rows) + (f"\nLoad average (1 min) {before:.1f} before and {os.getloadavg()[0]:.1f} "
+                                          "after the HTTP runs.\n")
     Path(args.out).write_text(text)
     print(text)
 

@@ -87,7 +87,10 @@ def by_delay_class(devices: Sequence[Device], requirements: Sequence[Mapping[str
         return []
     classes: dict[int, list[int]] = {}
     for i, dev in enumerate(devices):
-        classes.setdefault(int(math.log2(1.0 + dev.delay_samples)), []).append(i)
+        # rigid devices take the fast exact path (no grid): one batch whatever their delays; the few rows it
+        # leaves to the scan get row-own grids (optim.robust.batch._grids), so a row never depends on the batch
+        key = -1 if dev.cable is None else int(math.log2(1.0 + dev.delay_samples))
+        classes.setdefault(key, []).append(i)
     out: list[tuple[dict | None, str | None]] = [(None, None)] * len(devices)
     for idx in classes.values():
         for i, r in zip(idx, _bisecting(same_class, [devices[i] for i in idx], [requirements[i] for i in idx])):

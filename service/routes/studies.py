@@ -21,7 +21,7 @@ from ..executor import Compute
 from ..plot_labels import base_device_title
 from ..schemas.plots import FormatQuery, image_format
 from ..schemas.studies import StudyCreated, StudyList, StudyRequest, StudyResults, StudyStatus
-from ..studies.export import columns, csv_chunks, flat_row, parquet_bytes, scan_columns
+from ..studies.export import columns, csv_chunks, flat_row, parquet_chunks, scan_columns
 from ..studies.lifespan import study_lifespan
 from ..studies.plot import plot_study
 from ..studies.runner import StudyRunner, plan_from_request
@@ -173,8 +173,8 @@ def study_results(study_id: str, request: Request, format: Literal["json", "csv"
     headers = {"Content-Disposition": f'attachment; filename="study-{study_id}.{format}"'}
     if format == "csv":
         return StreamingResponse(csv_chunks(cols, rows()), media_type="text/csv", headers=headers)
-    return Response(parquet_bytes(cols, kinds, rows()), media_type="application/vnd.apache.parquet",
-                    headers=headers)
+    return StreamingResponse(parquet_chunks(cols, kinds, rows()), media_type="application/vnd.apache.parquet",
+                             headers=headers)
 
 
 @router.get("/{study_id}/plot", response_class=Response, responses={200: {"description": "the figure", "content": {

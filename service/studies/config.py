@@ -14,6 +14,9 @@ class StudySettings(BaseSettings):
 
     workers: int | None = Field(default=None, ge=1, le=256,
                                 description="local worker processes; default one per core")
+    max_points: int = Field(default=1_000_000, ge=1, le=100_000_000,
+                            description="the most points one study may have (grid product or samples); the "
+                                        "results store holds each point as one row")
     chunk_size: int = Field(default=64, ge=1, le=100_000,
                             description="points per task: large enough to amortise a task's overhead, small enough "
                                         "for progress and a prompt cancel (vectorised problems take their "

@@ -1,7 +1,7 @@
 """Study results as flat rows, CSV and Parquet (columns: index, the swept paths, the results, error).
 
 Exports stream: a first pass over the stored rows finds the columns and their types, a second
-writes them in batches, so a million-point study never sits in memory as Python objects.  CSV
+writes them in batches (Parquet: one row group per batch, sent as it is written), so a million-point study never sits in memory as Python objects.  CSV
 writes floats with ``repr`` (exact round trip), booleans as ``true``/``false`` and a missing value
 (a non-finite number, or a field that does not apply to the point) as an empty cell.
 """
@@ -13,7 +13,7 @@ import io
 from itertools import islice
 from typing import Any, Callable, Iterable, Iterator, Sequence
 
-__all__ = ["flat_row", "columns", "scan_columns", "csv_chunks", "parquet_bytes"]
+__all__ = ["flat_row", "columns", "scan_columns", "csv_chunks", "parquet_chunks", "parquet_bytes"]
 
 Rows = Callable[[], Iterable[dict[str, Any]]]
 
@@ -107,16 +107,51 @@ def _convert(values: list, typ) -> list:
     return values
 
 
-def parquet_bytes(cols: Sequence[str], kinds: dict[str, set[str]], rows: Iterable[dict[str, Any]],
-                  batch: int = 50_000) -> bytes:
+class _Drain(io.RawIOBase):
+    """A write-only sink that hands its bytes on and keeps only their count (Parquet's offsets need tell())."""
+
+    def __init__(self):
+        super().__init__()
+        self.parts: list[bytes] = []
+        self.pos = 0
+
+    def writable(self) -> bool:
+        return True
+
+    def write(self, b) -> int:
+        data = bytes(b)
+        self.parts.append(data)
+        self.pos += len(data)
+        return len(data)
+
+    def tell(self) -> int:
+        return self.pos
+
+    def take(self) -> bytes:
+        out, self.parts = b"".join(self.parts), []
+        return out
+
+
+def parquet_chunks(cols: Sequence[str], kinds: dict[str, set[str]], rows: Iterable[dict[str, Any]],
+                   batch: int = 50_000) -> Iterator[bytes]:
+    """The Parquet file in pieces: one row group per ``batch`` rows, handed on as soon as it is written, so that
+    the memory held is one batch whatever the study's size (pyarrow.parquet.ParquetWriter, footer last)."""
     import pyarrow as pa
     import pyarrow.parquet as pq
 
     schema = pa.schema([(c, _arrow_type(kinds[c])) for c in cols])
-    buf = io.BytesIO()
-    with pq.ParquetWriter(buf, schema) as writer:
+    sink = _Drain()
+    with pq.ParquetWriter(pa.PythonFile(sink, mode="w"), schema) as writer:
         for part in _batches(rows, batch):
             data = {c: pa.array(_convert([r.get(c) for r in part], schema.field(c).type), type=schema.field(c).type)
                     for c in cols}
             writer.write_table(pa.table(data, schema=schema))
-    return buf.getvalue()
+            if chunk := sink.take():
+                yield chunk
+    if chunk := sink.take():
+        yield chunk
+
+
+def parquet_bytes(cols: Sequence[str], kinds: dict[str, set[str]], rows: Iterable[dict[str, Any]],
+                  batch: int = 50_000) -> bytes:
+    return b"".join(parquet_chunks(cols, kinds, rows, batch))

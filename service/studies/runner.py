@@ -25,8 +25,10 @@ from concurrent.futures import CancelledError
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any, Callable, Iterator
 
-from optim.studies.problems import StudyInputError, StudyPlan, evaluate_chunk, get_problem, plan_study, point_hash
+from optim.studies.problems import StudyInputError, StudyPlan, get_problem, plan_study, point_hashes
 
+from .config import StudySettings
+from .encode import evaluate_encoded
 from .executors import Executor
 from .store import StudyStore
 
@@ -45,7 +47,7 @@ CHUNK_SECONDS = 0.5
 def plan_from_request(request: dict[str, Any]) -> StudyPlan:
     base = request.get("base") or {}
     return plan_study(request["problem"], base.get("device") or {}, base.get("requirements") or {},
-                      request.get("sweep") or {}, request.get("sampling"))
+                      request.get("sweep") or {}, request.get("sampling"), max_points=StudySettings().max_points)
 
 
 class StudyRunner:
@@ -129,9 +131,9 @@ class StudyRunner:
         """The study's points not stored yet, in order (planned _BLOCK at a time)."""
         prefix, paths = plan.digest(), plan.paths
         for start in range(0, plan.total, _BLOCK):
-            for k, row in enumerate(plan.values(start, start + _BLOCK).tolist()):
-                digest = point_hash(prefix, start + k, paths, row)
-                if digest not in stored:
+            values = plan.values(start, start + _BLOCK).tolist()
+            for k, (row, digest) in enumerate(zip(values, point_hashes(prefix, start, paths, values))):
+                if digest not in stored:      # the block's hashes in bulk (optim.studies.problems.point_hashes)
                     yield (start + k, digest, row)
 
     def adaptive_size(self, largest: int, seconds_per_point: float | None, remaining: int, parallel: int) -> int:
@@ -203,7 +205,7 @@ class StudyRunner:
                 if rows is None:
                     exhausted = True
                     break
-                fut = executor.submit(evaluate_chunk, *args, rows)
+                fut = executor.submit(evaluate_encoded, *args, rows)
                 pending[fut], started[fut] = (rows, 1), time.monotonic()
             if not pending:
                 break
@@ -223,7 +225,7 @@ class StudyRunner:
                                           owner=self.owner)
                         return
                     log.warning("study %s: chunk failed (%s), resubmitting", study_id, exc)
-                    retry = executor.submit(evaluate_chunk, *args, rows)
+                    retry = executor.submit(evaluate_encoded, *args, rows)
                     pending[retry], started[retry] = (rows, attempt + 1), time.monotonic()
                     continue
                 if t0 is not None:

@@ -25,7 +25,7 @@ pytestmark = [pytest.mark.e2e, pytest.mark.slow]
 class Server(LiveServer):
     def __init__(self, db: Path, log: Path):
         super().__init__({"ZWIDTH_DATABASE_URL": f"sqlite:///{db}", "ZWIDTH_STUDY_WORKERS": "1",
-                          "ZWIDTH_STUDY_CHUNK_SIZE": "8", "ZWIDTH_DASK_SCHEDULER": None,
+                          "ZWIDTH_STUDY_CHUNK_SIZE": "128", "ZWIDTH_DASK_SCHEDULER": None,
                           "ZWIDTH_PRESTART_WORKERS": "false", "ZWIDTH_COMPUTE_WORKERS": "1"},
                          log=log, ready_path="/v1/studies")
         self.http = httpx.Client(base_url=self.url, timeout=30)
@@ -81,12 +81,17 @@ def test_cancel_and_purge_through_the_other_server(tmp_path):
         sid2 = a.http.post("/v1/studies", json=small_study(num_delay=100_000)).json()["id"]
         owner, other = _running_on(db, sid2, [a, b])
         r = other.http.delete(f"/v1/studies/{sid2}", params={"purge": True})
-        assert r.status_code == 409, r.text      # running: not purged under its writer
-        assert owner.http.get(f"/v1/studies/{sid2}").status_code == 200 and _rows(db, sid2) > 0
+        # 409 while the owner still runs it: not purged under its writer.  A chunk takes milliseconds (issue 20),
+        # so the owner may already have seen the purge's cancel and stopped before the purge's delete: then the
+        # study is cancelled (no writer) and the purge answers 204 at once.
+        assert r.status_code in (409, 204), r.text
+        if r.status_code == 409:
+            assert owner.http.get(f"/v1/studies/{sid2}").status_code == 200 and _rows(db, sid2) > 0
         deadline = time.monotonic() + 15
-        while (r := other.http.delete(f"/v1/studies/{sid2}", params={"purge": True})).status_code == 409:
+        while r.status_code == 409:
             assert time.monotonic() < deadline, "the purge was refused for too long"
             time.sleep(0.1)
+            r = other.http.delete(f"/v1/studies/{sid2}", params={"purge": True})
         assert r.status_code == 204
         time.sleep(1.0)
         assert owner.http.get(f"/v1/studies/{sid2}").status_code == 404 and _rows(db, sid2) == 0

@@ -157,3 +157,41 @@ def test_design_problems_register_lazily(monkeypatch):
     monkeypatch.setattr(studies, "_CACHE", {})
     with pytest.raises(StudyInputError, match="not available in this build"):
         get_problem("inertia")
+
+
+def test_bulk_hashes_and_point_builder_equal_the_one_point_forms():
+    """The runner's bulk forms (issue 20) give exactly the one-point hashes and inputs, and points never share
+    a mutable branch (a cable sweep copies the cable dict per point, the base stays untouched)."""
+    from optim.studies.problems import point_builder, point_hash, point_hashes
+
+    base = {"preset": "lhifam", "cable": {"stiffness": 5e4}}
+    plan = plan_study("stability", base, {"stiffness": 1000.0},
+                      {"device.cable.stiffness": [3e4, 8e4, 3e4], "requirements.damping": [0.0, 2.5],
+                       "device.delay": {"start": 0.0, "stop": 0.002, "num": 3}})
+    values = plan.values(0, plan.total).tolist()
+    prefix = plan.digest()
+    assert point_hashes(prefix, 5, plan.paths, values) == [point_hash(prefix, 5 + k, plan.paths, v)
+                                                           for k, v in enumerate(values)]
+    build = point_builder(plan.device, plan.requirements, [(a.path, a.kind) for a in plan.axes])
+    built = [build(v) for v in values]
+    for (dev, req), v in zip(built, values):
+        assert dev["cable"]["stiffness"] == v[0] and req["damping"] == v[1] and dev["delay"] == v[2]
+        assert dev["preset"] == "lhifam" and req["stiffness"] == 1000.0
+    assert len({id(dev["cable"]) for dev, _ in built}) == len(built)
+    assert plan.device == base and base["cable"] == {"stiffness": 5e4}
+
+
+def test_the_total_limit_is_the_callers():
+    """A deployment may raise the study size (ZWIDTH_STUDY_MAX_POINTS, issue 20's 10-million-point study);
+    the default stays MAX_STUDY_POINTS and the refusal names the sweep."""
+    from optim.studies.problems import MAX_STUDY_POINTS, StudyInputError
+
+    sweep = {"device.mass": {"start": 1.0, "stop": 2.0, "num": 1000}, "device.delay": [0.0, 0.001, 0.002]}
+    assert plan_study("critical_stiffness", RIGID, {}, sweep, max_points=3000).total == 3000
+    with pytest.raises(StudyInputError) as err:
+        plan_study("critical_stiffness", RIGID, {}, sweep, max_points=2999)
+    assert err.value.field == "sweep" and "2999" in err.value.rule
+    big = {"device.mass": {"start": 1.0, "stop": 2.0, "num": MAX_STUDY_POINTS}, "device.delay": [0.0, 0.001]}
+    with pytest.raises(StudyInputError):
+        plan_study("critical_stiffness", RIGID, {}, big)
+    assert plan_study("critical_stiffness", RIGID, {}, big, max_points=2 * MAX_STUDY_POINTS).total == 2 * MAX_STUDY_POINTS
