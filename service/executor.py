@@ -72,7 +72,7 @@ PRELOAD = ("numpy", "scipy.optimize", "service.executor", "service.compute_worke
 #: Inline (cheap) calls running at once: more threads would only compete for the GIL with the event loop.
 INLINE_THREADS = 4
 #: Calls estimated below this [ms] run on the event loop (no thread hop); the rest of the inline ones in the pool.
-LOOP_COST_MS = 2.0
+LOOP_COST_MS = 2.5
 
 class ComputeTimeout(Exception):
     """The call did not finish within its budget (its worker was killed and replaced), or waited past it."""
