@@ -109,34 +109,39 @@ def _p_slopes(theta: np.ndarray, d: int, hk: float, damping: float) -> tuple[np.
     return hk * ds + damping * e * np.sin(e * theta), hk * dds + damping * e * e * np.cos(e * theta)
 
 
-def _polish_max(theta: np.ndarray, d: int, hk: float, damping: float, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """The local maximum of P inside each [lo, hi] (one per row, in lock step): Newton on P' = 0 kept inside the
+def _polish_max(d: int, hk: float, damping: float, lo: np.ndarray, hi: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """The local maximum of P inside each [lo, hi] (from the start ``x``): Newton on P' = 0 kept inside the
     bracket by bisection.  Rows whose bracket holds no interior maximum (P' does not go from + to −) return
-    their mid-point, which the caller's comparison with the grid samples discards."""
-    lo, hi = lo.copy(), hi.copy()
+    their start, which the caller's comparison with the grid samples discards."""
+    n = lo.size
     # the sign of P' just inside each end: P'(0) = P'(π) = 0 by symmetry, so there the curvature decides
-    f_lo, c_lo = _p_slopes(lo, d, hk, damping)
-    f_hi, c_hi = _p_slopes(hi, d, hk, damping)
-    up_lo = np.where(lo == 0.0, c_lo > 0, f_lo > 0)
-    down_hi = np.where(hi == math.pi, c_hi > 0, f_hi < 0)
-    live = up_lo & down_hi
-    x = 0.5 * (lo + hi)
-    for _ in range(100):
-        if not live.any():
-            break
-        f, fp = _p_slopes(x, d, hk, damping)
-        lo = np.where(live & (f > 0), x, lo)
-        hi = np.where(live & (f <= 0), x, hi)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            step = f / fp
-        # converged: the Newton step is below rounding (x itself is the root; it may sit on a bracket end)
-        done = (fp < 0) & (np.abs(step) <= 4 * np.finfo(float).eps * np.abs(x)) | (f == 0.0)
-        newton = x - step
-        ok = (fp < 0) & (newton > lo) & (newton < hi)
-        nx = np.where(done, x, np.where(ok, newton, 0.5 * (lo + hi)))
-        x = np.where(live, nx, x)
-        live = live & ~done & (hi - lo > 4 * np.finfo(float).eps * hi)
-    return x
+    f_end, c_end = _p_slopes(np.concatenate([lo, hi]), d, hk, damping)
+    live = np.where(lo == 0.0, c_end[:n] > 0, f_end[:n] > 0) & np.where(hi == math.pi, c_end[n:] > 0, f_end[n:] < 0)
+    out = x.astype(float)
+    eps4 = 4 * np.finfo(float).eps
+    for i in np.flatnonzero(live):   # one or two rows in practice: scalar steps beat array bookkeeping
+        a, b, t = float(lo[i]), float(hi[i]), float(x[i])
+        for _ in range(100):
+            fa, fpa = _p_slopes(np.array([t]), d, hk, damping)
+            f, fp = float(fa[0]), float(fpa[0])
+            if f == 0.0:
+                break
+            if f > 0:
+                a = t
+            else:
+                b = t
+            if fp < 0:
+                step = f / fp
+                if abs(step) <= eps4 * abs(t):   # converged: the step is below rounding (t may sit on a bracket end)
+                    break
+                newton = t - step
+                t = newton if a < newton < b else 0.5 * (a + b)
+            else:
+                t = 0.5 * (a + b)
+            if b - a <= eps4 * b:
+                break
+        out[i] = t
+    return out
 
 
 def passivity_margin(device: Device, stiffness: float, damping: float) -> PassivityCheck:
@@ -151,8 +156,15 @@ def passivity_margin(device: Device, stiffness: float, damping: float) -> Passiv
     s, c = kernel(grid, d)
     vals = hk * s - damping * c
     top = np.argpartition(-vals, 2)[:3] if vals.size > 3 else np.arange(vals.size)
-    lo, hi = grid[np.maximum(top - 1, 0)], grid[np.minimum(top + 1, grid.size - 1)]
-    t_ref = _polish_max(grid, d, hk, damping, lo, hi)
+    i_lo, i_hi = np.maximum(top - 1, 0), np.minimum(top + 1, grid.size - 1)
+    lo, hi = grid[i_lo], grid[i_hi]
+    # start at the vertex of the parabola through the three samples (the bracket's middle at an end)
+    v0, v1, v2 = vals[i_lo], vals[top], vals[i_hi]
+    curv = v0 - 2 * v1 + v2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        vertex = grid[top] + 0.5 * (hi - lo) / 2 * (v0 - v2) / curv
+    inside = (i_lo < top) & (top < i_hi) & (curv < 0) & (vertex > lo) & (vertex < hi)
+    t_ref = _polish_max(d, hk, damping, lo, hi, np.where(inside, vertex, 0.5 * (lo + hi)))
     s_ref, c_ref = kernel(t_ref, d)
     v_ref = hk * s_ref - damping * c_ref
     # the grid samples stay candidates (θ = 0 and π are ends no interior refinement reaches)
