@@ -123,6 +123,26 @@ def _post(conn: http.client.HTTPConnection, body: bytes) -> tuple[float, dict]:
     return dt, json.loads(data)
 
 
+def _wait_ready(port: int, servers: int, timeout: float = 300.0) -> None:
+    """Until every uvicorn worker's compute pool is warm (GET /readyz 200 on 10·servers fresh connections in a
+    row, which the kernel spreads over the workers): warming builds the design solvers, seconds of CPU that
+    would otherwise fall into the measurement."""
+    deadline = time.monotonic() + timeout
+    streak = 0
+    while streak < 10 * servers:
+        if time.monotonic() > deadline:
+            raise RuntimeError("the server's compute workers did not warm up in time")
+        conn = http.client.HTTPConnection("127.0.0.1", port, timeout=30)
+        try:
+            conn.request("GET", "/readyz")
+            ok = conn.getresponse().status == 200
+        finally:
+            conn.close()
+        streak = streak + 1 if ok else 0
+        if not ok:
+            time.sleep(0.2)
+
+
 def loops_over_http(port: int, repeats: int) -> list[LoopRow]:
     """The full exact analysis (K = K_cr/2 and B given) over HTTP, beside python-control on the same loop."""
     from bench.bench_core import _control_default, _control_system
@@ -181,7 +201,7 @@ def run(duration: float = 5.0, clients: int = 32, workers: tuple[int, ...] = (1,
     for w in workers:
         server = LiveServer(workers=w, timeout=120.0, env={"ZWIDTH_COMPUTE_WORKERS": "1"})
         try:
-            # every uvicorn worker imported and warm (the first answers /healthz before the others are up)
+            _wait_ready(server.port, w)
             load("warm-up", server.port, PATH, BODY, clients, max(1.0, duration / 5))
             rows = []
             for name, path, body in (("rigid exact analysis", PATH, BODY), ("/healthz", "/healthz", None)):
