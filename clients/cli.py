@@ -247,12 +247,22 @@ def simulate(preset: Preset = None, sets: Sets = None, device_file: DeviceFile =
 
 
 # ------------------------------------------------------------------------------------------------ serve, bench
+def compute_workers_per_server(servers: int, cpus: int | None) -> int:
+    """Compute processes per uvicorn worker when ``servers`` of them share ``cpus`` cores (at least 1): with
+    2 cores and ``--workers 2``, one each (the exact rigid analysis runs inline, in the server process)."""
+    return max(1, (cpus or 1) // servers)
+
+
 @app.command()
 def serve(host: str = typer.Option("127.0.0.1", help="interface to bind (0.0.0.0 in a container)"),
           port: int = typer.Option(8000, min=1, max=65535, help="TCP port"),
-          workers: int = typer.Option(1, min=1, help="uvicorn worker processes (each with its own compute pool)"),
+          workers: int = typer.Option(1, min=1, help="uvicorn worker processes, each with its own compute pool "
+                                                     "(of cores // workers processes unless ZWIDTH_COMPUTE_WORKERS "
+                                                     "is set)"),
           log_level: str = typer.Option("info", help="log level (logs are JSON lines on stderr)")) -> None:
     """Serve the HTTP API with uvicorn (settings from ZWIDTH_* environment variables)."""
+    import os
+
     with c.full_install("zwidth serve"):
         import uvicorn
 
@@ -261,6 +271,8 @@ def serve(host: str = typer.Option("127.0.0.1", help="interface to bind (0.0.0.0
 
     c.err.print(f"zwidth: studies are stored in {describe_store(Settings().database_url)} "
                 "(ZWIDTH_DATABASE_URL to change)")
+    if workers > 1:   # each uvicorn worker has its own compute pool: share the cores out, unless told otherwise
+        os.environ.setdefault("ZWIDTH_COMPUTE_WORKERS", str(compute_workers_per_server(workers, os.cpu_count())))
 
     uvicorn.run("service.app:app", host=host, port=port, workers=workers, log_level=log_level,
                 log_config=uvicorn_log_config(log_level), access_log=False, proxy_headers=False)

@@ -23,9 +23,14 @@ die with the forkserver, which dies with the server (service.lifeline).
 Arguments and results travel pickled: send devices and plain numbers, never
 CasADi symbols (FIELD-NOTES.md).
 
-Cheap calls run inline (a thread of a small pool, never the event loop): the
-pool's round trip (~1 ms) would double the cost of an exact rigid analysis,
-and the cost limits bound what an inline call can take.
+Cheap calls run inline: the worker's round trip (~1 ms) would double the cost
+of an exact rigid analysis, and the cost limits bound what an inline call can
+take.  An inline call runs in a thread of a small pool, except the sub-ms ones
+(estimated below ``loop_cost_ms``, e.g. an exact rigid analysis) which run on
+the event loop itself: the hop to a thread and back costs ~0.1-0.4 ms, as much
+as the call, and a thread computing holds the GIL and so stalls the loop
+anyway.  The estimate bounds how long such a call keeps the loop (a factor of
+2 of ``loop_cost_ms``, see service.cost).
 
 Usage in a route::
 
@@ -66,6 +71,8 @@ PRELOAD = ("numpy", "scipy.optimize", "service.executor", "service.compute_worke
            "service._warm")
 #: Inline (cheap) calls running at once: more threads would only compete for the GIL with the event loop.
 INLINE_THREADS = 4
+#: Calls estimated below this [ms] run on the event loop (no thread hop); the rest of the inline ones in the pool.
+LOOP_COST_MS = 2.5
 
 class ComputeTimeout(Exception):
     """The call did not finish within its budget (its worker was killed and replaced), or waited past it."""
@@ -122,7 +129,7 @@ class BoundedExecutor:
     """
 
     def __init__(self, workers: int = 2, timeout: float = 30.0, inline_cost_ms: float = 25.0,
-                 context: str = "forkserver", max_queue: int = 32) -> None:
+                 context: str = "forkserver", max_queue: int = 32, loop_cost_ms: float = LOOP_COST_MS) -> None:
         if workers < 1:
             raise ValueError("workers: must be ≥ 1")
         if not timeout > 0:
@@ -132,6 +139,7 @@ class BoundedExecutor:
         self.workers = workers
         self.timeout = timeout
         self.inline_cost_ms = inline_cost_ms
+        self.loop_cost_ms = min(loop_cost_ms, inline_cost_ms)
         self.max_queue = max_queue
         self._ctx = multiprocessing.get_context(context)
         if context == "forkserver":
@@ -326,7 +334,9 @@ class BoundedExecutor:
                    timeout: float | None = None, **kwargs: Any) -> T:
         """As :meth:`run`, awaited: a call waiting for (or running in) a worker holds no thread.
 
-        An inline call runs in a small thread pool (never on the event loop)."""
+        An inline call runs in a small thread pool, or on the event loop below ``loop_cost_ms``."""
+        if cost_ms is not None and cost_ms < self.loop_cost_ms:
+            return fn(*args, **kwargs)
         loop = asyncio.get_running_loop()
         if cost_ms is not None and cost_ms < self.inline_cost_ms:
             ctx = contextvars.copy_context()   # the request id of the logs
@@ -388,8 +398,14 @@ class BoundedExecutor:
             if t is not threading.current_thread():
                 t.join(timeout=10)
 
-def get_executor(request: Request) -> BoundedExecutor:
+def _executor_of(request: Request) -> BoundedExecutor:
     return request.app.state.executor
+
+
+async def get_executor(request: Request) -> BoundedExecutor:
+    """The app's executor.  ``async`` on purpose: FastAPI runs a plain ``def`` dependency in its thread pool,
+    a hop of ~0.1-0.2 ms per request (measured: most of the HTTP overhead of an exact rigid analysis)."""
+    return _executor_of(request)
 
 
 #: Dependency alias for routes: ``compute: Compute`` then ``await compute.arun(fn, *args, cost_ms=...)``.
@@ -399,4 +415,4 @@ Compute = Annotated[BoundedExecutor, Depends(get_executor)]
 def run_bounded(request: Request, fn: Callable[..., T], *args: Any, cost_ms: float | None = None,
                 **kwargs: Any) -> T:
     """``fn(*args, **kwargs)`` under the app's time budget (see :meth:`BoundedExecutor.run`)."""
-    return get_executor(request).run(fn, *args, cost_ms=cost_ms, **kwargs)
+    return _executor_of(request).run(fn, *args, cost_ms=cost_ms, **kwargs)

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict
+from dataclasses import asdict, fields
 from typing import Annotated
 
 from fastapi import APIRouter, Body
@@ -36,6 +36,14 @@ def field_error(exc: ValueError, prefix: str = "") -> InputError:
     return InputError("device", str(exc))
 
 
+def _shallow(res) -> dict:
+    """``asdict`` of a StabilityAnalysis without its recursive deep copy (~0.1 ms, a sixth of the request): its only
+    nested dataclasses are the crossovers, plain pairs of floats."""
+    out = {f.name: getattr(res, f.name) for f in fields(res)}
+    out["crossovers"] = [{"frequency": c.frequency, "stiffness": c.stiffness} for c in res.crossovers]
+    return out
+
+
 _STABILITY_EXAMPLES = {
     **device_examples(),
     "margin-of-a-wall": {"summary": "gain margin and passivity of K = 3500 N/m, B = 5 N·s/m with 1 ms delay",
@@ -58,7 +66,7 @@ async def stability(req: Annotated[StabilityRequest, Body(openapi_examples=_STAB
                                  cost_ms=stability_cost_ms(req.device, req.method, b, req.grid_points))
     except ValueError as exc:
         raise field_error(exc) from exc
-    out = asdict(res)   # non-finite numbers answer null (FiniteModel)
+    out = _shallow(res)   # non-finite numbers answer null (FiniteModel)
     if req.verify:   # only when asked: the fast path does no extra work
         out["verification"] = verification_out(await compute.arun(verify_analysis, req.device, res,
                                                            cost_ms=verify_cost_ms(req.device)))

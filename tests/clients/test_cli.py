@@ -231,3 +231,12 @@ def test_plot_study(server, tmp_path):
     assert b"<svg" in out.read_bytes()[:500]
     r = run("plot", "study", created.id, "--y", "nonsense", "--x", "device.delay", "-o", str(out), code=2)
     assert "y" in r.stderr
+
+
+def test_serve_shares_the_cores_among_uvicorn_workers():
+    from clients.cli import compute_workers_per_server
+
+    assert compute_workers_per_server(2, 2) == 1        # 2 cores, --workers 2: one compute process each
+    assert compute_workers_per_server(2, 8) == 4
+    assert compute_workers_per_server(4, 2) == 1        # never below one
+    assert compute_workers_per_server(3, None) == 1     # cpu_count unknown

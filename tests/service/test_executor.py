@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import os
 import time
 
 import pytest
@@ -64,6 +65,23 @@ def test_cheap_calls_run_inline_and_expensive_ones_in_a_worker(executor):
     assert executor.run(os.getpid, cost_ms=1.0) == os.getpid()
     assert executor.run(os.getpid, cost_ms=1e4) != os.getpid()
     assert executor.run(os.getpid) != os.getpid()  # no estimate: always bounded
+
+
+def test_sub_ms_calls_run_on_the_event_loop_and_other_cheap_ones_in_the_inline_pool(executor):
+    """An exact rigid analysis (estimate below ``loop_cost_ms``) pays no thread hop; a costlier inline call does."""
+    import asyncio
+    import threading
+
+    async def where(cost_ms: float) -> tuple[str, int]:
+        return await executor.arun(lambda: (threading.current_thread().name, os.getpid()), cost_ms=cost_ms)
+
+    loop_thread = threading.current_thread().name
+    assert executor.loop_cost_ms < executor.inline_cost_ms
+    assert asyncio.run(where(executor.loop_cost_ms / 2)) == (loop_thread, os.getpid())
+    name, pid = asyncio.run(where((executor.loop_cost_ms + executor.inline_cost_ms) / 2))
+    assert name.startswith("zwidth-inline") and pid == os.getpid()
+    assert stability_cost_ms(Device(**LHIFAM_RIGID), "exact", 0.0, 1000) < executor.loop_cost_ms
+    assert stability_cost_ms(Device(preset="lhifam"), "exact", 0.0, 1000) > executor.loop_cost_ms
 
 
 def test_waiting_for_a_busy_worker_counts_against_the_budget():
