@@ -28,8 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from models.device import Device
-from models.plants import stiffness_loop_plant
-from optim.stability.analysis import analyse_stability, linear_error_estimate
+from optim.stability.analysis import analyse_stability
 from optim.verification import verify_analysis, verify_force_feedforward
 
 RUNGS = ("linear", "grid", "exact", "reference")

@@ -28,9 +28,9 @@ import numpy as np
 
 from models.device import Device
 from models.plants import cable_tfs, stiffness_loop_plant
+from optim.robust.batch import batch_critical_stiffness
 from optim.stability.margins import critical_stiffness, max_stable_damping
 from optim.stability.reference import reference_critical_stiffness
-from optim.robust.batch import batch_critical_stiffness
 
 #: (name, device, B as a fraction of B_max)
 CASES: list[tuple] = [

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from bench.live_server import ROOT, LiveServer
+
 PATH = "/v1/design/stiffness"
 BODY = {"device": {"mass": 5.4, "damping": 3.5, "sample_time": 0.001}}
 #: Acceptable p50 increase of the worker path over the inline path [ms] (issue 10: one process round trip).

@@ -111,7 +111,7 @@ def _table(rows: list[dict], repeats: int, comparator_repeats: int) -> str:
         f"In-process time per `design_inertia` call ({repeats} runs after one warm-up that builds the CasADi",
         f"solver), against a dense-scan comparator measured in the same run ({comparator_repeats} runs): exact",
         f"K_f,cr at {DENSE_POINTS} geometric cutoffs over the same band, best grid point. Goal: p50 ≤ {GOAL_P50_MS:g} ms.",
-        f"Defaults: 6 dB, band [10 Hz, first cable mode or 0.4 × Nyquist], 2nd-order Butterworth, 17-point",
+        "Defaults: 6 dB, band [10 Hz, first cable mode or 0.4 × Nyquist], 2nd-order Butterworth, 17-point",
         "Pareto curve included in every design; rigid-model comparison included for cable devices.",
         "",
         f"Machine: {platform.machine()}, {os.cpu_count()} cores shared with other jobs; Python {platform.python_version()};"

@@ -29,9 +29,8 @@ from scipy.integrate import solve_ivp
 
 from models.device import Device
 from models.simulation.scene import Scene
-from models.simulation.simulate import simulate
 from models.simulation.sim_loop import linear_step, run_sampled_loop
-from models.simulation.simulate import loop_spec
+from models.simulation.simulate import loop_spec, simulate
 
 TARGET_MS = 20.0       # issue 13: 10 s of a 1 kHz linear scene in ≤ 20 ms
 

@@ -21,9 +21,22 @@ from typing import Any, Generic, Literal, Protocol, TypeVar, runtime_checkable
 import httpx
 from pydantic import BaseModel, TypeAdapter
 
-from .schemas import (BoundaryResponse, Device, ForceFeedforwardResponse, HardwareDesignResponse, Health,
-                      IdentifyResponse, InertiaResponse, SimulateResponse, StabilityResponse, StiffnessDesignResponse,
-                      StudyCreated, StudyList, StudyResults, StudyStatus)
+from .schemas import (
+    BoundaryResponse,
+    Device,
+    ForceFeedforwardResponse,
+    HardwareDesignResponse,
+    Health,
+    IdentifyResponse,
+    InertiaResponse,
+    SimulateResponse,
+    StabilityResponse,
+    StiffnessDesignResponse,
+    StudyCreated,
+    StudyList,
+    StudyResults,
+    StudyStatus,
+)
 
 __all__ = ["Call", "Kind", "Plot", "health", "presets", "stability", "boundary", "force_feedforward",
            "design_stiffness", "design_inertia", "design_hardware", "plot_hardware", "simulate", "plot_simulation",

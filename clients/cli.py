@@ -9,7 +9,6 @@ Exit codes are in :mod:`clients.cli_common`.
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Annotated
 
 import typer
@@ -19,8 +18,23 @@ from rich.table import Table
 from rich.text import Text
 
 from . import cli_common as c
-from .cli_common import (DEFAULT_URL, AsJson, Connection, DeviceFile, Local, Preset, SceneFile, Sets, Token, Url,
-                         emit, handle_errors, open_client, out, scene_root)
+from .cli_common import (
+    DEFAULT_URL,
+    AsJson,
+    Connection,
+    DeviceFile,
+    Local,
+    Preset,
+    SceneFile,
+    Sets,
+    Token,
+    Url,
+    emit,
+    handle_errors,
+    open_client,
+    out,
+    scene_root,
+)
 from .cli_design import app as design_app
 from .cli_identify import identify as identify_command
 from .cli_plot import app as plot_app

@@ -34,7 +34,7 @@ from rich.text import Text
 from .client import DEFAULT_URL, ZwidthClient
 from .errors import APIError, ProtocolError, TransportError, ValidationFailed, ZwidthError
 
-__all__ = ["EXIT_OK", "EXIT_NO", "EXIT_USAGE", "EXIT_SERVICE", "EXIT_CODES_HELP", "Remote", "Local", "Url",
+__all__ = ["EXIT_OK", "EXIT_NO", "EXIT_USAGE", "EXIT_SERVICE", "EXIT_CODES_HELP", "Local", "Url",
            "Token", "AsJson", "Preset", "Sets", "DeviceFile", "SceneFile", "scene_root", "client_with_status", "Connection", "open_client", "handle_errors",
            "assemble", "emit", "table", "fmt", "out", "err", "usage_error", "progress_status", "exit_unless_optimal"]
 

@@ -8,8 +8,20 @@ from typing import Annotated
 import typer
 
 from . import cli_common as c
-from .cli_common import (DEFAULT_URL, Connection, DeviceFile, Local, Preset, SceneFile, Sets, Token, Url,
-                         open_client, out, scene_root)
+from .cli_common import (
+    DEFAULT_URL,
+    Connection,
+    DeviceFile,
+    Local,
+    Preset,
+    SceneFile,
+    Sets,
+    Token,
+    Url,
+    open_client,
+    out,
+    scene_root,
+)
 
 app = typer.Typer(help="Figures drawn by the service, saved as PNG or SVG (by the output file's suffix).",
                   no_args_is_help=True)

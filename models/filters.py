@@ -23,6 +23,7 @@ from functools import lru_cache
 
 import numpy as np
 from scipy import signal
+
 from models.errors import InputError
 
 __all__ = ["MAX_FILTER_ORDER", "ButterworthLowPass", "butterworth_polynomial", "butterworth_response",

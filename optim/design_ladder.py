@@ -31,19 +31,24 @@ import numpy as np
 
 from models.device import Device, Human
 from models.filters import ButterworthLowPass
-
-from optim.stability.analysis import DEFAULT_GRID_POINTS, METHODS, MAX_GRID_POINTS, grid_critical_stiffness, linear_error_estimate
-from optim.transparency.feedforward import critical_force_gain
-from optim.transparency.feedforward_ladder import grid_critical_force_gain, linear_force_gain_error
-from optim.transparency.feedforward_reference import REFERENCE_DIGITS, reference_critical_force_gain
+from optim.errors import InputError
 from optim.solver_info import SolverInfo
-from optim.transparency.feedforward_loop import cutoff_band, design_humans
-from optim.transparency.inertia import InertiaDesign, InertiaRequirements, design_inertia
+from optim.stability.analysis import (
+    DEFAULT_GRID_POINTS,
+    MAX_GRID_POINTS,
+    METHODS,
+    grid_critical_stiffness,
+    linear_error_estimate,
+)
 from optim.stability.margins import critical_stiffness, gain_margin_db, linear_estimate, loop_plant
 from optim.stability.passivity import passive_alpha_on_grid, passivity_margin, passivity_samples
 from optim.stability.reference import reference_critical_stiffness
 from optim.stiffness import StiffnessDesign, StiffnessRequirements, design_stiffness
-from optim.errors import InputError
+from optim.transparency.feedforward import critical_force_gain
+from optim.transparency.feedforward_ladder import grid_critical_force_gain, linear_force_gain_error
+from optim.transparency.feedforward_loop import cutoff_band, design_humans
+from optim.transparency.feedforward_reference import REFERENCE_DIGITS, reference_critical_force_gain
+from optim.transparency.inertia import InertiaDesign, InertiaRequirements, design_inertia
 
 __all__ = ["ExactCheck", "RungInfo", "design_stiffness_on_rung", "design_inertia_on_rung", "DESIGN_SCAN_POINTS"]
 

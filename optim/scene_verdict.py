@@ -14,7 +14,6 @@ from models.device import Device
 from models.simulation.scene import Scene
 from models.simulation.simulate import SimulationResult
 from models.simulation.verdict import decide_exact
-
 from optim.stability.margins import critical_stiffness
 
 __all__ = ["MARGIN_AMBIGUITY", "with_margin_verdict", "margin_verdict"]

@@ -25,7 +25,6 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from models.device import Device
-
 from optim.stability.closed_loop import (
     SampledPlant,
     radius_excess,

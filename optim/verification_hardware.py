@@ -13,9 +13,8 @@ import time
 from dataclasses import replace
 
 from models.device import Device
-
-from optim.transparency.feedforward import resolve_human
 from optim.hardware.hardware_targets import device_with
+from optim.transparency.feedforward import resolve_human
 from optim.verification import (
     Verification,
     verify_critical_force_gain,

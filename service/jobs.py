@@ -15,14 +15,14 @@ from models.device import Device
 from models.filters import ButterworthLowPass
 from models.simulation.scene import Scene
 from models.simulation.simulate import SimulationResult, simulate
-from optim.transparency.feedforward import critical_force_gain
 from optim.hardware.design import HardwareTarget, design_hardware
-from optim.transparency.feedforward_ladder import ForceFeedforwardAnalysis, analyse_force_feedforward
 from optim.relay.experiment import RelayReport, relay_experiment
-from optim.scene_verdict import with_margin_verdict
 from optim.robust.box import UncertaintyBox
 from optim.robust.stiffness import robust_design_stiffness
+from optim.scene_verdict import with_margin_verdict
 from optim.stiffness import StiffnessRequirements
+from optim.transparency.feedforward import critical_force_gain
+from optim.transparency.feedforward_ladder import ForceFeedforwardAnalysis, analyse_force_feedforward
 
 from .errors import NumericInputError
 from .plot_labels import device_title, units

@@ -14,6 +14,7 @@ import math
 from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
+
 from models.errors import InputError
 
 __all__ = [

@@ -27,8 +27,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.signal import butter, tf2ss
 
-from models.simulation.sim_plant import SampledPlant
 from models.errors import InputError
+from models.simulation.sim_plant import SampledPlant
 
 __all__ = ["LoopSpec", "Record", "feedforward_filter", "closed_loop_matrices", "run_sampled_loop",
            "linear_step"]

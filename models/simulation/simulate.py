@@ -12,22 +12,28 @@ Method, chosen from the effects (never silently changed afterwards):
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass
 
 import numpy as np
 
 from models.device import Device
+from models.errors import InputError
 from models.simulation.friction import FrictionStepper
 from models.simulation.oscillation import Verdict, analyse_oscillation, energy_generated
-from models.simulation.scene_poles import MAX_EXACT_STATES, ScenePoles, closed_loop_poles
 from models.simulation.propagate import linear_outputs
-from models.simulation.scene import (MAX_SAMPLES_EVENT_INTEGRATOR, MAX_SAMPLES_LINEAR, MAX_SAMPLES_SAMPLED_LOOP, Scene)
-from models.simulation.sim_loop import LoopSpec, Record, closed_loop_matrices, feedforward_filter, linear_step, run_sampled_loop
+from models.simulation.scene import MAX_SAMPLES_EVENT_INTEGRATOR, MAX_SAMPLES_LINEAR, MAX_SAMPLES_SAMPLED_LOOP, Scene
+from models.simulation.scene_poles import MAX_EXACT_STATES, ScenePoles, closed_loop_poles
+from models.simulation.sim_loop import (
+    LoopSpec,
+    Record,
+    closed_loop_matrices,
+    feedforward_filter,
+    linear_step,
+    run_sampled_loop,
+)
 from models.simulation.sim_plant import SceneModelError, build_plant, sample_plant
 from models.simulation.verdict import SceneVerdict, decide
-from models.errors import InputError
 
 __all__ = ["Trajectory", "SimulationResult", "simulate", "propagation_method", "sample_count",
            "check_cost", "SceneModelError", "loop_spec", "DIVERGENCE_FACTOR", "scene_poles"]

@@ -36,12 +36,18 @@ import numpy as np
 from scipy.optimize import brentq
 
 from models.device import Device
-
+from optim.errors import InputError
 from optim.hardware.hardware_binding import binding_effect
 from optim.hardware.hardware_range import check_range, default_grid, range_grid, widen_end
-from optim.hardware.hardware_targets import (DesignFailed, HardwareTarget, Probe, achievable_force_gain, achievable_stiffness,
-                               device_with, limiting_effect)
-from optim.errors import InputError
+from optim.hardware.hardware_targets import (
+    DesignFailed,
+    HardwareTarget,
+    Probe,
+    achievable_force_gain,
+    achievable_stiffness,
+    device_with,
+    limiting_effect,
+)
 
 __all__ = ["FREE_PARAMETERS", "HardwareTarget", "HardwareDesign", "design_hardware", "device_with",
            "achievable_stiffness", "achievable_force_gain", "loose_direction"]

@@ -15,9 +15,15 @@ from __future__ import annotations
 import dataclasses
 
 from models.device import Device
-
 from optim.hardware.hardware_range import refusal
-from optim.hardware.hardware_targets import DesignFailed, HardwareTarget, Probe, current_value, device_with, limiting_effect
+from optim.hardware.hardware_targets import (
+    DesignFailed,
+    HardwareTarget,
+    Probe,
+    current_value,
+    device_with,
+    limiting_effect,
+)
 
 __all__ = ["binding_effect"]
 

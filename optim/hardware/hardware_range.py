@@ -19,7 +19,6 @@ from pydantic import ValidationError
 
 from models.device import MAX_DELAY_SAMPLES, Device
 from optim.domain import check_controller_domain, check_cutoff_domain, check_device_domain
-
 from optim.errors import InputError
 from optim.hardware.hardware_targets import HardwareTarget, current_value, device_with
 

@@ -23,9 +23,9 @@ from typing import Literal
 
 from models.device import Device
 from models.filters import MAX_FILTER_ORDER
-from optim.transparency.inertia import InertiaDesign, InertiaRequirements, design_inertia, upper_cutoff_hz
-from optim.stiffness import StiffnessDesign, StiffnessRequirements, design_stiffness
 from optim.errors import InputError
+from optim.stiffness import StiffnessDesign, StiffnessRequirements, design_stiffness
+from optim.transparency.inertia import InertiaDesign, InertiaRequirements, design_inertia, upper_cutoff_hz
 
 #: Cutoffs of the inertia design's Pareto scan at each value of the free parameter: its band search
 #: (optim/transparency/inertia_band.py) doubles them and brackets every jump, so 9 find the same maximum as the
@@ -98,8 +98,8 @@ class HardwareTarget:
             raise InputError("target.max_damping", "caps the B of the stiffness target; give target.stiffness")
         for name in ("cutoff_min_hz", "filter_order"):
             if getattr(self, name) is not None and self.feedforward is None:
-                raise InputError(f"target.{name}", f"applies to the force-feedforward design; give target.force_gain "
-                                 f"or target.apparent_mass")
+                raise InputError(f"target.{name}", "applies to the force-feedforward design; give target.force_gain "
+                                 "or target.apparent_mass")
         if self.filter_order is not None and not 1 <= self.filter_order <= MAX_FILTER_ORDER:
             raise InputError("target.filter_order", f"must be 1-{MAX_FILTER_ORDER}")
         # With the mass free the device's own mass is only the centre of the scan: any m_t can bind somewhere.

@@ -13,6 +13,7 @@ from typing import Literal
 
 import numpy as np
 from scipy.signal import welch
+
 from optim.errors import InputError
 
 __all__ = [

@@ -15,6 +15,7 @@ import numpy as np
 from pydantic import ValidationError
 
 from optim.domain import check_device_domain
+from optim.errors import InputError
 from optim.identification.data import (
     BAND_RATIO,
     FrequencyResponseData,
@@ -29,7 +30,6 @@ from optim.identification.models import PARAMS, POSITIVE, ModelName
 from optim.identification.problem import Problem
 from optim.identification.result import Comparison, FitQuality, IdentificationResult, Parameter
 from optim.identification.stats import IDENTIFIABLE_RCOND, covariance, information_criteria, ljung_box, nrmse, quantile
-from optim.errors import InputError
 
 __all__ = ["DEFAULT_MAX_DELAY_SAMPLES", "MAX_DELAY_SEARCH_SAMPLES", "identify"]
 

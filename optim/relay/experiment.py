@@ -26,10 +26,9 @@ import numpy as np
 from models.device import Device
 from models.simulation.scene import Scene
 from models.simulation.simulate import SimulationResult, loop_spec, simulate
-
-from optim.stability.margins import CriticalStiffness, Crossover, critical_stiffness
-from optim.relay.relay_cycles import PeriodicSolution, pattern_solution, relay_loop, symmetric_cycles
 from optim.errors import InputError
+from optim.relay.relay_cycles import PeriodicSolution, pattern_solution, relay_loop, symmetric_cycles
+from optim.stability.margins import CriticalStiffness, Crossover, critical_stiffness
 
 __all__ = ["SettledCycle", "RelayReport", "RelayRung", "analyse_relay_run", "relay_experiment", "relay_rung",
            "analysis_device", "MAX_PATTERN", "MAX_HALF_PERIOD_SEARCH"]

@@ -33,12 +33,21 @@ import numpy as np
 from models.device import Device
 from models.discretize import RigidZOH, StateSpaceZOH
 from models.plants import stiffness_loop_plant
-from optim.stability.crossovers import theta_min as scan_theta_min
-from optim.stability.crossovers import (CLUSTER_GEOM, CLUSTER_HALF_WIDTH, CLUSTER_POINTS, LIN_STEP, LOG_END, LOG_MIN_SAMPLES,
-                              LOG_PER_DECADE, STEPS_PER_DELAY_TURN, _solve_brackets)
-from optim.stability.fast_batch import fast_rigid_batch
-from optim.golden import golden_minimum
 from optim.errors import InputError
+from optim.golden import golden_minimum
+from optim.stability.crossovers import (
+    CLUSTER_GEOM,
+    CLUSTER_HALF_WIDTH,
+    CLUSTER_POINTS,
+    LIN_STEP,
+    LOG_END,
+    LOG_MIN_SAMPLES,
+    LOG_PER_DECADE,
+    STEPS_PER_DELAY_TURN,
+    _solve_brackets,
+)
+from optim.stability.crossovers import theta_min as scan_theta_min
+from optim.stability.fast_batch import fast_rigid_batch
 
 __all__ = ["BatchCritical", "batch_critical_stiffness"]
 

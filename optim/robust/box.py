@@ -18,7 +18,6 @@ import numpy as np
 from pydantic import ValidationError
 
 from models.device import Device
-
 from optim.domain import check_device_domain
 from optim.errors import InputError
 

@@ -40,17 +40,16 @@ import numpy as np
 
 from models.device import Device
 from models.feedforward import feedforward_plant
-from optim.transparency.feedforward import resolve_human
+from optim.errors import InputError
+from optim.robust.box import UncertaintyBox
+from optim.robust.stiffness import TOLERANCE_DB
+from optim.robust.worst_case import minimise_over_box
 from optim.solver_info import NO_SOLVER, SolverInfo
+from optim.transparency.feedforward import resolve_human
 from optim.transparency.feedforward_loop import FeedforwardLoop, RigidComparison, cutoff_band, rigid_comparison
 from optim.transparency.inertia import InertiaRequirements, ParetoPoint, pareto_points
 from optim.transparency.inertia_band import band_profile, highest_feasible, maximise
 from optim.transparency.inertia_nlp import modal_plant
-
-from optim.robust.box import UncertaintyBox
-from optim.robust.stiffness import TOLERANCE_DB
-from optim.robust.worst_case import minimise_over_box
-from optim.errors import InputError
 
 __all__ = ["RobustInertiaDesign", "robust_design_inertia"]
 

@@ -34,10 +34,9 @@ import numpy as np
 
 from models.device import Device
 from models.discretize import split_delay
-from optim.stability.passivity import PassivityCheck, largest_passive_stiffness, passivity_margin, passivity_samples
-
-from optim.robust.box import UncertaintyBox
 from optim.errors import InputError
+from optim.robust.box import UncertaintyBox
+from optim.stability.passivity import PassivityCheck, largest_passive_stiffness, passivity_margin, passivity_samples
 
 __all__ = ["PASSIVITY_PATHS", "MAX_PASSIVITY_DELAYS", "PassivityCorner", "PassivityWorst", "passivity_corners",
            "worst_passivity", "largest_robust_passive_stiffness", "describe_delays"]

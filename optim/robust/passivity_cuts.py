@@ -11,9 +11,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from optim.stability.passivity import kernel, largest_passive_stiffness, passive_alpha_on_grid, passivity_margin
-
 from optim.robust.passivity import PassivityCorner
+from optim.stability.passivity import kernel, largest_passive_stiffness, passive_alpha_on_grid, passivity_margin
 
 __all__ = ["PassivityCuts", "PASSIVITY_RTOL"]
 

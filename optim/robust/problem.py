@@ -26,9 +26,9 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from optim.solver_cache import thread_solver
 from optim.stiffness.loop import casadi_loop_function
 from optim.stiffness.problem import IPOPT_OPTIONS
-from optim.solver_cache import thread_solver
 
 __all__ = ["RobustKey", "RobustSolution", "solve_robust", "CUT_BLOCK", "cut_slots"]
 

@@ -38,10 +38,6 @@ from typing import Literal
 import numpy as np
 
 from models.device import Device
-from optim.solver_info import NO_SOLVER, SolverInfo
-from optim.stability.margins import critical_stiffness, gain_margin_db
-from optim.stiffness.requirements import DESIGN_BACK_OFF, StiffnessRequirements
-
 from optim.robust.box import STIFFNESS_PATHS, UncertaintyBox
 from optim.robust.passivity import describe_delays, largest_robust_passive_stiffness, passivity_corners, worst_passivity
 from optim.robust.passivity_cuts import PassivityCuts
@@ -49,6 +45,9 @@ from optim.robust.stiffness_exchange import ExchangeOutcome, exchange
 from optim.robust.stiffness_profile import Scenario, coarse_profile, initial_points, scenario_at
 from optim.robust.stiffness_seeding import seed
 from optim.robust.worst_case import WorstCase, worst_case_stiffness
+from optim.solver_info import NO_SOLVER, SolverInfo
+from optim.stability.margins import critical_stiffness, gain_margin_db
+from optim.stiffness.requirements import DESIGN_BACK_OFF, StiffnessRequirements
 
 __all__ = ["RobustStiffnessDesign", "robust_design_stiffness", "TOLERANCE_DB"]
 

@@ -13,12 +13,11 @@ from typing import Literal
 
 import numpy as np
 
-from optim.stability.margins import critical_stiffness
-
 from optim.robust.passivity_cuts import PassivityCuts
 from optim.robust.problem import RobustKey, RobustSolution, cut_slots, solve_robust
 from optim.robust.stiffness_profile import Scenario
 from optim.robust.stiffness_seeding import Seed, piece_bounds
+from optim.stability.margins import critical_stiffness
 
 __all__ = ["ExchangeOutcome", "exchange", "MAX_INNER", "MAX_INNER_PASSIVITY"]
 

@@ -13,11 +13,10 @@ from typing import Literal
 import numpy as np
 
 from models.device import Device
-from optim.stability.margins import max_stable_damping
-from optim.stiffness.profile import BoundaryCurve, boundary_curve, coarse_critical
-
 from optim.robust.box import STIFFNESS_PATHS, UncertaintyBox
 from optim.robust.passivity_cuts import PassivityCuts
+from optim.stability.margins import max_stable_damping
+from optim.stiffness.profile import BoundaryCurve, boundary_curve, coarse_critical
 
 __all__ = ["Scenario", "scenario_at", "initial_points", "RobustProfile", "coarse_profile"]
 

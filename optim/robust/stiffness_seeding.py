@@ -12,11 +12,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from optim.stiffness.loop import loop_matrices
-from optim.stiffness.profile import BoundaryCurve, crossings_at
-
 from optim.robust.passivity_cuts import PassivityCuts
 from optim.robust.stiffness_profile import RobustProfile, Scenario
+from optim.stiffness.loop import loop_matrices
+from optim.stiffness.profile import BoundaryCurve, crossings_at
 
 __all__ = ["Seed", "seed", "piece_bounds"]
 

@@ -25,7 +25,6 @@ import numpy as np
 from scipy.stats import qmc
 
 from models.device import Device
-
 from optim.robust.batch import batch_critical_stiffness
 from optim.robust.box import STIFFNESS_PATHS, UncertaintyBox
 
@@ -61,7 +60,6 @@ def box_critical_stiffness(box: UncertaintyBox, unit: np.ndarray, damping: float
 
 
 def _start_points(box: UncertaintyBox, active: np.ndarray, samples: int, seed: int) -> np.ndarray:
-    n = box.dim
     base = box.to_unit(box.nominal_point())
     k = int(active.sum())
     pts = [base[None, :]]

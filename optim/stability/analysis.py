@@ -17,11 +17,17 @@ import numpy as np
 
 from models.device import Device
 from models.plants import Q_criterion
-
-from optim.stability.margins import Crossover, critical_stiffness, gain_margin_db, linear_estimate, loop_plant, max_stable_damping
+from optim.errors import InputError
+from optim.stability.margins import (
+    Crossover,
+    critical_stiffness,
+    gain_margin_db,
+    linear_estimate,
+    loop_plant,
+    max_stable_damping,
+)
 from optim.stability.passivity import passivity_margin
 from optim.stability.reference import reference_critical_stiffness
-from optim.errors import InputError
 
 __all__ = ["Method", "METHODS", "StabilityAnalysis", "analyse_stability", "linear_error_estimate",
            "grid_critical_stiffness", "grid_blind_spot", "DEFAULT_GRID_POINTS", "MAX_GRID_POINTS", "EXACT_REL_ERROR",

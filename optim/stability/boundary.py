@@ -10,9 +10,8 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from models.device import Device
-
-from optim.stability.margins import critical_stiffness, linear_estimate, max_stable_damping
 from optim.errors import InputError
+from optim.stability.margins import critical_stiffness, linear_estimate, max_stable_damping
 
 __all__ = ["BoundaryPoint", "Boundary", "stability_boundary", "MAX_BOUNDARY_POINTS"]
 

@@ -14,7 +14,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from models.discretize import rigid_coefficients, split_delay_array
-
 from optim.stability.fast_rigid import MIN_ZERO_GAP
 
 __all__ = ["FastBatch", "fast_rigid_batch"]
@@ -42,8 +41,7 @@ class _Loops:
         (self.omp, self.phi12, self.g0p, self.g0v, self.g1p, self.g1v, _, self.a0, self.c0) = \
             rigid_coefficients(delta, f)
         self.d, self.whole = d.astype(float), f == 0.0
-        omp, p = self.omp, 1.0 - self.omp
-        self.p = p
+        p = self.p = 1.0 - self.omp
         with np.errstate(all="ignore"):
             # whole-sample delay: N = a(z + q), 1 − q = −c/a (from the series: exact down to δ = 0)
             o_w = -self.c0 / self.a0

@@ -17,9 +17,8 @@ import numpy as np
 
 from models.device import Device
 from models.plants import stiffness_loop_plant
-
-from optim.stability.margins import critical_stiffness
 from optim.errors import InputError
+from optim.stability.margins import critical_stiffness
 
 __all__ = ["CrossoverPoint", "FrequencyResponse", "plant_response", "loop_frequency_response",
            "MAX_RESPONSE_POINTS"]

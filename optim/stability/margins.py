@@ -24,9 +24,8 @@ import numpy as np
 from models.device import Device
 from models.discretize import RigidZOH, StateSpaceZOH
 from models.plants import stiffness_loop_plant
-
-from optim.stability.crossovers import Crossing, positive_real_crossings, scan_grid, theta_min
 from optim.errors import InputError
+from optim.stability.crossovers import Crossing, positive_real_crossings, scan_grid, theta_min
 from optim.stability.fast_cable import bounded_min_crossing
 from optim.stability.fast_rigid import fast_beta_max, fast_rigid, rigid_crossovers
 

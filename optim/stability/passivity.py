@@ -27,9 +27,8 @@ from scipy.optimize import minimize_scalar
 
 from models.device import Device
 from models.discretize import split_delay
-
-from optim.golden import golden_minimum
 from optim.errors import InputError
+from optim.golden import golden_minimum
 
 __all__ = ["PassivityCheck", "PassiveStiffness", "passivity_samples", "kernel", "passivity_margin",
            "is_passive", "max_passive_stiffness", "largest_passive_stiffness", "passive_alpha_on_grid",

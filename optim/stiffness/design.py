@@ -25,9 +25,7 @@ import numpy as np
 from models.device import Device
 from optim.solver_info import NO_SOLVER, SolverInfo
 from optim.stability.margins import critical_stiffness, gain_margin_db, linear_estimate, max_stable_damping
-from optim.stability.passivity import (kernel, largest_passive_stiffness, passivity_margin,
-                             passivity_samples)
-
+from optim.stability.passivity import kernel, largest_passive_stiffness, passivity_margin, passivity_samples
 from optim.stiffness import safeguards
 from optim.stiffness.loop import loop_matrices
 from optim.stiffness.problem import N_CUTS, ProblemKey, ProblemSolution, solve_problem

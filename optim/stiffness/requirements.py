@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+
 from optim.errors import InputError
 
 __all__ = ["StiffnessRequirements", "DESIGN_BACK_OFF"]

@@ -14,7 +14,6 @@ from scipy.optimize import minimize_scalar
 
 from optim.stability.margins import critical_stiffness
 from optim.stability.passivity import largest_passive_stiffness, passive_alpha_on_grid
-
 from optim.stiffness.problem import ProblemKey, ProblemSolution
 
 if TYPE_CHECKING:

@@ -20,9 +20,8 @@ import numpy as np
 
 from models.device import Device
 from models.discretize import split_delay
-
-from optim.stiffness.loop import loop_matrices
 from optim.errors import InputError
+from optim.stiffness.loop import loop_matrices
 
 __all__ = ["perturbed_device", "sensitivities", "PARAMETERS"]
 

@@ -21,9 +21,8 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 
 from models.device import Device
-
-from optim.stability.margins import gain_margin_db, linear_estimate
 from optim.robust.batch import batch_critical_stiffness
+from optim.stability.margins import gain_margin_db, linear_estimate
 
 __all__ = ["evaluate_batch", "evaluate_one", "by_delay_class", "one_point", "row", "finite_or_none"]
 

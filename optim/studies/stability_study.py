@@ -23,11 +23,10 @@ import numpy as np
 
 from models.device import Device
 from models.plants import Q_criterion
-
-from optim.stability.analysis import EXACT_REL_ERROR, MODE_MATTERS_RTOL
-from optim.studies.critical_study import by_delay_class, finite_or_none, one_point, row
-from optim.stability.passivity import batch_required_damping, passivity_samples
 from optim.robust.batch import batch_critical_stiffness
+from optim.stability.analysis import EXACT_REL_ERROR, MODE_MATTERS_RTOL
+from optim.stability.passivity import batch_required_damping, passivity_samples
+from optim.studies.critical_study import by_delay_class, finite_or_none, one_point, row
 
 __all__ = ["evaluate_batch", "evaluate_one"]
 

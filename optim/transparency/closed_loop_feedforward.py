@@ -14,7 +14,6 @@ from scipy import signal
 
 from models.device import Device, Human
 from models.feedforward import feedforward_state_space
-
 from optim.stability.closed_loop import SampledPlant, UnstableCount, count_outside, discretise
 
 __all__ = ["FeedforwardLoop", "feedforward_closed_loop", "feedforward_loop", "feedforward_unstable_count"]

@@ -24,9 +24,8 @@ import numpy as np
 from models.device import Device, Human
 from models.feedforward import CHAPTER_HUMAN, FeedforwardPlant, feedforward_plant
 from models.filters import ButterworthLowPass, butterworth_denominator
-
-from optim.stability.crossovers import positive_real_crossings, scan_grid
 from optim.errors import InputError
+from optim.stability.crossovers import positive_real_crossings, scan_grid
 
 __all__ = ["ForceCrossover", "CriticalForceGain", "critical_force_gain", "critical_force_gain_of_plant",
            "worst_case_force_gain", "apparent_mass", "force_gain_margin_db", "resolve_human"]

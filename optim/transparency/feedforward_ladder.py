@@ -44,11 +44,10 @@ import numpy as np
 from models.device import Device, Human
 from models.feedforward import feedforward_plant
 from models.filters import ButterworthLowPass, butterworth_polynomial
-
-from optim.stability.analysis import METHODS, DEFAULT_GRID_POINTS, MAX_GRID_POINTS
-from optim.transparency.feedforward import (ForceCrossover, critical_force_gain, resolve_human, worst_case_force_gain)
-from optim.transparency.feedforward_reference import REFERENCE_DIGITS, reference_critical_force_gain
 from optim.errors import InputError
+from optim.stability.analysis import DEFAULT_GRID_POINTS, MAX_GRID_POINTS, METHODS
+from optim.transparency.feedforward import ForceCrossover, critical_force_gain, resolve_human, worst_case_force_gain
+from optim.transparency.feedforward_reference import REFERENCE_DIGITS, reference_critical_force_gain
 
 __all__ = ["ForceFeedforwardAnalysis", "analyse_force_feedforward", "linear_force_gain_error",
            "grid_critical_force_gain", "EXACT_REL_ERROR"]
@@ -158,14 +157,14 @@ def _plateau_crossing(device: Device, human: Human, filt: ButterworthLowPass | N
         hi = min(top, lo + step if lo >= 0.05 else lo * 1.3)
         g_hi = loop(hi)
         if g_lo.imag * g_hi.imag < 0 and g_lo.real + g_hi.real < 0:
-            fa, fb = g_lo.imag, g_hi.imag
+            fa = g_lo.imag
             for _ in range(30):
                 m = 0.5 * (lo + hi)
                 fm = loop(m).imag
                 if (fm < 0) == (fa < 0):
                     lo, fa = m, fm
                 else:
-                    hi, fb = m, fm
+                    hi = m
                 if hi - lo < 1e-9 * hi:
                     break
             th = 0.5 * (lo + hi)

@@ -32,13 +32,20 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
+
 from models.device import Device, Human
 from models.filters import MAX_FILTER_ORDER
-
 from optim.errors import InputError
 from optim.solver_info import NO_SOLVER, SolverInfo
-from optim.transparency.feedforward_loop import (RIGID_OPTIMISM_FLAG, FeedforwardLoop, RigidComparison, cutoff_band,
-                                                 design_humans, rigid_comparison, upper_cutoff_hz)
+from optim.transparency.feedforward_loop import (
+    RIGID_OPTIMISM_FLAG,
+    FeedforwardLoop,
+    RigidComparison,
+    cutoff_band,
+    design_humans,
+    rigid_comparison,
+    upper_cutoff_hz,
+)
 from optim.transparency.inertia_band import BandAnswer, BandProfile, band_profile, highest_feasible, maximise
 from optim.transparency.inertia_nlp import modal_plant
 

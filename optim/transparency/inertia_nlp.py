@@ -33,7 +33,6 @@ import numpy as np
 
 from models.feedforward import FeedforwardPlant
 from models.filters import butterworth_polynomial
-
 from optim.solver_cache import thread_solver
 
 __all__ = ["ModalPlant", "modal_plant", "CrossoverNLP", "solve_crossover_nlp"]

@@ -8,9 +8,9 @@ from typing import Annotated
 from fastapi import APIRouter, Body
 from pydantic import ValidationError
 
+from optim.errors import InputError
 from optim.stability.analysis import analyse_stability
 from optim.stability.boundary import stability_boundary
-from optim.errors import InputError
 from optim.verification import verify_analysis, verify_boundary
 
 from ..cost import boundary_cost_ms, check_reference_cost, stability_cost_ms, verify_cost_ms

@@ -15,7 +15,6 @@ from service.executor import BoundedExecutor, Compute
 from service.schemas.design_hardware import HardwareDesignRequest, HardwareDesignResponse
 from service.schemas.verification import verification_out
 
-
 router = APIRouter()
 
 

@@ -17,10 +17,9 @@ from optim.verification import verify_critical_force_gain, verify_force_feedforw
 from ..cost import force_feedforward_cost_ms, inertia_design_cost_ms, verify_cost_ms
 from ..executor import Compute
 from ..jobs import force_feedforward_job
+from ..schemas.feedforward import ForceFeedforwardRequest, ForceFeedforwardResponse, InertiaRequest, InertiaResponse
 from ..schemas.ladder import rung_fields
 from ..schemas.verification import verification_out
-from ..schemas.feedforward import (ForceFeedforwardRequest, ForceFeedforwardResponse, InertiaRequest,
-                                   InertiaResponse)
 
 router = APIRouter(tags=["transparency"])
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+
 import numpy as np
 from fastapi import APIRouter
 from fastapi.responses import Response

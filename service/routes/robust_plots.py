@@ -2,21 +2,20 @@
 
 from __future__ import annotations
 
-
 from fastapi import APIRouter
 from fastapi.responses import Response
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import ConfigDict, Field
 
+from optim.errors import InputError
 from optim.robust.box import UncertaintyBox
 from optim.stiffness import StiffnessRequirements
 
-from optim.errors import InputError
 from ..executor import Compute
-from ..schemas.plots import FormatQuery, image_format
 from ..jobs import hardware_plot_job, robust_slice_job
 from ..plots_robust import MEDIA_TYPES
 from ..schemas.design_hardware import HardwareDesignRequest
 from ..schemas.design_stiffness import StiffnessDesignRequest
+from ..schemas.plots import FormatQuery, image_format
 from .design_hardware import hardware_target
 from .design_stiffness import input_error
 

@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-
 from fastapi import APIRouter
 from fastapi.responses import Response
 
 from ..executor import Compute
-from ..schemas.plots import FormatQuery, image_format
 from ..jobs import simulation_plot_job
 from ..plots_simulation import MEDIA_TYPES
+from ..schemas.plots import FormatQuery, image_format
 from ..schemas.simulate import SimulateRequest
 from .simulate import run_scene
 

@@ -10,8 +10,8 @@ from optim.stability.analysis import DEFAULT_GRID_POINTS, MAX_GRID_POINTS
 from optim.stability.boundary import MAX_BOUNDARY_POINTS
 
 from .common import LHIFAM_RIGID, STRICT, Controller, CrossoverOut, Device
-from .verification import VerificationOut, VerifyField
 from .finite import FiniteModel
+from .verification import VerificationOut, VerifyField
 
 
 class StabilityRequest(BaseModel):

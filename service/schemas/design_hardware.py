@@ -12,8 +12,8 @@ from optim.hardware.hardware_range import check_range
 from optim.hardware.hardware_targets import HardwareTarget
 
 from .common import Device  # the numerics' validated domain (optim.domain) applies
-from .verification import VerificationOut, VerifyField
 from .finite import FiniteModel
+from .verification import VerificationOut, VerifyField
 
 __all__ = ["HardwareTargetIn", "ValueRangeIn", "HardwareDesignRequest", "HardwareDesignResponse", "CurvePoint", "EdgeOut",
            "ControllerOut"]

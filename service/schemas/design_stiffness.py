@@ -9,10 +9,9 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 from optim.domain import check_controller_domain
 
 from .common import Device  # the numerics' validated domain (optim.domain) applies
-
+from .finite import FiniteModel
 from .ladder import ExactCheckOut, GridPointsField, Method, MethodField
 from .verification import VerificationOut, VerifyField
-from .finite import FiniteModel
 
 __all__ = ["StiffnessRequirementsIn", "StiffnessDesignRequest", "SensitivityOut", "StiffnessDesignResponse",
            "RangeIn", "WorstCaseOut", "PassivityWorstCaseOut"]

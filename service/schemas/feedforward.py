@@ -8,14 +8,14 @@ from pydantic import BaseModel, Field, model_validator
 
 from models.device import Human
 from models.filters import MAX_FILTER_ORDER
-from optim.stability.analysis import DEFAULT_GRID_POINTS, MAX_GRID_POINTS
 from optim.domain import check_cutoff_domain, check_human_domain, check_human_mass
+from optim.stability.analysis import DEFAULT_GRID_POINTS, MAX_GRID_POINTS
 
 from .common import STRICT, Device
 from .design_stiffness import RangeIn
-from .verification import VerificationOut, VerifyField
-from .ladder import ExactCheckOut, GridPointsField, Method, MethodField
 from .finite import FiniteModel
+from .ladder import ExactCheckOut, GridPointsField, Method, MethodField
+from .verification import VerificationOut, VerifyField
 
 _LHIFAM_FF = {"mass": 5.4, "damping": 3.5, "sample_time": 0.001,
               "human": {"mass": 2, "damping": 2, "stiffness": 10}, "force_sensor": {"time_constant": 0.005}}

@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
-from .finite import finite_or_null
 from dataclasses import asdict
 from typing import Literal
 
 from pydantic import BaseModel, Field
 
 from optim.stability.analysis import DEFAULT_GRID_POINTS, MAX_GRID_POINTS
+
+from .finite import finite_or_null
 
 __all__ = ["Method", "MethodField", "GridPointsField", "ExactCheckOut", "rung_fields"]
 

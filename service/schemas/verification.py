@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
-from .finite import finite_or_null
 from dataclasses import asdict
 from typing import Literal
 
 from pydantic import BaseModel, Field
+
+from .finite import finite_or_null
 
 __all__ = ["VerificationOut", "VerifyField", "verification_out"]
 

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import multiprocessing
-from concurrent.futures.process import BrokenProcessPool
 import os
+from concurrent.futures.process import BrokenProcessPool
 from typing import Any, Callable, Protocol
 
 from ..lifeline import batch_worker_init

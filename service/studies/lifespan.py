@@ -48,7 +48,7 @@ async def study_lifespan(app: FastAPI) -> AsyncIterator[None]:
         runner.start()
         app.state.study_runner = runner
         app.state.study_error = None
-    except Exception as exc:  # noqa: BLE001 - the other endpoints must still serve
+    except Exception:  # noqa: BLE001 - the other endpoints must still serve
         log.exception("study store unavailable")
         app.state.study_runner = None
         # The cause (driver text: hosts, ports, paths) is in the log above, never in an answer.

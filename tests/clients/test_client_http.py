@@ -8,8 +8,17 @@ import dataclasses
 import httpx
 import pytest
 
-from clients import (APIError, AsyncZwidthClient, Plot, Retries, TransportError, ValidationFailed, ZwidthClient, calls,
-                     schemas)
+from clients import (
+    APIError,
+    AsyncZwidthClient,
+    Plot,
+    Retries,
+    TransportError,
+    ValidationFailed,
+    ZwidthClient,
+    calls,
+    schemas,
+)
 from models.device import Device
 from optim.stability.analysis import analyse_stability
 from optim.stability.boundary import stability_boundary

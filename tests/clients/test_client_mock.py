@@ -9,8 +9,18 @@ import httpx
 import pytest
 
 import clients
-from clients import (APIError, AsyncZwidthClient, ProtocolError, Retries, Timeouts, TransportError,
-                     ValidationFailed, ZwidthClient, ZwidthError, calls)
+from clients import (
+    APIError,
+    AsyncZwidthClient,
+    ProtocolError,
+    Retries,
+    Timeouts,
+    TransportError,
+    ValidationFailed,
+    ZwidthClient,
+    ZwidthError,
+    calls,
+)
 from models.device import Device
 
 HEALTH = {"status": "ok", "version": "9.9.9"}

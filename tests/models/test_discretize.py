@@ -9,8 +9,7 @@ import numpy as np
 import pytest
 
 from models.device import Device
-from models.discretize import (RigidZOH, StateSpaceZOH, phi1, phi2, rigid_coefficients, split_delay,
-                               split_delay_array)
+from models.discretize import RigidZOH, StateSpaceZOH, phi1, phi2, rigid_coefficients, split_delay, split_delay_array
 from models.plants import cable_tfs, stiffness_loop_plant
 
 

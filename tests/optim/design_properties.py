@@ -26,7 +26,6 @@ import numpy as np
 from models.device import MAX_DELAY_SAMPLES, Device
 from optim.stability.analysis import analyse_stability
 from optim.stiffness import StiffnessRequirements, design_stiffness
-
 from tests.optim.stiffness_scan import scan_best
 
 OPTIMALITY_MAX_DELAY = 200

@@ -6,8 +6,6 @@ It shares nothing with optim.stiffness except the exact analysis it is meant to 
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from scipy.optimize import minimize_scalar
 

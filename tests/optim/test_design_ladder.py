@@ -8,10 +8,10 @@ import pytest
 
 from models.device import Device
 from optim.design_ladder import design_inertia_on_rung, design_stiffness_on_rung
-from optim.transparency.inertia import InertiaRequirements
 from optim.stability.margins import critical_stiffness
 from optim.stability.passivity import passivity_margin
 from optim.stiffness import StiffnessRequirements
+from optim.transparency.inertia import InertiaRequirements
 from tests.feedforward_reference import HUMAN_EQ30, LHIFAM_CABLE, LHIFAM_RIGID, SENSOR_EQ31
 
 RIGID = Device(**LHIFAM_RIGID)

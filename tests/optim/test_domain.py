@@ -11,8 +11,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from models.device import Device
-from optim.stability.analysis import analyse_stability
 from optim.domain import DELTA_MAX, DELTA_MIN, check_device_domain
+from optim.stability.analysis import analyse_stability
 
 
 @pytest.mark.parametrize("kwargs,field", [
@@ -58,8 +58,7 @@ def test_inside_the_domain_every_exact_analysis_is_finite(log_delta, delay, log_
 
 from models.device import Human  # noqa: E402
 from models.filters import ButterworthLowPass  # noqa: E402
-from optim.domain import (CUTOFF_RATIO_MIN, RATIO_MIN, check_cutoff_domain, check_human_domain,  # noqa: E402
-                          check_human_mass)
+from optim.domain import CUTOFF_RATIO_MIN, RATIO_MIN, check_cutoff_domain, check_human_domain, check_human_mass  # noqa: E402
 from optim.transparency.feedforward_ladder import analyse_force_feedforward  # noqa: E402
 
 _FF = Device(mass=5.4, damping=3.5, human={"mass": 2, "damping": 2, "stiffness": 10},

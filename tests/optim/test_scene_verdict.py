@@ -9,8 +9,8 @@ from models.device import Device
 from models.simulation.scene import Scene
 from models.simulation.scene_poles import MAX_EXACT_STATES
 from models.simulation.simulate import simulate
-from optim.stability.margins import critical_stiffness
 from optim.scene_verdict import margin_verdict, with_margin_verdict
+from optim.stability.margins import critical_stiffness
 from tests.optim.independent import spectral_radius
 
 

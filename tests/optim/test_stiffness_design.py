@@ -11,7 +11,6 @@ from optim.stability.margins import critical_stiffness, gain_margin_db
 from optim.stability.passivity import max_passive_stiffness
 from optim.stiffness import StiffnessRequirements, design_stiffness
 from optim.stiffness.sensitivity import perturbed_device
-
 from tests.optim.stiffness_scan import scan_best
 
 LH = Device(preset="lhifam")

@@ -16,7 +16,6 @@ from optim.stability.margins import critical_stiffness
 from optim.stability.passivity import passivity_margin
 from optim.stiffness import StiffnessRequirements, design_stiffness
 from optim.stiffness.requirements import DESIGN_BACK_OFF
-
 from tests.optim.stiffness_scan import scan_best
 
 # the device: rigid m = 5.4 kg, b = 3.5 N·s/m, T = 1 ms

@@ -30,7 +30,6 @@ from optim.verification import (
     verify_passivity,
     verify_stiffness_design,
 )
-
 from tests.optim.independent import eq12_roots_mp, spectral_radius
 from tests.optim.verify_cases import random_device, undamped_cable
 

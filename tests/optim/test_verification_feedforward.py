@@ -17,7 +17,6 @@ from optim.transparency.closed_loop_feedforward import (
 )
 from optim.transparency.feedforward_ladder import analyse_force_feedforward
 from optim.verification import verify_critical_force_gain, verify_force_feedforward
-
 from tests.optim.closed_loop import spectral_radius
 
 HUMAN = Human(mass=2.0, damping=2.0, stiffness=10.0)

@@ -169,8 +169,9 @@ def test_unexpected_errors_leak_no_trace_or_path(client, monkeypatch):
 
 
 def test_unexpected_value_error_without_a_field_is_500_without_leaks(client, monkeypatch):
-    import service.routes.analysis as routes
     from pydantic import BaseModel
+
+    import service.routes.analysis as routes
 
     class Inner(BaseModel):
         x: int

@@ -103,7 +103,7 @@ def test_swagger_ui_renders_the_operations_in_headless_chromium():
     assert "swagger-ui" in dom
     # Rendered operation blocks (Swagger UI builds them from /openapi.json at run time).
     for op_id in ("analyse_stability", "stability_boundary", "plot_bode", "plot_boundary", "list_presets", "healthz"):
-        assert f"operations-" in dom and op_id in dom, op_id
+        assert "operations-" in dom and op_id in dom, op_id
     for path in ("/v1/analysis/stability", "/v1/analysis/boundary", "/v1/plots/bode", "/healthz"):
         assert path in dom, path
     assert "/v1/analysis/stability" in redoc and "Critical stiffness" in redoc

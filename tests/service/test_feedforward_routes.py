@@ -9,8 +9,14 @@ import pytest
 from fastapi.testclient import TestClient
 
 from service.app import create_app
-from tests.feedforward_reference import (EQ32_CRITICAL_FORCE_GAIN, EQ32_RTOL, EQ33_WORST_CASE, HUMAN_EQ30,
-                                         LHIFAM_RIGID, SENSOR_EQ31)
+from tests.feedforward_reference import (
+    EQ32_CRITICAL_FORCE_GAIN,
+    EQ32_RTOL,
+    EQ33_WORST_CASE,
+    HUMAN_EQ30,
+    LHIFAM_RIGID,
+    SENSOR_EQ31,
+)
 
 DEVICE = {**LHIFAM_RIGID, "human": HUMAN_EQ30, "force_sensor": SENSOR_EQ31}
 

@@ -11,9 +11,9 @@ with warnings.catch_warnings():
 
 from models.device import Device
 from models.feedforward import feedforward_plant
-from optim.transparency.feedforward import critical_force_gain_of_plant, resolve_human
 from optim.stability.margins import critical_stiffness
 from optim.stability.passivity import passivity_margin
+from optim.transparency.feedforward import critical_force_gain_of_plant, resolve_human
 from service.app import create_app
 
 LH_RIGID = {"preset": "lhifam", "cable": None}

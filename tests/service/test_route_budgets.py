@@ -109,8 +109,12 @@ def test_cost_estimates_send_designs_and_long_runs_to_a_worker():
     stay inline (no round trip).  Robust and hardware designs pass cost None (always a worker)."""
     from models.device import Device
     from models.simulation.scene import Scene
-    from service.cost import (force_feedforward_cost_ms, inertia_design_cost_ms, simulation_cost_ms,
-                              stiffness_design_cost_ms)
+    from service.cost import (
+        force_feedforward_cost_ms,
+        inertia_design_cost_ms,
+        simulation_cost_ms,
+        stiffness_design_cost_ms,
+    )
     from service.executor import BoundedExecutor
 
     inline = BoundedExecutor(workers=1).inline_cost_ms

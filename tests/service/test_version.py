@@ -1,9 +1,8 @@
 """The version is written once (pyproject.toml) and read from the installed package's metadata."""
 
+import tomllib
 from importlib.metadata import version
 from pathlib import Path
-
-import tomllib
 
 from service.app import VERSION
 

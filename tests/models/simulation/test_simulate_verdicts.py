@@ -18,10 +18,9 @@ from models.simulation.scene_poles import MAX_EXACT_STATES
 from models.simulation.simulate import scene_poles, simulate
 from models.simulation.verdict import decide
 from optim.stability.margins import critical_stiffness
+from tests.models.simulation.verdict_cases import random_case, run_case
 from tests.optim.independent import spectral_radius
 from tests.reference_values import ISSUE17_CABLES, ISSUE17_RIGID
-
-from tests.models.simulation.verdict_cases import random_case, run_case
 
 DURATIONS = (0.3, 1.0, 5.0, 20.0)
 

@@ -24,8 +24,8 @@ import numpy as np
 from models.device import Device
 from models.simulation.scene import Scene
 from models.simulation.simulate import simulate
-from optim.stability.margins import critical_stiffness, max_stable_damping
 from optim.scene_verdict import with_margin_verdict
+from optim.stability.margins import critical_stiffness, max_stable_damping
 from tests.optim.independent import spectral_radius
 
 __all__ = ["VerdictCase", "Outcome", "random_case", "run_case", "FACTORS", "DURATIONS"]

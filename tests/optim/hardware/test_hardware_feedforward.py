@@ -14,11 +14,11 @@ from scipy.optimize import minimize_scalar
 
 from models.device import Device
 from models.filters import ButterworthLowPass
-from optim.transparency.feedforward import critical_force_gain
 from optim.hardware.design import HardwareTarget, design_hardware, device_with
-from optim.transparency.inertia import design_inertia
 from optim.stability.margins import critical_stiffness
 from optim.stiffness import design_stiffness
+from optim.transparency.feedforward import critical_force_gain
+from optim.transparency.inertia import design_inertia
 
 LH = Device(preset="lhifam")
 RIGID = LH.rigid()

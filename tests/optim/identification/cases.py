@@ -19,7 +19,6 @@ import numpy as np
 
 from models.device import Device
 from optim.identification import TimeSeriesData
-
 from tests.optim.identification.synthetic import CABLE, RIGID, excitation, simulate_experiment
 
 T = 0.001

@@ -8,7 +8,6 @@ import pytest
 
 from optim.identification import FrequencyResponseData, TimeSeriesData, identify
 from optim.identification.data import MAX_SAMPLES
-
 from tests.optim.identification.cases import T, noisy_response, record
 
 

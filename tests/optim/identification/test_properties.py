@@ -12,7 +12,6 @@ from hypothesis import strategies as st
 from models.device import Device
 from optim.identification import FrequencyResponseData, TimeSeriesData, identify
 from optim.identification.models import response, simulate_position
-
 from tests.optim.identification.synthetic import CABLE, excitation, simulate_experiment
 
 devices = st.builds(

@@ -6,8 +6,16 @@ from __future__ import annotations
 import pytest
 
 from optim.identification import identify
-
-from tests.optim.identification.cases import DAMPING_RTOL, DELAY_ATOL, DELAYS, FRICTION, MASS_RTOL, device, noisy_response, record
+from tests.optim.identification.cases import (
+    DAMPING_RTOL,
+    DELAY_ATOL,
+    DELAYS,
+    FRICTION,
+    MASS_RTOL,
+    device,
+    noisy_response,
+    record,
+)
 
 
 def _check_rigid(res, dev):
@@ -131,8 +139,7 @@ def test_recovery_under_a_weak_pd(kind, delay):
     commanded force then depends on the measurement noise, but that noise is white and the plant strictly
     delayed, so output error stays consistent and the tolerances hold; `auto` still chooses the true model."""
     from optim.identification import TimeSeriesData
-
-    from tests.optim.identification.cases import AMPLITUDE, NOISE, QUANTIZATION, T, N
+    from tests.optim.identification.cases import AMPLITUDE, NOISE, QUANTIZATION, N, T
     from tests.optim.identification.synthetic import excitation, simulate_experiment
 
     u, y = simulate_experiment(device(kind, delay), excitation(N, T, amplitude=AMPLITUDE, seed=2),

@@ -8,9 +8,9 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from models.discretize import split_delay
-from optim.stability.margins import max_stable_damping
 from optim.robust.batch import batch_critical_stiffness
 from optim.robust.box import UncertaintyBox
+from optim.stability.margins import max_stable_damping
 
 
 def min_margin_db(box: UncertaintyBox, k: float, b: float, n_random: int = 2000, seed: int = 99) -> float:

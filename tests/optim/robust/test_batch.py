@@ -6,9 +6,8 @@ import numpy as np
 import pytest
 
 from models.device import Device
-from optim.stability.margins import critical_stiffness
 from optim.robust.batch import batch_critical_stiffness
-
+from optim.stability.margins import critical_stiffness
 from tests.optim.test_stiffness_design import _random_devices
 
 

@@ -10,11 +10,11 @@ from scipy.optimize import minimize_scalar
 
 from models.device import Device
 from models.feedforward import feedforward_plant
-from optim.transparency.feedforward import critical_force_gain_of_plant, resolve_human
-from optim.transparency.inertia import InertiaRequirements, design_inertia
 from optim.robust.box import UncertaintyBox
 from optim.robust.inertia import robust_design_inertia
 from optim.robust.stiffness import TOLERANCE_DB
+from optim.transparency.feedforward import critical_force_gain_of_plant, resolve_human
+from optim.transparency.inertia import InertiaRequirements, design_inertia
 
 LH = Device(preset="lhifam")
 

@@ -8,8 +8,8 @@ from optim.robust import stiffness_exchange
 from optim.robust.box import UncertaintyBox
 from optim.robust.problem import RobustSolution
 from optim.robust.stiffness import robust_design_stiffness
-from optim.solver_info import plain
 from optim.robust.stiffness_profile import coarse_profile, initial_points, scenario_at
+from optim.solver_info import plain
 from optim.stiffness import StiffnessRequirements
 
 RIGID = Device(preset="lhifam").rigid()

@@ -7,13 +7,19 @@ import numpy as np
 import pytest
 
 from models.device import Device
-from optim.stability.passivity import largest_passive_stiffness, passivity_margin, passivity_samples
 from optim.robust.box import UncertaintyBox
 from optim.robust.passivity import MAX_PASSIVITY_DELAYS, passivity_corners
 from optim.robust.stiffness import TOLERANCE_DB, robust_design_stiffness
+from optim.stability.passivity import largest_passive_stiffness, passivity_margin, passivity_samples
 from optim.stiffness import StiffnessRequirements, design_stiffness
-
-from tests.optim.robust.checks import box_sample, dense_best_passive, min_margin_db, passive_stiffness_bounds, sup_p, whole_delay
+from tests.optim.robust.checks import (
+    box_sample,
+    dense_best_passive,
+    min_margin_db,
+    passive_stiffness_bounds,
+    sup_p,
+    whole_delay,
+)
 
 LH = Device(preset="lhifam")
 RIGID = LH.rigid()

@@ -4,11 +4,10 @@ import numpy as np
 import pytest
 
 from models.device import Device
-from optim.stability.margins import critical_stiffness
 from optim.robust.box import UncertaintyBox
 from optim.robust.stiffness import TOLERANCE_DB, robust_design_stiffness
+from optim.stability.margins import critical_stiffness
 from optim.stiffness import StiffnessRequirements, design_stiffness
-
 from tests.optim.robust.checks import dense_best, min_margin_db
 
 LH = Device(preset="lhifam")

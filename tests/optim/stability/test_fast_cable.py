@@ -16,8 +16,8 @@ import pytest
 
 from models.device import Device
 from optim.stability.fast_cable import modal_bound
-from optim.stability.reference import reference_critical_stiffness
 from optim.stability.margins import critical_stiffness, loop_plant, max_stable_damping, scan_critical_stiffness
+from optim.stability.reference import reference_critical_stiffness
 
 RTOL = 1e-12
 

@@ -15,11 +15,11 @@ import pytest
 
 from models.device import Device
 from models.plants import stiffness_loop_plant
+from optim.robust.batch import _Evaluator, _grids, _Loop, _min_crossing
 from optim.stability.fast_batch import fast_rigid_batch
 from optim.stability.fast_rigid import fast_rigid
 from optim.stability.margins import critical_stiffness, max_stable_damping, scan_critical_stiffness
 from optim.stability.reference import reference_critical_stiffness
-from optim.robust.batch import _Evaluator, _grids, _Loop, _min_crossing
 
 RTOL = 1e-12
 

@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 
 from models.device import Device
-from optim.studies import critical_study
 from optim.stability.analysis import analyse_stability
 from optim.stability.margins import max_stable_damping
+from optim.studies import critical_study
 from optim.studies.problems import evaluate_chunk, evaluate_point, get_problem, plan_study, point_hash
 
 RTOL = 1e-12  # the exact rung's stated relative error; both sides refine every crossover to a few ulp

@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 
 from models.device import Device
-from optim.studies import stability_study
 from optim.stability.analysis import analyse_stability
 from optim.stability.margins import max_stable_damping
 from optim.stability.passivity import batch_required_damping, passivity_margin
+from optim.studies import stability_study
 from optim.studies.problems import evaluate_chunk, plan_study, point_hash
 
 RTOL = 1e-12

@@ -9,13 +9,22 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from models.device import Device
-from optim.studies import problems as studies
 from optim.stability.analysis import analyse_stability
-from optim.studies.problems import (MAX_STUDY_POINTS, StudyInputError, evaluate_chunk, evaluate_point, flatten_result,
-                           get_problem, plan_study, point_hash)
+from optim.studies import problems as studies
+from optim.studies.problems import (
+    MAX_STUDY_POINTS,
+    StudyInputError,
+    evaluate_chunk,
+    evaluate_point,
+    flatten_result,
+    get_problem,
+    plan_study,
+    point_hash,
+)
 from tests.reference_values import CASES
 
 RIGID = {"mass": 5.4, "damping": 3.5, "sample_time": 0.001}

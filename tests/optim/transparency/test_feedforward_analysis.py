@@ -6,18 +6,27 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from models.device import Device
 from models.feedforward import CHAPTER_HUMAN, feedforward_plant
 from models.filters import ButterworthLowPass
 from optim.transparency.feedforward import apparent_mass, critical_force_gain, worst_case_force_gain
 from optim.transparency.feedforward_reference import reference_g1
-from tests.feedforward_reference import (EQ32_CRITICAL_FORCE_GAIN, EQ32_RTOL, EQ33_WORST_CASE, HUMAN_EQ30,
-                                         LHIFAM_CABLE, LHIFAM_RIGID, SEC52_APPARENT_MASS, SEC52_FORCE_GAIN,
-                                         SENSOR_EQ31)
-
+from tests.feedforward_reference import (
+    EQ32_CRITICAL_FORCE_GAIN,
+    EQ32_RTOL,
+    EQ33_WORST_CASE,
+    HUMAN_EQ30,
+    LHIFAM_CABLE,
+    LHIFAM_RIGID,
+    SEC52_APPARENT_MASS,
+    SEC52_FORCE_GAIN,
+    SENSOR_EQ31,
+)
 from tests.optim.closed_loop import closed_loop_matrix, spectral_radius
+
 
 def with_(device: Device, **update) -> Device:
     """A validated copy with some fields replaced (model_copy would skip validation)."""

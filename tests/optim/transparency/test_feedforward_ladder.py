@@ -12,10 +12,20 @@ from models.feedforward import feedforward_plant
 from models.filters import ButterworthLowPass
 from optim.transparency.feedforward import critical_force_gain
 from optim.transparency.feedforward_ladder import analyse_force_feedforward
-from optim.transparency.feedforward_reference import (REFERENCE_FORCE_GAIN_MAX_DELAY_SAMPLES, reference_critical_force_gain,
-                                                      reference_g1)
-from tests.feedforward_reference import (EQ32_CRITICAL_FORCE_GAIN, EQ32_RTOL, EQ33_WORST_CASE, HUMAN_EQ30,
-                                         LHIFAM_CABLE, LHIFAM_RIGID, SENSOR_EQ31)
+from optim.transparency.feedforward_reference import (
+    REFERENCE_FORCE_GAIN_MAX_DELAY_SAMPLES,
+    reference_critical_force_gain,
+    reference_g1,
+)
+from tests.feedforward_reference import (
+    EQ32_CRITICAL_FORCE_GAIN,
+    EQ32_RTOL,
+    EQ33_WORST_CASE,
+    HUMAN_EQ30,
+    LHIFAM_CABLE,
+    LHIFAM_RIGID,
+    SENSOR_EQ31,
+)
 
 
 def _dev(params: dict, delay: float = 0.0, **kw) -> Device:

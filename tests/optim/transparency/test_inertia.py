@@ -15,9 +15,15 @@ from models.filters import ButterworthLowPass
 from optim.transparency.feedforward import critical_force_gain
 from optim.transparency.inertia import InertiaRequirements, design_inertia
 from optim.transparency.inertia_nlp import NLPResult
-from tests.feedforward_reference import (HUMAN_EQ30, LHIFAM_CABLE, LHIFAM_RIGID, SEC52_APPARENT_MASS,
-                                         SEC52_FILTER, SEC52_FORCE_GAIN, SENSOR_EQ31)
-
+from tests.feedforward_reference import (
+    HUMAN_EQ30,
+    LHIFAM_CABLE,
+    LHIFAM_RIGID,
+    SEC52_APPARENT_MASS,
+    SEC52_FILTER,
+    SEC52_FORCE_GAIN,
+    SENSOR_EQ31,
+)
 from tests.optim.closed_loop import spectral_radius
 
 RIGID = Device(**LHIFAM_RIGID, human=HUMAN_EQ30, force_sensor=SENSOR_EQ31)

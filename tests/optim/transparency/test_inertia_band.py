@@ -22,7 +22,6 @@ from models.feedforward import feedforward_plant
 from models.filters import ButterworthLowPass
 from optim.transparency.feedforward import critical_force_gain_of_plant
 from optim.transparency.inertia import InertiaRequirements, design_inertia, upper_cutoff_hz
-
 from tests.optim.closed_loop import spectral_radius
 
 RIGID_JUMP = Device(mass=1.029985459024432, damping=2.9662632966274485, sample_time=0.002, delay=0.004,
