@@ -65,7 +65,28 @@ def default_grid(device: Device, free: str, points: int) -> np.ndarray:
         return np.geomspace(lo, hi, points)
     if v <= 0:
         raise InputError("free", f"the device's {free} is 0; give a positive value to scan around, or a range")
-    return np.geomspace(v / SPAN, v * SPAN, points)
+    lo, hi = v / SPAN, v * SPAN
+    # a device near an input limit (e.g. mass 4e10 kg, limit 1e12): the span ends stop inside the domain, as the
+    # widening does (else a point of the scan is a device the model refuses: a 500 found by the fuzzer)
+    hi, lo = _inside(device, free, v, hi), _inside(device, free, v, lo)
+    return np.geomspace(lo, hi, points)
+
+
+def _inside(device: Device, free: str, good: float, far: float) -> float:
+    """``far``, or the value nearest to it (geometrically) that the device's own domain accepts."""
+    def ok(x: float) -> bool:
+        try:
+            check_device_domain(device_with(device, free, x))
+            return True
+        except ValueError:          # pydantic's ValidationError and InputError are ValueErrors
+            return False
+    if ok(far):
+        return far
+    g, b = math.log(good), math.log(far)
+    for _ in range(_LIMIT_BISECTIONS):
+        mid = 0.5 * (g + b)
+        g, b = (mid, b) if ok(math.exp(mid)) else (g, mid)
+    return math.exp(g) * (1.0 - 1e-6) ** (1 if far > good else -1)
 
 
 def check_range(device: Device, free: str, target: HardwareTarget, lo: float, hi: float) -> None:

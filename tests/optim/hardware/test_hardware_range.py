@@ -103,3 +103,19 @@ def test_widening_stops_at_the_input_limit():
     # dense independent search over the whole allowed range of b (down to δ = 1e-30 ... up to the limit)
     allowed = np.geomspace(1e-27, r.scanned_range[1], 24)
     assert all(forward_k(SMALL, "damping", q, HardwareTarget(1e15)) < 1e15 for q in allowed)
+
+
+def test_default_scan_stays_inside_the_device_domain():
+    """A device near an input limit (mass 4e10 kg; the limit is 1e12): the default span ×30 would leave the domain,
+    and a scan point the model refuses answered 500 (found by the fuzzer). The span stops inside the limit."""
+    from models.device import Device
+    from optim.domain import check_device_domain
+    from optim.hardware.hardware_range import default_grid
+    from optim.hardware.hardware_targets import device_with
+
+    for mass in (4e10, 9e11, 1e12):
+        dev = Device(mass=mass, damping=3.5)
+        grid = default_grid(dev, "mass", 41)
+        assert grid[-1] <= 1e12 and grid[0] > 0
+        for q in grid:
+            check_device_domain(device_with(dev, "mass", float(q)))
