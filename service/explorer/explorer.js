@@ -564,6 +564,14 @@
     throw new Error(`columns ${head.join(", ")}: expected time,force,position or frequency,real,imag`);
   }
 
+  /** A small answer record in words: "white: true, p_value: 0.42" (numbers as the page shows them). */
+  function describe(v) {
+    if (v === null || v === undefined) return "—";
+    if (typeof v !== "object") return typeof v === "number" ? num(v) : String(v);
+    return Object.entries(v).filter(([, x]) => x === null || typeof x !== "object")
+      .map(([k, x]) => `${k.replaceAll("_", " ")}: ${typeof x === "number" ? num(x, 4) : x}`).join(", ");
+  }
+
   let identified = null;
 
   async function identify(ev) {
@@ -588,7 +596,7 @@
         ["why", escapeText(r.reason || "—")],
         ...params,
         ["fit NRMSE", r.fit ? num(r.fit.nrmse, 4) : "—"],
-        ["residual whiteness", r.fit ? escapeText(String(r.fit.residual_whiteness)) : "—"],
+        ["residual whiteness", r.fit ? escapeText(describe(r.fit.residual_whiteness)) : "—"],
         ...(r.warnings || []).map((w) => ["warning", escapeText(w)]),
         ["elapsed", withUnit(r.elapsed_ms, "ms", 4)],
       ]) + (r.status === "identified"
