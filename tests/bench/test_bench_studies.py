@@ -1,15 +1,16 @@
 """The study benchmark runs and renders (a tiny local-only version, so the script cannot rot)."""
 
 from bench import bench_studies
-from optim.studies.problems import ProblemUnavailable, get_problem
+from optim.studies.problems import VECTOR_CHUNK_FACTOR, ProblemUnavailable, get_problem
 
 
 def test_bench_studies_tiny():
     rows = bench_studies.measure(points=2, repeats=1, workers=(1,), dask=False, chunk_size=4, analysis_points=40)
-    for problem, points, chunk in (("stability", 40, 16), ("critical_stiffness", 40, 16)):
+    vector_chunk = 4 * VECTOR_CHUNK_FACTOR      # the runner's chunk of 4 × the vectorised problems' factor
+    for problem, points, chunk in (("stability", 40, vector_chunk), ("critical_stiffness", 40, vector_chunk)):
         mine = [r for r in rows if r.problem == problem]
         assert [r.executor for r in mine] == [bench_studies.BASELINES[problem][0], "local pool, 1 worker"]
-        assert [r.chunk for r in mine] == [None, chunk]   # the runner's 4 × the vectorised problems' factor 4
+        assert [r.chunk for r in mine] == [None, chunk]
         assert all(r.points == points and r.failed == 0 and r.rate > 0 for r in mine)
     try:
         get_problem("stiffness")
