@@ -95,10 +95,13 @@ async def inertia(req: InertiaRequest, compute: Compute) -> InertiaResponse:
     except ValueError as exc:
         raise _field_error(exc) from exc
     notes = _human_notes(d.human_source)
-    jump = d.solver.get("crossover_structure_changes_hz")
-    if jump:
-        notes.append(f"K_f,cr jumps between {jump[0]:.4g} and {jump[1]:.4g} Hz, where two phase crossovers merge and "
-                     "vanish; a design next to that jump is sensitive to model error (the lower crossover can return)")
+    jumps = d.solver.get("crossover_structure_changes_hz") or []
+    if jumps and not isinstance(jumps[0], (list, tuple)):     # one [lo, hi] pair
+        jumps = [jumps]
+    if jumps:
+        where = ", ".join(f"{lo:.4g}–{hi:.4g} Hz" for lo, hi in jumps[:3]) + (" …" if len(jumps) > 3 else "")
+        notes.append(f"K_f,cr jumps at {where}, where two phase crossovers merge and vanish; a design next to a jump "
+                     "is sensitive to model error (the lower crossover can return)")
     rigid = _rigid_out(d, notes, "the rigid model")
     verification = None
     if req.verify and d.force_gain is not None and math.isfinite(d.force_gain) and d.filter_cutoff_hz is not None:

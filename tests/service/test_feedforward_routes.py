@@ -142,3 +142,13 @@ def test_design_inertia_grasp_range(client):
     d = strict_json(r.text)
     assert r.status_code == 200 and d["status"] == "optimal" and len(d["humans"]) >= 5
     assert d["worst_human"]["mass"] >= 0.5
+
+
+def test_design_inertia_with_several_jumps_of_the_critical_gain_answers(client):
+    """Several jumps of K_f,cr in the band (a sensor filter of 1e12 s): the note lists them; it used to answer 500
+    (found by schemathesis: the route formatted a list of pairs as one pair)."""
+    body = {"device": {"cable": None, "damping": 3.5, "delay": 0, "force_sensor": {"time_constant": 999999999999.0},
+                       "human": {"damping": 2, "mass": 2, "stiffness": 10}, "mass": 5.4, "sample_time": 0.001},
+            "requirements": {"human_mass_range": {"max": 4, "min": 0.05}}}
+    r = client.post("/v1/design/inertia", json=body)
+    assert r.status_code == 200, r.text

@@ -119,7 +119,9 @@ def test_crossovers_sit_where_the_phase_is_minus_180_and_the_gain_is_one_over_k(
         # rtol 1e-9: the crossovers are refined to a few ulp in ω; |G| moves by |dG/dω|·δω there.
         assert c.magnitude * c.stiffness == pytest.approx(1.0, rel=1e-9)
         assert math.remainder(c.phase_deg + 180.0, 360.0) == pytest.approx(0.0, abs=1e-6)
-    assert min(c.stiffness for c in res.crossovers) == res.critical_stiffness
+    # the binding crossover of the list and K_cr: the same root (the cable's bounded scan solves it on its own
+    # bracket, the list on the scan's: they may differ in the last ulp)
+    assert min(c.stiffness for c in res.crossovers) == pytest.approx(res.critical_stiffness, rel=4e-16)
 
 
 def _control_response(device: Device, omega: np.ndarray) -> np.ndarray:
