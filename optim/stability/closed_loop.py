@@ -127,6 +127,17 @@ def stiffness_closed_loop(plant: SampledPlant, alpha: float, beta: float) -> np.
     u[:n] = -(alpha + beta) * plant.c
     u[iy] = beta
     q = np.zeros((size, size))
+    add_plant_rows(q, plant, u, iu)
+    q[iy, :n] = plant.c
+    q[iy, iy] = -1.0
+    add_delay_chain(q, u, iu, chain)
+    return q
+
+
+def add_plant_rows(q: np.ndarray, plant: SampledPlant, u: np.ndarray, iu: int) -> None:
+    """The plant's rows of Q = M − I: x[k+1] − x[k] = (E − I) x + Γ0 u[k−d] + Γ1 u[k−d−1], with u[k] the row ``u``
+    on the state and u[k−1], … stored from column ``iu`` on (the wall and the feedforward loop share it)."""
+    n, d = plant.e.shape[0], plant.d
     q[:n, :n] = plant.e
     if d == 0:
         q[:n, :] += np.outer(plant.g0, u)
@@ -134,15 +145,16 @@ def stiffness_closed_loop(plant: SampledPlant, alpha: float, beta: float) -> np.
         q[:n, iu + d - 1] += plant.g0
     if plant.f > 0.0:
         q[:n, iu + d] += plant.g1
-    q[iy, :n] = plant.c
-    q[iy, iy] = -1.0
+
+
+def add_delay_chain(q: np.ndarray, u: np.ndarray, iu: int, chain: int) -> None:
+    """The shift register's rows of Q = M − I: u[k−1] takes the row ``u``, each later slot its predecessor."""
     if chain:
         q[iu, :] += u
         for j in range(chain):
             q[iu + j, iu + j] -= 1.0
             if j:
                 q[iu + j, iu + j - 1] = 1.0
-    return q
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,14 @@ from scipy import signal
 
 from models.device import Device, Human
 from models.feedforward import feedforward_state_space
-from optim.stability.closed_loop import SampledPlant, UnstableCount, count_outside, discretise
+from optim.stability.closed_loop import (
+    SampledPlant,
+    UnstableCount,
+    add_delay_chain,
+    add_plant_rows,
+    count_outside,
+    discretise,
+)
 
 __all__ = ["FeedforwardLoop", "feedforward_closed_loop", "feedforward_loop", "feedforward_unstable_count"]
 
@@ -68,22 +75,11 @@ def feedforward_closed_loop(loop: FeedforwardLoop, force_gain: float) -> np.ndar
     u[iw:iw + nf] = -force_gain * cf
     u += -force_gain * df * y
     q = np.zeros((size, size))
-    q[:n, :n] = p.e
-    if d == 0:
-        q[:n, :] += np.outer(p.g0, u)
-    else:
-        q[:n, iu + d - 1] += p.g0
-    if p.f > 0.0:
-        q[:n, iu + d] += p.g1
+    add_plant_rows(q, p, u, iu)
     if nf:
         q[iw:iw + nf, iw:iw + nf] = af - np.eye(nf)
         q[iw:iw + nf, :] += np.outer(bf, y)
-    if chain:
-        q[iu, :] += u
-        for j in range(chain):
-            q[iu + j, iu + j] -= 1.0
-            if j:
-                q[iu + j, iu + j - 1] = 1.0
+    add_delay_chain(q, u, iu, chain)
     return q
 
 
