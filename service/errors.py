@@ -31,7 +31,7 @@ from .logs import request_id_var
 
 __all__ = ["json_safe", "install_error_handlers", "NumericInputError", "ERROR_RESPONSES", "NOT_FOUND",
            "MAX_ECHO_CHARS", "StoreUnavailable",
-           "store_unavailable"]
+           "store_unavailable", "solver_trouble", "numerics_refused"]
 
 _log = logging.getLogger("zwidth.errors")
 
@@ -56,6 +56,23 @@ NumericInputError = InputError
 
 #: Longest echo of a rejected input in a 422 (characters of its JSON); longer ones are cut and say so.
 MAX_ECHO_CHARS = 300
+
+
+def solver_trouble(exc: BaseException) -> str:
+    """The ``reason`` of a design that failed in the numerics (not on its input): the exception's type and
+    the request id; its text (CasADi's and numpy's messages name internals) goes to the log only."""
+    rid = request_id_var.get()
+    _log.error("design failed in the numerics", exc_info=(type(exc), exc, exc.__traceback__))
+    where = f" under request id {rid}" if rid else ""
+    return f"solver trouble ({type(exc).__name__}); the detail is in the server log{where}"
+
+
+def numerics_refused(exc: ValueError, field: str) -> InputError:
+    """A ValueError of the numerics that is not an InputError: the input defeated the arithmetic. A 422
+    naming ``field`` with a fixed rule; the exception's own text (internal names) goes to the log only."""
+    _log.info("numerics raised %s on valid input: %s", type(exc).__name__, exc, extra={"field": field})
+    return InputError(field, "the numbers defeat double-precision arithmetic in this computation "
+                             f"({type(exc).__name__}); change the {field} or ask for a coarser method")
 
 
 def json_safe(value: Any) -> Any:

@@ -25,13 +25,17 @@ from scipy.linalg import expm
 
 from models.device import Device
 from models.discretize import split_delay
+from models.errors import InputError
 from models.simulation.scene import Effects
 
 __all__ = ["ContinuousPlant", "SampledPlant", "build_plant", "sample_plant", "SceneModelError"]
 
 
-class SceneModelError(ValueError):
-    """The scene names an effect the device cannot provide; the message names the field."""
+class SceneModelError(InputError):
+    """The scene names an effect the device cannot provide (an InputError: field and rule)."""
+
+    def __reduce__(self):
+        return (SceneModelError, (self.field, self.rule))
 
 
 @dataclass(frozen=True)
@@ -97,11 +101,11 @@ def build_plant(device: Device, effects: Effects) -> ContinuousPlant:
     human = None
     if effects.human is not None:
         if device.human is None:
-            raise SceneModelError("scene.effects.human: the device has no human block")
+            raise SceneModelError("scene.effects.human", "the device has no human block")
         human = device.human
     if effects.cable_mode is not None:
         if device.cable is None:
-            raise SceneModelError("scene.effects.cable_mode: the device has no cable block")
+            raise SceneModelError("scene.effects.cable_mode", "the device has no cable block")
         a, bm, bu, ip, iv, ib, m_f = _cable(device, human)
     else:
         a, bm, bu, ip, iv, ib, m_f = _rigid(device, human)
@@ -109,8 +113,8 @@ def build_plant(device: Device, effects: Effects) -> ContinuousPlant:
     if effects.force_sensor_filter is not None:
         fs = device.force_sensor
         if fs is None or fs.time_constant <= 0.0:
-            raise SceneModelError("scene.effects.force_sensor_filter: the device has no force sensor with "
-                                  "time_constant > 0")
+            raise SceneModelError("scene.effects.force_sensor_filter",
+                                  "the device has no force sensor with time_constant > 0")
         n = a.shape[0]
         vel_body = n // 2 + ib                   # body velocity state (positions first, then velocities)
         m_h = human.mass if human else 0.0

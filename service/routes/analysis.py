@@ -14,6 +14,7 @@ from optim.stability.boundary import stability_boundary
 from optim.verification import verify_analysis, verify_boundary
 
 from ..cost import boundary_cost_ms, check_reference_cost, stability_cost_ms, verify_cost_ms
+from ..errors import numerics_refused
 from ..executor import Compute
 from ..schemas.analysis import BoundaryRequest, BoundaryResponse, StabilityRequest, StabilityResponse
 from ..schemas.common import device_examples
@@ -33,7 +34,7 @@ def field_error(exc: ValueError, prefix: str = "") -> InputError:
         return exc.under(prefix) if prefix else exc
     if isinstance(exc, ValidationError):
         raise exc
-    return InputError("device", str(exc))
+    return numerics_refused(exc, "device")
 
 
 def _shallow(res) -> dict:

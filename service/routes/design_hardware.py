@@ -11,6 +11,7 @@ from fastapi import APIRouter
 from optim.errors import InputError
 from optim.hardware.design import HardwareDesign, HardwareTarget, design_hardware, loose_direction
 from optim.verification_hardware import verify_hardware_design
+from service.errors import solver_trouble
 from service.executor import BoundedExecutor, Compute
 from service.schemas.design_hardware import HardwareDesignRequest, HardwareDesignResponse
 from service.schemas.verification import verification_out
@@ -41,7 +42,7 @@ async def design_hardware_route(request: HardwareDesignRequest, compute: Compute
     except (RuntimeError, ArithmeticError, ValueError) as exc:   # numerical trouble: failed, as the other designs
         return HardwareDesignResponse(status="failed", free=request.free,
                                       direction=loose_direction(request.free, hardware_target(request)),
-                                      reason=f"solver trouble: {exc}", elapsed_ms=(time.perf_counter() - t0) * 1e3)
+                                      reason=solver_trouble(exc), elapsed_ms=(time.perf_counter() - t0) * 1e3)
     data = dataclasses.asdict(design)   # non-finite numbers answer null (FiniteModel)
     if request.verify and design.status == "optimal":
         v = await compute.arun(verify_hardware_design, request.device, request.free, design.value,

@@ -15,6 +15,7 @@ from optim.solver_info import plain
 from optim.stiffness import StiffnessRequirements
 from optim.verification import verify_stiffness_design
 from service.cost import stiffness_design_cost_ms, verify_cost_ms
+from service.errors import solver_trouble
 from service.executor import Compute
 from service.schemas.design_stiffness import StiffnessDesignRequest, StiffnessDesignResponse
 from service.schemas.ladder import rung_fields
@@ -45,7 +46,7 @@ async def design_stiffness_route(request: StiffnessDesignRequest, compute: Compu
     except InputError:
         raise                   # 422 naming the field, as on every route (service.errors)
     except (RuntimeError, ArithmeticError, ValueError) as exc:   # CasADi raises RuntimeError on solver trouble
-        return StiffnessDesignResponse(status="failed", reason=f"solver trouble: {exc}",
+        return StiffnessDesignResponse(status="failed", reason=solver_trouble(exc),
                                        elapsed_ms=(time.perf_counter() - t0) * 1e3)
     data = plain(design)   # non-finite numbers answer null (FiniteModel)
     if request.verify and design.stiffness is not None and design.damping is not None:
@@ -78,7 +79,7 @@ async def _robust(request: StiffnessDesignRequest, req: StiffnessRequirements, t
     except InputError as exc:
         raise input_error(exc) from None
     except (RuntimeError, ArithmeticError, ValueError) as exc:   # numerical trouble, as the nominal design
-        return StiffnessDesignResponse(status="failed", reason=f"solver trouble: {exc}", robust=True,
+        return StiffnessDesignResponse(status="failed", reason=solver_trouble(exc), robust=True,
                                        elapsed_ms=(time.perf_counter() - t0) * 1e3)
     data = plain(d)
     data.pop("nominal_critical_stiffness", None)

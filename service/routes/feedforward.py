@@ -15,6 +15,7 @@ from optim.transparency.inertia import RIGID_OPTIMISM_FLAG, InertiaRequirements
 from optim.verification import verify_critical_force_gain, verify_force_feedforward
 
 from ..cost import force_feedforward_cost_ms, inertia_design_cost_ms, verify_cost_ms
+from ..errors import numerics_refused
 from ..executor import Compute
 from ..jobs import force_feedforward_job
 from ..schemas.feedforward import ForceFeedforwardRequest, ForceFeedforwardResponse, InertiaRequest, InertiaResponse
@@ -28,7 +29,7 @@ def _field_error(exc: ValueError, prefix: str = "") -> InputError:
     """An InputError located in the body (its field under ``prefix`` unless it already starts at device or
     requirements); any other ValueError of the analysis is about the device."""
     if not isinstance(exc, InputError):
-        return InputError("device", str(exc))
+        return numerics_refused(exc, "device")
     return exc if exc.field.startswith(("device", "requirements")) else exc.under(prefix)
 
 

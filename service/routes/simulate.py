@@ -14,6 +14,7 @@ from optim.errors import InputError
 from optim.relay.experiment import RelayReport
 
 from ..cost import simulation_cost_ms
+from ..errors import numerics_refused
 from ..executor import BoundedExecutor, Compute
 from ..jobs import simulate_job
 from ..schemas.simulate import SimulateRequest, SimulateResponse
@@ -26,7 +27,7 @@ router = APIRouter(tags=["simulation"])
 
 def _field_error(exc: ValueError) -> InputError:
     """An InputError names its field; any other ValueError of the simulator is about the scene."""
-    return exc if isinstance(exc, InputError) else InputError("scene", str(exc))
+    return exc if isinstance(exc, InputError) else numerics_refused(exc, "scene")
 
 
 async def run_scene(device: Device, scene: Scene, compute: BoundedExecutor, job: Callable = simulate_job,
