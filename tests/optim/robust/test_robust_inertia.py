@@ -43,7 +43,7 @@ def test_grasp_mass_range_matches_optim_inertia():
     """A box over the grasp mass alone is what optim.transparency.inertia's human_mass_range does (its own exchange)."""
     box = UncertaintyBox.from_ranges(LH, {"device.human.mass": (0.5, 4.0)})
     r = robust_design_inertia(LH, InertiaRequirements(), box)
-    ref = design_inertia(LH, InertiaRequirements(human_mass_range=(0.5, 4.0)))
+    ref = design_inertia(LH, InertiaRequirements(human_mass_range={"min": 0.5, "max": 4.0}))
     assert r.status == ref.status == "optimal"
     # both end on the exact K_f,cr of the same worst grasp at the same cutoff
     assert r.force_gain == pytest.approx(ref.force_gain, rel=1e-7)

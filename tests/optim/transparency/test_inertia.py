@@ -121,7 +121,7 @@ def test_unreachable_target_is_infeasible_with_the_best_reachable():
 
 
 def test_worst_of_a_grasp_range_holds_for_every_mass():
-    req = InertiaRequirements(human_mass_range=(0.3, 6.0), target_apparent_mass=1.2)
+    req = InertiaRequirements(human_mass_range={"min": 0.3, "max": 6.0}, target_apparent_mass=1.2)
     d = design_inertia(CABLE, req)
     assert d.status == "optimal"
     assert_margin_verified(CABLE, d, 6.0)
@@ -154,11 +154,17 @@ def test_solver_failure_is_reported_as_failed(monkeypatch):
 @pytest.mark.parametrize("req, field", [
     (InertiaRequirements(cutoff_min_hz=90.0), "requirements.cutoff_min_hz"),
     (InertiaRequirements(cutoff_max_hz=600.0), "requirements.cutoff_max_hz"),
-    (InertiaRequirements(filter_order=5), "requirements.filter_order"),
 ])
 def test_bad_requirements_name_the_field(req, field):
+    """Rules that need the device are the design's (the requirements alone are valid)."""
     with pytest.raises(ValueError, match=field):
         design_inertia(CABLE, req)
+
+
+def test_requirements_refuse_their_own_bad_values():
+    """Rules of the requirements alone are the model's (optim.transparency.inertia_requirements)."""
+    with pytest.raises(ValueError, match="filter_order"):
+        InertiaRequirements(filter_order=5)
 
 
 def test_default_human_is_eq30_and_said_so():
