@@ -11,7 +11,7 @@ from optim.stiffness.requirements import StiffnessRequirements
 
 from .common import Device  # the numerics' validated domain (optim.domain) applies
 from .finite import FiniteModel
-from .ladder import ExactCheckOut, GridPointsField, Method, MethodField
+from .ladder import ExactCheckOut, GridPoints, GridPointsField, Method, MethodField
 from .verification import VerificationOut, VerifyField
 
 __all__ = ["StiffnessRequirementsIn", "StiffnessDesignRequest", "SensitivityOut", "StiffnessDesignResponse",
@@ -53,7 +53,7 @@ class StiffnessDesignRequest(BaseModel):
     device: Device
     requirements: StiffnessRequirementsIn = Field(default_factory=StiffnessRequirementsIn)
     method: Method = MethodField()
-    grid_points: int = GridPointsField()
+    grid_points: GridPoints = GridPointsField()
     verify: bool = VerifyField()
 
     @model_validator(mode="after")

@@ -8,13 +8,12 @@ from pydantic import BaseModel, Field, WrapValidator, model_validator
 
 from models.filters import MAX_FILTER_ORDER
 from optim.domain import check_cutoff_domain, check_human_domain, check_human_mass
-from optim.stability.analysis import DEFAULT_GRID_POINTS, MAX_GRID_POINTS
 from optim.transparency.inertia_requirements import InertiaRequirements
 
 from .common import STRICT, Device, json_numbers
 from .design_stiffness import RangeIn
 from .finite import FiniteModel
-from .ladder import ExactCheckOut, GridPointsField, Method, MethodField
+from .ladder import ExactCheckOut, GridPoints, GridPointsField, Method, MethodField
 from .verification import VerificationOut, VerifyField
 
 _LHIFAM_FF = {"mass": 5.4, "damping": 3.5, "sample_time": 0.001,
@@ -33,11 +32,10 @@ class ForceFeedforwardRequest(BaseModel):
         {"device": {"preset": "lhifam"}, "filter": {"cutoff_hz": 30, "order": 2}}]}}
     device: Device = Field(description="needs a human block (else the chapter's eq. 30 grasp is used, and said)")
     filter: FilterIn | None = Field(default=None, description="Butterworth D(z), prewarped bilinear; none by default")
-    method: Literal["linear", "grid", "exact", "reference"] = Field(
+    method: Method = Field(
         default="exact", description="rung of the accuracy ladder: linear = eq. 33 (1 + m/m_h, large delays), "
                                      "grid = fixed log grid, exact, reference = 40-digit mpmath (slow)")
-    grid_points: int = Field(default=DEFAULT_GRID_POINTS, ge=10, le=MAX_GRID_POINTS,
-                             description="frequency samples for method=grid")
+    grid_points: GridPoints = GridPointsField()
     verify: bool = VerifyField()
 
     @model_validator(mode="after")
@@ -107,7 +105,7 @@ class InertiaRequest(BaseModel):
     device: Device
     requirements: InertiaRequirementsField = Field(default_factory=InertiaRequirementsIn)
     method: Method = MethodField()
-    grid_points: int = GridPointsField()
+    grid_points: GridPoints = GridPointsField()
     verify: bool = VerifyField()
 
     @model_validator(mode="after")

@@ -6,7 +6,8 @@ from __future__ import annotations
 import pytest
 from pydantic import ValidationError
 
-from optim.errors import from_validation
+from optim.errors import InputError, from_validation
+from optim.stability.analysis import check_rung
 from optim.stiffness import requirements as stiffness_requirements
 from optim.stiffness.requirements import StiffnessRequirements
 from optim.transparency.inertia_requirements import InertiaRequirements
@@ -103,3 +104,19 @@ def test_strict_numbers_reach_the_nested_requirements(client, bad):
                               ({"human_mass_range": {"min": bad, "max": 2}}, ["human_mass_range", "min"])):
         r = client.post("/v1/design/inertia", json={"device": {"preset": "lhifam"}, "requirements": requirements})
         assert r.status_code == 422 and r.json()["detail"][0]["loc"] == ["body", "requirements", *loc], r.text
+
+
+@pytest.mark.parametrize("url, device", [("/v1/analysis/stability", LHIFAM_RIGID), ("/v1/design/stiffness", LHIFAM_RIGID),
+                                         ("/v1/analysis/force-feedforward", {"preset": "lhifam"}),
+                                         ("/v1/design/inertia", {"preset": "lhifam"})])
+@pytest.mark.parametrize("field, value", [("method", "fast"), ("grid_points", 9), ("grid_points", 10**6 + 1)])
+def test_the_ladder_rule_is_one_rule(client, url, device, field, value):
+    """The rung and its grid size: optim.stability.analysis.check_rung (for direct callers) and every request
+    field answer the same rule with the same message."""
+    rung = {"method": "grid", "grid_points": 1000, field: value}
+    with pytest.raises(InputError) as exc:
+        check_rung(rung["method"], rung["grid_points"])
+    r = client.post(url, json={"device": device, **rung})
+    assert r.status_code == 422, r.text
+    (e,) = r.json()["detail"]
+    assert (e["loc"], e["msg"]) == (["body", exc.value.field], exc.value.rule)
