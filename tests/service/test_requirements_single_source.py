@@ -7,17 +7,20 @@ import pytest
 from pydantic import ValidationError
 
 from optim.errors import InputError, from_validation
+from optim.hardware.hardware_targets import HardwareTarget
 from optim.stability.analysis import check_rung
 from optim.stiffness import requirements as stiffness_requirements
 from optim.stiffness.requirements import StiffnessRequirements
 from optim.transparency.inertia_requirements import InertiaRequirements
+from service.schemas.design_hardware import HardwareTargetIn
 from service.schemas.design_stiffness import StiffnessRequirementsIn
 from service.schemas.feedforward import InertiaRequirementsIn
 from tests.service.conftest import LHIFAM_RIGID, make_client
 
 HUMAN = {"mass": 2.0, "damping": 2.0, "stiffness": 10.0}
 
-PAIRS = [(StiffnessRequirements, StiffnessRequirementsIn), (InertiaRequirements, InertiaRequirementsIn)]
+PAIRS = [(StiffnessRequirements, StiffnessRequirementsIn, {"uncertainty"}),
+         (InertiaRequirements, InertiaRequirementsIn, {"uncertainty"}), (HardwareTarget, HardwareTargetIn, set())]
 
 
 @pytest.fixture(scope="module")
@@ -26,12 +29,12 @@ def client():
         yield c
 
 
-@pytest.mark.parametrize("core, schema", PAIRS, ids=["stiffness", "inertia"])
-def test_the_request_model_is_optims_plus_the_box(core, schema):
+@pytest.mark.parametrize("core, schema, added", PAIRS, ids=["stiffness", "inertia", "hardware"])
+def test_the_request_model_is_optims_plus_the_box(core, schema, added):
     """The service's requirements are optim's model: the same fields with the same bounds, defaults and docs,
     the same validators, and nothing of their own but the robust design's box."""
     assert issubclass(schema, core)
-    assert set(schema.model_fields) - set(core.model_fields) == {"uncertainty"}
+    assert set(schema.model_fields) - set(core.model_fields) == added
     for name, info in core.model_fields.items():
         mine = schema.model_fields[name]
         assert (mine.annotation, mine.default, mine.metadata, mine.description) == \
@@ -60,11 +63,12 @@ def _core_error(model, requirements: dict) -> tuple[str, str]:
     return e.field, e.rule
 
 
-def _http_error(client, url: str, device: dict, requirements: dict) -> tuple[str, str]:
-    r = client.post(url, json={"device": device, "requirements": requirements})
+def _http_error(client, url: str, device: dict, requirements: dict, part: str = "requirements",
+                **extra) -> tuple[str, str]:
+    r = client.post(url, json={"device": device, part: requirements, **extra})
     assert r.status_code == 422, r.text
     e = r.json()["detail"][0]
-    assert e["loc"][:2] == ["body", "requirements"], e
+    assert e["loc"][:2] == ["body", part], e
     return ".".join(str(p) for p in e["loc"][2:]), e["msg"]
 
 
@@ -78,6 +82,17 @@ def test_stiffness_422_is_optims_rule_and_message(client, requirements):
 def test_inertia_422_is_optims_rule_and_message(client, requirements):
     assert _http_error(client, "/v1/design/inertia", {"preset": "lhifam"}, requirements) == \
         _core_error(InertiaRequirements, requirements)
+
+
+HARDWARE_BAD = [{}, {"stiffness": 0}, {"stiffness": 2e5, "min_gain_margin_db": 121}, {"force_gain": 5, "apparent_mass": 1},
+                {"force_gain": 5, "max_damping": 10}, {"stiffness": 2e5, "cutoff_min_hz": 20},
+                {"force_gain": 5, "filter_order": 7}, {"apparent_mass": 1e13}]
+
+
+@pytest.mark.parametrize("target", HARDWARE_BAD)
+def test_hardware_target_422_is_optims_rule_and_message(client, target):
+    assert _http_error(client, "/v1/design/hardware", LHIFAM_RIGID, target, "target", free="delay") == \
+        _core_error(HardwareTarget, target)
 
 
 def test_a_rule_changed_in_optim_shows_in_the_422(client, monkeypatch):
