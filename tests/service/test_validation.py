@@ -122,6 +122,7 @@ def test_numerics_input_error_becomes_422_naming_the_field(client, monkeypatch):
     assert e["loc"] == ["body", "damping_max"] and e["msg"].startswith("this device has no finite B_max")
 
 
+@pytest.mark.slow
 def test_an_untyped_value_error_is_never_parsed_for_a_field(client, monkeypatch):
     """Text that looks like "field: rule" in a plain ValueError names no field (only InputError does)."""
     import service.routes.analysis as routes

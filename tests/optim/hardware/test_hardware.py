@@ -28,6 +28,7 @@ def _forward(dev, free, value, target):
         min_gain_margin_db=target.min_gain_margin_db, max_damping=target.max_damping))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name,dev,free,target", CASES, ids=[c[0] for c in CASES])
 def test_answer_checked_by_forward_designs(name, dev, free, target):
     r = design_hardware(dev, target, free, points=21)
@@ -58,6 +59,7 @@ def test_rigid_mass_with_free_damping_matters_and_with_capped_damping_saturates(
     assert (kc[-1] - kc[-3]) / kc[-1] < 1e-3               # flat at the heavy end
 
 
+@pytest.mark.slow
 def test_feasible_set_of_two_intervals():
     """LHifAM cable, B ≤ 20 N·s/m: K*(k_c) falls to a minimum near k_c ≈ 1e6 N/m and rises again."""
     r = design_hardware(LH, HardwareTarget(1.85e4, max_damping=20.0), "cable.stiffness", points=41)

@@ -102,6 +102,7 @@ CASES = [  # name, device, free, target, (direction, limiting target at the retu
 ]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name,dev,free,target,expect", CASES, ids=[c[0] for c in CASES])
 def test_every_edge_checked_by_forward_designs(name, dev, free, target, expect):
     r = design_hardware(dev, target, free, points=9)
@@ -134,6 +135,7 @@ def test_every_edge_checked_by_forward_designs(name, dev, free, target, expect):
                                                    rel=1e-15)
 
 
+@pytest.mark.slow
 def test_curve_is_the_band_maximum_and_empty_band_means_no_feedforward():
     """K_f* on the curve is the exact K_f,cr maximised over the cutoff band (divided by 10^{GM/20}); at slow
     sampling 0.4 × Nyquist falls below the 10 Hz human force bandwidth: no filter, no feedforward (K_f* = 0)."""
@@ -148,6 +150,7 @@ def test_curve_is_the_band_maximum_and_empty_band_means_no_feedforward():
     assert empty and all(p["achievable_force_gain"] == 0.0 and p["filter_cutoff_hz"] is None for p in empty)
 
 
+@pytest.mark.slow
 def test_force_gain_out_of_reach():
     target = HardwareTarget(force_gain=500.0)
     r = design_hardware(RIGID, target, "delay", points=9)
@@ -159,6 +162,7 @@ def test_force_gain_out_of_reach():
                                                                                                    rel=GAIN_RTOL)
 
 
+@pytest.mark.slow
 def test_targets_reachable_alone_but_not_together():
     """With the mass free, K sets the lightest device and the apparent mass the heaviest: disjoint here."""
     both = design_hardware(RIGID, HardwareTarget(2e6, apparent_mass=0.42), "mass", points=9)
@@ -195,6 +199,7 @@ def test_a_target_the_device_cannot_serve_names_the_field():
     assert exc.value.field == "target.apparent_mass" and "below the device's mass" in exc.value.rule
 
 
+@pytest.mark.slow
 def test_apparent_mass_above_the_device_mass_is_allowed_when_the_mass_is_free():
     """With the mass free, m_t only has to be reachable somewhere in the scan: 6 kg is met without feedforward
     up to 6 kg and with it beyond (the achievable apparent mass levels off below 1 kg): never limited."""

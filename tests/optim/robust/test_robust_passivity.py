@@ -60,6 +60,7 @@ def _columns(devices):
     return t, np.array([d.delay for d in devices]), np.array([d.damping for d in devices])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", list(CASES))
 def test_passive_and_margin_on_corners_and_2000_random_points(designs, name):
     box, req, d = designs[name]
@@ -86,6 +87,7 @@ def test_passive_and_margin_on_corners_and_2000_random_points(designs, name):
     assert "rounded up" in d.passivity_note
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", list(CASES))
 def test_not_over_conservative(designs, name):
     """An independent dense search (B scan × box grid, both constraints, a fine grid in T) finds no wall more
@@ -98,6 +100,7 @@ def test_not_over_conservative(designs, name):
     assert d.stiffness <= k_dense * (1 + 1e-6)
 
 
+@pytest.mark.slow
 def test_active_constraints_are_the_expected_ones(designs):
     assert set(designs["delay"][2].active_constraints) == {"min_gain_margin_db", "passivity"}
     assert designs["T-delay-0dB"][2].active_constraints == ("passivity",)
@@ -144,6 +147,7 @@ def test_worst_passivity_device_is_inside_the_box_and_corners_alone_are_not_pass
     assert 0.00099 < ts[j] < 0.001 and k_scan[j] < min(k_scan[0], k_scan[-1]) / 1.01
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("t_range,d_range", [((0.0007, 0.0013), (0.0003, 0.0031)), ((0.001, 0.001), (0.0, 0.0025)),
                                              ((0.0005, 0.002), (0.0, 0.0)), ((0.0009, 0.0011), (0.0018, 0.0022))])
 @pytest.mark.parametrize("virtual_damping", [0.0, 2.0, 50.0])
