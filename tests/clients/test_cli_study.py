@@ -80,6 +80,7 @@ def test_cancel_and_purge(zwidth, tmp_path):
     assert r.exit_code == 3 and "404" in r.output          # gone
 
 
+@pytest.mark.slow
 def test_unreadable_request_is_usage(zwidth, tmp_path):
     req = tmp_path / "bad.json"
     req.write_text("{not json")

@@ -76,6 +76,7 @@ def test_delay_beyond_the_cost_limit(client):
     assert e["loc"] == ["body", "device", "delay"] and str(MAX_DELAY_SAMPLES) in e["msg"]
 
 
+@pytest.mark.slow
 def test_delay_at_the_cost_limit_is_served(client):
     device = {**LHIFAM_RIGID, "delay": MAX_DELAY_SAMPLES * 0.001}
     assert client.post(STABILITY, json={"device": device}).status_code == 200

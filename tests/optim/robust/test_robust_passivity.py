@@ -107,6 +107,7 @@ def test_active_constraints_are_the_expected_ones(designs):
     assert set(designs["capped"][2].active_constraints) == {"min_gain_margin_db", "max_damping"}
 
 
+@pytest.mark.slow
 def test_delay_range_is_the_nominal_design_at_the_longest_delay(designs):
     """Both constraints get worse with the delay: the robust wall is optim.stiffness's design of the longest
     delay (a second algorithm: one device, its own cuts)."""
