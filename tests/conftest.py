@@ -10,6 +10,17 @@ import pytest
 
 #: Fixtures that start a uvicorn process (tests/service/conftest.py, tests/clients/conftest.py).
 LIVE_FIXTURES = frozenset({"live_server", "server"})
+#: Modules wholly marked slow whose mere collection costs seconds (schemathesis builds a test per operation while
+#: collecting): the fast loop does not collect them at all.
+SLOW_TO_COLLECT = frozenset({"tests/service/test_fuzz_api.py"})
+FAST_LOOP = "not slow"
+
+
+def pytest_ignore_collect(collection_path, config: pytest.Config) -> bool | None:
+    if config.getoption("markexpr", "").strip() == FAST_LOOP and \
+            collection_path.as_posix().endswith(tuple(SLOW_TO_COLLECT)):
+        return True
+    return None
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
