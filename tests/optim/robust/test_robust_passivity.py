@@ -127,6 +127,7 @@ def test_degenerate_box_is_the_nominal_design():
     assert r.passivity_delay_samples == n.passivity_delay_samples == 2      # 1.5 samples rounded up
 
 
+@pytest.mark.slow
 def test_worst_passivity_device_is_inside_the_box_and_corners_alone_are_not_passive(designs):
     """T ∈ [0.8, 1.2] ms × t_d ∈ [1, 2] ms: ⌈t_d/T⌉ = 3 for every T < 1 ms at t_d = 2 ms, so the least passive
     devices have T → 1 ms⁻ (not a corner: there t_d/T = 2 whole samples). A wall passive on the four corners is
