@@ -6,7 +6,9 @@ optim and the service import it from ``optim.errors``.
 
 from __future__ import annotations
 
-__all__ = ["InputError"]
+from pydantic import ValidationError
+
+__all__ = ["InputError", "from_validation"]
 
 
 class InputError(ValueError):
@@ -30,3 +32,18 @@ class InputError(ValueError):
     def __reduce__(self):
         # Raised in a compute worker, it travels back pickled: rebuild it from its two parts.
         return (InputError, (self.field, self.rule))
+
+
+def from_validation(exc: ValidationError, prefix: str = "") -> InputError:
+    """The first error of a pydantic validation as one InputError located under ``prefix``: an InputError a
+    validator raised keeps its field and rule (below the model it was raised in), any other error gives its
+    location and pydantic's message."""
+    e = exc.errors(include_url=False)[0]
+    loc = [str(p) for p in e.get("loc", ())]
+    cause = (e.get("ctx") or {}).get("error")
+    if isinstance(cause, InputError):
+        field = cause.field.split(".")
+        if loc[-len(field):] != field:
+            loc += field
+        return InputError(prefix + ".".join(loc), cause.rule)
+    return InputError(prefix + ".".join(loc) if loc else prefix.rstrip(".") or "input", e["msg"])

@@ -31,12 +31,10 @@ import numpy as np
 
 from models.device import Device, Human
 from models.filters import ButterworthLowPass
-from optim.errors import InputError
 from optim.solver_info import SolverInfo
 from optim.stability.analysis import (
     DEFAULT_GRID_POINTS,
-    MAX_GRID_POINTS,
-    METHODS,
+    check_rung,
     grid_critical_stiffness,
     linear_error_estimate,
 )
@@ -81,13 +79,6 @@ class RungInfo:
     error_source: str
     exact_check: ExactCheck | None = None
     elapsed_ms: float = 0.0
-
-
-def _check_method(method: str, grid_points: int) -> None:
-    if method not in METHODS:
-        raise InputError("method", f"must be one of {', '.join(METHODS)}")
-    if not 10 <= grid_points <= MAX_GRID_POINTS:
-        raise InputError("grid_points", f"must be between 10 and {MAX_GRID_POINTS}")
 
 
 def _exact_check(critical: float, value: float, required_db: float, what: str, passive: bool | None = None) -> ExactCheck:
@@ -226,7 +217,7 @@ def _grid_stiffness(device: Device, req: StiffnessRequirements, points: int) -> 
 def design_stiffness_on_rung(device: Device, req: StiffnessRequirements | None = None, method: str = "exact",
                              grid_points: int = DEFAULT_GRID_POINTS) -> tuple[StiffnessDesign, RungInfo]:
     """The stiffness design on one rung, with the rung's error estimate and (linear, grid) the exact check."""
-    _check_method(method, grid_points)
+    check_rung(method, grid_points)
     req = req or StiffnessRequirements()
     t0 = time.perf_counter()
     check = None
@@ -301,7 +292,7 @@ def _choose_force_gain(device, req, kcr_best: float, rho: float) -> tuple[float 
 def design_inertia_on_rung(device: Device, req: InertiaRequirements | None = None, method: str = "exact",
                            grid_points: int = DEFAULT_GRID_POINTS) -> tuple[InertiaDesign, RungInfo]:
     """The inertia design (K_f, cutoff) on one rung; linear and grid carry the exact check at their cutoff."""
-    _check_method(method, grid_points)
+    check_rung(method, grid_points)
     req = req or InertiaRequirements()
     t0 = time.perf_counter()
     if method in ("exact", "reference"):

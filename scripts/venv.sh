@@ -6,5 +6,12 @@ cd "$(dirname "${BASH_SOURCE[0]}")/.."
 PY=${PYTHON:-python3.11}
 command -v "$PY" >/dev/null 2>&1 || PY=python3
 [ -x .venv/bin/python ] || "$PY" -m venv .venv
-.venv/bin/python -m pip install -q --upgrade pip
-.venv/bin/python -m pip install -q -c constraints.txt -e ".${1:-}"
+# The editable install follows code edits by itself: reinstall only when what pip reads changed (a fresh .venv,
+# as in CI, always installs).  The fast local loop (scripts/test.sh -m "not slow") then starts testing at once.
+STAMP=".venv/.zwidth-installed"
+WANT="$(cat pyproject.toml constraints.txt | sha256sum | cut -d' ' -f1) ${1:-}"
+if [ "$(cat "$STAMP" 2>/dev/null)" != "$WANT" ]; then
+    .venv/bin/python -m pip install -q --upgrade pip
+    .venv/bin/python -m pip install -q -c constraints.txt -e ".${1:-}"
+    echo "$WANT" > "$STAMP"
+fi

@@ -12,8 +12,6 @@ the input limits).
 
 from __future__ import annotations
 
-import dataclasses
-
 from models.device import Device
 from optim.hardware.hardware_range import refusal
 from optim.hardware.hardware_targets import (
@@ -82,7 +80,7 @@ def binding_effect(device: Device, free: str, target: HardwareTarget, q: float, 
             tried.append((e, _label(param, factor), limiting_effect(name, param)))
     if target.feedforward is not None and name != "stiffness":
         lo = target.cutoff_min_hz if target.cutoff_min_hz is not None else target.inertia_requirements().cutoff_min_hz
-        wider = dataclasses.replace(target, cutoff_min_hz=lo / _FACTOR)
+        wider = target.model_copy(update={"cutoff_min_hz": lo / _FACTOR})
         try:
             tried.append((Probe(device, free, wider).excess(name, q), f"cutoff_min_hz /{_FACTOR:g}", _FILTER))
         except DesignFailed:

@@ -19,7 +19,9 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from models.device import Device
 from models.filters import MAX_FILTER_ORDER
@@ -36,22 +38,51 @@ __all__ = ["HardwareTarget", "ForceGainAt", "Probe", "DesignFailed", "achievable
            "device_with", "current_value", "limiting_effect"]
 
 
-@dataclass(frozen=True)
-class HardwareTarget:
-    stiffness: float | None = None
-    """K the device must render [N/m]; optional when a force-feedforward target is given."""
-    min_gain_margin_db: float = 6.0
-    """Gain margin of every target [dB]: on K (K_cr(B)/K) and on K_f (K_f,cr(f_c)/K_f)."""
-    max_damping: float | None = None
-    """Optional cap on the virtual damping B [N·s/m] (stiffness target only)."""
-    force_gain: float | None = None
-    """K_f the force feedforward must reach [dimensionless] (eq. 28)."""
-    apparent_mass: float | None = None
-    """m/(1 + K_f) the user must feel [kg] (eq. 28); at most one of force_gain and apparent_mass."""
-    cutoff_min_hz: float | None = None
-    """Lowest filter cutoff of the inertia design [Hz]; default InertiaRequirements' (the human force bandwidth)."""
-    filter_order: int | None = None
-    """Butterworth order of the inertia design, 1-4; default InertiaRequirements' (2)."""
+class HardwareTarget(BaseModel):
+    """What the device must render: a wall stiffness and/or a force-feedforward gain (or apparent mass), with the
+    gain margin of every target.  The one definition of the target's rules: the HTTP request of POST
+    /v1/design/hardware uses this model (the service adds JSON-number strictness); the one rule that needs the
+    device is :meth:`check`'s."""
+
+    # Lax for internal callers (as models.device.Device); the service validates JSON numbers strictly.
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, frozen=True)
+
+    stiffness: float | None = Field(None, gt=0, le=1e15, description="K the device must render [N/m]; optional "
+                                                                     "when force_gain or apparent_mass is given")
+    min_gain_margin_db: float = Field(6.0, ge=0, le=120, description="gain margin of every target [dB]: on the "
+                                                                     "stiffness and on the force gain")
+    max_damping: float | None = Field(None, gt=0, le=1e12, description="optional cap on the virtual damping B "
+                                                                        "[N·s/m] (stiffness target)")
+    force_gain: float | None = Field(None, gt=0, le=1e9, description="force-feedforward gain K_f to reach "
+                                                                     "[dimensionless] (eq. 28)")
+    apparent_mass: float | None = Field(None, gt=0, le=1e12, description="apparent mass m/(1 + K_f) to reach [kg], "
+                                                                         "below the device's mass; not with "
+                                                                         "force_gain")
+    cutoff_min_hz: float | None = Field(None, gt=0, le=1e9, description="lowest filter cutoff of the inertia design "
+                                                                        "[Hz] (default 10: the human force "
+                                                                        "bandwidth)")
+    filter_order: int | None = Field(None, ge=1, le=MAX_FILTER_ORDER, description="Butterworth order of the "
+                                                                                  "inertia design (default 2)")
+
+    def __init__(self, stiffness: float | None = None, /, **data: Any) -> None:
+        """``HardwareTarget(2e5, force_gain=5)``: the stiffness may be given first, by position."""
+        if stiffness is not None:
+            data["stiffness"] = stiffness
+        super().__init__(**data)
+
+    @model_validator(mode="after")
+    def _consistent(self) -> "HardwareTarget":
+        if self.force_gain is not None and self.apparent_mass is not None:
+            raise InputError("apparent_mass", "give force_gain or apparent_mass, not both (K_f = m/m_app − 1)")
+        if self.stiffness is None and self.feedforward is None:
+            raise InputError("stiffness", "give at least one target: stiffness, force_gain or apparent_mass")
+        if self.max_damping is not None and self.stiffness is None:
+            raise InputError("max_damping", "caps the B of the stiffness target; give target.stiffness")
+        for name in ("cutoff_min_hz", "filter_order"):
+            if getattr(self, name) is not None and self.feedforward is None:
+                raise InputError(name, "applies to the force-feedforward design; give target.force_gain "
+                                 "or target.apparent_mass")
+        return self
 
     @property
     def feedforward(self) -> str | None:
@@ -80,28 +111,8 @@ class HardwareTarget:
         return mass / self.apparent_mass - 1.0
 
     def check(self, device: Device, free: str) -> None:
-        """ValueError("target.<field>: <rule>") for a target the design cannot serve."""
-        def positive(name: str) -> None:
-            v = getattr(self, name)
-            if v is not None and not (math.isfinite(v) and v > 0):
-                raise InputError(f"target.{name}", "must be a finite number > 0")
-
-        for name in ("stiffness", "force_gain", "apparent_mass", "max_damping", "cutoff_min_hz"):
-            positive(name)
-        if not (math.isfinite(self.min_gain_margin_db) and self.min_gain_margin_db >= 0):
-            raise InputError("target.min_gain_margin_db", "must be a finite number ≥ 0")
-        if self.force_gain is not None and self.apparent_mass is not None:
-            raise InputError("target.apparent_mass", "give force_gain or apparent_mass, not both (K_f = m/m_app − 1)")
-        if self.stiffness is None and self.feedforward is None:
-            raise InputError("target.stiffness", "give at least one target: stiffness, force_gain or apparent_mass")
-        if self.max_damping is not None and self.stiffness is None:
-            raise InputError("target.max_damping", "caps the B of the stiffness target; give target.stiffness")
-        for name in ("cutoff_min_hz", "filter_order"):
-            if getattr(self, name) is not None and self.feedforward is None:
-                raise InputError(f"target.{name}", "applies to the force-feedforward design; give target.force_gain "
-                                 "or target.apparent_mass")
-        if self.filter_order is not None and not 1 <= self.filter_order <= MAX_FILTER_ORDER:
-            raise InputError("target.filter_order", f"must be 1-{MAX_FILTER_ORDER}")
+        """InputError("target.apparent_mass", rule) for a target this device cannot serve (the target's own rules
+        hold by construction)."""
         # With the mass free the device's own mass is only the centre of the scan: any m_t can bind somewhere.
         if self.apparent_mass is not None and free != "mass" and not self.apparent_mass < device.mass:
             raise InputError("target.apparent_mass", f"must be below the device's mass {device.mass:g} kg "

@@ -11,13 +11,14 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
-from typing import Literal
+from typing import Annotated, Literal, get_args
 
 import numpy as np
+from pydantic import Field, TypeAdapter, ValidationError
 
 from models.device import Device
 from models.plants import Q_criterion
-from optim.errors import InputError
+from optim.errors import InputError, from_validation
 from optim.stability.margins import (
     Crossover,
     critical_stiffness,
@@ -29,15 +30,21 @@ from optim.stability.margins import (
 from optim.stability.passivity import passivity_margin
 from optim.stability.reference import reference_critical_stiffness
 
-__all__ = ["Method", "METHODS", "StabilityAnalysis", "analyse_stability", "linear_error_estimate",
+__all__ = ["Method", "METHODS", "GridPoints", "MIN_GRID_POINTS", "check_rung", "StabilityAnalysis", "analyse_stability", "linear_error_estimate",
            "grid_critical_stiffness", "grid_blind_spot", "DEFAULT_GRID_POINTS", "MAX_GRID_POINTS", "EXACT_REL_ERROR",
            "MODE_MATTERS_RTOL"]
 
 Method = Literal["linear", "grid", "exact", "reference"]
-METHODS: tuple[str, ...] = ("linear", "grid", "exact", "reference")
+METHODS: tuple[str, ...] = get_args(Method)
 DEFAULT_GRID_POINTS = 1000
+#: Fewest frequency samples of the grid rung.
+MIN_GRID_POINTS = 10
 #: Cost limit of the grid rung.
 MAX_GRID_POINTS = 1_000_000
+#: Frequency samples of the grid rung: the one rule for every analysis and design, in optim and in the HTTP
+#: requests (service.schemas.ladder), with one message.
+GridPoints = Annotated[int, Field(ge=MIN_GRID_POINTS, le=MAX_GRID_POINTS)]
+_RUNG_RULES = (("method", TypeAdapter(Method)), ("grid_points", TypeAdapter(GridPoints)))
 
 #: the exact rung's claimed relative error: agreement with the 40-digit reference on the test suite
 EXACT_REL_ERROR = 1e-12
@@ -338,10 +345,19 @@ def _judge_cable(device: Device, damping: float, method: str, kcr: float | None)
     return CableJudgement(Q_criterion(device), mode, rigid_k)
 
 
+def check_rung(method: str, grid_points: int = DEFAULT_GRID_POINTS) -> None:
+    """InputError naming ``method`` or ``grid_points`` when outside the ladder: the HTTP request's rule and message
+    (its fields are Method and GridPoints), for callers that did not come through it."""
+    for name, rule in _RUNG_RULES:
+        try:
+            rule.validate_python(method if name == "method" else grid_points)
+        except ValidationError as exc:
+            raise from_validation(exc, prefix=name) from None
+
+
 def _analyse(device: Device, stiffness: float | None, damping: float, method: str,
              grid_points: int) -> StabilityAnalysis:
-    if method not in METHODS:
-        raise InputError("method", f"must be one of {', '.join(METHODS)}")
+    check_rung(method, grid_points)
     if stiffness is not None and not (math.isfinite(stiffness) and stiffness > 0):
         raise InputError("stiffness", "must be finite and > 0")
     if not (math.isfinite(damping) and damping >= 0):

@@ -1,13 +1,17 @@
-"""What a stiffness design must respect (all optional except the gain margin)."""
+"""What a stiffness design must respect (all optional except the gain margin).
+
+The one definition of these rules: the HTTP request of POST /v1/design/stiffness uses this model (the service's
+``StiffnessRequirementsIn`` only adds the robust design's ``uncertainty`` and JSON-number strictness), so a bound,
+a pairing rule and their messages live here alone.
+"""
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from optim.errors import InputError
 
-__all__ = ["StiffnessRequirements", "DESIGN_BACK_OFF"]
+__all__ = ["StiffnessRequirements", "DESIGN_BACK_OFF", "LIMIT_MAX"]
 
 #: A design sits strictly inside the limits the analysis checks: K ≤ (1 − DESIGN_BACK_OFF)·g·K_cr(B) and
 #: K ≤ (1 − DESIGN_BACK_OFF)·sup passive K(B); a cap on K (max_stiffness, max_force) is met as K ≤ cap.
@@ -16,46 +20,42 @@ __all__ = ["StiffnessRequirements", "DESIGN_BACK_OFF"]
 #: strict).  1e-9 is far above the exact analysis' 1e-12 and far below any engineering meaning (8.7e-9 dB).
 DESIGN_BACK_OFF = 1e-9
 
+#: Largest value of any optional limit (SI): keeps every derived number representable; the device-relative
+#: range of each cap is optim.domain's.
+LIMIT_MAX = 1e12
 
-def _check_positive(name: str, value: float | None) -> None:
-    if value is not None and not (math.isfinite(value) and value > 0):
-        raise InputError(name, f"must be a finite number > 0, got {value!r}")
+#: Limits that come in pairs: (a, b, the constraint they make together).
+_PAIRS = (("max_force", "max_penetration", "K·x ≤ F"), ("quantization", "max_force_noise", "B·q/T ≤ F_noise"))
 
 
-@dataclass(frozen=True)
-class StiffnessRequirements:
-    """Limits of a stiffness design; a limit that is None does not apply."""
+def _limit(description: str):
+    return Field(default=None, gt=0, le=LIMIT_MAX, description=description)
 
-    min_gain_margin_db: float = 6.0
-    """required gain margin on stiffness, 20·log10(K_cr(B)/K) [dB], 0 ≤ GM ≤ 120."""
-    passivity: bool = False
-    """require passivity (ARCHITECTURE.md delayed Colgate–Schenkel form)."""
-    max_damping: float | None = None
-    """B ≤ max_damping [N·s/m]."""
-    max_stiffness: float | None = None
-    """K ≤ max_stiffness [N/m]."""
-    max_force: float | None = None
-    """actuator saturation F [N]; with max_penetration x: K·x ≤ F."""
-    max_penetration: float | None = None
-    """largest wall penetration x [m] at which the force must not saturate."""
-    quantization: float | None = None
-    """encoder quantisation q [m]; with max_force_noise: B·q/T ≤ F_noise."""
-    max_force_noise: float | None = None
-    """largest force step [N] the damper may make from one quantisation step."""
 
-    def __post_init__(self) -> None:
-        gm = self.min_gain_margin_db
-        if not (math.isfinite(gm) and 0.0 <= gm <= 120.0):
-            raise InputError("min_gain_margin_db", f"must be finite and in [0, 120] dB, got {gm!r}")
-        for name in ("max_damping", "max_stiffness", "max_force", "max_penetration", "quantization",
-                     "max_force_noise"):
-            _check_positive(name, getattr(self, name))
-        if (self.max_force is None) != (self.max_penetration is None):
-            missing = "max_penetration" if self.max_penetration is None else "max_force"
-            raise InputError(missing, "max_force and max_penetration go together (K·x ≤ F)")
-        if (self.quantization is None) != (self.max_force_noise is None):
-            missing = "max_force_noise" if self.max_force_noise is None else "quantization"
-            raise InputError(missing, "quantization and max_force_noise go together (B·q/T ≤ F_noise)")
+class StiffnessRequirements(BaseModel):
+    """Every limit but the gain margin is optional and acts only when given."""
+
+    # Lax for internal callers (as models.device.Device); the service validates JSON numbers strictly.
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, frozen=True)
+
+    min_gain_margin_db: float = Field(6.0, ge=0, le=120, description="gain margin on stiffness [dB], "
+                                                                     "20·log10(K_cr/K)")
+    passivity: bool = Field(False, description="require passivity (delayed Colgate–Schenkel form; a fractional "
+                                               "delay is rounded up to the next whole sample)")
+    max_damping: float | None = _limit("B ≤ max_damping [N·s/m]")
+    max_stiffness: float | None = _limit("K ≤ max_stiffness [N/m]")
+    max_force: float | None = _limit("actuator saturation F [N]; needs max_penetration (K·x ≤ F)")
+    max_penetration: float | None = _limit("penetration x [m] at which the force must not saturate; needs max_force")
+    quantization: float | None = _limit("encoder quantisation q [m]; needs max_force_noise (B·q/T ≤ F_noise)")
+    max_force_noise: float | None = _limit("largest damper force step F_noise [N]; needs quantization")
+
+    @model_validator(mode="after")
+    def _pairs(self) -> "StiffnessRequirements":
+        for a, b, rule in _PAIRS:
+            if (getattr(self, a) is None) != (getattr(self, b) is None):
+                missing, other = (b, a) if getattr(self, b) is None else (a, b)
+                raise InputError(missing, f"required when {other} is given ({rule})")
+        return self
 
     @property
     def gain_factor(self) -> float:

@@ -27,9 +27,10 @@ from dataclasses import dataclass
 from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
+from pydantic import BaseModel, ValidationError
 
 from models.device import Device
-from optim.errors import InputError
+from optim.errors import InputError, from_validation
 from optim.solver_info import plain
 
 __all__ = ["MAX_STUDY_POINTS", "PROBLEMS", "StudyInputError", "ProblemUnavailable", "Axis", "StudyPlan",
@@ -148,17 +149,16 @@ def _check_stability_requirements(req: Mapping[str, Any]) -> None:
         raise InputError("damping", "the wall's B must be ≥ 0 [N·s/m]")
 
 
-def _dataclass_kinds(cls: type) -> dict[str, str]:
-    """Numeric fields of a requirements dataclass: the ones a sweep may set."""
-    hints = typing.get_type_hints(cls)
+def _requirement_kinds(cls: type[BaseModel]) -> dict[str, str]:
+    """Numeric fields of a requirements model: the ones a sweep may set."""
     kinds = {}
-    for f in dataclasses.fields(cls):
-        args = set(typing.get_args(hints[f.name])) or {hints[f.name]}
+    for name, info in cls.model_fields.items():
+        args = set(typing.get_args(info.annotation)) or {info.annotation}
         args.discard(type(None))
         if args == {float} or args == {int, float}:
-            kinds[f.name] = "float"
+            kinds[name] = "float"
         elif args == {int}:
-            kinds[f.name] = "int"
+            kinds[name] = "int"
     return kinds
 
 
@@ -171,27 +171,27 @@ def _design_problem(name: str, module: str, function: str, requirements: str) ->
                                                               requirements)
     except (ImportError, AttributeError) as exc:
         raise ProblemUnavailable(name, f"{module}.{function} cannot be imported: {exc}") from None
-    field_names = {f.name for f in dataclasses.fields(req_cls)}
+    field_names = set(req_cls.model_fields)
 
     def build(req: Mapping[str, Any]):
         unknown = sorted(set(req) - field_names)
         if unknown:
             raise InputError(unknown[0], f"unknown requirement of the {name} problem "
                              f"(known: {', '.join(sorted(field_names))})")
-        kinds = _dataclass_kinds(req_cls)
+        kinds = _requirement_kinds(req_cls)
         for key, value in req.items():
             # A number is a JSON number: true and "5.4" are refused, not taken as 1 and 5.4.
             if key in kinds and value is not None and not _is_finite_number(value):
                 raise InputError(key, f"must be a finite number, got {str(value)[:40]!r}")
         try:
-            return req_cls(**req)
-        except TypeError as exc:  # wrong type for a field
-            raise InputError(next(iter(req), "requirements"), str(exc)) from None
+            return req_cls.model_validate(req)
+        except ValidationError as exc:  # the model's own rule and message (one source)
+            raise from_validation(exc) from None
 
     def evaluate(device: Device, req: Mapping[str, Any]) -> dict[str, Any]:
         return flatten_result(design(device, build(req)))
 
-    return Problem(name, evaluate, _dataclass_kinds(req_cls), lambda req: build(req) and None)
+    return Problem(name, evaluate, _requirement_kinds(req_cls), lambda req: build(req) and None)
 
 
 _LAZY = {"stiffness": ("optim.stiffness", "design_stiffness", "StiffnessRequirements"),

@@ -45,7 +45,7 @@ from models.device import Device, Human
 from models.feedforward import feedforward_plant
 from models.filters import ButterworthLowPass, butterworth_polynomial
 from optim.errors import InputError
-from optim.stability.analysis import DEFAULT_GRID_POINTS, MAX_GRID_POINTS, METHODS
+from optim.stability.analysis import DEFAULT_GRID_POINTS, check_rung
 from optim.transparency.feedforward import ForceCrossover, critical_force_gain, resolve_human, worst_case_force_gain
 from optim.transparency.feedforward_reference import REFERENCE_DIGITS, reference_critical_force_gain
 
@@ -242,10 +242,7 @@ def grid_critical_force_gain(device: Device, human: Human, filt: ButterworthLowP
 def analyse_force_feedforward(device: Device, filt: ButterworthLowPass | None = None, human: Human | None = None,
                               method: str = "exact", grid_points: int = DEFAULT_GRID_POINTS) -> ForceFeedforwardAnalysis:
     """K_f,cr of 1 + K_f·D·G_1 on the chosen rung (ValueError names a bad field)."""
-    if method not in METHODS:
-        raise InputError("method", f"must be one of {', '.join(METHODS)}")
-    if method == "grid" and not (10 <= grid_points <= MAX_GRID_POINTS):
-        raise InputError("grid_points", f"must be between 10 and {MAX_GRID_POINTS}")
+    check_rung(method, grid_points)
     if filt is not None and not math.isclose(filt.sample_time, device.sample_time, rel_tol=1e-12):
         raise InputError("filter", "its sample_time must be the device's sample_time")
     t0 = time.perf_counter()

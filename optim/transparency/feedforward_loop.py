@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -17,9 +16,7 @@ from models.device import Device, Human
 from models.feedforward import feedforward_plant
 from optim.errors import InputError
 from optim.transparency.feedforward import critical_force_gain_of_plant, resolve_human
-
-if TYPE_CHECKING:
-    from optim.transparency.inertia import InertiaRequirements
+from optim.transparency.inertia_requirements import InertiaRequirements
 
 __all__ = ["FeedforwardLoop", "RigidComparison", "RIGID_OPTIMISM_FLAG", "RANGE_START_MASSES", "cutoff_band",
            "design_humans", "rigid_comparison", "upper_cutoff_hz"]
@@ -72,7 +69,7 @@ def design_humans(device: Device, req: InertiaRequirements) -> tuple[list[Human]
     base, src = resolve_human(device)
     if req.human_mass_range is None:
         return [base], src
-    lo, hi = req.human_mass_range
+    lo, hi = req.human_mass_range.min, req.human_mass_range.max
     masses = np.geomspace(lo, hi, RANGE_START_MASSES) if hi > lo else [lo]
     return [base.model_copy(update={"mass": float(m)}) for m in masses], \
         f"requirements.human_mass_range with damping/stiffness of {src}"

@@ -34,8 +34,6 @@ from typing import Literal
 import numpy as np
 
 from models.device import Device, Human
-from models.filters import MAX_FILTER_ORDER
-from optim.errors import InputError
 from optim.solver_info import NO_SOLVER, SolverInfo
 from optim.transparency.feedforward_loop import (
     RIGID_OPTIMISM_FLAG,
@@ -48,6 +46,7 @@ from optim.transparency.feedforward_loop import (
 )
 from optim.transparency.inertia_band import BandAnswer, BandProfile, band_profile, highest_feasible, maximise
 from optim.transparency.inertia_nlp import modal_plant
+from optim.transparency.inertia_requirements import InertiaRequirements
 
 __all__ = ["InertiaRequirements", "ParetoPoint", "RigidComparison", "InertiaDesign", "design_inertia",
            "upper_cutoff_hz", "pareto_points", "RIGID_OPTIMISM_FLAG"]
@@ -57,26 +56,6 @@ _RANGE_CHECK_MASSES = 33     # dense exact check of the final design over the ra
 _MODAL_RTOL = 1e-8           # the NLP's modal G_1 must match the exact response this well
 _NO_CROSSOVER = "no phase crossover at some cutoff: the model bounds no force gain there"
 _NOT_CONVERGED = "Ipopt did not converge on the crossover conditions"
-
-
-@dataclass(frozen=True)
-class InertiaRequirements:
-    min_gain_margin_db: float = 6.0
-    """Required 20·log10(K_f,cr/K_f) [dB]."""
-    cutoff_min_hz: float = 10.0
-    """Lowest filter cutoff [Hz]: the human force bandwidth (Lawrence et al., §5.2)."""
-    cutoff_max_hz: float | None = None
-    """Highest cutoff [Hz]; default the first cable mode ω_n/2π (eq. 24), else 0.4 × Nyquist."""
-    filter_order: int = 2
-    """Butterworth order, 1-4 (the chapter: 2)."""
-    target_apparent_mass: float | None = None
-    """m_target [kg]: reach it and keep the highest cutoff, instead of minimising the mass."""
-    human_mass_range: tuple[float, float] | None = None
-    """(min, max) grasp mass m_h [kg] (finger ... arm); damping and stiffness of the base grasp."""
-    humans: tuple[Human, ...] | None = None
-    """An explicit list of grasps; the design holds for the worst."""
-    pareto_points: int = 17
-    """Cutoffs of the exact Pareto scan over the band (geometric)."""
 
 
 @dataclass(frozen=True)
@@ -127,8 +106,6 @@ def design_inertia(device: Device, req: InertiaRequirements | None = None) -> In
     """Design K_f and the filter cutoff (see module docstring); ValueError names a bad requirement."""
     start = time.perf_counter()
     req = req or InertiaRequirements()
-    if not 1 <= req.filter_order <= MAX_FILTER_ORDER:
-        raise InputError("requirements.filter_order", f"must be 1-{MAX_FILTER_ORDER}, got {req.filter_order}")
     lo_hz, hi_hz, hi_src = cutoff_band(device, req)
     humans, human_src = design_humans(device, req)
     for _ in range(_MAX_HUMAN_ROUNDS):
@@ -151,7 +128,7 @@ def _range_violation(device: Device, req: InertiaRequirements, humans: list[Huma
     """A grasp mass in the range whose K_f,cr at the design's cutoff is below the design's."""
     if req.human_mass_range is None or design.status != "optimal":
         return None
-    lo, hi = req.human_mass_range
+    lo, hi = req.human_mass_range.min, req.human_mass_range.max
     base = humans[0]
     dense = [base.model_copy(update={"mass": float(m)}) for m in np.geomspace(lo, hi, _RANGE_CHECK_MASSES)]
     loop = FeedforwardLoop(device, dense, req.filter_order)

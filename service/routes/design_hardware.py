@@ -21,7 +21,7 @@ router = APIRouter()
 
 def hardware_target(request: HardwareDesignRequest) -> HardwareTarget:
     """The request's target as optim's (the same field names)."""
-    return HardwareTarget(**request.target.model_dump())
+    return request.target.core()
 
 
 async def run_hardware(request: HardwareDesignRequest, compute: BoundedExecutor) -> HardwareDesign:

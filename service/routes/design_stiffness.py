@@ -31,8 +31,7 @@ async def design_stiffness_route(request: StiffnessDesignRequest, compute: Compu
     # The design runs in a compute worker under the request time budget, awaited without holding a thread
     # (service/cost.py), where the CasADi solvers are built and cached per process.
     t0 = time.perf_counter()
-    fields = request.requirements.model_dump(exclude={"uncertainty"})
-    req = StiffnessRequirements(**fields)
+    req = request.requirements.core()
     if request.requirements.uncertainty is not None:
         if request.method != "exact":
             raise InputError("method", "robust designs (requirements.uncertainty) are computed on the exact rung only")

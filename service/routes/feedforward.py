@@ -77,11 +77,7 @@ async def force_feedforward(req: ForceFeedforwardRequest, compute: Compute) -> F
 @router.post("/v1/design/inertia", response_model=InertiaResponse)
 async def inertia(req: InertiaRequest, compute: Compute) -> InertiaResponse:
     r = req.requirements
-    spec = InertiaRequirements(
-        min_gain_margin_db=r.min_gain_margin_db, cutoff_min_hz=r.cutoff_min_hz, cutoff_max_hz=r.cutoff_max_hz,
-        filter_order=r.filter_order, target_apparent_mass=r.target_apparent_mass,
-        human_mass_range=(r.human_mass_range.min, r.human_mass_range.max) if r.human_mass_range else None,
-        humans=tuple(r.humans) if r.humans else None, pareto_points=r.pareto_points)
+    spec = r.core()
     if r.uncertainty is not None:
         if req.method != "exact":
             raise InputError("method", "robust designs (requirements.uncertainty) are computed on the exact rung only")

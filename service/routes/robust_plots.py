@@ -8,7 +8,6 @@ from pydantic import ConfigDict, Field
 
 from optim.errors import InputError
 from optim.robust.box import UncertaintyBox
-from optim.stiffness import StiffnessRequirements
 
 from ..executor import Compute
 from ..jobs import hardware_plot_job, robust_slice_job
@@ -48,7 +47,7 @@ async def robust_plot(req: RobustPlotRequest, compute: Compute,
     for name, p in (("x", x), ("y", y)):
         if p not in paths:
             raise InputError(name, f"{p!r} is not one of the uncertain paths {paths}")
-    requirements = StiffnessRequirements(**req.requirements.model_dump(exclude={"uncertainty"}))
+    requirements = req.requirements.core()
     try:  # the robust design and the points² exact analyses of the slice: always a worker
         image = await compute.arun(robust_slice_job, req.device, requirements, box, x, y, req.points,
                                    req.requirements.min_gain_margin_db, format, cost_ms=None)

@@ -2,15 +2,13 @@
 
 from __future__ import annotations
 
-from typing import Literal
-
 from pydantic import BaseModel, Field
 
-from optim.stability.analysis import DEFAULT_GRID_POINTS, MAX_GRID_POINTS
 from optim.stability.boundary import MAX_BOUNDARY_POINTS
 
 from .common import LHIFAM_RIGID, STRICT, Controller, CrossoverOut, Device
 from .finite import FiniteModel
+from .ladder import GridPoints, GridPointsField, Method
 from .verification import VerificationOut, VerifyField
 
 
@@ -21,10 +19,8 @@ class StabilityRequest(BaseModel):
         {"device": LHIFAM_RIGID, "method": "linear"}]}}
     device: Device
     controller: Controller | None = Field(default=None, description="the wall to check; K_cr is for its B")
-    method: Literal["linear", "grid", "exact", "reference"] = Field(
-        default="exact", description="rung of the accuracy ladder")
-    grid_points: int = Field(default=DEFAULT_GRID_POINTS, ge=10, le=MAX_GRID_POINTS,
-                             description="frequency samples for method=grid")
+    method: Method = Field(default="exact", description="rung of the accuracy ladder")
+    grid_points: GridPoints = GridPointsField()
     verify: bool = VerifyField()
 
 

@@ -6,7 +6,6 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from models.filters import MAX_FILTER_ORDER
 from optim.domain import check_controller_domain, check_cutoff_domain
 from optim.hardware.hardware_range import check_range
 from optim.hardware.hardware_targets import HardwareTarget
@@ -21,25 +20,14 @@ __all__ = ["HardwareTargetIn", "ValueRangeIn", "HardwareDesignRequest", "Hardwar
 _STRICT = ConfigDict(extra="forbid", allow_inf_nan=False, strict=True)
 
 
-class HardwareTargetIn(BaseModel):
+class HardwareTargetIn(HardwareTarget):
+    # The fields, bounds, cross-field rules and their messages are optim's (one source); the request adds
+    # JSON-number strictness.
     model_config = _STRICT
 
-    stiffness: float | None = Field(None, gt=0, le=1e15, description="K the device must render [N/m]; optional "
-                                                                     "when force_gain or apparent_mass is given")
-    min_gain_margin_db: float = Field(6.0, ge=0, le=120, description="gain margin of every target [dB]: on the "
-                                                                     "stiffness and on the force gain")
-    max_damping: float | None = Field(None, gt=0, le=1e12, description="optional cap on the virtual damping B "
-                                                                        "[N·s/m] (stiffness target)")
-    force_gain: float | None = Field(None, gt=0, le=1e9, description="force-feedforward gain K_f to reach "
-                                                                     "[dimensionless] (eq. 28)")
-    apparent_mass: float | None = Field(None, gt=0, le=1e12, description="apparent mass m/(1 + K_f) to reach [kg], "
-                                                                         "below the device's mass; not with "
-                                                                         "force_gain")
-    cutoff_min_hz: float | None = Field(None, gt=0, le=1e9, description="lowest filter cutoff of the inertia design "
-                                                                        "[Hz] (default 10: the human force "
-                                                                        "bandwidth)")
-    filter_order: int | None = Field(None, ge=1, le=MAX_FILTER_ORDER, description="Butterworth order of the "
-                                                                                  "inertia design (default 2)")
+    def core(self) -> HardwareTarget:
+        """The numerics' target."""
+        return HardwareTarget(**self.model_dump())
 
 
 class ValueRangeIn(BaseModel):
@@ -74,9 +62,8 @@ class HardwareDesignRequest(BaseModel):
     def _in_domain(self) -> "HardwareDesignRequest":
         """The target's rules (optim.hardware.hardware_targets) and optim.domain: the target K, the cap on B and the lowest
         cutoff, made dimensionless by the device, within range."""
-        t = self.target
-        # The target's own rules (one of each kind, what applies to which target): optim's, one source.
-        HardwareTarget(**t.model_dump()).check(self.device, self.free)
+        t = self.target    # its own rules held when it was validated (optim's model); this one needs the device
+        t.check(self.device, self.free)
         if t.stiffness is not None:
             check_controller_domain(t.stiffness, self.device, "stiffness", "target.stiffness")
         if t.max_damping is not None:
@@ -84,7 +71,7 @@ class HardwareDesignRequest(BaseModel):
         if t.cutoff_min_hz is not None:
             check_cutoff_domain(t.cutoff_min_hz, self.device.sample_time, "target.cutoff_min_hz")
         if self.range is not None:     # optim's rule (empty range, input limits at both ends): one source
-            check_range(self.device, self.free, HardwareTarget(**t.model_dump()), self.range.min, self.range.max)
+            check_range(self.device, self.free, t.core(), self.range.min, self.range.max)
         return self
 
 

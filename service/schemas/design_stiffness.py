@@ -7,21 +7,17 @@ from typing import Literal
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from optim.domain import check_controller_domain
+from optim.stiffness.requirements import StiffnessRequirements
 
 from .common import Device  # the numerics' validated domain (optim.domain) applies
 from .finite import FiniteModel
-from .ladder import ExactCheckOut, GridPointsField, Method, MethodField
+from .ladder import ExactCheckOut, GridPoints, GridPointsField, Method, MethodField
 from .verification import VerificationOut, VerifyField
 
 __all__ = ["StiffnessRequirementsIn", "StiffnessDesignRequest", "SensitivityOut", "StiffnessDesignResponse",
            "RangeIn", "WorstCaseOut", "PassivityWorstCaseOut"]
 
 _STRICT = ConfigDict(extra="forbid", allow_inf_nan=False, strict=True)
-_BIG = 1e12
-
-
-def _limit(description: str):
-    return Field(default=None, gt=0, le=_BIG, description=description)
 
 
 class RangeIn(BaseModel):
@@ -32,33 +28,20 @@ class RangeIn(BaseModel):
     max: float
 
 
-class StiffnessRequirementsIn(BaseModel):
+class StiffnessRequirementsIn(StiffnessRequirements):
     """Every limit but the gain margin is optional and acts only when given."""
 
+    # The fields, bounds, pairing rules and their messages are optim's (one source); the request adds JSON-number
+    # strictness and the robust design's box.
     model_config = _STRICT
 
-    min_gain_margin_db: float = Field(6.0, ge=0, le=120, description="gain margin on stiffness [dB], 20·log10(K_cr/K)")
-    passivity: bool = Field(False, description="require passivity (delayed Colgate–Schenkel form; a fractional "
-                                               "delay is rounded up to the next whole sample)")
-    max_damping: float | None = _limit("B ≤ max_damping [N·s/m]")
-    max_stiffness: float | None = _limit("K ≤ max_stiffness [N/m]")
-    max_force: float | None = _limit("actuator saturation F [N]; needs max_penetration (K·x ≤ F)")
-    max_penetration: float | None = _limit("penetration x [m] at which the force must not saturate; needs max_force")
-    quantization: float | None = _limit("encoder quantisation q [m]; needs max_force_noise (B·q/T ≤ F_noise)")
-    max_force_noise: float | None = _limit("largest damper force step F_noise [N]; needs quantization")
     uncertainty: dict[str, RangeIn] | None = Field(
         None, description="robust design: dotted device paths (device.mass, device.delay, device.cable.stiffness, "
                           "…) mapped to {min, max}; the design then holds for every device of the box")
 
-    @model_validator(mode="after")
-    def _pairs(self) -> "StiffnessRequirementsIn":
-        for a, b, rule in (("max_force", "max_penetration", "K·x ≤ F"),
-                           ("quantization", "max_force_noise", "B·q/T ≤ F_noise")):
-            if (getattr(self, a) is None) != (getattr(self, b) is None):
-                missing = b if getattr(self, b) is None else a
-                other = a if missing == b else b
-                raise ValueError(f"{missing}: required when {other} is given ({rule})")
-        return self
+    def core(self) -> StiffnessRequirements:
+        """The numerics' requirements (without the box, which optim takes as an UncertaintyBox)."""
+        return StiffnessRequirements(**self.model_dump(exclude={"uncertainty"}))
 
 
 class StiffnessDesignRequest(BaseModel):
@@ -70,7 +53,7 @@ class StiffnessDesignRequest(BaseModel):
     device: Device
     requirements: StiffnessRequirementsIn = Field(default_factory=StiffnessRequirementsIn)
     method: Method = MethodField()
-    grid_points: int = GridPointsField()
+    grid_points: GridPoints = GridPointsField()
     verify: bool = VerifyField()
 
     @model_validator(mode="after")

@@ -2,19 +2,18 @@
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, Field, model_validator
+from pydantic import BaseModel, Field, WrapValidator, model_validator
 
-from models.device import Human
 from models.filters import MAX_FILTER_ORDER
 from optim.domain import check_cutoff_domain, check_human_domain, check_human_mass
-from optim.stability.analysis import DEFAULT_GRID_POINTS, MAX_GRID_POINTS
+from optim.transparency.inertia_requirements import InertiaRequirements
 
-from .common import STRICT, Device
+from .common import STRICT, Device, json_numbers
 from .design_stiffness import RangeIn
 from .finite import FiniteModel
-from .ladder import ExactCheckOut, GridPointsField, Method, MethodField
+from .ladder import ExactCheckOut, GridPoints, GridPointsField, Method, MethodField
 from .verification import VerificationOut, VerifyField
 
 _LHIFAM_FF = {"mass": 5.4, "damping": 3.5, "sample_time": 0.001,
@@ -33,11 +32,10 @@ class ForceFeedforwardRequest(BaseModel):
         {"device": {"preset": "lhifam"}, "filter": {"cutoff_hz": 30, "order": 2}}]}}
     device: Device = Field(description="needs a human block (else the chapter's eq. 30 grasp is used, and said)")
     filter: FilterIn | None = Field(default=None, description="Butterworth D(z), prewarped bilinear; none by default")
-    method: Literal["linear", "grid", "exact", "reference"] = Field(
+    method: Method = Field(
         default="exact", description="rung of the accuracy ladder: linear = eq. 33 (1 + m/m_h, large delays), "
                                      "grid = fixed log grid, exact, reference = 40-digit mpmath (slow)")
-    grid_points: int = Field(default=DEFAULT_GRID_POINTS, ge=10, le=MAX_GRID_POINTS,
-                             description="frequency samples for method=grid")
+    grid_points: GridPoints = GridPointsField()
     verify: bool = VerifyField()
 
     @model_validator(mode="after")
@@ -80,47 +78,23 @@ class ForceFeedforwardResponse(FiniteModel):
     verification: VerificationOut | None = Field(None, description="present when verify was true")
 
 
-class MassRange(BaseModel):
+class InertiaRequirementsIn(InertiaRequirements):
+    # The fields, bounds, cross-field rules and their messages are optim's (one source); the request adds
+    # JSON-number strictness (the nested grasps and mass range too: InertiaRequirementsField) and the robust box.
     model_config = STRICT
-    min: float = Field(gt=0, le=1e6, description="[kg]")
-    max: float = Field(gt=0, le=1e6, description="[kg]")
 
-    @model_validator(mode="after")
-    def _ordered(self) -> "MassRange":
-        if self.max < self.min:
-            raise ValueError("max must be ≥ min")
-        return self
-
-
-class InertiaRequirementsIn(BaseModel):
-    model_config = STRICT
-    objective: Literal["min_apparent_mass", "target_apparent_mass"] | None = Field(
-        default=None, description="default: target_apparent_mass when a target is given, else min_apparent_mass")
-    min_gain_margin_db: float = Field(default=6.0, ge=0, le=120, description="required gain margin [dB]")
-    cutoff_min_hz: float = Field(default=10.0, gt=0, le=1e9, description="lowest cutoff [Hz] (human force bandwidth)")
-    cutoff_max_hz: float | None = Field(default=None, gt=0, le=1e9,
-                                        description="highest cutoff [Hz]; default first cable mode, else 0.4 × Nyquist")
-    filter_order: int = Field(default=2, ge=1, le=MAX_FILTER_ORDER)
-    target_apparent_mass: float | None = Field(default=None, gt=0, le=1e12,
-                                               description="reach this apparent mass [kg] with the highest cutoff")
-    human_mass_range: MassRange | None = Field(default=None, description="grasp masses [kg] to hold for (worst case)")
-    humans: list[Human] | None = Field(default=None, min_length=1, max_length=16,
-                                       description="explicit grasps (finger, hand, arm); worst case")
-    pareto_points: int = Field(default=17, ge=2, le=201, description="cutoffs of the exact Pareto scan")
     uncertainty: dict[str, RangeIn] | None = Field(
         default=None, description="robust design: dotted device paths (device.mass, device.delay, "
                                   "device.cable.stiffness, device.human.mass, …) mapped to {min, max}; K_f and the "
                                   "cutoff then hold for every device of the box (not device.sample_time)")
 
-    @model_validator(mode="after")
-    def _one_human_spec(self) -> "InertiaRequirementsIn":
-        if self.humans is not None and self.human_mass_range is not None:
-            raise ValueError("give either humans or human_mass_range, not both")
-        if self.objective == "target_apparent_mass" and self.target_apparent_mass is None:
-            raise ValueError("objective target_apparent_mass needs target_apparent_mass")
-        if self.objective == "min_apparent_mass" and self.target_apparent_mass is not None:
-            raise ValueError("objective min_apparent_mass takes no target_apparent_mass")
-        return self
+    def core(self) -> InertiaRequirements:
+        """The numerics' requirements (without the box, which optim takes as an UncertaintyBox)."""
+        return InertiaRequirements(**self.model_dump(exclude={"uncertainty"}))
+
+
+#: The requirements of a request: strict JSON numbers at every depth (as the device, service.schemas.common).
+InertiaRequirementsField = Annotated[InertiaRequirementsIn, WrapValidator(json_numbers(InertiaRequirementsIn))]
 
 
 class InertiaRequest(BaseModel):
@@ -129,9 +103,9 @@ class InertiaRequest(BaseModel):
         {"device": {"preset": "lhifam"}, "requirements": {"target_apparent_mass": 0.9}},
         {"device": {"preset": "lhifam"}, "requirements": {"human_mass_range": {"min": 0.05, "max": 4}}}]}}
     device: Device
-    requirements: InertiaRequirementsIn = Field(default_factory=InertiaRequirementsIn)
+    requirements: InertiaRequirementsField = Field(default_factory=InertiaRequirementsIn)
     method: Method = MethodField()
-    grid_points: int = GridPointsField()
+    grid_points: GridPoints = GridPointsField()
     verify: bool = VerifyField()
 
     @model_validator(mode="after")

@@ -12,6 +12,7 @@ def quick():
     return acc.measure(acc.QUICK, repeats=1)
 
 
+@pytest.mark.slow
 def test_accuracy_quick_suite(tmp_path, quick):
     results, details = quick
     assert len(details) == 5
@@ -28,6 +29,7 @@ def test_accuracy_quick_suite(tmp_path, quick):
     assert (tmp_path / "a.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+@pytest.mark.slow
 def test_accuracy_quick_feedforward():
     results, details = acc.measure_feedforward(acc.QUICK_FF, repeats=1)
     assert len(details) == 2
@@ -41,6 +43,7 @@ def test_accuracy_quick_feedforward():
     assert "## Force feedforward" in text and "| reference |" in text
 
 
+@pytest.mark.slow
 def test_accuracy_verify_column_and_readme_headline(tmp_path, quick):
     results, details = quick
     # verify confirms every exact and reference answer of the suite, and its cost has its own column

@@ -1,6 +1,10 @@
 """The core benchmark runs and renders (a two-case version, so the script cannot rot)."""
 
+import pytest
+
 from bench import bench_core
+
+pytestmark = pytest.mark.slow
 
 
 def test_bench_core_small(tmp_path):

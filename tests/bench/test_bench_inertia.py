@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+import pytest
+
 from bench.bench_inertia import run
+
+pytestmark = pytest.mark.slow
 
 
 def test_tiny_benchmark_run(tmp_path):

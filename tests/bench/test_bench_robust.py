@@ -3,6 +3,10 @@
 import importlib.util
 from pathlib import Path
 
+import pytest
+
+pytestmark = pytest.mark.slow
+
 
 def test_bench_robust_quick(tmp_path):
     path = Path(__file__).resolve().parents[2] / "bench" / "bench_robust.py"

@@ -1,6 +1,10 @@
 """A tiny run of bench/bench_simulate_verdicts.py so the benchmark cannot rot."""
 
+import pytest
+
 from bench.bench_simulate_verdicts import main
+
+pytestmark = pytest.mark.slow
 
 
 def test_bench_simulate_verdicts_quick(tmp_path):

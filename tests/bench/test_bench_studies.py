@@ -1,7 +1,11 @@
 """The study benchmark runs and renders (a tiny local-only version, so the script cannot rot)."""
 
+import pytest
+
 from bench import bench_studies
 from optim.studies.problems import VECTOR_CHUNK_FACTOR, ProblemUnavailable, get_problem
+
+pytestmark = pytest.mark.slow
 
 
 def test_bench_studies_tiny():

@@ -14,6 +14,8 @@ from clients.local import AsyncLocalTransport, LocalTransport
 
 from .conftest import start_server, stop_server, without_timings
 
+pytestmark = pytest.mark.slow
+
 AUTH = importlib.util.find_spec("service.auth") is not None
 DEVICE = {"preset": "lhifam-reduced-pretension", "delay": 0.0015}
 

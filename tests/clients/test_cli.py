@@ -14,6 +14,8 @@ from clients.cli import app
 
 from .conftest import has_route, without_timings
 
+pytestmark = pytest.mark.slow
+
 runner = CliRunner()
 
 
@@ -95,6 +97,7 @@ def test_device_file_json_and_yaml(tmp_path):
     assert without_timings(a) == without_timings(b)
 
 
+@pytest.mark.slow
 def test_usage_errors_exit_2():
     r = run("analyze", "lhifam", "--set", "delay=1e-3", code=2)
     assert "device." in r.stderr
@@ -111,12 +114,14 @@ def test_a_422_exits_2_naming_the_field():
     assert "preset" in r.stderr
 
 
+@pytest.mark.slow
 def test_no_server_exits_3(dead_url):
     r = run("analyze", "lhifam", "--url", dead_url, code=3)
     assert "no answer from the service" in r.stderr and "3 attempts" in r.stderr
 
 
 # ------------------------------------------------------------------------------------------------ design
+@pytest.mark.slow
 def test_design_stiffness_local_and_remote_are_identical():
     r = local_equals_remote("design", "stiffness", "lhifam", "--set", "device.delay=1e-3", "--margin", "6")
     assert r["status"] == "optimal" and 6.0 < r["gain_margin_db"] < 6.0 + 1e-7   # the design back-off (DESIGN_BACK_OFF)
@@ -129,6 +134,7 @@ def test_design_stiffness_requirements_by_set_and_infeasible_exits_1():
     assert r["status"] == "infeasible" and r["reason"]
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not has_route("/v1/design/inertia"),
                     reason="POST /v1/design/inertia is not in this build yet (branch inertia)")
 def test_design_inertia_local_and_remote_are_identical():
@@ -167,6 +173,7 @@ def test_simulate_above_the_critical_stiffness_exits_1(tmp_path):
 
 
 # ------------------------------------------------------------------------------------------------ plot
+@pytest.mark.slow
 def test_plot_simulation(tmp_path):
     out = tmp_path / "sim.svg"
     run("plot", "simulation", "lhifam", "--set", "device.cable=null", *SCENE, "--stiffness", "3000", "-o", str(out))
@@ -174,6 +181,7 @@ def test_plot_simulation(tmp_path):
     run("plot", "simulation", "lhifam", *SCENE, "-o", str(tmp_path / "x.gif"), code=2)
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not has_route("/v1/plots/boundary"),
                     reason="POST /v1/plots/boundary is not in this build yet (branch service)")
 def test_plot_boundary(tmp_path):
@@ -182,6 +190,7 @@ def test_plot_boundary(tmp_path):
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and str(out) in r.stdout
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not has_route("/v1/plots/bode"),
                     reason="POST /v1/plots/bode is not in this build yet (branch service)")
 def test_plot_bode(tmp_path):
@@ -191,6 +200,7 @@ def test_plot_bode(tmp_path):
 
 
 # ------------------------------------------------------------------------------------------------ serve, bench
+@pytest.mark.slow
 def test_serve_is_the_session_server(server):
     """The session server was started with `python -m clients.cli serve --host … --port …` (conftest)."""
     assert server.process.args[1:4] == ["-m", "clients.cli", "serve"]
@@ -211,6 +221,7 @@ def test_bench_commands_pass_their_options(monkeypatch, tmp_path):
                     "core": ["--repeats", "3", "--out", str(tmp_path / "c.md")]}
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not has_route("/v1/studies"), reason="POST /v1/studies is not in this build yet (branch studies)")
 def test_plot_study(server, tmp_path):
     import time

@@ -50,6 +50,7 @@ def test_identify_response_local_and_remote(response_csv, tmp_path):
     assert "identified" in human and "mass" in human and plot.read_bytes().lstrip().startswith(b"<")
 
 
+@pytest.mark.slow
 def test_identify_time_series_with_known_delay(tmp_path):
     from tests.optim.identification.cases import record
 
@@ -62,6 +63,7 @@ def test_identify_time_series_with_known_delay(tmp_path):
     assert body["parameters"]["mass"]["value"] == pytest.approx(5.4, rel=0.01)
 
 
+@pytest.mark.slow
 def test_bad_files_and_data(tmp_path, response_csv):
     bad = tmp_path / "bad.csv"
     bad.write_text("t,f,x\n0,1,2\n")

@@ -28,6 +28,7 @@ def zwidth(tmp_path, monkeypatch):
         yield lambda *args, **kw: runner.invoke(cli, ["study", *args], **kw)
 
 
+@pytest.mark.slow
 def test_run_status_results(zwidth, tmp_path):
     req = tmp_path / "study.json"
     req.write_text(json.dumps(small_study(3)))
@@ -46,6 +47,7 @@ def test_run_status_results(zwidth, tmp_path):
     assert out.read_bytes()[:4] == b"PAR1"
 
 
+@pytest.mark.slow
 def test_run_reports_422_with_the_field(zwidth, tmp_path):
     req = tmp_path / "bad.json"
     req.write_text(json.dumps({**small_study(), "sweep": {"device.wheels": [1]}}))
@@ -53,6 +55,7 @@ def test_run_reports_422_with_the_field(zwidth, tmp_path):
     assert r.exit_code == 2 and "sweep.device.wheels" in r.output
 
 
+@pytest.mark.slow
 def test_no_service_is_exit_code_3(tmp_path):
     req = tmp_path / "study.json"
     req.write_text(json.dumps(small_study(3)))
@@ -64,6 +67,7 @@ def test_no_service_is_exit_code_3(tmp_path):
     assert r.exit_code == 3 and "no answer from the service" in r.output
 
 
+@pytest.mark.slow
 def test_cancel_and_purge(zwidth, tmp_path):
     req = tmp_path / "study.json"
     req.write_text(json.dumps(small_study(3)))
@@ -76,6 +80,7 @@ def test_cancel_and_purge(zwidth, tmp_path):
     assert r.exit_code == 3 and "404" in r.output          # gone
 
 
+@pytest.mark.slow
 def test_unreadable_request_is_usage(zwidth, tmp_path):
     req = tmp_path / "bad.json"
     req.write_text("{not json")
@@ -93,6 +98,7 @@ def test_progress_bar_shows_points_rate_and_eta():
     assert cli_study.progress_fields(SimpleNamespace(rate=0.25, eta_s=3725))["eta"] == "ETA 1:02:05"
 
 
+@pytest.mark.slow
 def test_run_bar_names_points(zwidth, tmp_path):
     req = tmp_path / "study.json"
     req.write_text(json.dumps(small_study(3)))

@@ -25,6 +25,8 @@ from optim.stability.boundary import stability_boundary
 
 from .conftest import has_route
 
+pytestmark = pytest.mark.slow
+
 DELAYED = {"preset": "lhifam", "delay": 0.001}
 WALL = {"stiffness": 3500.0, "damping": 5.0}
 
@@ -102,6 +104,7 @@ def test_simulate_and_its_plot(zw):
     assert isinstance(plot, Plot) and plot.media_type == "image/svg+xml" and b"<svg" in plot.content[:500]
 
 
+@pytest.mark.slow
 def test_async_client_gives_the_same_answers(server, zw):
     async def run():
         async with AsyncZwidthClient(server.url) as az:
@@ -111,6 +114,7 @@ def test_async_client_gives_the_same_answers(server, zw):
     assert b.points == zw.boundary(DELAYED, points=5).points
 
 
+@pytest.mark.slow
 def test_422_becomes_validation_failed_naming_the_field(server):
     counter = CountingTransport()
     with ZwidthClient(server.url, transport=counter) as zw, pytest.raises(ValidationFailed) as info:
@@ -122,6 +126,7 @@ def test_422_becomes_validation_failed_naming_the_field(server):
     assert counter.calls == 1                         # never retried
 
 
+@pytest.mark.slow
 def test_a_numerics_rule_is_named_too(server):
     """A 422 from a model rule (the cost limit) names the field in its location or its message.
 
@@ -135,6 +140,7 @@ def test_a_numerics_rule_is_named_too(server):
     assert "10000 samples" in msg
 
 
+@pytest.mark.slow
 def test_404_is_an_api_error_and_not_retried(server):
     counter = CountingTransport()
     with ZwidthClient(server.url, transport=counter, retries=Retries(attempts=4, backoff=0.0)) as zw:
@@ -175,6 +181,7 @@ def test_design_inertia(zw):
     assert r.force_gain == pytest.approx(ff.critical_force_gain / 10 ** (6 / 20), rel=1e-6)
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not has_route("/v1/plots/boundary"),
                     reason="POST /v1/plots/boundary and /v1/plots/bode are not in this build yet (branch service)")
 def test_plots_boundary_and_bode(zw):

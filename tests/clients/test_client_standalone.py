@@ -14,6 +14,8 @@ import textwrap
 
 import pytest
 
+pytestmark = pytest.mark.slow
+
 SERVER = ("service", "optim", "models")
 NUMERICS = ("numpy", "scipy", "mpmath", "casadi", "matplotlib", "fastapi", "starlette", "uvicorn", "sqlalchemy",
             "dask", "pyarrow")

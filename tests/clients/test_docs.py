@@ -13,6 +13,8 @@ import pytest
 
 from .conftest import ROOT
 
+pytestmark = pytest.mark.slow
+
 DOC = (ROOT / "docs" / "clients.md").read_text(encoding="utf-8")
 
 

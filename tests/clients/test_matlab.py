@@ -20,8 +20,8 @@ from clients import ZwidthClient
 from .conftest import ROOT
 
 OCTAVE = shutil.which("octave-cli")
-pytestmark = pytest.mark.skipif(OCTAVE is None, reason="octave-cli is not installed (scripts/system-deps.sh "
-                                                       "installs Debian's octave package)")
+pytestmark = [pytest.mark.slow, pytest.mark.skipif(OCTAVE is None, reason="octave-cli is not installed "
+                                                   "(scripts/system-deps.sh installs Debian's octave package)")]
 MATLAB_DIR = ROOT / "clients" / "matlab"
 
 

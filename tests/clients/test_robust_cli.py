@@ -11,6 +11,8 @@ from typer.testing import CliRunner
 from clients.cli import app as cli
 from clients.robust_cli import parse_range
 
+pytestmark = pytest.mark.slow
+
 
 def run(*args: str, code: int = 0):
     r = CliRunner().invoke(cli, ["robust", *args, "--local"])

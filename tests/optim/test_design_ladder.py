@@ -81,6 +81,7 @@ def test_linear_inertia_is_eq33_and_flags_the_unsafe_cable_design():
     assert ex.force_gain > d.force_gain  # eq. 33 is not conservative either way: only the check tells
 
 
+@pytest.mark.slow
 def test_grid_and_reference_inertia_against_exact():
     req = InertiaRequirements(target_apparent_mass=0.9)
     ex, _ = design_inertia_on_rung(FF_CABLE, req, "exact")

@@ -72,6 +72,7 @@ def test_a_cutoff_below_the_domain_is_refused_naming_the_field(cutoff_hz):
     check_cutoff_domain(CUTOFF_RATIO_MIN / 0.001, 0.001, "filter.cutoff_hz")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("order", [1, 4])
 def test_at_the_lowest_cutoff_exact_agrees_with_the_reference(order):
     """The rule's justification: at f_c·T = CUTOFF_RATIO_MIN the exact rung still agrees with the 40-digit

@@ -42,6 +42,7 @@ def test_lhifam_rigid_contract_check():
     assert d.active_constraints == ("min_gain_margin_db",)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("passivity", [False, True])
 def test_every_design_is_verified_by_the_exact_analysis(passivity):
     """≥ 100 random devices (rigid and cable, 0–5 samples of delay, whole and fractional)."""
@@ -65,6 +66,7 @@ CASES = [(base, ds, p) for base in ("lh-rigid", "lh-cable", "ph-cable") for ds i
 BASES = {"lh-rigid": LH.rigid(), "lh-cable": LH, "ph-cable": PH}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("base,delay_samples,passivity", CASES)
 def test_optimum_matches_independent_scan(base, delay_samples, passivity):
     dev = BASES[base].model_copy(update={"delay": delay_samples * BASES[base].sample_time})

@@ -78,6 +78,7 @@ def test_zero_physical_damping_with_passivity_is_infeasible_with_the_reason():
     assert design.status == "infeasible" and "passivity is impossible" in design.reason and "b = 0" in design.reason
 
 
+@pytest.mark.slow
 def test_undamped_cable_is_designed_and_analysed():
     """All six dampings 0 (the LHifAM's cable): the design exists (B stabilises it) and its analysis agrees."""
     dev = Device.model_validate({"preset": "lhifam", "cable": {"motor_damping": 0, "body_damping": 0, "damping": 0}})
@@ -126,6 +127,7 @@ def test_passivity_designs_are_analysed_passive(delay_samples, preset):
     assert passivity_margin(dev, design.stiffness, design.damping).required_damping < dev.damping
 
 
+@pytest.mark.slow
 def test_design_at_the_10000_sample_limit_gives_no_sensitivity_with_the_reason():
     dev = _rigid(10_000)
     design = design_stiffness(dev)

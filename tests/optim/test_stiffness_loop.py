@@ -10,6 +10,7 @@ LH = Device(preset="lhifam")
 PH = Device(preset="phantom-1.0")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("device", [LH.rigid(), LH, PH, PH.rigid()], ids=["lh-rigid", "lh-cable", "ph-cable", "ph-rigid"])
 @pytest.mark.parametrize("delay_samples", [0, 0.37, 1, 2.5, 5])
 @pytest.mark.parametrize("beta", [0.0, 0.01])

@@ -48,6 +48,7 @@ def test_radius_matches_the_independent_closed_loop(seed):
     assert mine == pytest.approx(spectral_radius(dev, alpha, beta), abs=1e-10)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("d", [0, 1, 3, 7])
 def test_unstable_count_matches_mpmath_roots(d):
     dev = Device(**LHIFAM_RIGID, delay=d * 1e-3)

@@ -78,6 +78,7 @@ def test_each_rung_says_which_it_is_and_matches_core(client, method):
     assert_same(r.json(), expected_stability({"preset": "lhifam"}, 3000.0, 1.0, method, 500))
 
 
+@pytest.mark.slow
 def test_reference_rung_runs_in_a_worker_and_matches_core(client):
     """method=reference is costed above the inline threshold: it travels through a worker process and back."""
     device = {"mass": 5.4, "damping": 3.5, "delay": 0.0005}
@@ -97,6 +98,7 @@ def test_chapter_values_reach_the_client(client):
     assert rigid["method"] == "exact" and rigid["elapsed_ms"] > 0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("device,damping_max,points", [
     (LHIFAM_RIGID, None, 12),
     ({"preset": "lhifam"}, 40.0, 9),

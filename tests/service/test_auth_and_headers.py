@@ -29,6 +29,7 @@ def test_missing_token_is_401_with_www_authenticate(secured):
     assert "missing bearer token" in r.json()["detail"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("header", [f"Bearer {TOKEN}x", "Bearer s3cret", f"Basic {TOKEN}", f"bearer  {TOKEN[:-1]}",
                                     "Bearer", "", TOKEN])
 def test_wrong_token_is_401(secured, header):

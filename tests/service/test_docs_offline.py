@@ -16,6 +16,7 @@ from .conftest import start_live_server
 CHROMIUM = "/usr/bin/chromium"
 
 
+@pytest.mark.slow
 def test_docs_pages_reference_only_local_assets(client):
     for path in ("/docs", "/redoc"):
         html = client.get(path).text
@@ -65,6 +66,7 @@ def test_every_operation_has_examples_and_an_operation_id(client):
                 assert all(c.get("schema", {}).get("format") == "binary" for c in content.values()), path
 
 
+@pytest.mark.slow
 def test_every_example_is_accepted_by_its_endpoint(client):
     """The documented examples are not decoration: each one answers 200."""
     schema = client.get("/openapi.json").json()
@@ -88,6 +90,7 @@ def _chromium_dom(url: str) -> str:
     return out.stdout.decode(errors="replace")
 
 
+@pytest.mark.slow
 @pytest.mark.e2e
 def test_swagger_ui_renders_the_operations_in_headless_chromium():
     """Fails loudly (never skips) without Chromium: scripts/system-deps.sh installs it for the test run."""

@@ -27,6 +27,7 @@ def executor():
         ex.shutdown()
 
 
+@pytest.mark.slow
 def test_timeout_fires_and_the_worker_is_replaced(executor):
     device = Device(**LHIFAM_RIGID)
     first = executor.run(analyse_stability, device)  # starts the worker
@@ -112,6 +113,7 @@ def test_cost_estimates_send_the_cheap_paths_inline():
     assert boundary_cost_ms(rigid, 50) > inline
 
 
+@pytest.mark.slow
 def test_http_timeout_answers_503_and_the_next_request_is_served_normally():
     """A 40-digit reference analysis of a cable device takes seconds: with a 0.3 s budget it is stopped."""
     with make_client(request_timeout=0.3, compute_workers=1) as c:
@@ -146,6 +148,7 @@ def _alive(pid: int) -> bool:
         return False
 
 
+@pytest.mark.slow
 def test_a_full_queue_refuses_at_once_with_busy():
     """Past workers + max_queue calls in the system a new call is refused at once (503 + Retry-After), not
     left to wait out the budget."""
@@ -170,6 +173,7 @@ def test_a_full_queue_refuses_at_once_with_busy():
         ex.shutdown()
 
 
+@pytest.mark.slow
 def test_awaiting_calls_hold_no_thread_and_the_wait_counts_against_the_budget():
     """40 requests waiting for one busy worker: no thread per request (the server's pool has 40), and the
     ones still queued at the budget answer ComputeTimeout (waiting) at the budget, not later."""

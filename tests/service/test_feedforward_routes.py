@@ -136,6 +136,7 @@ def test_design_inertia_rejects_bad_requirements(client, req, loc):
     assert any(e["loc"][:len(loc)] == loc for e in r.json()["detail"]), r.json()
 
 
+@pytest.mark.slow
 def test_design_inertia_grasp_range(client):
     r = client.post("/v1/design/inertia", json={"device": {"preset": "lhifam"}, "requirements": {
         "human_mass_range": {"min": 0.5, "max": 4.0}, "target_apparent_mass": 1.5}})
@@ -144,6 +145,7 @@ def test_design_inertia_grasp_range(client):
     assert d["worst_human"]["mass"] >= 0.5
 
 
+@pytest.mark.slow
 def test_design_inertia_with_several_jumps_of_the_critical_gain_answers(client):
     """Several jumps of K_f,cr in the band (a sensor filter of 1e12 s): the note lists them; it used to answer 500
     (found by schemathesis: the route formatted a list of pairs as one pair)."""

@@ -87,6 +87,7 @@ def test_time_series(client):
     assert body["parameters"]["mass"]["value"] == pytest.approx(5.4, rel=0.01)
 
 
+@pytest.mark.slow
 def test_failed_fit_has_no_device(client):
     r = client.post("/v1/identify", json={"model": "cable", "data": _fr()})
     assert r.status_code == 200, r.text
@@ -157,6 +158,7 @@ def test_bad_options(client):
     assert loc == ["body", "model"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("fmt,media", (("png", "image/png"), ("svg", "image/svg+xml")))
 def test_plot(client, fmt, media):
     r = client.post(f"/v1/plots/identify?format={fmt}", json={"model": "rigid", "data": _fr()})
@@ -164,6 +166,7 @@ def test_plot(client, fmt, media):
     assert r.content[:4] == b"\x89PNG" if fmt == "png" else b"<svg" in r.content[:400]
 
 
+@pytest.mark.slow
 def test_time_series_plot(client):
     r = client.post("/v1/plots/identify", json={"model": "rigid", "data": _ts(), "format": "svg"})
     assert r.status_code == 200 and r.headers["content-type"] == "image/svg+xml"
@@ -192,6 +195,7 @@ def test_cable_device_and_uncertainty_are_accepted(client):
     assert box.dim == 7
 
 
+@pytest.mark.slow
 def test_documented_example_is_identified(client):
     example = client.get("/openapi.json").json()["components"]["schemas"]["IdentifyRequest"]["examples"][0]
     r = client.post("/v1/identify", json=example)

@@ -103,6 +103,7 @@ def _locs(r) -> list[list]:
     return [e["loc"] for e in r.json()["detail"]]
 
 
+@pytest.mark.slow
 def test_every_numeric_field_of_every_route_takes_json_numbers_only(client, spec):
     """true, "5.4" (and 5.5 for an integer) are refused with a 422 at the field, on every route."""
     cases = _cases(client, spec)
@@ -264,6 +265,7 @@ def _store_error_app(url: str):
                       raise_server_exceptions=False)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("url", ["postgresql+psycopg://zw:secret@127.0.0.1:1/zw", "sqlite:////proc/zwidth/none.db"])
 def test_an_unreachable_store_answers_a_generic_503_with_a_request_id(url):
     pytest.importorskip("psycopg") if url.startswith("postgresql") else None
@@ -276,6 +278,7 @@ def test_an_unreachable_store_answers_a_generic_503_with_a_request_id(url):
         assert leak not in r.text, (leak, r.text)
 
 
+@pytest.mark.slow
 def test_a_store_failure_while_serving_is_a_generic_503(client, monkeypatch):
     from sqlalchemy.exc import OperationalError
 

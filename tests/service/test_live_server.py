@@ -15,7 +15,7 @@ from models.device import PRESETS
 from .conftest import LHIFAM_RIGID, start_live_server
 from .test_analysis_routes import assert_same, expected_stability
 
-pytestmark = pytest.mark.e2e
+pytestmark = [pytest.mark.e2e, pytest.mark.slow]
 
 
 def raw_exchange(port: int, payload: bytes, read_timeout: float = 10.0, shut_write: bool = False) -> bytes:

@@ -111,6 +111,7 @@ def test_format_is_a_query_parameter_on_every_plot_route(client, route):
     assert bad.status_code == 422 and "format" in bad.text
 
 
+@pytest.mark.slow
 def test_body_format_still_accepted_where_it_was_and_the_query_wins(client):
     """The body's format of boundary, bode and identify is accepted for one release (deprecated)."""
     body = {"device": RIGID, "points": 20}
@@ -157,6 +158,7 @@ def _assert_units(fig) -> None:
                 assert UNIT.search(label), label
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("device", [Device(preset="phantom-1.0"), Device(**RIGID, delay=0.0123),
                                     Device(preset="lhifam")])
 def test_bode_and_boundary_texts_inside_the_figure_with_units(device):

@@ -27,6 +27,7 @@ def _line(fig, gid):
     raise AssertionError(f"no line {gid}")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("path,body", [
     ("/v1/plots/boundary", {"device": LHIFAM_RIGID, "points": 15}),
     ("/v1/plots/bode", {"device": {"preset": "lhifam"}, "controller": {"stiffness": 3000.0}}),
@@ -47,11 +48,13 @@ def test_plot_routes_answer_real_images(client, path, body, fmt):
         assert root.tag == "{http://www.w3.org/2000/svg}svg"
 
 
+@pytest.mark.slow
 def test_default_format_is_png(client):
     r = client.post("/v1/plots/bode", json={"device": LHIFAM_RIGID})
     assert r.content.startswith(PNG_MAGIC)
 
 
+@pytest.mark.slow
 def test_svg_output_is_deterministic():
     res = loop_frequency_response(Device(**LHIFAM_RIGID), 0.0, 60)
     assert render(bode_figure(res), "svg") == render(bode_figure(res), "svg")
@@ -83,6 +86,7 @@ def test_bode_figure_plots_the_numerics_arrays_exactly():
     assert _line(fig, "wall").get_ydata()[0] == -20 * math.log10(3000.0)
 
 
+@pytest.mark.slow
 def test_a_long_delay_marks_every_crossover_but_labels_the_binding_few():
     """Issue 18: a 1 s delay has hundreds of crossovers; a text per crossover made the drawing take a minute.
     All are marked (one artist), the MAX_CROSSOVER_LABELS of least K_i are labelled, the rest counted."""

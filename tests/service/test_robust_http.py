@@ -25,6 +25,7 @@ def client():
     return TestClient(create_app())
 
 
+@pytest.mark.slow
 def test_robust_design(client):
     r = client.post("/v1/design/stiffness", json={"device": LH_RIGID, "requirements": {"uncertainty": UNC}})
     assert r.status_code == 200
@@ -105,6 +106,7 @@ def test_hardware_range(client):
         assert rule in detail["msg"]
 
 
+@pytest.mark.slow
 def test_hardware_force_feedforward_target(client):
     """A stiffness and a force-gain target over HTTP: the force gain limits; the JSON carries both parts."""
     r = client.post("/v1/design/hardware", json={"device": LH_RIGID, "target": {"stiffness": 2e5, "force_gain": 9},
@@ -124,6 +126,7 @@ def test_hardware_force_feedforward_target(client):
     assert all(p["achievable_force_gain"] > 0 and p["achievable_stiffness"] > 0 for p in body["curve"])
 
 
+@pytest.mark.slow
 def test_hardware_apparent_mass_alone(client):
     body = client.post("/v1/design/hardware", json={"device": LH_RIGID, "target": {"apparent_mass": 0.5},
                                                     "free": "mass", "points": 9}).json()
@@ -149,6 +152,7 @@ def test_hardware_bad_target_is_422_naming_the_field(client, target, free, field
     assert r.status_code == 422 and r.json()["detail"][0]["loc"][-1] == field
 
 
+@pytest.mark.slow
 def test_hardware_plot_with_force_target(client):
     r = client.post("/v1/plots/hardware?format=svg", json={"device": LH_RIGID, "target": {
         "stiffness": 2e5, "force_gain": 9}, "free": "delay", "points": 9})
@@ -156,6 +160,7 @@ def test_hardware_plot_with_force_target(client):
     assert b"K_f*" in r.content or b"force gain" in r.content
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("fmt,magic", [("png", b"\x89PNG"), ("svg", b"<?xml")])
 def test_plots(client, fmt, magic):
     r = client.post(f"/v1/plots/robust?format={fmt}", json={"device": LH_RIGID, "requirements": {"uncertainty": UNC},
@@ -172,6 +177,7 @@ def test_robust_plot_bad_axis(client):
     assert r.status_code == 422 and r.json()["detail"][0]["loc"][-1] == "x"
 
 
+@pytest.mark.slow
 def test_robust_inertia(client):
     r = client.post("/v1/design/inertia", json={"device": {"preset": "lhifam"}, "requirements": {
         "uncertainty": {"device.human.mass": {"min": 0.5, "max": 4}}}})
@@ -183,6 +189,7 @@ def test_robust_inertia(client):
     assert body["critical_force_gain"] / body["force_gain"] == pytest.approx(10 ** (6 / 20), rel=1e-9)
 
 
+@pytest.mark.slow
 def test_robust_inertia_with_sample_time(client):
     r = client.post("/v1/design/inertia", json={"device": {"preset": "lhifam"}, "requirements": {
         "uncertainty": {"device.sample_time": {"min": 0.0005, "max": 0.001}}}})

@@ -85,6 +85,7 @@ def clients():
             c.__exit__(None, None, None)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", list(CASES))
 def test_expensive_request_answers_503_and_the_next_one_is_served(clients, name):
     (path, body), (cheap_path, cheap_body) = CASES[name]

@@ -38,6 +38,7 @@ def test_release_answer(client):
     assert _finite_everywhere(body)
 
 
+@pytest.mark.slow
 def test_relay_answer_lists_cycles(client):
     r = client.post("/v1/simulate", json={"device": {"preset": "lhifam", "cable": None}, "scene": {
         "experiment": "relay", "duration": 20.0, "relay": {"amplitude": 1.0}, "initial": {"position": 3e-3}}})
@@ -71,6 +72,7 @@ def test_nan_is_422_not_500(client):
     assert r.status_code == 422
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("fmt,magic", [("png", b"\x89PNG"), ("svg", b"<?xml")])
 def test_plot(client, fmt, magic):
     r = client.post(f"/v1/plots/simulation?format={fmt}", json={"device": RIGID, "scene": {
@@ -93,6 +95,7 @@ def test_verdict_block_carries_the_poles_and_the_measured_verdict(client):
     assert _finite_everywhere(r.json())
 
 
+@pytest.mark.slow
 def test_openapi_examples_give_a_verdict_the_poles_agree_with(client):
     """The request examples of /docs: the stable wall (0.93 × K_cr, poles) and the relay (measured)."""
     from service.schemas.simulate import SimulateRequest

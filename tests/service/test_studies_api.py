@@ -54,6 +54,7 @@ def _all_json(client, sid: str, limit: int) -> list[dict]:
     return rows
 
 
+@pytest.mark.slow
 def test_status_progress_and_rate(client, finished):
     st = client.get(f"/v1/studies/{finished}").json()
     assert (st["done"], st["total"], st["failed"], st["progress"]) == (12, 12, 0, 1.0)
@@ -62,6 +63,7 @@ def test_status_progress_and_rate(client, finished):
     assert finished in [s["id"] for s in client.get("/v1/studies").json()["studies"]]
 
 
+@pytest.mark.slow
 def test_results_are_the_analysis_at_each_point(client, finished):
     rows = _all_json(client, finished, limit=5)  # three pages
     assert [r["index"] for r in rows] == list(range(12))
@@ -79,6 +81,7 @@ def test_results_are_the_analysis_at_each_point(client, finished):
     assert 20 * math.log10(first["critical_stiffness"]) == pytest.approx(case["printed"], abs=case["tolerance_db"])
 
 
+@pytest.mark.slow
 def test_exports_round_trip(client, finished):
     rows = _all_json(client, finished, limit=1000)
     cols = client.get(f"/v1/studies/{finished}/results").json()["columns"]
@@ -179,6 +182,7 @@ def test_cancel_and_purge(client):
     assert client.get(f"/v1/studies/{sid}").status_code == 404
 
 
+@pytest.mark.slow
 def test_plots(client, finished):
     r = client.get(f"/v1/studies/{finished}/plot", params={"y": "critical_stiffness", "x": "device.delay"})
     assert r.status_code == 200 and r.content.startswith(b"\x89PNG")
@@ -196,6 +200,7 @@ def test_unknown_study_is_404(client):
     assert client.get("/v1/studies/nope/results").status_code == 404
 
 
+@pytest.mark.slow
 def test_stiffness_study_calls_the_design(client):
     """Each point is optim.stiffness.design_stiffness at that point; the margin holds on the exact K_cr."""
     stiffness = pytest.importorskip("optim.stiffness")
@@ -220,6 +225,7 @@ def test_stiffness_study_calls_the_design(client):
         assert row["stiffness"] <= kcr * 10 ** (-row["requirements.min_gain_margin_db"] / 20) * (1 + 1e-9)
 
 
+@pytest.mark.slow
 def test_critical_stiffness_study_end_to_end(client):
     """The vectorised problem through the API: each row is the exact per-point analysis to 1e-12 (its stated
     accuracy; vectorised arithmetic, so not bit for bit), and a point invalid only in combination fails alone."""

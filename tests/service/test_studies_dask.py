@@ -12,7 +12,7 @@ from service.studies.executors import DaskExecutor, LocalExecutor
 from service.studies.runner import StudyRunner, plan_from_request
 from service.studies.store import StudyStore
 
-pytestmark = pytest.mark.e2e
+pytestmark = [pytest.mark.e2e, pytest.mark.slow]
 
 STUDY = {"problem": "stability",
          "base": {"device": {"preset": "lhifam", "delay": 0.0005}, "requirements": {"stiffness": 3000.0}},

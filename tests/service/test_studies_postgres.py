@@ -20,7 +20,7 @@ from tests.service import postgres_server
 from tests.service.studies_helpers import small_study
 
 pytest.importorskip("psycopg")
-pytestmark = [pytest.mark.e2e, pytest.mark.skipif(not postgres_server.available(),
+pytestmark = [pytest.mark.slow, pytest.mark.e2e, pytest.mark.skipif(not postgres_server.available(),
                                                    reason="PostgreSQL binaries not installed")]
 
 

@@ -16,7 +16,7 @@ import pytest
 from bench.live_server import LiveServer
 from tests.service.studies_helpers import small_study, wait_finished
 
-pytestmark = pytest.mark.e2e
+pytestmark = [pytest.mark.e2e, pytest.mark.slow]
 
 
 class Server(LiveServer):

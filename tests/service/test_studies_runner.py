@@ -9,6 +9,8 @@ import threading
 import time
 import uuid
 
+import pytest
+
 from service.studies.executors import LocalExecutor
 from service.studies.runner import StudyRunner, plan_from_request
 from service.studies.store import StudyStore
@@ -23,6 +25,7 @@ def _store_with(tmp_path, study) -> tuple[StudyStore, str]:
     return store, sid
 
 
+@pytest.mark.slow
 def test_a_killed_pool_worker_is_replaced(tmp_path):
     study = small_study(num_delay=100)
     store, sid = _store_with(tmp_path, study)
@@ -133,6 +136,7 @@ class _Paced:
         self.pool.shutdown()
 
 
+@pytest.mark.slow
 def test_progress_moves_per_point_not_per_chunk(tmp_path):
     """16 points of 0.1 s each with chunks of up to 64: `done` takes intermediate values as results arrive
     (it used to sit at 0 and jump to 16), and no chunk takes much longer than CHUNK_SECONDS."""

@@ -76,6 +76,7 @@ def test_delay_beyond_the_cost_limit(client):
     assert e["loc"] == ["body", "device", "delay"] and str(MAX_DELAY_SAMPLES) in e["msg"]
 
 
+@pytest.mark.slow
 def test_delay_at_the_cost_limit_is_served(client):
     device = {**LHIFAM_RIGID, "delay": MAX_DELAY_SAMPLES * 0.001}
     assert client.post(STABILITY, json={"device": device}).status_code == 200
@@ -122,6 +123,7 @@ def test_numerics_input_error_becomes_422_naming_the_field(client, monkeypatch):
     assert e["loc"] == ["body", "damping_max"] and e["msg"].startswith("this device has no finite B_max")
 
 
+@pytest.mark.slow
 def test_an_untyped_value_error_is_never_parsed_for_a_field(client, monkeypatch):
     """Text that looks like "field: rule" in a plain ValueError names no field (only InputError does)."""
     import service.routes.analysis as routes

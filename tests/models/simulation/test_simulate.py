@@ -159,6 +159,7 @@ def test_friction_breakaway_matches_closed_form(force, moves):
     np.testing.assert_allclose(res.record.motor_position[-1], expected, rtol=1e-10, atol=0)
 
 
+@pytest.mark.slow
 def test_friction_dissipates_the_energy_quantisation_injects():
     """Chapter §2 (Diolaiti et al., Abbott & Okamura): with q = 0.1 mm and K = 5000 N/m the linear wall
     (b > KT/2) settles, quantisation alone keeps a limit cycle fed by the wall (E_gen grows steadily),

@@ -16,8 +16,8 @@ RIGID = LH.rigid()
 CASES = [
     ("rigid-T", RIGID, "sample_time", HardwareTarget(2e5)),
     ("rigid-delay", RIGID, "delay", HardwareTarget(2e5)),
-    ("rigid-delay-capped", RIGID, "delay", HardwareTarget(2e4, 6.0, max_damping=50.0)),
-    ("rigid-damping-capped", RIGID.model_copy(update={"delay": 0.001}), "damping", HardwareTarget(1e4, 6.0, 20.0)),
+    ("rigid-delay-capped", RIGID, "delay", HardwareTarget(2e4, max_damping=50.0)),
+    ("rigid-damping-capped", RIGID.model_copy(update={"delay": 0.001}), "damping", HardwareTarget(1e4, max_damping=20.0)),
     ("rigid-mass-free-B", RIGID, "mass", HardwareTarget(2e6)),
     ("cable-T", LH, "sample_time", HardwareTarget(5e4)),
 ]
@@ -28,6 +28,7 @@ def _forward(dev, free, value, target):
         min_gain_margin_db=target.min_gain_margin_db, max_damping=target.max_damping))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name,dev,free,target", CASES, ids=[c[0] for c in CASES])
 def test_answer_checked_by_forward_designs(name, dev, free, target):
     r = design_hardware(dev, target, free, points=21)
@@ -51,25 +52,26 @@ def test_rigid_mass_with_free_damping_matters_and_with_capped_damping_saturates(
     free_b = design_hardware(RIGID, HardwareTarget(2e6), "mass", points=15)
     k = np.array([p["achievable_stiffness"] for p in free_b.curve])
     assert free_b.matters and np.all(np.diff(k) > 0) and k[-1] / k[0] > 100
-    capped = design_hardware(RIGID, HardwareTarget(1e4, 6.0, 50.0), "mass", points=15)
+    capped = design_hardware(RIGID, HardwareTarget(1e4, max_damping=50.0), "mass", points=15)
     kc = np.array([p["achievable_stiffness"] for p in capped.curve])
     eq10 = 10 ** (-6 / 20) * (RIGID.damping + 50.0) / (RIGID.sample_time / 2)
     assert kc[-1] == pytest.approx(eq10, rel=2e-3)        # heaviest: β → 0, the linear regime
     assert (kc[-1] - kc[-3]) / kc[-1] < 1e-3               # flat at the heavy end
 
 
+@pytest.mark.slow
 def test_feasible_set_of_two_intervals():
     """LHifAM cable, B ≤ 20 N·s/m: K*(k_c) falls to a minimum near k_c ≈ 1e6 N/m and rises again."""
-    r = design_hardware(LH, HardwareTarget(1.85e4, 6.0, 20.0), "cable.stiffness", points=41)
+    r = design_hardware(LH, HardwareTarget(1.85e4, max_damping=20.0), "cable.stiffness", points=41)
     assert r.status == "optimal" and len(r.intervals) == 2
     assert "not one interval" in r.note
     (a0, a1), (b0, b1) = r.intervals
     assert a1 < b0
     for edge in (a1, b0):
-        k = _forward(LH, "cable.stiffness", edge, HardwareTarget(1.85e4, 6.0, 20.0)).stiffness
+        k = _forward(LH, "cable.stiffness", edge, HardwareTarget(1.85e4, max_damping=20.0)).stiffness
         assert k == pytest.approx(1.85e4, rel=1e-9)
     mid = math.sqrt(a1 * b0)
-    assert _forward(LH, "cable.stiffness", mid, HardwareTarget(1.85e4, 6.0, 20.0)).stiffness < 1.85e4
+    assert _forward(LH, "cable.stiffness", mid, HardwareTarget(1.85e4, max_damping=20.0)).stiffness < 1.85e4
 
 
 def test_infeasible_target_names_best_and_limit():

@@ -118,6 +118,7 @@ def test_options():
         identify(d, confidence=1.0)
 
 
+@pytest.mark.slow
 def test_clipped_data_warns():
     d = record("rigid", 0.001)
     u = np.clip(d.force, -2.0, 2.0)               # the chirp + PRBS has many values: a clipped one is visible
@@ -130,6 +131,7 @@ def test_clipped_data_warns():
     assert not any("clipped" in w for w in clean.warnings)
 
 
+@pytest.mark.slow
 def test_cable_asked_of_a_rigid_device_is_not_claimed_silently():
     """A rigid device's record asked for the cable model: there is no cable mode to find.  Either the fit fails
     (no device) or the answer says the rigid model explains the data better (BIC)."""
@@ -142,6 +144,7 @@ def test_cable_asked_of_a_rigid_device_is_not_claimed_silently():
     assert [c.model for c in res.comparison] == ["rigid", "cable"]
 
 
+@pytest.mark.slow
 def test_unconverged_fit_fails_without_a_device():
     """A response of a rigid device asked for the cable model: least squares wanders along the unidentifiable
     directions and does not converge, so `failed` with the reason (never a made-up device)."""

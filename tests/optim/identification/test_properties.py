@@ -19,6 +19,7 @@ devices = st.builds(
     st.floats(0.01, 100.0), st.floats(1e-4, 0.1), st.floats(0.0, 19.5), st.sampled_from([1e-3, 2.5e-4, 1e-4]))
 
 
+@pytest.mark.slow
 @settings(max_examples=25, deadline=None, derandomize=True)
 @given(devices)
 def test_exact_response_is_recovered(dev):

@@ -26,6 +26,7 @@ def _check_rigid(res, dev):
     assert abs(p["delay"].value - dev.delay) <= DELAY_ATOL
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("delay", DELAYS)
 def test_rigid_recovery(delay):
     dev = device("rigid", delay)
@@ -35,6 +36,7 @@ def test_rigid_recovery(delay):
     assert res.device["delay"] == res.parameters["delay"].value
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("delay", (0.0007, 0.0026))
 def test_rigid_with_friction(delay):
     """Coulomb friction in the data: with the friction term the tolerances hold; without it the damping is
@@ -79,6 +81,7 @@ def test_auto_chooses_rigid_for_a_rigid_device(delay):
     assert "does not matter" in res.reason or "only the rigid fit" in res.reason
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", ("rigid", "cable"))
 def test_response_recovery(kind):
     """A measured response (1 % relative noise, 60 points 1-300 Hz): auto chooses the true model."""
@@ -86,6 +89,7 @@ def test_response_recovery(kind):
     (_check_rigid if kind == "rigid" else _check_cable)(res, device(kind, 0.0023))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", ("rigid", "cable"))
 def test_sampled_response_recovery(kind):
     """The loop's own response (force sample to encoder sample, ZOH included) fitted as such; auto chooses."""
@@ -133,7 +137,8 @@ def test_cable_with_friction(delay):
     assert any("residual is not white" in w for w in res.warnings)
 
 
-@pytest.mark.parametrize("kind,delay", (("rigid", 0.0007), pytest.param("cable", 0.0023, marks=pytest.mark.slow)))
+@pytest.mark.slow
+@pytest.mark.parametrize("kind,delay", (("rigid", 0.0007), ("cable", 0.0023)))
 def test_recovery_under_a_weak_pd(kind, delay):
     """The experiment runs under a weak PD wall (K = 200 N/m, B = 5 N·s/m) on the noisy, quantised position: the
     commanded force then depends on the measurement noise, but that noise is white and the plant strictly

@@ -44,6 +44,7 @@ def _check_report(dev, rep):
         assert s.ultimate_gain_min <= s.ultimate_gain_max
 
 
+@pytest.mark.slow
 def test_rigid_relay_cycles_depend_on_the_start():
     dev = Device(preset="lhifam", cable=None)
     reps = [_run(dev, x0, {}) for x0 in STARTS]
@@ -62,6 +63,7 @@ def test_rigid_relay_cycles_depend_on_the_start():
     assert lo <= 4031 and hi >= 6884
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("delay", [0.0, 0.001, 0.003])
 def test_cable_relay_cycles_are_admissible_and_exact(delay):
     dev = Device(preset="lhifam", delay=delay)
@@ -95,6 +97,7 @@ def test_exact_symmetric_cycle_meets_its_own_switching_conditions_in_simulation(
     assert n88.ultimate_gain == pytest.approx(dev.stiffness_scale / abs(g), rel=1e-8)
 
 
+@pytest.mark.slow
 def test_relay_rung_reports_spread_beside_exact_kcr():
     dev = Device(preset="lhifam", cable=None)
     rung = relay_rung(dev, amplitude=1.0, starts=STARTS, duration=20.0)

@@ -39,17 +39,19 @@ def two_param():
     return box, robust_design_inertia(LH, InertiaRequirements(), box)
 
 
+@pytest.mark.slow
 def test_grasp_mass_range_matches_optim_inertia():
     """A box over the grasp mass alone is what optim.transparency.inertia's human_mass_range does (its own exchange)."""
     box = UncertaintyBox.from_ranges(LH, {"device.human.mass": (0.5, 4.0)})
     r = robust_design_inertia(LH, InertiaRequirements(), box)
-    ref = design_inertia(LH, InertiaRequirements(human_mass_range=(0.5, 4.0)))
+    ref = design_inertia(LH, InertiaRequirements(human_mass_range={"min": 0.5, "max": 4.0}))
     assert r.status == ref.status == "optimal"
     # both end on the exact K_f,cr of the same worst grasp at the same cutoff
     assert r.force_gain == pytest.approx(ref.force_gain, rel=1e-7)
     assert r.filter_cutoff_hz == pytest.approx(ref.filter_cutoff_hz, rel=1e-7)
 
 
+@pytest.mark.slow
 def test_margin_holds_on_corners_and_2000_random_points(two_param):
     box, d = two_param
     assert d.status == "optimal", d.reason
@@ -58,6 +60,7 @@ def test_margin_holds_on_corners_and_2000_random_points(two_param):
     assert d.nominal_gain_margin_db > 6.0
 
 
+@pytest.mark.slow
 def test_not_over_conservative(two_param):
     """Dense search: best over the cutoff scan of min over a 9×9 grid of the box of K_f,cr/ρ."""
     box, d = two_param
@@ -69,6 +72,7 @@ def test_not_over_conservative(two_param):
     assert best <= d.force_gain * (1 + 1e-3)
 
 
+@pytest.mark.slow
 def test_target_apparent_mass_keeps_margin_on_box():
     box = UncertaintyBox.from_ranges(LH, {"device.delay": (0.0, 0.001)})
     d = robust_design_inertia(LH, InertiaRequirements(target_apparent_mass=1.5), box)
@@ -100,6 +104,7 @@ def t_designs():
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", list(T_BOXES))
 def test_sample_time_margin_holds_on_corners_and_2000_random_points(t_designs, name):
     box, req, d = t_designs[name]
@@ -111,6 +116,7 @@ def test_sample_time_margin_holds_on_corners_and_2000_random_points(t_designs, n
     assert kf_cr(worst, d.filter_cutoff_hz) == pytest.approx(d.critical_force_gain, rel=1e-9)
 
 
+@pytest.mark.slow
 def test_sample_time_min_apparent_mass_not_over_conservative(t_designs):
     """Dense search: the best over a cutoff scan (refined) of min over a grid of the box of K_f,cr/ρ is within
     1e-3 of the design, and not below it (the grid's devices are devices of the box)."""
@@ -135,6 +141,7 @@ def test_sample_time_min_apparent_mass_not_over_conservative(t_designs):
     assert d.force_gain <= dense * (1 + 1e-6)
 
 
+@pytest.mark.slow
 def test_sample_time_target_cutoff_is_the_highest(t_designs):
     """1e-3 above the design's cutoff some device of a grid over T (and t_d) loses the margin; at it none does."""
     box, req, d = t_designs["T-delay-target"]
@@ -148,6 +155,7 @@ def test_sample_time_target_cutoff_is_the_highest(t_designs):
     assert worst_db(d.filter_cutoff_hz * (1 + 1e-3)) < 6.0
 
 
+@pytest.mark.slow
 def test_one_sample_time_is_the_nominal_design():
     """A box of one sample time (other than the nominal device's): optim.transparency.inertia's design of that device."""
     box = UncertaintyBox.from_ranges(LH, {"device.sample_time": (0.0008, 0.0008)})
@@ -158,6 +166,7 @@ def test_one_sample_time_is_the_nominal_design():
         assert r.filter_cutoff_hz == pytest.approx(n.filter_cutoff_hz, rel=1e-9)
 
 
+@pytest.mark.slow
 def test_pareto_and_rigid_comparison(two_param, t_designs):
     """The scan of the last round (worst over the scenarios) and the rigid model of the worst device."""
     box, d = two_param

@@ -60,6 +60,7 @@ def _columns(devices):
     return t, np.array([d.delay for d in devices]), np.array([d.damping for d in devices])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", list(CASES))
 def test_passive_and_margin_on_corners_and_2000_random_points(designs, name):
     box, req, d = designs[name]
@@ -86,6 +87,7 @@ def test_passive_and_margin_on_corners_and_2000_random_points(designs, name):
     assert "rounded up" in d.passivity_note
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", list(CASES))
 def test_not_over_conservative(designs, name):
     """An independent dense search (B scan × box grid, both constraints, a fine grid in T) finds no wall more
@@ -98,12 +100,14 @@ def test_not_over_conservative(designs, name):
     assert d.stiffness <= k_dense * (1 + 1e-6)
 
 
+@pytest.mark.slow
 def test_active_constraints_are_the_expected_ones(designs):
     assert set(designs["delay"][2].active_constraints) == {"min_gain_margin_db", "passivity"}
     assert designs["T-delay-0dB"][2].active_constraints == ("passivity",)
     assert set(designs["capped"][2].active_constraints) == {"min_gain_margin_db", "max_damping"}
 
 
+@pytest.mark.slow
 def test_delay_range_is_the_nominal_design_at_the_longest_delay(designs):
     """Both constraints get worse with the delay: the robust wall is optim.stiffness's design of the longest
     delay (a second algorithm: one device, its own cuts)."""
@@ -123,6 +127,7 @@ def test_degenerate_box_is_the_nominal_design():
     assert r.passivity_delay_samples == n.passivity_delay_samples == 2      # 1.5 samples rounded up
 
 
+@pytest.mark.slow
 def test_worst_passivity_device_is_inside_the_box_and_corners_alone_are_not_passive(designs):
     """T ∈ [0.8, 1.2] ms × t_d ∈ [1, 2] ms: ⌈t_d/T⌉ = 3 for every T < 1 ms at t_d = 2 ms, so the least passive
     devices have T → 1 ms⁻ (not a corner: there t_d/T = 2 whole samples). A wall passive on the four corners is
@@ -144,6 +149,7 @@ def test_worst_passivity_device_is_inside_the_box_and_corners_alone_are_not_pass
     assert 0.00099 < ts[j] < 0.001 and k_scan[j] < min(k_scan[0], k_scan[-1]) / 1.01
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("t_range,d_range", [((0.0007, 0.0013), (0.0003, 0.0031)), ((0.001, 0.001), (0.0, 0.0025)),
                                              ((0.0005, 0.002), (0.0, 0.0)), ((0.0009, 0.0011), (0.0018, 0.0022))])
 @pytest.mark.parametrize("virtual_damping", [0.0, 2.0, 50.0])

@@ -34,6 +34,7 @@ def designs():
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", list(CASES))
 def test_margin_holds_on_corners_and_2000_random_points(designs, name):
     box, req, d = designs[name]
@@ -49,6 +50,7 @@ def test_margin_holds_on_corners_and_2000_random_points(designs, name):
         assert d.gain_margin_db == pytest.approx(6.0, abs=1e-6)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", list(CASES))
 def test_not_over_conservative(designs, name):
     """An independent dense search (B scan × box grid) finds no wall more than 1e-3 above the design."""
@@ -73,6 +75,7 @@ def test_degenerate_box_is_the_nominal_design():
     assert r.damping == pytest.approx(n.damping, rel=1e-5)          # flat optimum in B: looser
 
 
+@pytest.mark.slow
 def test_paths_outside_the_stiffness_loop_are_ignored():
     box = UncertaintyBox.from_ranges(LH, {"device.human.mass": (0.5, 5.0), "device.delay": (0.0, 0.001)})
     d = robust_design_stiffness(LH, StiffnessRequirements(), box)
@@ -82,6 +85,7 @@ def test_paths_outside_the_stiffness_loop_are_ignored():
     assert d.stiffness == pytest.approx(ref.stiffness, rel=1e-12)
 
 
+@pytest.mark.slow
 def test_worst_case_inside_the_box_and_corners_alone_unsafe():
     """LHifAM cable, motor mass 0.1–1 kg × cable damping 2–40 N·s/m, B ≤ 1e-3 N·s/m (a nearly pure spring).
 

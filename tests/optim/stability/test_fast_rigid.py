@@ -114,6 +114,7 @@ def test_scalar_path_equals_batch_path_and_is_used():
     assert paths.count("fast") >= 0.97 * len(paths)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kw, b_frac", [
     ({"mass": 1.0, "damping": 1e-6, "delay": 0.0}, 0.0),            # δ = 1e-9, d = 0: θ ≈ 4e-5
     ({"mass": 5.4, "damping": 3.5, "delay": 0.0}, 0.5),             # d = 0: B_max and K_cr at Nyquist

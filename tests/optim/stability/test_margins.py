@@ -30,6 +30,7 @@ def test_table3_gain_margins_within_printed_tolerance(case_id):
     assert abs(got - case["printed"]) <= case["tolerance_db"]
 
 
+@pytest.mark.slow
 def test_table3_phantom_cable_differs_from_print_and_is_right():
     """Chapter Table 3 prints 22.41 dB for the non-rigid PHANToM; its own Table 2 parameters give 24.77 dB.
 
@@ -48,6 +49,7 @@ def test_table3_phantom_cable_differs_from_print_and_is_right():
     assert eigen_critical_alpha(dev, 0.0, alpha, theta) == pytest.approx(alpha, rel=1e-9)
 
 
+@pytest.mark.slow
 def test_reduced_pretension_crossover_differs_from_print():
     """§4.3 says the only phase crossover of the reduced-pretension LHifAM is at 411.23 rad/s, on the resonance.
 
@@ -112,6 +114,7 @@ def _random_devices(n: int, seed: int = 20261125):
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("chunk", range(4))
 def test_crossover_method_agrees_with_closed_loop_eigenvalues(chunk):
     """≥ 200 devices (rigid and cable, 0-20 samples of delay, fractional too): ≤ 1e-9 relative.
@@ -149,6 +152,7 @@ def test_eq12_polynomial_in_mpmath_brackets_the_exact_value(d, beta):
     assert inside < 1 < outside
 
 
+@pytest.mark.slow
 def test_exact_agrees_with_reference_on_presets_and_delays():
     for kw in ({"preset": "lhifam"}, {"preset": "lhifam", "delay": 0.003}, {"preset": "phantom-1.0", "delay": 0.0017},
                {"preset": "lhifam", "cable": None, "delay": 0.0055}):
@@ -195,6 +199,7 @@ def test_minimum_not_closest_to_zero_db():
 
 # --- hard cases: relative error ≤ 1e-6 against extended precision or the analytic limit ---------
 
+@pytest.mark.slow
 @pytest.mark.parametrize("delta", [1e-3, 1e-6, 1e-9, 1e-12])
 @pytest.mark.parametrize("d", [0, 3, 50, 500])
 def test_tiny_damping_long_delay_against_reference(delta, d):
@@ -210,6 +215,7 @@ def test_tiny_damping_long_delay_against_reference(delta, d):
         assert res.critical_stiffness == pytest.approx(ref.critical_stiffness, rel=1e-9)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("d", [1 - 1e-7, 1 + 1e-7, 2.999999, 3.000001, 0.5, 4.25])
 def test_fractional_delays_near_integers_are_continuous(d):
     dev = Device(mass=5.4, damping=3.5, delay=d * 1e-3)
@@ -221,6 +227,7 @@ def test_fractional_delays_near_integers_are_continuous(d):
         assert res.critical_stiffness == pytest.approx(critical_stiffness(near).critical_stiffness, rel=1e-5)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("t", [1e-5, 1e-4, 1e-3, 1e-2])
 @pytest.mark.parametrize("model", ["rigid", "cable"])
 def test_sample_times_from_10us_to_10ms(t, model):
@@ -235,6 +242,7 @@ def test_sample_times_from_10us_to_10ms(t, model):
     assert res.critical_stiffness == pytest.approx(ref.critical_stiffness, rel=1e-6)
 
 
+@pytest.mark.slow
 def test_stiff_cable_tends_to_rigid_and_undamped_cable_is_finite():
     rigid = critical_stiffness(Device(mass=5.4, damping=3.5, delay=0.001)).critical_stiffness
     stiff = Device(preset="lhifam", delay=0.001, cable={"stiffness": 7.95e11})
@@ -260,6 +268,7 @@ def test_no_warnings_on_hard_cases(recwarn):
     assert mp.mp.dps == 15  # the reference rung restores mpmath's precision
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("delay", [3.1305e-5, 3.132e-5, 3.2e-5])
 def test_near_tangent_pair_of_crossovers_is_found(delay):
     """The reduced-pretension LHifAM's phase comes within 0.1° of −180° near 49 rad/s; a delay of 0.031 samples

@@ -25,6 +25,7 @@ def dense_largest_passive(device: Device, damping: float, d: int, n: int = 400_0
     return float(upper) if upper > lower and upper > 0 else 0.0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("delay_samples", [0, 1, 2, 3, 5])
 @pytest.mark.parametrize("damping", [0.0, 0.5, 1.5, 3.0, 3.4])
 def test_largest_passive_matches_dense_scan(delay_samples, damping):

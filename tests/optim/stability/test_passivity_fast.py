@@ -58,6 +58,7 @@ def _random_cases(n: int, seed: int):
         yield dev, k, b
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [0, 1])
 def test_fast_margin_equals_the_brent_searches_on_random_devices(seed):
     worst = 0.0

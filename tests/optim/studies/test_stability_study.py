@@ -61,6 +61,7 @@ def _assert_matches(dev: Device, req: dict, got: dict) -> None:
     assert got["error_estimate"] == ref.error_estimate
 
 
+@pytest.mark.slow
 def test_mixed_chunk_matches_the_one_point_analysis():
     """Rigid and cable devices, whole and fractional delays, B from 0 to past B_max, with and without a wall."""
     lh, ph = Device(preset="lhifam"), Device(preset="phantom-1.0")

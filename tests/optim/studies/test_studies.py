@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from pydantic import BaseModel, ConfigDict
 
 from models.device import Device
 from optim.stability.analysis import analyse_stability
@@ -139,8 +140,8 @@ def test_flatten_drops_timings_and_non_finite():
 
 def test_design_problems_register_lazily(monkeypatch):
     """A design module that is present is used as is; an integer requirement takes whole numbers only."""
-    @dataclass(frozen=True)
-    class Req:
+    class Req(BaseModel):   # a requirements model, as optim's (frozen pydantic)
+        model_config = ConfigDict(frozen=True)
         min_gain_margin_db: float = 6.0
         filter_order: int = 2
 

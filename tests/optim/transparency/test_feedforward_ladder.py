@@ -48,6 +48,7 @@ def test_reference_reproduces_eq32():
     assert r.crossover_frequency == pytest.approx(math.pi / 1e-3, rel=1e-15)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("dev, filt", CASES)
 def test_exact_agrees_with_reference(dev, filt):
     """Two implementations sharing no numerical code: 1e-9 is the contract (measured ~1e-15)."""

@@ -24,6 +24,8 @@ from optim.transparency.feedforward import critical_force_gain_of_plant
 from optim.transparency.inertia import InertiaRequirements, design_inertia, upper_cutoff_hz
 from tests.optim.closed_loop import spectral_radius
 
+pytestmark = pytest.mark.slow
+
 RIGID_JUMP = Device(mass=1.029985459024432, damping=2.9662632966274485, sample_time=0.002, delay=0.004,
                     human={"mass": 0.07437381196040094, "damping": 2.961499997837337, "stiffness": 207.9300885436179},
                     force_sensor={"time_constant": 0.0})
