@@ -120,10 +120,10 @@ class _Paced:
         self.sizes: list[int] = []
 
     def submit(self, fn, *args):
-        self.sizes.append(len(args[-1]))
+        self.sizes.append(len(args[-2]))   # (…, start, values, hash)
 
         def run():
-            time.sleep(self.seconds * len(args[-1]))
+            time.sleep(self.seconds * len(args[-2]))
             return fn(*args)
         return self.pool.submit(run)
 
