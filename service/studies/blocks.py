@@ -182,14 +182,73 @@ def decode_rows(start: int, data: bytes, lo: int = 0, hi: int | None = None) -> 
         yield {"idx": start + lo + i, "params": [p[i] for p in params], "result": res, "error": errors[i]}
 
 
+def encode_columns(start: int, values: np.ndarray, has_result: np.ndarray, columns: dict[str, tuple[Any, Any]],
+                   errors: Sequence[str | None], digest: str | None = None) -> Block:
+    """The block of a chunk evaluated as columns (optim.studies.columns): key -> (values, valid) with values a
+    float64/bool array or a list; a point's value counts where it has a result and is valid.  The same block,
+    once decoded, as encode_block of the same points as dicts."""
+    import pyarrow as pa
+
+    values = np.asarray(values, dtype=float).reshape(len(has_result), -1)
+    has = np.asarray(has_result, bool)
+    arrays = [pa.array(values[:, j], pa.float64()) for j in range(values.shape[1])]
+    fields = [pa.field(f"p{j}", pa.float64()) for j in range(values.shape[1])]
+    arrays += [pa.array(has, pa.bool_()), pa.array(list(errors), pa.string())]
+    fields += [pa.field("has_result", pa.bool_()), pa.field("error", pa.string())]
+    for key, (vals, valid) in columns.items():
+        ok = has if valid is None else has & np.asarray(valid, bool)
+        if isinstance(vals, list):
+            col = [v if o else None for v, o in zip(vals, ok.tolist())]
+            kinds = {k for k in map(_kind, col) if k is not None}
+            arr, meta = _column(col, kinds)
+        elif not ok.any():
+            arr, meta = pa.nulls(len(has)), {b"kinds": b""}
+        else:
+            typ = pa.bool_() if vals.dtype == bool else pa.float64()
+            arr = pa.array(vals, typ, mask=~ok)
+            meta = {b"kinds": b"bool" if vals.dtype == bool else b"float"}
+        arrays.append(arr)
+        fields.append(pa.field(f"r:{key}", arr.type, metadata=meta))
+    batch = pa.RecordBatch.from_arrays(arrays, schema=pa.schema(fields))
+    sink = pa.BufferOutputStream()
+    with pa.ipc.new_stream(sink, batch.schema) as writer:
+        writer.write_batch(batch)
+    failed = sum(e is not None for e in errors)
+    return Block(int(start), len(has), failed, digest or block_hash(start, values), sink.getvalue().to_pybytes())
+
+
 def evaluate_block(problem: str, device: dict[str, Any], requirements: dict[str, Any],
                    axes: Sequence[tuple[str, str]], start: int, values: np.ndarray, digest: str) -> Block:
     """Evaluate points start … start + n − 1 (their swept ``values``) and return their block.
 
-    Runs in a worker (local process or Dask): computes, never writes; a task run twice returns the same block."""
-    from optim.studies.problems import evaluate_chunk
+    Runs in a worker (local process or Dask): computes, never writes; a task run twice returns the same block.
+    A chunk the column path takes (optim.studies.columns: rigid analyses) never makes a dict per point; the
+    points it refuses, and every other chunk, go through optim.studies.problems.evaluate_chunk."""
+    from models.device import Device
+    from optim.studies.columns import evaluate_columns
+    from optim.studies.problems import evaluate_chunk, point_builder
 
     values = np.asarray(values, dtype=float)
+    build = point_builder(device, requirements, axes)
+
+    def make_devices(rows):
+        return [Device.model_validate(build(values[i].tolist())[0]) for i in rows]
+
+    got = evaluate_columns(problem, device, requirements, axes, values, make_devices)
+    if got is not None:
+        handled, columns, errors = got
+        left = np.flatnonzero(~handled).tolist()
+        if left:
+            out = evaluate_chunk(problem, device, requirements, axes,
+                                 [(start + i, None, values[i].tolist()) for i in left])
+            if all(o[3] is None for o in out):      # refused points fail with the per-point path's words
+                for i, o in zip(left, out):
+                    errors[i] = o[4]
+            else:
+                got = None   # a rule here stricter than the model's: the whole chunk takes the per-point path
+        if got is not None:
+            has = handled & np.array([e is None for e in errors], bool)
+            return encode_columns(start, values, has, columns, errors, digest)
     rows = [(start + k, None, v) for k, v in enumerate(values.tolist())]
     out = evaluate_chunk(problem, device, requirements, axes, rows)
     return encode_block(start, values, [o[3] for o in out], [o[4] for o in out], digest)
