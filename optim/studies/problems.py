@@ -39,9 +39,10 @@ __all__ = ["MAX_STUDY_POINTS", "PROBLEMS", "StudyInputError", "ProblemUnavailabl
 #: Cost limit: the largest number of points one study may have (grid product or LHS samples).
 MAX_STUDY_POINTS = 1_000_000
 PROBLEMS: tuple[str, ...] = ("stability", "critical_stiffness", "stiffness", "inertia")
-#: chunk_factor of the vectorised problems (the service's default chunk of 64 points becomes 1024: ~1 ms of numpy
-#: overhead per call is then < 5 % of a chunk, and a cancel still lands within ~50 ms of a free core)
-VECTOR_CHUNK_FACTOR = 16
+#: chunk_factor of the vectorised problems (the service's default chunk of 64 points becomes 16384, the largest chunk:
+#: the runner sizes chunks to take about CHUNK_SECONDS, so a rigid critical_stiffness chunk at ~300k points per
+#: CPU-s takes ~50 ms and its task, transfer and store write are a few % of it; issue 20)
+VECTOR_CHUNK_FACTOR = 256
 SCALES = ("linear", "log")
 DESIGNS = ("grid", "latin_hypercube")
 
