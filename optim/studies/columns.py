@@ -188,7 +188,12 @@ def _critical_columns(problem: str, m, bp, t, td, b, k, res) -> tuple[Columns, l
         for d in sorted({used[v][0] for v in used}):
             idx = np.flatnonzero(good & (d_of == d))
             if len(idx):
-                req_d[idx] = batch_required_damping(d, k[idx] * t[idx] / 2, b[idx])[0]
+                # passivity depends on K·T/2, B and d alone (not on mass or damping): each distinct pair is
+                # searched once (a row's search never depends on the other rows, so this is exact), by bits
+                half_tk, bb = k[idx] * t[idx] / 2, b[idx]
+                keys = np.column_stack([half_tk.view(np.uint64), bb.view(np.uint64)])
+                uniq, first, inv = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+                req_d[idx] = batch_required_damping(d, half_tk[first], bb[first])[0][inv.reshape(-1)]
     with np.errstate(all="ignore"):
         lin_err = np.abs(lin / kcr - 1)
     out = {"critical_stiffness": crit, "crossover_frequency": cross, "damping": (b.copy(), good),

@@ -7,9 +7,10 @@ path (``device.delay``, ``device.cable.stiffness``, ``requirements.damping`` …
 or a range ``{start, stop, num, scale}``.  ``sampling`` chooses the Cartesian grid (default) or
 a Latin hypercube (scipy.stats.qmc) of ``samples`` points with a ``seed``.
 
-Points are plain dicts of floats so that they pickle to any worker (Dask may run a task twice:
-evaluation is a pure function and never writes).  Each point carries a content hash of what it
-computes (problem, base and swept values) so that a restarted study skips what is stored.
+Points are plain numbers so that they pickle to any worker (Dask may run a task twice:
+evaluation is a pure function and never writes).  The service identifies a chunk of points by a
+content hash of their places and swept values (service.studies.blocks.block_hash), so that a
+restarted study skips what is stored; ``point_hash`` names one point the same way.
 """
 
 from __future__ import annotations
