@@ -257,8 +257,8 @@ class StudyStore:
             return [(int(a), int(n), h) for a, n, h in conn.execute(q)]
 
     def drop_chunks(self, study_id: str, starts: list[int], owner: str | None = None) -> int | None:
-        """Delete stale chunks (their points are planned again) and recount; None when the study is no longer
-        active or, with ``owner``, no longer held by it."""
+        """Delete stale chunks (their points are planned again) as a run starts, and recount (the run starts from
+        what is left); None when the study is no longer active or, with ``owner``, no longer held by it."""
         guard = [studies.c.id == study_id, studies.c.status.in_(ACTIVE)]
         if owner is not None:
             guard.append(studies.c.owner == owner)
@@ -270,7 +270,9 @@ class StudyStore:
                 gone += conn.execute(chunks.delete().where(chunks.c.study_id == study_id,
                                                            chunks.c.start.in_(starts[i:i + 500]))).rowcount
             done, failed = self._counts(conn, study_id)
-            conn.execute(studies.update().where(studies.c.id == study_id).values(done=done, failed=failed))
+            # called as a run starts (runner._run_plan): what the run starts from is what is left
+            conn.execute(studies.update().where(studies.c.id == study_id)
+                         .values(done=done, failed=failed, run_start_done=done))
         return gone
 
     def write_chunk(self, study_id: str, block: Block, owner: str | None = None) -> int | None:
