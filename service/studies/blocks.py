@@ -26,8 +26,8 @@ from typing import Any, Iterator, NamedTuple, Sequence
 
 import numpy as np
 
-__all__ = ["Block", "block_hash", "encode_block", "decode_rows", "read_table", "schema_kinds", "result_columns",
-           "evaluate_block"]
+__all__ = ["Block", "block_hash", "encode_block", "encode_columns", "decode_rows", "read_table", "read_schema",
+           "schema_kinds", "result_columns", "evaluate_block"]
 
 _INT64 = (-(2**63), 2**63 - 1)
 
