@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import time
 from typing import Any, Iterator, NamedTuple, Sequence
 
 import numpy as np
@@ -45,6 +46,8 @@ class Block(NamedTuple):
     """content hash of the points (block_hash)."""
     data: bytes
     """the Arrow IPC stream."""
+    seconds: float = 0.0
+    """the worker's time for the chunk [s] (not stored: the runner sizes the next chunks from it)."""
 
 
 def block_hash(start: int, values: np.ndarray) -> str:
@@ -224,11 +227,16 @@ def evaluate_block(problem: str, device: dict[str, Any], requirements: dict[str,
     Runs in a worker (local process or Dask): computes, never writes; a task run twice returns the same block.
     A chunk the column path takes (optim.studies.columns: rigid analyses) never makes a dict per point; the
     points it refuses, and every other chunk, go through optim.studies.problems.evaluate_chunk."""
+    t0 = time.perf_counter()
+    block = _evaluate(problem, device, requirements, axes, start, np.asarray(values, dtype=float), digest)
+    return block._replace(seconds=time.perf_counter() - t0)
+
+
+def _evaluate(problem, device, requirements, axes, start, values, digest) -> Block:
     from models.device import Device
     from optim.studies.columns import evaluate_columns
     from optim.studies.problems import evaluate_chunk, point_builder
 
-    values = np.asarray(values, dtype=float)
     build = point_builder(device, requirements, axes)
 
     def make_devices(rows):

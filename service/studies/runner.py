@@ -257,9 +257,11 @@ class StudyRunner:
                     pending[retry], started[retry] = (chunk, attempt + 1), time.monotonic()
                     continue
                 if t0 is not None:
-                    # wall time per point, queueing included (an upper bound: chunks only get smaller for it);
-                    # the slowest recent chunk counts most so a slow region of the sweep shrinks chunks at once
-                    per = (time.monotonic() - t0) / len(chunk[1])
+                    # the worker's own time per point (a chunk's wall time here counts its wait in the queue: a small
+                    # chunk queued behind large ones read that wait as compute time and shrank every following
+                    # chunk, a stability study fell to 1-point chunks); a slow region shrinks chunks at once
+                    seconds = out.seconds if out.seconds > 0 else time.monotonic() - t0   # untimed: the wall time
+                    per = seconds / max(1, len(chunk[1]))
                     pace["per_point"] = per if pace["per_point"] is None else max(per, 0.5 * pace["per_point"])
                 if (out.start, out.n, out.digest) != (chunk[0], len(chunk[1]), chunk[2]):
                     raise RuntimeError(f"a worker returned the block of other points ({out.start}, {out.n}) "

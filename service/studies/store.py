@@ -281,7 +281,7 @@ class StudyStore:
         None, and nothing written, when the study is no longer active (cancelled, purged) or, with
         ``owner``, no longer held by that coordinator: checked by the transaction's first statement,
         which also takes the write lock, so a cancel committed before it is always seen."""
-        start, n, failed, digest, data = block
+        start, n, failed, digest, data = block[:5]
         guard = [studies.c.id == study_id, studies.c.status.in_(ACTIVE)]
         if owner is not None:
             guard.append(studies.c.owner == owner)
