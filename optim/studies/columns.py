@@ -9,9 +9,10 @@ and scan as the per-point path) and the results come back as columns.
 
 Each number is computed by the same floating-point operations, in the same order, as
 ``optim.studies.critical_study.row`` and ``stability_study._full`` compute it for one point, so a point's
-results are bit for bit those of the per-point path, whatever chunk it is in (tests/optim/studies/
-test_columns.py holds both paths against each other).  A point that any rule refuses is left to the
-per-point path (``evaluate_chunk``), which words its error; a chunk the columns cannot take at all gives None.
+results are bit for bit those of the per-point path, whatever chunk it is in (tests/service/
+test_studies_blocks.py holds both paths against each other, through the blocks they are stored as).
+A point that any rule refuses is left to the per-point path (``evaluate_chunk``), which words its error;
+a chunk the columns cannot take at all gives None.
 """
 
 from __future__ import annotations
