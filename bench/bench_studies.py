@@ -222,10 +222,17 @@ class HttpRow:
     all_peak_mib: float | None
     """sampled peak of the service and its local pool together [MiB] (None with Dask: workers elsewhere)."""
     chunk: int
+    cpu: float | None = None
+    """CPU time of the service, its pool or the Dask workers during the study [s]."""
 
     @property
     def rate(self) -> float:
         return self.points / self.seconds
+
+    @property
+    def cpu_rate(self) -> float | None:
+        """points per CPU-second of every process that worked on the study (server and workers)."""
+        return self.points / self.cpu if self.cpu else None
 
 
 def _peak_kib(pid: int) -> int:
@@ -236,6 +243,24 @@ def _peak_kib(pid: int) -> int:
     except OSError:
         pass
     return 0
+
+
+def _cpu_seconds(srv, dask_address: str | None) -> float:
+    """CPU seconds used so far by the server's session (server, its pool) and, with Dask, the cluster's workers."""
+    import psutil
+
+    total = 0.0
+    for pid in srv.session_pids():
+        try:
+            total += sum(psutil.Process(pid).cpu_times()[:4])
+        except psutil.Error:
+            pass
+    if dask_address:
+        from distributed import Client
+
+        with Client(dask_address, set_as_default=False, timeout=30) as c:
+            total += sum(c.run(time.process_time).values())
+    return total
 
 
 def _submit_and_wait(client, srv, study: dict, timeout: float) -> tuple[dict, int]:
@@ -273,7 +298,9 @@ def http_study(problem: str, points: int, dask_address: str | None = None, timeo
         try:
             with httpx.Client(base_url=srv.url, timeout=120) as client:
                 _submit_and_wait(client, srv, grid_study(problem, 2100), timeout)     # pool or cluster warm
+                c0 = _cpu_seconds(srv, dask_address)
                 st, peak = _submit_and_wait(client, srv, grid_study(problem, points), timeout)
+                cpu = _cpu_seconds(srv, dask_address) - c0
                 hwm = _peak_kib(srv.pid)
         finally:
             srv.stop()
@@ -281,7 +308,7 @@ def http_study(problem: str, points: int, dask_address: str | None = None, timeo
         raise RuntimeError(f"{problem} study ended {st['status']}: {st['error']}")
     label = "Dask, 2 workers × 1 thread (loopback)" if dask_address else "local pool, 2 workers"
     return HttpRow(problem, label, st["total"], st["finished_at"] - st["started_at"], st["failed"], hwm / 1024,
-                   None if dask_address else peak / 1024, StudySettings().chunk_size * VECTOR_CHUNK_FACTOR)
+                   None if dask_address else peak / 1024, StudySettings().chunk_size * VECTOR_CHUNK_FACTOR, cpu)
 
 
 def measure_http(points: int, dask: bool = True) -> list[HttpRow]:
@@ -305,17 +332,22 @@ def render_http(rows: list[HttpRow]) -> str:
              "A live `uvicorn service.app:app` (one process) with `ZWIDTH_STUDY_WORKERS=2` or a local Dask cluster "
              "(2 workers × 1 thread); a mass × delay grid (delays 0 … 20 samples, T = 1 ms; wall K = 1500 N/m, "
              "B = 2 N·s/m) submitted by POST /v1/studies after a warm-up study, points/s from the study's "
-             "`started_at` to its `finished_at`. *Service peak RSS* is the server process's VmHWM (it plans, hashes "
-             "and writes every point); *with pool* is the sampled peak of the server and its worker processes.",
+             "`started_at` to its `finished_at`. *Service peak RSS* is the server process's VmHWM (it plans chunks "
+             "and writes one block per chunk); *with pool* is the sampled peak of the server and its worker processes. "
+             "*Points per CPU-s* divides by the CPU time of every process that worked on the study during it (the "
+             "server and its pool, or the server and the Dask workers): on a loaded machine the workers (nice 10) get "
+             "a fraction of the cores, so this, times the 2 cores, is what two free cores would give.",
              "",
-             "| problem | executor | points | started → finished [s] | points/s | target | failed | service peak RSS [MiB] "
-             "| with pool [MiB] | points per chunk |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
+             "| problem | executor | points | started → finished [s] | points/s | target | points per CPU-s | failed "
+             "| service peak RSS [MiB] | with pool [MiB] | largest chunk |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         pool = f"{r.all_peak_mib:.0f}" if r.all_peak_mib is not None else "—"
         goal = HTTP_GOALS.get(r.problem)
+        cpu = f"{r.cpu_rate:.0f}" if r.cpu_rate else "—"
         lines.append(f"| {r.problem} | {r.executor} | {r.points} | {r.seconds:.2f} | {r.rate:.0f} | "
-                     f"{'≥ %d' % goal if goal else '—'} | {r.failed} | {r.service_peak_mib:.0f} | {pool} | {r.chunk} |")
+                     f"{'≥ %d' % goal if goal else '—'} | {cpu} | {r.failed} | {r.service_peak_mib:.0f} | {pool} | "
+                     f"{r.chunk} |")
     for prob in HTTP_GOALS:
         local = [r for r in rows if r.problem == prob and r.all_peak_mib is not None]
         dask = [r for r in rows if r.problem == prob and r.all_peak_mib is None]

@@ -25,7 +25,7 @@ It is checked against optim.stability.margins.critical_stiffness device by devic
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -49,7 +49,7 @@ from optim.stability.crossovers import (
 from optim.stability.crossovers import theta_min as scan_theta_min
 from optim.stability.fast_batch import fast_rigid_batch
 
-__all__ = ["BatchCritical", "batch_critical_stiffness"]
+__all__ = ["BatchCritical", "batch_critical_stiffness", "rigid_critical_stiffness"]
 
 _MAX_ARG_STEP = 0.25          # as optim.stability.crossovers: largest turn of arg H between samples [rad]
 _TANGENT_ARG = 0.05           # as optim.stability.crossovers: |arg H| below which a near-tangency is looked for
@@ -330,9 +330,30 @@ def batch_critical_stiffness(devices: Sequence[Device], damping: float | np.ndar
     return BatchCritical(kcr, ang, bmax, len(rest))
 
 
+def rigid_critical_stiffness(mass: np.ndarray, damping: np.ndarray, sample_time: np.ndarray, delay: np.ndarray,
+                             virtual_damping: np.ndarray, devices: Callable[[list[int]], Sequence[Device]]
+                             ) -> BatchCritical:
+    """batch_critical_stiffness of rigid devices given as arrays (m, b, T, t_d) [SI], without a Device per row:
+    the same numbers, bit for bit (the same fast path, and the rows it leaves open scanned as Devices made by
+    ``devices(rows)``).  The arrays must hold valid devices and B ≥ 0 (the caller validated them)."""
+    n = len(mass)
+    bvec = np.asarray(virtual_damping, float)
+    kcr, ang, bmax = np.full(n, np.inf), np.full(n, np.nan), np.full(n, np.inf)
+    rest = _fast_rigid_arrays(np.asarray(mass, float), np.asarray(damping, float), np.asarray(sample_time, float),
+                              np.asarray(delay, float), bvec, np.arange(n), kcr, ang, bmax)
+    if rest:
+        sub = batch_critical_stiffness(devices(rest), bvec[rest])
+        kcr[rest], ang[rest], bmax[rest] = sub.critical_stiffness, sub.crossover_angle, sub.max_stable_damping
+    return BatchCritical(kcr, ang, bmax, len(rest))
+
+
 def _fast_rigid_rows(devices, bvec, idx, kcr, ang, bmax) -> list[int]:
     """optim.stability.fast_batch on the rigid rows idx (results written in place); returns the rows it leaves to the scan."""
     m, b_phys, t, td = np.array([(d.mass, d.damping, d.sample_time, d.delay) for d in devices]).T
+    return _fast_rigid_arrays(m, b_phys, t, td, bvec, idx, kcr, ang, bmax)
+
+
+def _fast_rigid_arrays(m, b_phys, t, td, bvec, idx, kcr, ang, bmax) -> list[int]:
     ks, bs = m / t**2, m / t                  # Device.stiffness_scale, damping_scale
     b = bvec[idx]
     res = fast_rigid_batch(b_phys * t / m, td / t, b / bs)

@@ -7,9 +7,10 @@ path (``device.delay``, ``device.cable.stiffness``, ``requirements.damping`` …
 or a range ``{start, stop, num, scale}``.  ``sampling`` chooses the Cartesian grid (default) or
 a Latin hypercube (scipy.stats.qmc) of ``samples`` points with a ``seed``.
 
-Points are plain dicts of floats so that they pickle to any worker (Dask may run a task twice:
-evaluation is a pure function and never writes).  Each point carries a content hash of what it
-computes (problem, base and swept values) so that a restarted study skips what is stored.
+Points are plain numbers so that they pickle to any worker (Dask may run a task twice:
+evaluation is a pure function and never writes).  The service identifies a chunk of points by a
+content hash of their places and swept values (service.studies.blocks.block_hash), so that a
+restarted study skips what is stored; ``point_hash`` names one point the same way.
 """
 
 from __future__ import annotations
@@ -40,9 +41,10 @@ __all__ = ["MAX_STUDY_POINTS", "PROBLEMS", "StudyInputError", "ProblemUnavailabl
 #: Cost limit: the largest number of points one study may have (grid product or LHS samples).
 MAX_STUDY_POINTS = 1_000_000
 PROBLEMS: tuple[str, ...] = ("stability", "critical_stiffness", "stiffness", "inertia")
-#: chunk_factor of the vectorised problems (the service's default chunk of 64 points becomes 1024: ~1 ms of numpy
-#: overhead per call is then < 5 % of a chunk, and a cancel still lands within ~50 ms of a free core)
-VECTOR_CHUNK_FACTOR = 16
+#: chunk_factor of the vectorised problems (the service's default chunk of 64 points becomes 16384, the largest chunk:
+#: the runner sizes chunks to take about CHUNK_SECONDS, so a rigid critical_stiffness chunk at ~300k points per
+#: CPU-s takes ~50 ms and its task, transfer and store write are a few % of it; issue 20)
+VECTOR_CHUNK_FACTOR = 256
 SCALES = ("linear", "log")
 DESIGNS = ("grid", "latin_hypercube")
 

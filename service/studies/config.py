@@ -16,8 +16,8 @@ class StudySettings(BaseSettings):
                                 description="local worker processes; default one per core")
     max_points: int = Field(default=1_000_000, ge=1, le=100_000_000,
                             description="the most points one study may have (grid product or samples); the "
-                                        "results store holds each point as one row")
+                                        "results store holds them in blocks, one row per chunk")
     chunk_size: int = Field(default=64, ge=1, le=100_000,
                             description="points per task: large enough to amortise a task's overhead, small enough "
-                                        "for progress and a prompt cancel (vectorised problems take their "
+                                        "for progress and a prompt cancel (vectorised problems take up to their "
                                         "chunk_factor times this, optim.studies.problems)")

@@ -10,10 +10,12 @@ from __future__ import annotations
 
 import csv
 import io
+import json
 from itertools import islice
 from typing import Any, Callable, Iterable, Iterator, Sequence
 
-__all__ = ["flat_row", "columns", "scan_columns", "csv_chunks", "parquet_chunks", "parquet_bytes"]
+__all__ = ["flat_row", "columns", "scan_columns", "csv_chunks", "parquet_chunks", "parquet_bytes", "block_columns",
+           "parquet_block_chunks"]
 
 Rows = Callable[[], Iterable[dict[str, Any]]]
 
@@ -155,3 +157,78 @@ def parquet_chunks(cols: Sequence[str], kinds: dict[str, set[str]], rows: Iterab
 def parquet_bytes(cols: Sequence[str], kinds: dict[str, set[str]], rows: Iterable[dict[str, Any]],
                   batch: int = 50_000) -> bytes:
     return b"".join(parquet_chunks(cols, kinds, rows, batch))
+
+
+def block_columns(paths: Sequence[str], schemas: Iterable[Any]) -> tuple[list[str], dict[str, set[str]]] | None:
+    """scan_columns of a study stored in blocks, from the blocks' schemas alone (their result columns' kinds):
+    the same columns, order and kinds as scanning every row.  None when a result key is also the name of the
+    index, a swept path or the error (the row form decides which value wins; export_rows then does it)."""
+    from .blocks import result_columns
+
+    kinds: dict[str, set[str]] = {"index": {"int"}, **{p: {"float"} for p in paths}}
+    fixed = set(kinds) | {"error"}
+    for schema in schemas:
+        for key, seen, _ in result_columns(schema):
+            if key in fixed:
+                return None
+            kinds.setdefault(key, set()).update(seen)
+    kinds["error"] = {"str"}
+    return list(kinds), kinds
+
+
+def _block_table(start: int, data: bytes, cols: Sequence[str], paths: Sequence[str], schema):
+    """One block as a table of the export's schema (what parquet_chunks would write for its rows)."""
+    import numpy as np
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
+    from .blocks import read_table, result_columns
+
+    table = read_table(data)
+    n = table.num_rows
+    json_keys = {key for key, _, is_json in result_columns(table.schema) if is_json}
+    names = set(table.column_names)
+    has = table.column("has_result").combine_chunks()
+    out = {"index": pa.array(np.arange(start, start + n, dtype=np.int64))}
+    for j, p in enumerate(paths):
+        out[p] = table.column(f"p{j}").combine_chunks()
+    for c in cols[1 + len(paths):-1]:
+        typ = schema.field(c).type
+        if f"r:{c}" not in names:
+            out[c] = pa.nulls(n, typ)
+            continue
+        arr = table.column(f"r:{c}").combine_chunks()
+        keep = has if f"m:{c}" not in names else pc.and_(has, table.column(f"m:{c}").combine_chunks())
+        if arr.type != typ or c in json_keys:
+            vals = arr.to_pylist()
+            if c in json_keys:
+                vals = [None if v is None else json.loads(v) for v in vals]
+            arr = pa.array(_convert(vals, typ), type=typ)
+        out[c] = pc.if_else(keep, arr, pa.nulls(n, typ)) if typ != pa.null() else arr
+    out["error"] = table.column("error").combine_chunks()
+    return pa.table(out, schema=schema)
+
+
+def parquet_block_chunks(cols: Sequence[str], kinds: dict[str, set[str]], paths: Sequence[str],
+                         blocks: Iterable[tuple[int, bytes]], batch: int = 50_000) -> Iterator[bytes]:
+    """parquet_chunks of a study stored in blocks, column by column (no dict per row): the same file, one row
+    group per ``batch`` rows or more (whole blocks), handed on as it is written."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    schema = pa.schema([(c, _arrow_type(kinds[c])) for c in cols])
+    sink = _Drain()
+    with pq.ParquetWriter(pa.PythonFile(sink, mode="w"), schema) as writer:
+        parts, rows = [], 0
+        for start, data in blocks:
+            parts.append(_block_table(start, data, cols, paths, schema))
+            rows += parts[-1].num_rows
+            if rows >= batch:
+                writer.write_table(pa.concat_tables(parts), row_group_size=rows)
+                parts, rows = [], 0
+                if chunk := sink.take():
+                    yield chunk
+        if parts:
+            writer.write_table(pa.concat_tables(parts), row_group_size=rows)
+    if chunk := sink.take():
+        yield chunk

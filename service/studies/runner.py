@@ -1,9 +1,12 @@
 """The study runner: one coordinator thread that schedules chunks on an executor and writes results.
 
 The coordinator is the store's only writer of results.  It takes the oldest queued or running
-study (so a study interrupted by a crash resumes at the next start), skips the points already
-stored (by content hash), keeps a bounded number of chunks in flight, and writes each chunk in
-one transaction as it completes.  A task that failed (a worker killed, a broken pool) is
+study (so a study interrupted by a crash resumes at the next start), plans only the points no
+stored chunk covers (a stored chunk whose content hash no longer matches the plan is dropped and
+planned again), keeps a bounded number of chunks in flight, and writes each chunk's block in one
+transaction as it completes.  It handles chunks, never points: a chunk is its first point, the
+swept values of its points as one numpy array and their content hash, and comes back as one block
+(service.studies.blocks), so a 10-million-point study never exists as Python objects here.  A task that failed (a worker killed, a broken pool) is
 resubmitted; after three attempts the study is marked ``failed`` with the error, never
 completed with made-up points.
 
@@ -25,10 +28,12 @@ from concurrent.futures import CancelledError
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any, Callable, Iterator
 
-from optim.studies.problems import StudyInputError, StudyPlan, get_problem, plan_study, point_hashes
+import numpy as np
 
+from optim.studies.problems import StudyInputError, StudyPlan, get_problem, plan_study
+
+from .blocks import block_hash, evaluate_block
 from .config import StudySettings
-from .encode import evaluate_encoded
 from .executors import Executor
 from .store import StudyStore
 
@@ -38,7 +43,6 @@ log = logging.getLogger("zwidth.studies")
 
 _MAX_ATTEMPTS = 3
 _RENEW_EVERY = 5.0  # [s] lease renewal (the lease is store.LEASE_SECONDS)
-_BLOCK = 8192  # points planned (values + hashes) at a time: bounded memory for a 1e6-point study
 #: A chunk is sized to take about this long (from the measured time per point), so that `done` moves at least
 #: this often: a study of slow points advances point by point instead of sitting at 0 for a whole chunk.
 CHUNK_SECONDS = 0.5
@@ -127,14 +131,27 @@ class StudyRunner:
         except StudyInputError:   # unknown or unavailable: the study fails where it is planned, not here
             return self.chunk_size
 
-    def _points(self, plan: StudyPlan, stored: set[str]) -> Iterator[tuple[int, str, list[float]]]:
-        """The study's points not stored yet, in order (planned _BLOCK at a time)."""
-        prefix, paths = plan.digest(), plan.paths
-        for start in range(0, plan.total, _BLOCK):
-            values = plan.values(start, start + _BLOCK).tolist()
-            for k, (row, digest) in enumerate(zip(values, point_hashes(prefix, start, paths, values))):
-                if digest not in stored:      # the block's hashes in bulk (optim.studies.problems.point_hashes)
-                    yield (start + k, digest, row)
+    @staticmethod
+    def gaps(total: int, stored: list[tuple[int, int, str]]) -> Iterator[tuple[int, int]]:
+        """[start, stop) ranges of the points no stored chunk covers, in order."""
+        at = 0
+        for start, n, _ in stored:
+            if start > at:
+                yield at, start
+            at = max(at, start + n)
+        if at < total:
+            yield at, total
+
+    def stale_chunks(self, plan: StudyPlan, stored: list[tuple[int, int, str]]) -> list[int]:
+        """Starts of stored chunks whose points are not the plan's any more (their content hash differs, or they
+        overlap another chunk or the plan's end): dropped and planned again, so a resume is exact."""
+        stale, end = [], 0
+        for start, n, digest in stored:
+            if start < end or start + n > plan.total or block_hash(start, plan.values(start, start + n)) != digest:
+                stale.append(start)
+            else:
+                end = start + n
+        return stale
 
     def adaptive_size(self, largest: int, seconds_per_point: float | None, remaining: int, parallel: int) -> int:
         """Points in the next chunk: one while the time per point is unknown, then what takes CHUNK_SECONDS
@@ -146,20 +163,23 @@ class StudyRunner:
         share = -(-remaining // max(1, parallel))
         return max(1, min(largest, size, share))
 
-    def _blocks(self, plan: StudyPlan, stored: set[str], pace: dict[str, Any] | None = None,
-                parallel: int = 1) -> Iterator[list[tuple[int, str, list[float]]]]:
-        """Chunks of the points to do; with ``pace`` ({"per_point": seconds or None}, updated by the caller as
-        chunks come back) each chunk is sized by adaptive_size, else every chunk has the configured size."""
+    def _blocks(self, plan: StudyPlan, stored: list[tuple[int, int, str]], pace: dict[str, Any] | None = None,
+                parallel: int = 1) -> Iterator[tuple[int, np.ndarray, str]]:
+        """Chunks (start, swept values, content hash) of the points to do; with ``pace`` ({"per_point": seconds or
+        None}, updated by the caller as chunks come back) each chunk is sized by adaptive_size, else every chunk
+        has the configured size.  Values are planned a chunk at a time: memory is one chunk's."""
         largest = self.chunk_size_for(plan.problem)
-        remaining = plan.total - len(stored)
-        points = self._points(plan, stored)
-        while True:
-            size = largest if pace is None else self.adaptive_size(largest, pace["per_point"], remaining, parallel)
-            chunk = [p for _, p in zip(range(size), points)]
-            if not chunk:
-                return
-            remaining -= len(chunk)
-            yield chunk
+        remaining = plan.total - sum(n for _, n, _ in stored)
+        for lo, hi in self.gaps(plan.total, stored):
+            at = lo
+            while at < hi:
+                size = largest if pace is None else self.adaptive_size(largest, pace["per_point"], remaining,
+                                                                       parallel)
+                stop = min(hi, at + size)
+                values = plan.values(at, stop)
+                yield at, values, block_hash(at, values)
+                remaining -= stop - at
+                at = stop
 
     def _should_stop(self, study_id: str) -> bool:
         return self._stop.is_set() or study_id in self._cancelled
@@ -189,8 +209,16 @@ class StudyRunner:
         args = (plan.problem, dict(plan.device), dict(plan.requirements), [(a.path, a.kind) for a in plan.axes])
         limit = max(1, executor.slots * self.in_flight_per_slot)
         pace: dict[str, Any] = {"per_point": None}   # seconds per point, measured from the chunks that came back
-        todo = self._blocks(plan, self.store.stored_hashes(study_id), pace, limit)
-        pending: dict[Any, tuple[list, int]] = {}
+        stored = self.store.stored_chunks(study_id)
+        stale = self.stale_chunks(plan, stored)
+        if stale:
+            log.warning("study %s: %d stored chunks do not match the plan; computing them again", study_id,
+                        len(stale))
+            if self.store.drop_chunks(study_id, stale, self.owner) is None:
+                return
+            stored = self.store.stored_chunks(study_id)
+        todo = self._blocks(plan, stored, pace, limit)
+        pending: dict[Any, tuple[tuple, int]] = {}
         started: dict[Any, float] = {}
         exhausted = False
         last_check = time.monotonic()
@@ -201,17 +229,17 @@ class StudyRunner:
                     self.store.finish(study_id, "cancelled", owner=self.owner)
                 return
             while not exhausted and len(pending) < limit:
-                rows = next(todo, None)
-                if rows is None:
+                chunk = next(todo, None)
+                if chunk is None:
                     exhausted = True
                     break
-                fut = executor.submit(evaluate_encoded, *args, rows)
-                pending[fut], started[fut] = (rows, 1), time.monotonic()
+                fut = executor.submit(evaluate_block, *args, *chunk)
+                pending[fut], started[fut] = (chunk, 1), time.monotonic()
             if not pending:
                 break
             done, _ = executor.wait(set(pending), timeout=self.poll)
             for fut in done:
-                rows, attempt = pending.pop(fut)
+                chunk, attempt = pending.pop(fut)
                 t0 = started.pop(fut, None)
                 try:
                     out = fut.result()
@@ -225,14 +253,19 @@ class StudyRunner:
                                           owner=self.owner)
                         return
                     log.warning("study %s: chunk failed (%s), resubmitting", study_id, exc)
-                    retry = executor.submit(evaluate_encoded, *args, rows)
-                    pending[retry], started[retry] = (rows, attempt + 1), time.monotonic()
+                    retry = executor.submit(evaluate_block, *args, *chunk)
+                    pending[retry], started[retry] = (chunk, attempt + 1), time.monotonic()
                     continue
                 if t0 is not None:
-                    # wall time per point, queueing included (an upper bound: chunks only get smaller for it);
-                    # the slowest recent chunk counts most so a slow region of the sweep shrinks chunks at once
-                    per = (time.monotonic() - t0) / len(rows)
+                    # the worker's own time per point (a chunk's wall time here counts its wait in the queue: a small
+                    # chunk queued behind large ones read that wait as compute time and shrank every following
+                    # chunk, a stability study fell to 1-point chunks); a slow region shrinks chunks at once
+                    seconds = out.seconds if out.seconds > 0 else time.monotonic() - t0   # untimed: the wall time
+                    per = seconds / max(1, len(chunk[1]))
                     pace["per_point"] = per if pace["per_point"] is None else max(per, 0.5 * pace["per_point"])
+                if (out.start, out.n, out.digest) != (chunk[0], len(chunk[1]), chunk[2]):
+                    raise RuntimeError(f"a worker returned the block of other points ({out.start}, {out.n}) "
+                                       f"for the chunk at {chunk[0]} of {len(chunk[1])}")
                 if self.store.write_chunk(study_id, out, self.owner) is None:
                     self._cancelled.add(study_id)   # cancelled (through any server) or taken over: stop now
                     break

@@ -1,9 +1,12 @@
 """The study store: SQLAlchemy 2 over SQLite (WAL, the embedded default) or PostgreSQL by URL.
 
 Schema changes are Alembic migrations (``migrations/``) applied by :meth:`StudyStore.migrate` at
-startup.  Results are written by one writer, the runner's coordinator, in chunks as they
-complete, as inserts that skip a point already stored (keyed by the point's content hash): a
-study restarted after a crash, or a chunk Dask ran twice, never stores a point twice.
+startup.  Results are stored in blocks (issue 20): one row per chunk of consecutive points, its
+results one compact binary blob (``blocks.py``, Arrow IPC), keyed by the chunk's first point and
+carrying the content hash of its points.  They are written by one writer, the runner's
+coordinator, as chunks complete, as inserts that skip a chunk already stored: a chunk Dask ran
+twice is stored once, and a study restarted after a crash plans only the points no stored chunk
+covers (by the chunks' places, a few numbers per chunk, never one hash per point).
 
 Cancel and purge may come through any service process on the store.  A chunk is written only
 while its study is active and held by the writing coordinator, checked in the chunk's own
@@ -16,16 +19,16 @@ writer; the API's own writes (a new study, a cancel) are single-row and wait on 
 
 from __future__ import annotations
 
-import json
+import bisect
 import time
 from pathlib import Path
-from typing import Any, Iterable, Iterator
+from typing import Any, Iterator
 
 import sqlalchemy as sa
 from sqlalchemy import event
 from sqlalchemy.engine import Engine
 
-from .encode import EncodedRows, encode_rows
+from .blocks import Block, decode_rows
 
 __all__ = ["StudyStore", "ACTIVE", "FINISHED", "CANCELLING"]
 
@@ -56,15 +59,14 @@ studies = sa.Table(
     sa.Column("lease_until", sa.Float),
     sa.Index("ix_studies_status_created", "status", "created_at"),
 )
-results = sa.Table(
-    "study_results", metadata,
+chunks = sa.Table(
+    "study_chunks", metadata,
     sa.Column("study_id", sa.String(36), sa.ForeignKey("studies.id", ondelete="CASCADE"), primary_key=True),
-    sa.Column("point_hash", sa.String(32), primary_key=True),
-    sa.Column("idx", sa.Integer, nullable=False),
-    sa.Column("params", sa.JSON, nullable=False),
-    sa.Column("result", sa.JSON),
-    sa.Column("error", sa.Text),
-    sa.Index("ix_study_results_idx", "study_id", "idx"),
+    sa.Column("start", sa.BigInteger, primary_key=True, autoincrement=False),
+    sa.Column("n", sa.Integer, nullable=False),
+    sa.Column("failed", sa.Integer, nullable=False),
+    sa.Column("chunk_hash", sa.String(32), nullable=False),
+    sa.Column("data", sa.LargeBinary, nullable=False),
 )
 
 _MIGRATIONS = Path(__file__).parent / "migrations"
@@ -76,8 +78,8 @@ def _sqlite_pragmas(dbapi_conn, _record, synchronous: str = "FULL") -> None:
     cur.execute(f"PRAGMA synchronous={synchronous}")   # FULL: a 202 means the request is on disk
     cur.execute("PRAGMA busy_timeout=30000")    # the API's single-row writes wait instead of failing
     cur.execute("PRAGMA foreign_keys=ON")
-    if synchronous == "NORMAL":   # the results' writer: its inserts land in two text-keyed indexes at random
-        cur.execute("PRAGMA cache_size=-65536")   # places: 64 MB of page cache instead of 2 MB
+    if synchronous == "NORMAL":   # the results' writer: a chunk's block spans many pages
+        cur.execute("PRAGMA cache_size=-65536")   # 64 MB of page cache instead of 2 MB
     cur.close()
 
 
@@ -90,28 +92,6 @@ def make_engine(url: str, synchronous: str = "FULL") -> Engine:
         event.listen(engine, "connect", lambda conn, rec: _sqlite_pragmas(conn, rec, synchronous))
         return engine
     return sa.create_engine(url, pool_pre_ping=True)
-
-
-_INSERT_SQLITE = ("INSERT INTO study_results (study_id, idx, point_hash, params, result, error) "
-                  "VALUES (?, ?, ?, ?, ?, ?) ON CONFLICT (study_id, point_hash) DO NOTHING")
-
-
-def _insert_sqlite(conn, study_id: str, rows: EncodedRows) -> tuple[int, int]:
-    """(new results, new failures): one executemany of encoded rows on the transaction's own DBAPI
-    connection (SQLAlchemy's per-row parameter processing cost as much as the numerics); the new rows are
-    counted by the connection's change counter (a skipped duplicate changes nothing)."""
-    raw = conn.connection.dbapi_connection
-    cur = raw.cursor()
-    counts = []
-    for part in ([r for r in rows if r[4] is None], [r for r in rows if r[4] is not None]):
-        if not part:
-            counts.append(0)
-            continue
-        before = raw.total_changes
-        cur.executemany(_INSERT_SQLITE, [(study_id, *r) for r in part])
-        counts.append(raw.total_changes - before)
-    cur.close()
-    return counts[0], counts[1]
 
 
 def _same(column, value):
@@ -158,28 +138,24 @@ class StudyStore:
     def __init__(self, url: str):
         self.url = url
         self.engine = make_engine(url)
-        self._insert = self._insert_factory()
-        self._sqlite = self.engine.dialect.name == "sqlite"
+        name = self.engine.dialect.name
+        if name not in ("sqlite", "postgresql"):
+            raise ValueError(f"database_url: unsupported database {name!r} (SQLite or PostgreSQL)")
+        self._sqlite = name == "sqlite"
         db = sa.engine.make_url(url).database
         # The coordinator's chunks go through their own connection with synchronous=NORMAL (WAL): a commit
         # is not fsynced until the checkpoint.  A power cut may lose the last chunks, never half of one: each
-        # chunk's rows and its count of done points commit together, and a resumed study recomputes what is
-        # missing (exactly once, by hash).  Requests, cancels and states stay FULL: a 202 is on disk.
+        # chunk's block and its count of done points commit together, and a resumed study recomputes what is
+        # missing.  Requests, cancels and states stay FULL: a 202 is on disk.
         self._writer = (make_engine(url, synchronous="NORMAL") if self._sqlite and db and db != ":memory:"
                         else self.engine)
 
-    def _insert_factory(self):
-        name = self.engine.dialect.name
-        if name == "sqlite":
+    def _insert(self):
+        if self._sqlite:
             from sqlalchemy.dialects.sqlite import insert
-        elif name == "postgresql":
-            from sqlalchemy.dialects.postgresql import insert
         else:
-            raise ValueError(f"database_url: unsupported database {name!r} (SQLite or PostgreSQL)")
-        # RETURNING lists only the rows really inserted: the count of new points on both databases
-        # (a DBAPI's executemany rowcount is not reliable for ON CONFLICT DO NOTHING; psycopg's is not).
-        return lambda: (insert(results).on_conflict_do_nothing(index_elements=["study_id", "point_hash"])
-                        .returning(results.c.point_hash))
+            from sqlalchemy.dialects.postgresql import insert
+        return insert(chunks).on_conflict_do_nothing(index_elements=["study_id", "start"])
 
     def migrate(self) -> None:
         """Bring the schema to the newest Alembic revision."""
@@ -258,28 +234,54 @@ class StudyStore:
                                  .values(owner=owner, lease_until=now + LEASE_SECONDS))
             if not claim.rowcount:
                 return None
-            done = conn.execute(sa.select(sa.func.count()).select_from(results)
-                                .where(results.c.study_id == study_id)).scalar_one()
-            failed = conn.execute(sa.select(sa.func.count()).select_from(results)
-                                  .where(results.c.study_id == study_id, results.c.error.is_not(None))).scalar_one()
+            done, failed = self._counts(conn, study_id)
             conn.execute(studies.update().where(studies.c.id == study_id)
                          .values(status="running", done=done, failed=failed, run_started_at=now, run_start_done=done,
                                  error=None))
         return self.get(study_id)
 
-    def stored_hashes(self, study_id: str) -> set[str]:
-        with self.engine.connect() as conn:
-            return set(conn.execute(sa.select(results.c.point_hash).where(results.c.study_id == study_id)).scalars())
+    @staticmethod
+    def _counts(conn, study_id: str) -> tuple[int, int]:
+        """(points stored, of which failed) of a study, from its chunks."""
+        done, failed = conn.execute(sa.select(sa.func.coalesce(sa.func.sum(chunks.c.n), 0),
+                                              sa.func.coalesce(sa.func.sum(chunks.c.failed), 0))
+                                    .where(chunks.c.study_id == study_id)).one()
+        return int(done), int(failed)
 
-    def write_chunk(self, study_id: str, rows: Iterable[tuple], owner: str | None = None) -> int | None:
-        """Store (index, hash, params, result, error) rows; returns how many were new.  ``rows`` may come
-        encoded (``EncodedRows``: params and result as JSON text, encoded in the worker).
+    def stored_chunks(self, study_id: str) -> list[tuple[int, int, str]]:
+        """(start, points, content hash) of every stored chunk of the study, by start: a few numbers per chunk
+        (a 10-million-point study has some thousands), what a resume plans around."""
+        q = (sa.select(chunks.c.start, chunks.c.n, chunks.c.chunk_hash).where(chunks.c.study_id == study_id)
+             .order_by(chunks.c.start))
+        with self.engine.connect() as conn:
+            return [(int(a), int(n), h) for a, n, h in conn.execute(q)]
+
+    def drop_chunks(self, study_id: str, starts: list[int], owner: str | None = None) -> int | None:
+        """Delete stale chunks (their points are planned again) as a run starts, and recount (the run starts from
+        what is left); None when the study is no longer active or, with ``owner``, no longer held by it."""
+        guard = [studies.c.id == study_id, studies.c.status.in_(ACTIVE)]
+        if owner is not None:
+            guard.append(studies.c.owner == owner)
+        with self._writer.begin() as conn:
+            if not conn.execute(studies.update().where(*guard).values(done=studies.c.done)).rowcount:
+                return None
+            gone = 0
+            for i in range(0, len(starts), 500):
+                gone += conn.execute(chunks.delete().where(chunks.c.study_id == study_id,
+                                                           chunks.c.start.in_(starts[i:i + 500]))).rowcount
+            done, failed = self._counts(conn, study_id)
+            # called as a run starts (runner._run_plan): what the run starts from is what is left
+            conn.execute(studies.update().where(studies.c.id == study_id)
+                         .values(done=done, failed=failed, run_start_done=done))
+        return gone
+
+    def write_chunk(self, study_id: str, block: Block, owner: str | None = None) -> int | None:
+        """Store a chunk's block; returns how many points were new (0: that chunk was stored already).
 
         None, and nothing written, when the study is no longer active (cancelled, purged) or, with
         ``owner``, no longer held by that coordinator: checked by the transaction's first statement,
         which also takes the write lock, so a cancel committed before it is always seen."""
-        if not isinstance(rows, EncodedRows):
-            rows = encode_rows(list(rows))
+        start, n, failed, digest, data = block[:5]
         guard = [studies.c.id == study_id, studies.c.status.in_(ACTIVE)]
         if owner is not None:
             guard.append(studies.c.owner == owner)
@@ -287,25 +289,15 @@ class StudyStore:
             held = conn.execute(studies.update().where(*guard).values(done=studies.c.done))
             if not held.rowcount:
                 return None
-            if self._sqlite:
-                new_ok, new_bad = _insert_sqlite(conn, study_id, rows)
-            else:
-                new_ok, new_bad = self._insert_rows(conn, study_id, rows)
-            if new_ok or new_bad:
+            # RETURNING names the row only when it was inserted (a DBAPI's rowcount is not reliable for ON CONFLICT
+            # DO NOTHING; psycopg's is not)
+            new = conn.execute(self._insert().values(study_id=study_id, start=start, n=n, failed=failed,
+                                                     chunk_hash=digest, data=data)
+                               .returning(chunks.c.start)).first() is not None
+            if new:
                 conn.execute(studies.update().where(studies.c.id == study_id)
-                             .values(done=studies.c.done + new_ok + new_bad, failed=studies.c.failed + new_bad))
-        return new_ok + new_bad
-
-    def _insert_rows(self, conn, study_id: str, rows: EncodedRows) -> tuple[int, int]:
-        """(new results, new failures) inserted through SQLAlchemy (PostgreSQL: its JSON columns take objects)."""
-        ok, bad = [], []
-        for index, digest, params, result, error in rows:
-            rec = dict(study_id=study_id, point_hash=digest, idx=index, params=json.loads(params),
-                       result=json.loads(result), error=error)
-            (bad if error is not None else ok).append(rec)
-        new_ok = len(conn.execute(self._insert(), ok).all()) if ok else 0
-        new_bad = len(conn.execute(self._insert(), bad).all()) if bad else 0
-        return new_ok, new_bad
+                             .values(done=studies.c.done + n, failed=studies.c.failed + failed))
+        return n if new else 0
 
     def set_error(self, study_id: str, error: str) -> None:
         """Say why an active study is not progressing (cleared when a run starts)."""
@@ -374,26 +366,55 @@ class StudyStore:
             if not res.rowcount:
                 exists = conn.execute(sa.select(studies.c.id).where(studies.c.id == study_id)).first()
                 return "active" if exists else "missing"
-            conn.execute(results.delete().where(results.c.study_id == study_id))
+            conn.execute(chunks.delete().where(chunks.c.study_id == study_id))
             conn.execute(studies.delete().where(studies.c.id == study_id))
         return "deleted"
 
     # -- results --------------------------------------------------------------------------------
-    def results(self, study_id: str, offset: int = 0, limit: int = 1000) -> list[dict[str, Any]]:
-        q = (sa.select(results.c.idx, results.c.params, results.c.result, results.c.error)
-             .where(results.c.study_id == study_id).order_by(results.c.idx).offset(offset).limit(limit))
-        with self.engine.connect() as conn:
-            return [dict(r) for r in conn.execute(q).mappings()]
+    def _chunk_index(self, conn, study_id: str) -> tuple[list[int], list[int]]:
+        """(starts, cumulative point counts before each chunk) of a study's stored chunks, by start."""
+        starts, before, total = [], [], 0
+        for start, n in conn.execute(sa.select(chunks.c.start, chunks.c.n).where(chunks.c.study_id == study_id)
+                                     .order_by(chunks.c.start)):
+            starts.append(int(start))
+            before.append(total)
+            total += int(n)
+        before.append(total)
+        return starts, before
 
-    def iter_results(self, study_id: str, batch: int = 5000) -> Iterator[dict[str, Any]]:
-        """Every stored result in point order, read in batches (keyset on idx)."""
+    def results(self, study_id: str, offset: int = 0, limit: int = 1000) -> list[dict[str, Any]]:
+        """Stored points ``offset`` … ``offset + limit − 1`` in point order (an offset counts stored points, as
+        rows of a table would): only the chunks holding them are read."""
+        with self.engine.connect() as conn:
+            starts, before = self._chunk_index(conn, study_id)
+            if offset >= before[-1]:
+                return []
+            first = bisect.bisect_right(before, offset) - 1
+            last = bisect.bisect_left(before, offset + limit)      # chunks first … last − 1 hold the page
+            out: list[dict[str, Any]] = []
+            for k in range(first, min(last, len(starts))):
+                data = conn.execute(sa.select(chunks.c.data).where(chunks.c.study_id == study_id,
+                                                                   chunks.c.start == starts[k])).scalar_one()
+                lo = max(0, offset - before[k])
+                hi = min(before[k + 1], offset + limit) - before[k]
+                out.extend(decode_rows(starts[k], bytes(data), lo, hi))
+        return out
+
+    def iter_blocks(self, study_id: str, batch: int = 16) -> Iterator[tuple[int, bytes]]:
+        """(start, block bytes) of every stored chunk in point order, read ``batch`` chunks at a time (keyset on
+        start): bounded memory whatever the study's size."""
         last = -1
         while True:
-            q = (sa.select(results.c.idx, results.c.params, results.c.result, results.c.error)
-                 .where(results.c.study_id == study_id, results.c.idx > last).order_by(results.c.idx).limit(batch))
+            q = (sa.select(chunks.c.start, chunks.c.data)
+                 .where(chunks.c.study_id == study_id, chunks.c.start > last).order_by(chunks.c.start).limit(batch))
             with self.engine.connect() as conn:
-                rows = [dict(r) for r in conn.execute(q).mappings()]
+                rows = [(int(a), bytes(d)) for a, d in conn.execute(q)]
             if not rows:
                 return
             yield from rows
-            last = rows[-1]["idx"]
+            last = rows[-1][0]
+
+    def iter_results(self, study_id: str, batch: int = 16) -> Iterator[dict[str, Any]]:
+        """Every stored result in point order ({idx, params, result, error}), decoded a chunk at a time."""
+        for start, data in self.iter_blocks(study_id, batch):
+            yield from decode_rows(start, data)

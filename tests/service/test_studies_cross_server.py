@@ -41,7 +41,7 @@ def _query(db: Path, sql: str, *args):
 
 
 def _rows(db: Path, sid: str) -> int:
-    return _query(db, "SELECT count(*) FROM study_results WHERE study_id = ?", sid)[0]
+    return _query(db, "SELECT coalesce(sum(n), 0) FROM study_chunks WHERE study_id = ?", sid)[0]
 
 
 def _running_on(db: Path, sid: str, servers: list[Server], min_rows: int = 16) -> tuple[Server, Server]:

@@ -1,5 +1,5 @@
-"""Study exports and the encoded write path (issue 20): Parquet streams row groups in bounded memory, and a
-chunk encoded in the worker reads back exactly as one encoded by the store."""
+"""Study exports and blocks (issue 20): Parquet streams row groups in bounded memory, and a chunk's block reads
+back exactly the points it was made of."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import io
 
 import pyarrow.parquet as pq
 
-from service.studies.encode import encode_rows
+from service.studies.blocks import decode_rows, encode_block
 from service.studies.export import csv_chunks, parquet_bytes, parquet_chunks, scan_columns
 from service.studies.store import StudyStore
 
@@ -49,19 +49,48 @@ def test_csv_streams_in_batches():
     assert len(parts) == 3 and "".join(parts).count("\n") == 31
 
 
-def test_encoded_and_plain_chunks_read_back_the_same(tmp_path):
+def test_a_block_reads_back_exactly_what_was_evaluated(tmp_path):
+    """Floats bit for bit (inf, -0.0, subnormal), ints, bools, strings, None, a key missing at some points, a
+    key whose values mix int and float, and failed points, through the store and back."""
+    rows = [([1.0, 2.0], {"k": 1.5, "s": "x", "b": True, "n": None, "mix": 1}, None),
+            ([0.1, 3.0], None, "invalid device: mass must be > 0"),
+            ([1e-300, -0.0], {"k": 2.0000000000000004, "mix": 1.5, "only": "here"}, None),
+            ([5e-324, 7.0], {"k": float("inf"), "s": None, "b": False, "n": None, "mix": None, "big": 2**70}, None)]
+    block = encode_block(7, [v for v, _, _ in rows], [r for _, r, _ in rows], [e for _, _, e in rows])
+    assert (block.start, block.n, block.failed) == (7, 4, 1)
+    back = list(decode_rows(7, block.data))
+    assert [(r["idx"], r["params"], r["result"], r["error"]) for r in back] == [(7 + i, *row) for i, row in
+                                                                              enumerate(rows)]
+    assert all(type(a) is type(b) for r, (_, want, _) in zip(back, rows) if want
+               for a, b in zip(r["result"].values(), want.values()))
+    assert str(back[2]["params"][1]) == "-0.0" and list(back[3]["result"]) == list(rows[3][1])
+    assert [r["idx"] for r in decode_rows(7, block.data, 1, 3)] == [8, 9]
     store = StudyStore(f"sqlite:///{tmp_path / 's.db'}")
     store.migrate()
-    for sid in ("plain", "encoded"):
-        store.create(sid, "stability", {"sweep": {}}, total=4)
-    rows = [(0, "a" * 32, [1.0, 2.0], {"k": 1.5, "s": "x", "b": True, "n": None}, None),
-            (1, "b" * 32, [0.1, 3.0], None, "invalid device: mass must be > 0"),
-            (2, "c" * 32, [1e-300, -0.0], {"k": 2.0000000000000004}, None)]
-    assert store.write_chunk("plain", rows) == 3
-    assert store.write_chunk("encoded", encode_rows(rows)) == 3
-    assert store.write_chunk("encoded", encode_rows(rows[:2])) == 0      # a chunk that ran twice adds nothing
-    got = {sid: list(store.iter_results(sid)) for sid in ("plain", "encoded")}
-    assert got["plain"] == got["encoded"]
-    assert [(r["params"], r["result"], r["error"]) for r in got["encoded"]] == [(p, res, e) for _, _, p, res, e in rows]
-    assert (store.get("encoded")["done"], store.get("encoded")["failed"]) == (3, 1)
+    store.create("s", "stability", {"sweep": {}}, total=20)
+    assert store.write_chunk("s", block) == 4 and store.write_chunk("s", block) == 0
+    assert list(store.iter_results("s")) == back and store.results("s", 1, 2) == back[1:3]
+    assert (store.get("s")["done"], store.get("s")["failed"]) == (4, 1)
     store.dispose()
+
+
+def test_parquet_from_blocks_equals_parquet_from_rows():
+    """The column-by-column export of blocks writes the table the row export writes: keys first seen in a later
+    block, a key missing at some points, a key whose values mix int and float in one block and are ints in
+    another, an all-None key, failed points."""
+    from service.studies.blocks import read_schema
+    from service.studies.export import block_columns, flat_row, parquet_block_chunks
+
+    blocks = [encode_block(0, [[1.0], [2.0]], [{"k": 1.5, "mix": 1}, None], [None, "bad point"]),
+              encode_block(2, [[3.0], [4.0], [5.0]],
+                           [{"k": 2.0, "mix": 2.5, "late": True}, {"k": None, "none": None}, {"s": "x", "mix": 3}],
+                           [None, None, None]),
+              encode_block(9, [[6.0]], [{"mix": 7, "s": "y"}], [None])]
+    paths = ["device.delay"]
+    stored = [(b.start, b.data) for b in blocks]
+    rows = [flat_row(paths, r) for start, data in stored for r in decode_rows(start, data)]
+    cols, kinds = scan_columns(paths, rows)
+    assert block_columns(paths, [read_schema(d) for _, d in stored]) == (cols, kinds)
+    want = pq.read_table(io.BytesIO(parquet_bytes(cols, kinds, rows)))
+    got = pq.read_table(io.BytesIO(b"".join(parquet_block_chunks(cols, kinds, paths, stored, batch=2))))
+    assert got.equals(want) and got.to_pylist() == want.to_pylist()

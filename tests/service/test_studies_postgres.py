@@ -13,6 +13,7 @@ import pytest
 from alembic.autogenerate import compare_metadata
 from alembic.migration import MigrationContext
 
+from service.studies.blocks import encode_block
 from service.studies.executors import LocalExecutor
 from service.studies.runner import StudyRunner, plan_from_request
 from service.studies.store import StudyStore, metadata
@@ -37,10 +38,11 @@ def test_postgres_store_schema_and_idempotent_writes(pg_url):
     with store.engine.connect() as conn:
         assert compare_metadata(MigrationContext.configure(conn), metadata) == []
     store.create("p1", "stability", {"sweep": {}}, total=2)
-    rows = [(0, "a" * 32, [1.0], {"k": 0.1}, None), (1, "b" * 32, [2.0], None, "bad point")]
-    assert store.write_chunk("p1", rows) == 2
-    assert store.write_chunk("p1", rows) == 0
+    block = encode_block(0, [[1.0], [2.0]], [{"k": 0.1}, None], [None, "bad point"])
+    assert store.write_chunk("p1", block) == 2
+    assert store.write_chunk("p1", block) == 0
     assert (store.get("p1")["done"], store.get("p1")["failed"]) == (2, 1)
+    assert store.stored_chunks("p1") == [(0, 2, block.digest)] and store.results("p1", 1, 5)[0]["error"] == "bad point"
     assert store.delete("p1") == "active"      # queued: a coordinator may still take it
     assert store.cancel("p1") == "cancelled"
     assert store.delete("p1") == "deleted" and store.get("p1") is None

@@ -119,7 +119,7 @@ def test_sigkill_of_the_server_alone_leaves_no_process_and_resumes_once(tmp_path
         server.stop()
     import sqlite3
 
-    with sqlite3.connect(db) as conn:   # exactly once: as many rows as points, one per index
-        n, distinct = conn.execute("SELECT count(*), count(DISTINCT idx) FROM study_results WHERE study_id = ?",
-                                   (sid,)).fetchone()
-    assert n == distinct == 10000
+    with sqlite3.connect(db) as conn:   # exactly once: the stored chunks tile the points, none overlaps another
+        spans = conn.execute("SELECT start, n FROM study_chunks WHERE study_id = ? ORDER BY start", (sid,)).fetchall()
+    assert spans[0][0] == 0 and all(a + n == b for (a, n), (b, _) in zip(spans, spans[1:]))
+    assert sum(n for _, n in spans) == 10000

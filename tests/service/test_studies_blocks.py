@@ -1,0 +1,75 @@
+"""Chunks evaluated as columns (optim.studies.columns) against the per-point path, bit for bit (issue 20).
+
+The per-point path (optim.studies.problems.evaluate_chunk: a Device and a dict per point, the problem's own
+row functions) is the reference; the column path must give every point exactly the same results, errors
+and key order, whether the point is in a large chunk, a small one or alone.  Both are stored as blocks and
+compared decoded, by repr (NaN and -0.0 included).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from optim.studies.columns import evaluate_columns
+from optim.studies.problems import evaluate_chunk
+from service.studies.blocks import decode_rows, encode_block, evaluate_block
+
+RIGID = {"mass": 5.4, "damping": 3.5, "sample_time": 0.001}
+AXES = [("device.mass", "float"), ("device.damping", "float"), ("device.sample_time", "float"),
+        ("device.delay", "float"), ("requirements.damping", "float"), ("requirements.stiffness", "float")]
+
+
+def _points(seed: int, n: int) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    t = rng.choice([1e-3, 2.5e-4, 1e-6], n)
+    delay = np.where(rng.random(n) < 0.5, rng.integers(0, 21, n) * t, rng.uniform(0, 0.02, n))  # some > 10⁴ T
+    cols = [rng.uniform(1e-3, 50, n), np.where(rng.random(n) < 0.1, 0.0, rng.uniform(0, 20, n)), t, delay,
+            np.where(rng.random(n) < 0.2, 0.0, rng.uniform(0, 3000, n)), rng.uniform(10, 1e6, n)]
+    return np.column_stack(cols)
+
+
+def _rows_path(problem, device, req, axes, start, values):
+    out = evaluate_chunk(problem, device, req, axes, [(start + k, None, v) for k, v in enumerate(values.tolist())])
+    return encode_block(start, values, [o[3] for o in out], [o[4] for o in out])
+
+
+def _decoded(block) -> list[str]:
+    return [repr(r) for r in decode_rows(block.start, block.data)]
+
+
+@pytest.mark.parametrize("problem", ["critical_stiffness", "stability"])
+@pytest.mark.parametrize("seed", [0, 1])
+def test_columns_equal_the_per_point_path_bit_for_bit(problem, seed):
+    values = _points(seed, 300)
+    block = evaluate_block(problem, RIGID, {}, AXES, 40, values, "h")
+    handled, _, errors = evaluate_columns(problem, RIGID, {}, AXES, values, lambda rows: [])
+    # the column path took every point the device model accepts; the others (> 10,000 samples of delay) it left
+    assert np.array_equal(~handled, values[:, 3] / values[:, 2] > 10_000) and handled.sum() > 200
+    ref = _rows_path(problem, RIGID, {}, AXES, 40, values)
+    assert block.failed == ref.failed > 0                       # > 10,000 samples of delay: those points fail
+    assert _decoded(block) == _decoded(ref)
+    # any chunk: a point alone, or in another chunk, has the same row
+    alone = [evaluate_block(problem, RIGID, {}, AXES, 40 + i, values[i:i + 1], "h") for i in (0, 7, 123)]
+    odd = evaluate_block(problem, RIGID, {}, AXES, 41, values[1:50], "h")
+    rows = _decoded(ref)
+    assert [_decoded(b)[0] for b in alone] == [rows[0], rows[7], rows[123]]
+    assert _decoded(odd) == rows[1:50]
+
+
+@pytest.mark.parametrize("problem", ["critical_stiffness", "stability"])
+def test_base_requirements_and_a_grid_like_the_bench(problem):
+    """No wall stiffness (no margin, no passivity), then the bench's mass × delay grid with a base wall."""
+    values = _points(3, 80)[:, [0, 3]]
+    axes = [AXES[0], AXES[3]]
+    for req in ({}, {"damping": 2.0}, {"stiffness": 1500, "damping": 2.0}):
+        block = evaluate_block(problem, RIGID, req, axes, 0, values, "h")
+        assert _decoded(block) == _decoded(_rows_path(problem, RIGID, req, axes, 0, values))
+
+
+def test_chunks_the_columns_do_not_take():
+    """A cable device, a preset or another swept path go through the per-point path unchanged."""
+    v = np.array([[0.0], [0.001]])
+    assert evaluate_columns("stability", {"preset": "lhifam"}, {}, [("device.delay", "float")], v, None) is None
+    assert evaluate_columns("stability", RIGID, {}, [("device.human.mass", "float")], v, None) is None
+    assert evaluate_columns("stiffness", RIGID, {}, [("device.delay", "float")], v, None) is None
