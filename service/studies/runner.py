@@ -193,7 +193,9 @@ class StudyRunner:
             self._run_plan(study_id, row)
         except Exception as exc:
             # e.g. the Dask scheduler is unreachable: the study stays active and says why; the loop retries
-            self.store.set_error(study_id, f"retrying after {type(exc).__name__}: {exc}")
+            # the exception's text (hosts, ports, paths) goes to the log only; the study says the type
+            log.warning("study %s: run interrupted (%s: %s); retrying", study_id, type(exc).__name__, exc)
+            self.store.set_error(study_id, f"retrying after {type(exc).__name__} (the detail is in the server log)")
             raise
         finally:
             self.current = None
@@ -203,7 +205,9 @@ class StudyRunner:
         try:
             plan = plan_from_request(row["request"])
         except (StudyInputError, KeyError, TypeError) as exc:  # e.g. a design module removed from the build
-            self.store.finish(study_id, "failed", f"the stored request cannot be planned: {exc}", owner=self.owner)
+            log.warning("study %s: stored request cannot be planned: %r", study_id, exc)
+            why = f"{exc.field}: {exc.rule}" if isinstance(exc, StudyInputError) else f"{type(exc).__name__} (see the log)"
+            self.store.finish(study_id, "failed", f"the stored request cannot be planned: {why}", owner=self.owner)
             return
         executor = self._executor()
         args = (plan.problem, dict(plan.device), dict(plan.requirements), [(a.path, a.kind) for a in plan.axes])
@@ -249,10 +253,11 @@ class StudyRunner:
                     if attempt >= _MAX_ATTEMPTS:
                         executor.cancel(set(pending))
                         self.store.finish(study_id, "failed",
-                                          f"a chunk failed {attempt} times: {type(exc).__name__}: {exc}",
+                                          f"a chunk failed {attempt} times ({type(exc).__name__}; the "
+                                          "detail is in the server log)",
                                           owner=self.owner)
                         return
-                    log.warning("study %s: chunk failed (%s), resubmitting", study_id, exc)
+                    log.warning("study %s: chunk failed (%s: %s), resubmitting", study_id, type(exc).__name__, exc)
                     retry = executor.submit(evaluate_block, *args, *chunk)
                     pending[retry], started[retry] = (chunk, attempt + 1), time.monotonic()
                     continue

@@ -90,7 +90,9 @@ def test_a_chunk_that_keeps_failing_fails_the_study(tmp_path):
     runner.run_until_idle(timeout=30)
     runner.stop()
     row = store.get(sid)
-    assert row["status"] == "failed" and "worker lost" in row["error"] and row["done"] == 0
+    # the exception's type is said, its text (internal names, paths) stays in the log
+    assert row["status"] == "failed" and row["done"] == 0
+    assert "failed 3 times" in row["error"] and "worker lost" not in row["error"] and "server log" in row["error"]
     assert executor.calls >= 3  # retried before giving up
 
 
@@ -108,7 +110,8 @@ def test_an_unreachable_executor_leaves_the_study_active_with_the_reason(tmp_pat
     finally:
         runner.stop()
     row = store.get(sid)
-    assert row["status"] == "running" and "Timed out trying to connect" in row["error"]
+    # the reason's type is said; the scheduler's address stays in the server log
+    assert row["status"] == "running" and "OSError" in row["error"] and "10.0.0.1" not in row["error"]
     assert row["done"] == 0
 
 
