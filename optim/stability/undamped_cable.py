@@ -21,9 +21,9 @@ d + 1 samples, turning its damping negative at the cable mode.
 
 So: outwards and B below the first true damper crossover β₁: K_cr = 0 (no pole can come back in before β₁);
 inwards: B_max = β₁ and K_cr is the smallest true crossover.  Every other case (B ≥ β₁ after an outward departure,
-a departure along the circle, a mode aliased onto z = ±1) and every answer the closed loop
-(optim.verification, eigenvalues or the argument principle) does not confirm is refused: InputError on
-``device.cable`` with the reason, never a number double precision cannot vouch for.
+a departure along the circle, a mode aliased onto z = ±1) is decided by the closed loop at a small K or refused, and
+every answer the closed loop (optim.verification, eigenvalues or the argument principle) contradicts is refused:
+InputError on ``device.cable`` with the reason.
 """
 
 from __future__ import annotations
@@ -98,11 +98,13 @@ def departs_outwards(h_damper: Callable[[np.ndarray], np.ndarray], theta_n: floa
 def confirm_or_refuse(device: Device, damping: float, critical: float, next_crossing: float | None = None) -> None:
     """The closed loop (optim.verification: eigenvalues, else the argument principle) must confirm K_cr = ``critical``
     (0: unstable at a small K; a finite K: stable just below, unstable just above; inf, which no finite set of gains
-    proves: not contradicted by a large K); otherwise the refusal."""
+    proves: not contradicted by a large K); a contradiction is refused.  Where the closed loop cannot decide either
+    (K_cr → 0 next to B_max, or B → 0: poles within rounding of the circle) the answer stands as it does for a damped
+    device, and ``verify`` says not checkable."""
     from optim.verification import verify_critical_stiffness
 
     v = verify_critical_stiffness(device, damping, critical, next_crossing=next_crossing)
-    if v.verdict != "confirmed" and not (math.isinf(critical) and v.verdict == "not_checkable"):
+    if v.verdict == "contradicted":
         what = ("no positive stiffness is stable" if critical == 0.0 else "every positive stiffness is stable"
                 if math.isinf(critical) else f"K_cr = {critical:.6g} N/m")
         raise refuse(f"the crossover scan says {what} at B = {damping:.6g} N·s/m, but the closed loop does not "
