@@ -19,6 +19,7 @@ from pydantic import Field, TypeAdapter, ValidationError
 from models.device import Device
 from models.plants import Q_criterion
 from optim.errors import InputError, from_validation
+from optim.stability.crossovers import LOG_MIN_SAMPLES, LOG_PER_DECADE, _refine, theta_min
 from optim.stability.margins import (
     Crossover,
     critical_stiffness,
@@ -153,11 +154,33 @@ def grid_critical_stiffness(device: Device, damping: float, points: int) -> tupl
     kcr = found[j].stiffness
     blind = grid_blind_spot(device, theta) is not None
     err = math.inf if blind or grid_unresolved(h, device.delta + beta, kcr / device.stiffness_scale) else errs[j]
+    if math.isfinite(err) and _crossing_below(plant, device, beta, theta[0], kcr / device.stiffness_scale * (1 + err)):
+        err = math.inf
     if damping > 0 and damping >= max_stable_damping(device):
         # At or above B_max no K > 0 is stable (K_cr = 0), yet a grid still finds positive crossings: its answer
         # is then unbounded, not "exact at the Nyquist sample" (1.8 % of a 10,000-device verify run said so).
         err = math.inf
     return kcr, found[j].frequency, tuple(found), err
+
+
+def _crossing_below(plant, device: Device, beta: float, theta0: float, alpha: float) -> bool:
+    """Whether a crossover with K below α (dimensionless) lies under the grid's lowest angle θ₀: H sampled on a log
+    grid from the scan's lowest angle (optim.stability.crossovers.theta_min) to θ₀, refined where arg H turns.
+
+    The parity test of ``grid_unresolved`` sees an odd number of them; an even number (the mass-damper crossover
+    and one a broad cable mode puts there, neither mode below the grid itself) leaves it blind: a cable with
+    k_c = 11.8 N/m, T = 0.24 ms and 388 samples of delay had crossovers at 6e-6 and 8.7e-4 rad per sample under
+    θ₀ = 1e-3, K_cr 4.3e-4 N/m, and the grid answered 15.81 with a 1.1 % estimate (docs/properties_analysis.md)."""
+    lo = float(theta_min(device.delta + beta, device.delay_samples))
+    if lo >= theta0:
+        return False
+    grid = np.geomspace(lo, theta0, max(LOG_MIN_SAMPLES, int(LOG_PER_DECADE * math.log10(theta0 / lo)) + 2))
+    grid, h = _refine(lambda t: -plant.inverse_response(t) + beta * np.expm1(-1j * t), grid)
+    im, re = h.imag, h.real
+    change = (np.sign(im[:-1]) * np.sign(im[1:]) <= 0) & ((im[:-1] != 0) | (im[1:] != 0))
+    # the crossing's K lies between the bracket's ends (refined: arg H turns < 0.25 rad across it)
+    k_low = np.minimum(np.where(re[:-1] > 0, re[:-1], np.inf), np.where(re[1:] > 0, re[1:], np.inf))
+    return bool(np.any(change & (k_low < alpha)))
 
 
 def _modes(device: Device) -> list[tuple[float, float, str]]:
@@ -272,7 +295,8 @@ def _grid_rung(device: Device, damping: float, grid_points: int) -> RungAnswer:
     return RungAnswer(kcr, w, crossovers, err, (
         f"the whole change of K across the bracketing grid interval ({grid_points} log-spaced ω from 1e-3/T "
         "to π/T); null (unbounded) when the grid's samples show missed crossovers: Im H > 0 at its lowest "
-        "ω, or arg H turning > π/2 between samples where Re H is below the answer, or (from the device) a "
+        "ω, or arg H turning > π/2 between samples where Re H is below the answer, or a crossover with a lower K "
+        "under its lowest ω (H sampled there on a refined log grid), or (from the device) a "
         "cable resonance/anti-resonance below the grid or narrower than its spacing, or the delay winding "
         "the phase by π below it"))
 

@@ -28,6 +28,14 @@ from optim.errors import InputError
 from optim.stability.crossovers import Crossing, positive_real_crossings, scan_grid, theta_min
 from optim.stability.fast_cable import bounded_min_crossing
 from optim.stability.fast_rigid import fast_beta_max, fast_rigid, rigid_crossovers
+from optim.stability.undamped_cable import (
+    confirm_or_refuse,
+    departs_outwards,
+    is_undamped_cable,
+    stable_at_small_k,
+    true_crossings,
+)
+from optim.stability.undamped_cable import refuse as undamped_refusal
 
 __all__ = ["Crossover", "CriticalStiffness", "critical_stiffness", "scan_critical_stiffness", "max_stable_damping",
            "linear_estimate", "gain_margin_db", "loop_plant"]
@@ -119,6 +127,8 @@ def _damper_crossings(device: Device, plant) -> list[Crossing]:
 def max_stable_damping(device: Device) -> float:
     """B_max [N·s/m]: the damper-only loop's critical gain; no K > 0 is stable at or above it."""
     plant = loop_plant(device)
+    if is_undamped_cable(device):
+        return _undamped_max_stable_damping(device, plant)
     if isinstance(plant, RigidZOH):
         fast = fast_beta_max(plant)
         if fast is not None:
@@ -155,9 +165,8 @@ def critical_stiffness(device: Device, damping: float = 0.0, *, b_max: float | N
         return CriticalStiffness(0.0, None, (), damping, 0.0,
                                  reason="no physical or virtual damping: no positive stiffness is stable "
                                         "(linear condition α < 2(δ+β)/(1+2d) with δ = β = 0)")
-    dead = _undamped_mode_driven_out(device, damping)
-    if dead is not None:
-        return CriticalStiffness(0.0, None, (), damping, b_max, reason=dead)
+    if is_undamped_cable(device):
+        return _undamped(device, plant, damping)
     if isinstance(plant, RigidZOH):
         fast = _fast(device, plant, damping, b_max)
         if fast is not None:
@@ -167,26 +176,65 @@ def critical_stiffness(device: Device, damping: float = 0.0, *, b_max: float | N
     return scan_critical_stiffness(device, damping, b_max=b_max)
 
 
-def _undamped_mode_driven_out(device: Device, damping: float) -> str | None:
-    """The reason no K > 0 is stable when a cable with every damping 0 is unstable at K → 0⁺ for this B, else None.
+def _undamped_damper(device: Device, plant) -> tuple[bool | None, float]:
+    """A cable with every damping 0 (optim.stability.undamped_cable): whether B → 0⁺ drives its mode out of the unit
+    circle (None: along it), and β₁·m/T, the damper-only loop's first true crossover [N·s/m] (inf when none)."""
+    def h(theta: np.ndarray) -> np.ndarray:
+        return -plant.inverse_response(theta) / (-np.expm1(-1j * theta))
+    modes = [a for a in plant.pole_angles() if a > 0.0]
+    if not modes:
+        raise undamped_refusal("the cable mode is aliased onto z = 1: whether virtual damping stabilises it cannot "
+                               "be decided")
+    found = true_crossings(h, positive_real_crossings(h, _grid(device, plant, 0.0)), modes)
+    beta1 = min((c.value for c in found), default=math.inf) * device.damping_scale
+    return departs_outwards(h, modes[0]), beta1
 
-    The module docstring's premise (the damper-only loop is stable below B_max) fails when the cable mode sits on
-    the unit circle: any B > 0 moves its poles off the circle, outwards when the delay turns the damper's phase
-    the wrong way, and no crossover marks that.  So for such a cable the closed loop at K = 10⁻⁶ of the linear
-    estimate and this B is counted by the argument principle (optim.stability.closed_loop.unstable_count)."""
-    cb = device.cable
-    if cb is None or damping <= 0.0 or cb.motor_damping or cb.body_damping or cb.damping:
-        return None
-    from optim.stability.closed_loop import sampled_plant, unstable_count
 
+def _undamped_max_stable_damping(device: Device, plant) -> float:
+    outwards, beta1 = _undamped_damper(device, plant)
+    if outwards is None:
+        raise undamped_refusal("virtual damping moves the cable mode along the unit circle (to double precision): "
+                               "the largest stable virtual damping cannot be decided without a given B")
+    return 0.0 if outwards else beta1
+
+
+def _undamped(device: Device, plant, damping: float) -> CriticalStiffness:
+    """K_cr(B) of a cable with every damping 0 and B > 0 (optim.stability.undamped_cable: the scan, its false roots
+    removed, the answer held to the closed loop or refused)."""
+    outwards, beta1 = _undamped_damper(device, plant)
+    b_max = None if outwards is None else 0.0 if outwards else beta1
+    if outwards and damping < beta1:
+        return CriticalStiffness(0.0, None, (), damping, b_max, reason=(
+            f"with every cable damping 0 the cable mode is on the unit circle, and virtual damping B = {damping:.6g} "
+            "N·s/m drives it outwards through the delay (root-locus departure), below the damper-only loop's first "
+            f"crossover at {beta1:.6g} N·s/m: no positive stiffness is stable"))
+    if outwards is False and damping >= beta1:
+        confirm_or_refuse(device, damping, 0.0)
+        return CriticalStiffness(0.0, None, (), damping, b_max, reason=_dead_reason(damping, beta1))
+    if outwards is not False and not stable_at_small_k(device, damping):
+        # along the circle, or outwards and past β₁: the closed loop at a small K decided it
+        return CriticalStiffness(0.0, None, (), damping, b_max, reason=(
+            f"with every cable damping 0, virtual damping B = {damping:.6g} N·s/m leaves the cable mode outside the "
+            "unit circle (closed-loop eigenvalues at a small K): no positive stiffness is stable"))
+    if outwards:
+        raise undamped_refusal(f"virtual damping drives the cable mode out below {beta1:.6g} N·s/m and brings it back "
+                               f"in at B = {damping:.6g} N·s/m: such a window of stable B is not analysed")
     beta = damping / device.damping_scale
-    alpha = 1e-6 * 2.0 * beta / (1.0 + 2.0 * device.delay_samples)
-    count = unstable_count(device, sampled_plant(device), alpha, beta)
-    if count.count is None or count.count == 0:
-        return None
-    return (f"with every cable damping 0 the cable mode is on the unit circle, and virtual damping B = {damping:.6g} "
-            f"N·s/m drives it outwards through the delay: {count.count} closed-loop poles outside the unit circle "
-            "as K → 0⁺ (argument principle), so no positive stiffness is stable")
+
+    def h(theta: np.ndarray) -> np.ndarray:
+        return -plant.inverse_response(theta) + beta * np.expm1(-1j * theta)
+
+    found = true_crossings(h, positive_real_crossings(h, _grid(device, plant, beta)))
+    scale, t = device.stiffness_scale, device.sample_time
+    crossovers = tuple(Crossover(frequency=c.angle / t, stiffness=c.value * scale) for c in found)
+    if not crossovers:
+        confirm_or_refuse(device, damping, math.inf)
+        return CriticalStiffness(math.inf, None, (), damping, b_max,
+                                 reason="no phase crossover: every positive stiffness is stable")
+    best = min(crossovers, key=lambda c: c.stiffness)
+    above = [c.stiffness for c in crossovers if c.stiffness > best.stiffness * (1 + 1e-9)]
+    confirm_or_refuse(device, damping, best.stiffness, min(above, default=None))
+    return CriticalStiffness(best.stiffness, best.frequency, crossovers, damping, b_max)
 
 
 def _bounded(device: Device, plant: StateSpaceZOH, damping: float, b_max: float | None) -> CriticalStiffness:
@@ -267,15 +315,14 @@ def scan_critical_stiffness(device: Device, damping: float = 0.0, *, b_max: floa
         return CriticalStiffness(0.0, None, (), damping, 0.0,
                                  reason="no physical or virtual damping: no positive stiffness is stable "
                                         "(linear condition α < 2(δ+β)/(1+2d) with δ = β = 0)")
+    if is_undamped_cable(device):
+        return _undamped(device, plant, damping)
     if damping > 0.0:
         b_max = max_stable_damping(device) if b_max is None else b_max
     else:
         b_max = None
     if b_max is not None and damping >= b_max:
         return CriticalStiffness(0.0, None, (), damping, b_max, reason=_dead_reason(damping, b_max))
-    dead = _undamped_mode_driven_out(device, damping)
-    if dead is not None:
-        return CriticalStiffness(0.0, None, (), damping, b_max, reason=dead)
 
     def h(theta: np.ndarray) -> np.ndarray:
         return -plant.inverse_response(theta) + beta * np.expm1(-1j * theta)

@@ -109,6 +109,32 @@ def _bisect(h, lo, hi, digits: int):
     return (lo + hi) / 2
 
 
+#: the largest turn of arg H between neighbouring samples after refinement [rad], and the bisection rounds allowed
+_MAX_TURN = 0.5
+_REFINE_ROUNDS = 40
+
+
+def _refine(h, pts: list[float], vals: list) -> tuple[list[float], list]:
+    """Bisect every interval where arg H turns by more than :data:`_MAX_TURN`: two crossings between samples
+    (H passing close to the origin, as near B_max where K_cr → 0) turn arg H by ~π and are then bracketed apart.
+    A fixed grid missed one 1.1e-3 rad wide (crossovers at θ = 0.1317 and 0.1328 on a 2.2e-3 rad grid: K_cr
+    78.34 against the true 2.398, tests/optim/stability/test_reference.py)."""
+    for _ in range(_REFINE_ROUNDS):
+        new_pts, new_vals, split = [pts[0]], [vals[0]], False
+        for p0, v0, p1, v1 in zip(pts, vals, pts[1:], vals[1:]):
+            if p1 - p0 > 1e-13 * p1 and (v0 == 0 or v1 == 0 or abs(mp.arg(v1 / v0)) > _MAX_TURN):
+                mid = 0.5 * (p0 + p1)
+                new_pts.append(mid)
+                new_vals.append(h(mp.mpf(mid)))
+                split = True
+            new_pts.append(p1)
+            new_vals.append(v1)
+        pts, vals = new_pts, new_vals
+        if not split:
+            break
+    return pts, vals
+
+
 def _scan(h, device: Device, beta: float, digits: int) -> list[tuple[float, float]]:
     """Every θ in (0, π] with h(θ) real and positive, bisected to ``digits`` digits."""
     damp = device.delta + beta
@@ -126,7 +152,7 @@ def _scan(h, device: Device, beta: float, digits: int) -> list[tuple[float, floa
             centre = 2 * math.pi - centre if centre > math.pi else centre
             pts += [centre * (1 + s * 10 ** (-e / 4)) for e in range(0, 40) for s in (-1, 1)]
     pts = sorted(p for p in set(pts) if lo <= p <= math.pi)
-    vals = [h(mp.mpf(p)) for p in pts]
+    pts, vals = _refine(h, pts, [h(mp.mpf(p)) for p in pts])
     found: list[tuple[float, float]] = []
     for (p0, v0), (p1, v1) in zip(zip(pts, vals), zip(pts[1:], vals[1:])):
         if mp.sign(mp.im(v0)) * mp.sign(mp.im(v1)) < 0 and (mp.re(v0) > 0 or mp.re(v1) > 0):

@@ -113,3 +113,61 @@ def eq12_roots_mp(delta, alpha, beta, d: int, digits: int = 40):
         poly[deg - 1] += (1 - eps - dl * eps) * (al + be) + (1 - eps - dl) * be
         poly[deg] += -(1 - eps - dl * eps) * be
         return mp.polyroots(poly[::-1], maxsteps=400, extraprec=4 * digits, asc=True)
+
+
+def radius_excess_mp(device, stiffness: float, damping: float, digits: int = 50):
+    """max |z| − 1 over the closed-loop poles of the wall (K, B) on a cable or rigid device, in ``digits``-digit
+    mpmath: physical coordinates, the ZOH (and a fractional delay) from mpmath matrix exponentials, the whole delay as
+    a shift register, the eigenvalues by mp.eig.  For a few samples of delay (the matrix grows with it)."""
+    with mp.workdps(digits):
+        m, t = mp.mpf(device.mass), mp.mpf(device.sample_time)
+        if device.cable is None:
+            a = mp.matrix([[0, 1], [0, -mp.mpf(device.damping) * t / m]])
+            b = mp.matrix([0, 1])
+        else:
+            c = device.cable
+            mr, md = mp.mpf(c.motor_mass) / m, mp.mpf(c.body_mass) / m
+            br, bd, bc = (mp.mpf(v) * t / m for v in (c.motor_damping, c.body_damping, c.damping))
+            k = mp.mpf(c.stiffness) * t * t / m
+            a = mp.matrix([[0, 0, 1, 0], [0, 0, 0, 1],
+                           [-k / mr, k / mr, -(br + bc) / mr, bc / mr],
+                           [k / md, -k / md, bc / md, -(bd + bc) / md]])
+            b = mp.matrix([0, 0, 1 / mr, 0])
+        n = a.rows
+
+        def aug(sigma):
+            big = mp.zeros(n + 1, n + 1)
+            for i in range(n):
+                for j in range(n):
+                    big[i, j] = a[i, j] * sigma
+                big[i, n] = b[i] * sigma
+            e = mp.expm(big)
+            return e[0:n, 0:n], e[0:n, n]
+
+        d, f = split(device.delay_samples)
+        f = mp.mpf(f)
+        phi, _ = aug(mp.mpf(1))
+        e0, g0 = aug(1 - f)
+        g1 = e0 * aug(f)[1] if f > 0 else mp.zeros(n, 1)
+        alpha, beta = mp.mpf(stiffness) * t * t / m, mp.mpf(damping) * t / m
+        size = n + 1 + d + 1
+        q = mp.zeros(size, size)
+        u = [mp.mpf(0)] * size                      # u[k] as a row over [x, y[k−1], u[k−1], …, u[k−d−1]]
+        u[0] = -(alpha + beta)
+        u[n] = beta
+        buf = n + 1
+        for i in range(n):
+            for j in range(n):
+                q[i, j] = phi[i, j]
+            if d == 0:
+                for j in range(size):
+                    q[i, j] += g0[i] * u[j]
+            else:
+                q[i, buf + d - 1] += g0[i]
+            q[i, buf + d] += g1[i]
+        q[n, 0] = 1
+        for j in range(size):
+            q[buf, j] = u[j]
+        for j in range(1, d + 1):
+            q[buf + j, buf + j - 1] = 1
+        return max(abs(z) - 1 for z in mp.eig(q, left=False, right=False))
