@@ -108,6 +108,19 @@ def _p_slopes(theta: np.ndarray, d: int, hk: float, damping: float) -> tuple[np.
     return hk * ds + damping * e * np.sin(e * theta), hk * dds + damping * e * e * np.cos(e * theta)
 
 
+def _p_slopes_at(t: float, d: int, hk: float, damping: float) -> tuple[float, float]:
+    """``_p_slopes`` at one θ: the same sums, in plain floats up to 32 terms (array calls cost more there)."""
+    if d > 32:
+        fa, fpa = _p_slopes(np.array([t]), d, hk, damping)
+        return float(fa[0]), float(fpa[0])
+    ds = dds = 0.0
+    for k in range(1, d + 1):
+        ds += k * math.sin(k * t)
+        dds += k * k * math.cos(k * t)
+    e = d + 1.0
+    return hk * (-2.0 * ds) + damping * e * math.sin(e * t), hk * (-2.0 * dds) + damping * e * e * math.cos(e * t)
+
+
 def _polish_max(d: int, hk: float, damping: float, lo: np.ndarray, hi: np.ndarray, x: np.ndarray) -> np.ndarray:
     """The local maximum of P inside each [lo, hi] (from the start ``x``): Newton on P' = 0 kept inside the
     bracket by bisection.  Rows whose bracket holds no interior maximum (P' does not go from + to −) return
@@ -121,8 +134,7 @@ def _polish_max(d: int, hk: float, damping: float, lo: np.ndarray, hi: np.ndarra
     for i in np.flatnonzero(live):   # one or two rows in practice: scalar steps beat array bookkeeping
         a, b, t = float(lo[i]), float(hi[i]), float(x[i])
         for _ in range(100):
-            fa, fpa = _p_slopes(np.array([t]), d, hk, damping)
-            f, fp = float(fa[0]), float(fpa[0])
+            f, fp = _p_slopes_at(t, d, hk, damping)
             if f == 0.0:
                 break
             if f > 0:
@@ -143,6 +155,41 @@ def _polish_max(d: int, hk: float, damping: float, lo: np.ndarray, hi: np.ndarra
     return out
 
 
+#: where the general path puts the maximum of a constant P (d = 0, B = 0): the first of np.argpartition's top three
+_FLAT_WORST_ANGLE = float(_grid(0)[np.argpartition(np.zeros(_grid(0).size), 2)[0]])
+
+
+def _passivity_prefix(d: int, n: int, hk: float, damping: float) -> tuple[np.ndarray, np.ndarray, float]:
+    """(θ, P(θ)) on the part of ``_grid(d)`` (n samples) where P may reach its maximum, and P(π).
+
+    s_d = sin((d+1)θ)·cot(θ/2) − cos((d+1)θ), so P = hk·cot(θ/2)·sin u − (hk + B)·cos u with u = (d+1)θ, and
+    P(θ) ≤ E(θ) = √(hk²·cot²(θ/2) + (hk + B)²), which falls with θ.  With V the largest of P(π) and the first
+    samples (the first lobes), every sample past θ_c = 2·atan(hk/√(V² − (hk + B)²)) lies below V: it can neither
+    be the maximum nor refine to it.  The kept samples are the grid's own (linspace's arange·step), two past θ_c
+    so that each kept maximum has both grid neighbours."""
+    step = math.pi / (n - 1)
+
+    def samples(lo: int, hi: int) -> tuple[np.ndarray, np.ndarray]:
+        theta = np.arange(lo, hi) * step
+        if hi == n:
+            theta[-1] = math.pi                              # as linspace sets its end point
+        s, c = kernel(theta, d)
+        return theta, hk * s - damping * c
+
+    s_pi, c_pi = kernel(np.array([math.pi]), d)
+    v_pi = float(hk * s_pi[0] - damping * c_pi[0])
+    first = min(n, 3 * 64 + 3)
+    grid, vals = samples(0, first)
+    v_low, c = max(float(vals.max()), v_pi), hk + damping
+    keep = n
+    if v_low > c:
+        keep = min(n, int(2.0 * math.atan(hk / math.sqrt((v_low - c) * (v_low + c))) / step) + 3)
+    if keep > first:
+        more_t, more_v = samples(first, keep)
+        grid, vals = np.concatenate([grid, more_t]), np.concatenate([vals, more_v])
+    return grid, vals, v_pi
+
+
 def passivity_margin(device: Device, stiffness: float, damping: float) -> PassivityCheck:
     """sup over θ ∈ (0, π] of P(θ), compared with the physical damping b.
 
@@ -151,9 +198,20 @@ def passivity_margin(device: Device, stiffness: float, damping: float) -> Passiv
     ≈ 0.3-1 ms) with the same answer: tests/optim/stability/test_passivity_fast.py holds the two to 1e-12."""
     d, conservative = passivity_samples(device)
     hk = stiffness * device.sample_time / 2
-    grid = _grid(d)
-    s, c = kernel(grid, d)
-    vals = hk * s - damping * c
+    if d == 0 and damping > 0.0:
+        # eq. 3: s_0 = 1 exactly (the grid's samples too), so P = hk + B·(−cos θ) peaks at θ = π, the grid's
+        # last sample, which no refinement exceeds: the general path's answer, bit for bit
+        return PassivityCheck(device.damping > hk + damping, hk + damping, d, conservative, math.pi)
+    if damping == 0.0 and d > 0:
+        # |s_d| < 2d + 1 = s_d(0) away from θ = 0: the sup is the grid's first sample, which no refinement exceeds
+        # (the general path's answer, bit for bit)
+        v = hk * (2 * d + 1.0) - 0.0
+        return PassivityCheck(device.damping > v, v, d, conservative, 0.0)
+    if d == 0 and damping == 0.0:
+        # P = hk on every sample: the general path's answer is hk at the angle its partition happens to list first
+        return PassivityCheck(device.damping > hk, hk, d, conservative, _FLAT_WORST_ANGLE)
+    n = 64 * (d + 1) + 257
+    grid, vals, v_pi = _passivity_prefix(d, n, hk, damping)
     top = np.argpartition(-vals, 2)[:3] if vals.size > 3 else np.arange(vals.size)
     i_lo, i_hi = np.maximum(top - 1, 0), np.minimum(top + 1, grid.size - 1)
     lo, hi = grid[i_lo], grid[i_hi]
@@ -167,8 +225,8 @@ def passivity_margin(device: Device, stiffness: float, damping: float) -> Passiv
     s_ref, c_ref = kernel(t_ref, d)
     v_ref = hk * s_ref - damping * c_ref
     # the grid samples stay candidates (θ = 0 and π are ends no interior refinement reaches)
-    cand_t = np.concatenate([grid[top], t_ref])
-    cand_v = np.concatenate([vals[top], v_ref])
+    cand_t = np.concatenate([grid[top], t_ref, [math.pi]])
+    cand_v = np.concatenate([vals[top], v_ref, [v_pi]])
     j = int(np.argmax(cand_v))
     v_best, t_best = float(cand_v[j]), float(cand_t[j])
     return PassivityCheck(device.damping > v_best, v_best, d, conservative, t_best)
