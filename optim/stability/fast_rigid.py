@@ -186,14 +186,22 @@ def _solve(fun, level: float, lo: float, hi: float, x: float) -> float:
 def polish(plant: RigidZOH, beta: float, t: float) -> float:
     """One secant step on Im H (the scan's own function) from the root t of F̃: near β_max, K moves by
     ~1e-12 per ulp of θ, and Im H pins θ a few ulp closer than F̃'s sum of arguments does."""
+    return polish_h(plant, beta, t)[0]
+
+
+def polish_h(plant: RigidZOH, beta: float, t: float) -> tuple[float, complex]:
+    """``polish`` and H at the θ it returns (its K is Re H: ``re_h`` without evaluating H again)."""
     h = 64.0 * _EPS * t
-    f0, f1 = _h(plant, beta, t).imag, _h(plant, beta, t + h).imag
+    v0 = _h(plant, beta, t)
+    f0, f1 = v0.imag, _h(plant, beta, t + h).imag
     if f1 == f0 or f0 == 0.0:
-        return t
+        return t, v0
     t1 = t - f0 * h / (f1 - f0)
-    if abs(t1 - t) <= 8.0 * _EPS * t and t1 < math.pi and abs(_h(plant, beta, t1).imag) < abs(f0):
-        return t1
-    return t
+    if abs(t1 - t) <= 8.0 * _EPS * t and t1 < math.pi:
+        v1 = _h(plant, beta, t1)
+        if abs(v1.imag) < abs(f0):
+            return t1, v1
+    return t, v0
 
 
 def re_h(plant: RigidZOH, beta: float, t: float) -> float:
@@ -300,8 +308,8 @@ def fast_rigid(plant: RigidZOH, beta: float, beta_max: float | None = None,
     if not fk > 0.0:
         return None                           # no K crossover below θ_r (or β_max rounded the other way)
     t = _solve(lambda x: _k_eq(L, beta, x), 0.0, 0.0, hi, _start(L, L.omp + beta, _HALF_PI, hi))
-    t = polish(plant, beta, t)
-    return FastRigid(re_h(plant, beta, t), t, bmax)
+    t, h_t = polish_h(plant, beta, t)
+    return FastRigid(h_t.real, t, bmax)
 
 
 def rigid_crossovers(plant: RigidZOH, beta: float, first: tuple[float, float], tail,
@@ -324,9 +332,12 @@ def rigid_crossovers(plant: RigidZOH, beta: float, first: tuple[float, float], t
         k = 1
         while 2.0 * math.pi * k < top:
             level = 2.0 * math.pi * k
-            t = _solve(lambda x: _k_eq(L, beta, x), level, lo, tr, min(lo + step, 0.5 * (lo + tr)))
-            t = polish(plant, beta, t)
-            out.append((t, re_h(plant, beta, t)))
+            # from the second level on, the last spacing of the roots (F̃ is nearly linear there): Newton then
+            # starts a few digits from the root
+            start = lo + step if k == 1 else min(lo + (lo - out[-2][0]), 0.5 * (lo + tr))
+            t = _solve(lambda x: _k_eq(L, beta, x), level, lo, tr, min(start, 0.5 * (lo + tr)))
+            t, h_t = polish_h(plant, beta, t)
+            out.append((t, h_t.real))
             lo, k = t, k + 1
     for t, a in tail(tr):
         if all(abs(t - u) > 1e-12 * t for u, _ in out):
