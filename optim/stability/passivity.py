@@ -34,6 +34,7 @@ __all__ = ["PassivityCheck", "PassiveStiffness", "passivity_samples", "kernel", 
            "is_passive", "max_passive_stiffness", "largest_passive_stiffness", "passive_alpha_on_grid",
            "batch_required_damping"]
 
+_EPS = float(np.finfo(float).eps)
 _GOLDEN_STEPS = 80         # a bracket of 2 grid steps shrinks by 0.618⁸⁰ ≈ 2e-17: θ to the last bit
 
 
@@ -121,38 +122,35 @@ def _p_slopes_at(t: float, d: int, hk: float, damping: float) -> tuple[float, fl
     return hk * (-2.0 * ds) + damping * e * math.sin(e * t), hk * (-2.0 * dds) + damping * e * e * math.cos(e * t)
 
 
-def _polish_max(d: int, hk: float, damping: float, lo: np.ndarray, hi: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """The local maximum of P inside each [lo, hi] (from the start ``x``): Newton on P' = 0 kept inside the
-    bracket by bisection.  Rows whose bracket holds no interior maximum (P' does not go from + to −) return
-    their start, which the caller's comparison with the grid samples discards."""
-    n = lo.size
+def _polish_max(d: int, hk: float, damping: float, a: float, b: float, t: float) -> float:
+    """The local maximum of P inside [a, b] (from the start ``t``): Newton on P' = 0 kept inside the bracket by
+    bisection.  A bracket that holds no interior maximum (P' does not go from + to −) returns its start, which
+    the caller's comparison with the grid samples discards."""
     # the sign of P' just inside each end: P'(0) = P'(π) = 0 by symmetry, so there the curvature decides
-    f_end, c_end = _p_slopes(np.concatenate([lo, hi]), d, hk, damping)
-    live = np.where(lo == 0.0, c_end[:n] > 0, f_end[:n] > 0) & np.where(hi == math.pi, c_end[n:] > 0, f_end[n:] < 0)
-    out = x.astype(float)
-    eps4 = 4 * np.finfo(float).eps
-    for i in np.flatnonzero(live):   # one or two rows in practice: scalar steps beat array bookkeeping
-        a, b, t = float(lo[i]), float(hi[i]), float(x[i])
-        for _ in range(100):
-            f, fp = _p_slopes_at(t, d, hk, damping)
-            if f == 0.0:
+    fa, ca = _p_slopes_at(a, d, hk, damping)
+    fb, cb = _p_slopes_at(b, d, hk, damping)
+    if not ((ca > 0 if a == 0.0 else fa > 0) and (cb > 0 if b == math.pi else fb < 0)):
+        return t
+    eps4 = 4 * _EPS
+    for _ in range(100):
+        f, fp = _p_slopes_at(t, d, hk, damping)
+        if f == 0.0:
+            break
+        if f > 0:
+            a = t
+        else:
+            b = t
+        if fp < 0:
+            step = f / fp
+            if abs(step) <= eps4 * abs(t):   # converged: the step is below rounding (t may sit on a bracket end)
                 break
-            if f > 0:
-                a = t
-            else:
-                b = t
-            if fp < 0:
-                step = f / fp
-                if abs(step) <= eps4 * abs(t):   # converged: the step is below rounding (t may sit on a bracket end)
-                    break
-                newton = t - step
-                t = newton if a < newton < b else 0.5 * (a + b)
-            else:
-                t = 0.5 * (a + b)
-            if b - a <= eps4 * b:
-                break
-        out[i] = t
-    return out
+            newton = t - step
+            t = newton if a < newton < b else 0.5 * (a + b)
+        else:
+            t = 0.5 * (a + b)
+        if b - a <= eps4 * b:
+            break
+    return t
 
 
 #: where the general path puts the maximum of a constant P (d = 0, B = 0): the first of np.argpartition's top three
@@ -212,23 +210,29 @@ def passivity_margin(device: Device, stiffness: float, damping: float) -> Passiv
         return PassivityCheck(device.damping > hk, hk, d, conservative, _FLAT_WORST_ANGLE)
     n = 64 * (d + 1) + 257
     grid, vals, v_pi = _passivity_prefix(d, n, hk, damping)
-    top = np.argpartition(-vals, 2)[:3] if vals.size > 3 else np.arange(vals.size)
-    i_lo, i_hi = np.maximum(top - 1, 0), np.minimum(top + 1, grid.size - 1)
-    lo, hi = grid[i_lo], grid[i_hi]
-    # start at the vertex of the parabola through the three samples (the bracket's middle at an end)
-    v0, v1, v2 = vals[i_lo], vals[top], vals[i_hi]
-    curv = v0 - 2 * v1 + v2
-    with np.errstate(divide="ignore", invalid="ignore"):
-        vertex = grid[top] + 0.5 * (hi - lo) / 2 * (v0 - v2) / curv
-    inside = (i_lo < top) & (top < i_hi) & (curv < 0) & (vertex > lo) & (vertex < hi)
-    t_ref = _polish_max(d, hk, damping, lo, hi, np.where(inside, vertex, 0.5 * (lo + hi)))
-    s_ref, c_ref = kernel(t_ref, d)
-    v_ref = hk * s_ref - damping * c_ref
+    top = (np.argpartition(-vals, 2)[:3] if vals.size > 3 else np.arange(vals.size)).tolist()
+    last = grid.size - 1
+    cand_t = [float(grid[i]) for i in top]
+    cand_v = [float(vals[i]) for i in top]
+    refined_t, refined_v = [], []
+    for i in top:   # three rows: plain floats beat array bookkeeping
+        i_lo, i_hi = max(i - 1, 0), min(i + 1, last)
+        lo, hi = float(grid[i_lo]), float(grid[i_hi])
+        # start at the vertex of the parabola through the three samples (the bracket's middle at an end)
+        v0, v1, v2 = float(vals[i_lo]), float(vals[i]), float(vals[i_hi])
+        curv = v0 - 2 * v1 + v2
+        vertex = cand_t[len(refined_t)] + 0.5 * (hi - lo) / 2 * (v0 - v2) / curv if curv < 0 else math.nan
+        inside = i_lo < i < i_hi and curv < 0 and lo < vertex < hi
+        t = _polish_max(d, hk, damping, lo, hi, vertex if inside else 0.5 * (lo + hi))
+        half = math.sin(t / 2)
+        s_t = math.sin((d + 0.5) * t) / half if half != 0.0 else 2 * d + 1.0
+        refined_t.append(t)
+        refined_v.append(hk * s_t - damping * math.cos((d + 1) * t))
     # the grid samples stay candidates (θ = 0 and π are ends no interior refinement reaches)
-    cand_t = np.concatenate([grid[top], t_ref, [math.pi]])
-    cand_v = np.concatenate([vals[top], v_ref, [v_pi]])
-    j = int(np.argmax(cand_v))
-    v_best, t_best = float(cand_v[j]), float(cand_t[j])
+    cand_t += [*refined_t, math.pi]
+    cand_v += [*refined_v, v_pi]
+    j = max(range(len(cand_v)), key=cand_v.__getitem__)   # the first of equal maxima, as np.argmax
+    v_best, t_best = cand_v[j], cand_t[j]
     return PassivityCheck(device.damping > v_best, v_best, d, conservative, t_best)
 
 
