@@ -142,6 +142,21 @@ def _parts(L: RigidLoop, t: float) -> tuple[float, float, float, float]:
     return phi, dphi, mag, dlr
 
 
+def _psi(L: RigidLoop, t: float) -> tuple[float, float]:
+    """(ψ, φ') of ``_parts`` alone, by the same expressions (the K equation at β = 0 needs neither R nor R'/R)."""
+    sh, ch = math.sin(0.5 * t), math.cos(0.5 * t)
+    st = 2.0 * sh * ch
+    re_p = L.omp - 2.0 * sh * sh
+    den_p = re_p * re_p + st * st
+    phi = L.slope * t - math.atan2(re_p, st)
+    dphi = L.slope + (L.omp + 2.0 * L.p * sh * sh) / den_p
+    for q, omq in L.zeros:
+        re_q = 2.0 * ch * ch - omq
+        phi -= math.atan2(st, re_q)
+        dphi -= (omq + 2.0 * q * ch * ch) / (re_q * re_q + st * st)
+    return phi, dphi
+
+
 def _damper_eq(L: RigidLoop, t: float) -> tuple[float, float]:
     """ψ + θ/2 (= π/2 at a damper-loop crossover) and its derivative."""
     psi, dphi, _, _ = _parts(L, t)
@@ -150,9 +165,9 @@ def _damper_eq(L: RigidLoop, t: float) -> tuple[float, float]:
 
 def _k_eq(L: RigidLoop, beta: float, t: float) -> tuple[float, float]:
     """F̃ − π/2 = ψ − asin(min(g, 1)) (0 at the K crossover) and its derivative (non-decreasing on [0, θ_r])."""
-    psi, dphi, r, dlr = _parts(L, t)
     if beta == 0.0:
-        return psi, dphi
+        return _psi(L, t)
+    psi, dphi, r, dlr = _parts(L, t)
     g = beta * math.cos(0.5 * t) / r
     if g >= 1.0:
         return psi - _HALF_PI, dphi
