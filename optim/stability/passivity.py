@@ -124,13 +124,12 @@ def _p_slopes_at(t: float, d: int, hk: float, damping: float) -> tuple[float, fl
 
 def _polish_max(d: int, hk: float, damping: float, a: float, b: float, t: float) -> float:
     """The local maximum of P inside [a, b] (from the start ``t``): Newton on P' = 0 kept inside the bracket by
-    bisection.  A bracket that holds no interior maximum (P' does not go from + to −) returns its start, which
-    the caller's comparison with the grid samples discards."""
+    bisection.  A bracket that holds no interior maximum (P' does not go from + to −) returns nan."""
     # the sign of P' just inside each end: P'(0) = P'(π) = 0 by symmetry, so there the curvature decides
     fa, ca = _p_slopes_at(a, d, hk, damping)
     fb, cb = _p_slopes_at(b, d, hk, damping)
     if not ((ca > 0 if a == 0.0 else fa > 0) and (cb > 0 if b == math.pi else fb < 0)):
-        return t
+        return math.nan
     eps4 = 4 * _EPS
     for _ in range(100):
         f, fp = _p_slopes_at(t, d, hk, damping)
@@ -215,15 +214,21 @@ def passivity_margin(device: Device, stiffness: float, damping: float) -> Passiv
     cand_t = [float(grid[i]) for i in top]
     cand_v = [float(vals[i]) for i in top]
     refined_t, refined_v = [], []
-    for i in top:   # three rows: plain floats beat array bookkeeping
+    for row, i in enumerate(top):   # three rows: plain floats beat array bookkeeping
         i_lo, i_hi = max(i - 1, 0), min(i + 1, last)
         lo, hi = float(grid[i_lo]), float(grid[i_hi])
+        # a bracket of two grid steps (64 a lobe) holds one local maximum at most: one already found in it is this
+        # row's too (the top rows are often neighbours on one peak)
+        if any(lo < u < hi for u in refined_t):
+            continue
         # start at the vertex of the parabola through the three samples (the bracket's middle at an end)
         v0, v1, v2 = float(vals[i_lo]), float(vals[i]), float(vals[i_hi])
         curv = v0 - 2 * v1 + v2
-        vertex = cand_t[len(refined_t)] + 0.5 * (hi - lo) / 2 * (v0 - v2) / curv if curv < 0 else math.nan
+        vertex = cand_t[row] + 0.5 * (hi - lo) / 2 * (v0 - v2) / curv if curv < 0 else math.nan
         inside = i_lo < i < i_hi and curv < 0 and lo < vertex < hi
         t = _polish_max(d, hk, damping, lo, hi, vertex if inside else 0.5 * (lo + hi))
+        if math.isnan(t):
+            continue
         half = math.sin(t / 2)
         s_t = math.sin((d + 0.5) * t) / half if half != 0.0 else 2 * d + 1.0
         refined_t.append(t)
