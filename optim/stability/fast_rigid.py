@@ -212,6 +212,8 @@ def polish_h(plant: RigidZOH, beta: float, t: float) -> tuple[float, complex]:
     if f1 == f0 or f0 == 0.0:
         return t, v0
     t1 = t - f0 * h / (f1 - f0)
+    if t1 == t:   # the step rounds away: H(t1) would be v0 again
+        return t, v0
     if abs(t1 - t) <= 8.0 * _EPS * t and t1 < math.pi:
         v1 = _h(plant, beta, t1)
         if abs(v1.imag) < abs(f0):
@@ -344,13 +346,14 @@ def rigid_crossovers(plant: RigidZOH, beta: float, first: tuple[float, float], t
     if t0 < tr:
         top = (L.half_pis_at_pi - 1) * _HALF_PI if tr == math.pi else _k_eq(L, beta, tr)[0]
         lo, step = t0, 2.0 * math.pi / (L.slope + 0.5)
+        fun = (lambda x: _psi(L, x)) if beta == 0.0 else (lambda x: _k_eq(L, beta, x))
         k = 1
         while 2.0 * math.pi * k < top:
             level = 2.0 * math.pi * k
             # from the second level on, the last spacing of the roots (F̃ is nearly linear there): Newton then
             # starts a few digits from the root
             start = lo + step if k == 1 else min(lo + (lo - out[-2][0]), 0.5 * (lo + tr))
-            t = _solve(lambda x: _k_eq(L, beta, x), level, lo, tr, min(start, 0.5 * (lo + tr)))
+            t = _solve(fun, level, lo, tr, min(start, 0.5 * (lo + tr)))
             t, h_t = polish_h(plant, beta, t)
             out.append((t, h_t.real))
             lo, k = t, k + 1
