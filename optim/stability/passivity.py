@@ -192,7 +192,10 @@ def passivity_margin(device: Device, stiffness: float, damping: float) -> Passiv
 
     The grid's three largest samples, each refined by Newton on P'(θ) = 0 inside its two grid steps (the
     global maximum may sit between samples).  It replaced three bounded Brent searches (``minimize_scalar``,
-    ≈ 0.3-1 ms) with the same answer: tests/optim/stability/test_passivity_fast.py holds the two to 1e-12."""
+    ≈ 0.3-1 ms) with the same answer: tests/optim/stability/test_passivity_fast.py holds the two to 1e-12.
+    Only the samples the envelope of ``_passivity_prefix`` cannot rule out are computed, and B = 0 (sup at
+    θ = 0) and d = 0 (eq. 3) are answered in closed form, each as the grid would: 2-50 µs instead of
+    60-440 µs on the issue-20 loops."""
     d, conservative = passivity_samples(device)
     hk = stiffness * device.sample_time / 2
     if d == 0 and damping > 0.0:
