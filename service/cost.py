@@ -4,8 +4,12 @@ The estimates are coarse (a factor of 2 either way is fine): they only decide
 whether a call runs inline in the request thread (cheap, fast path) or in a
 killable worker process under the request time budget (service.executor).
 Coefficients measured on the 2-core development machine (bench/bench_service.py
-and docs/limits.md): exact rigid analysis ≈ 1 ms plus ≈ 6 µs per sample of delay,
-about 3× that for a cable device and 2× with virtual damping (B_max is found too);
+and docs/limits.md): the full exact rigid analysis (issue 20's fast path: K_cr, every
+crossover, passivity) ≈ 0.05 ms plus ≈ 2.5-3 µs per sample of delay (one crossover
+every other sample), up to 2× with virtual damping, estimated as 0.1 ms + 4 µs per
+sample (× 2 with B); the cable paths (bounded scan) and the designs keep the older
+rigid unit of 1 ms + 6 µs per sample, about 3× that for a cable device and 2× with
+virtual damping (B_max is found too);
 the 40-digit reference rung ≈ 0.12 s plus 12 ms per sample of delay (10× for a cable).
 """
 
@@ -51,7 +55,9 @@ def stability_cost_ms(device: Device, method: str, damping: float, grid_points: 
         return 0.5 + 3e-4 * grid_points * (4.0 if device.cable is not None else 1.0)
     if method == "reference":
         return (120.0 + 12.0 * device.delay_samples) * (10.0 if device.cable is not None else 1.0)
-    return _exact_ms(device, damping) * (2.0 if device.cable is not None else 1.0)  # cable adds the rigid K_cr
+    if device.cable is None:
+        return (0.1 + 0.004 * device.delay_samples) * (2.0 if damping > 0 else 1.0)
+    return _exact_ms(device, damping) * 2.0  # the cable's analysis adds the rigid K_cr
 
 
 def verify_cost_ms(device: Device) -> float:

@@ -305,7 +305,8 @@ def _exact_rung(device: Device, damping: float) -> RungAnswer:
     """Every crossover bracketed and refined (optim.stability.margins)."""
     res = critical_stiffness(device, damping)
     source = ("rigid fast path: the binding crossover by bracketed Newton from closed-form bounds (every other "
-              "crossover proven above it; the list past the rising phase scanned)" if res.path == "fast" else
+              "crossover proven above it; the list past the rising phase proven clear by monotone bounds, else "
+              "scanned)" if res.path == "fast" else
               "cable bounded scan: every crossover bracketed on the scan's grid, those a bound on |H| cannot "
               "exclude refined to 4 ulp in ω (the list: every crossover refined)" if res.path == "bounded-scan" else
               "every crossover bracketed and refined to 4 ulp in ω") + \

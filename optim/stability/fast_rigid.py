@@ -142,6 +142,21 @@ def _parts(L: RigidLoop, t: float) -> tuple[float, float, float, float]:
     return phi, dphi, mag, dlr
 
 
+def _psi(L: RigidLoop, t: float) -> tuple[float, float]:
+    """(ψ, φ') of ``_parts`` alone, by the same expressions (the K equation at β = 0 needs neither R nor R'/R)."""
+    sh, ch = math.sin(0.5 * t), math.cos(0.5 * t)
+    st = 2.0 * sh * ch
+    re_p = L.omp - 2.0 * sh * sh
+    den_p = re_p * re_p + st * st
+    phi = L.slope * t - math.atan2(re_p, st)
+    dphi = L.slope + (L.omp + 2.0 * L.p * sh * sh) / den_p
+    for q, omq in L.zeros:
+        re_q = 2.0 * ch * ch - omq
+        phi -= math.atan2(st, re_q)
+        dphi -= (omq + 2.0 * q * ch * ch) / (re_q * re_q + st * st)
+    return phi, dphi
+
+
 def _damper_eq(L: RigidLoop, t: float) -> tuple[float, float]:
     """ψ + θ/2 (= π/2 at a damper-loop crossover) and its derivative."""
     psi, dphi, _, _ = _parts(L, t)
@@ -150,9 +165,9 @@ def _damper_eq(L: RigidLoop, t: float) -> tuple[float, float]:
 
 def _k_eq(L: RigidLoop, beta: float, t: float) -> tuple[float, float]:
     """F̃ − π/2 = ψ − asin(min(g, 1)) (0 at the K crossover) and its derivative (non-decreasing on [0, θ_r])."""
-    psi, dphi, r, dlr = _parts(L, t)
     if beta == 0.0:
-        return psi, dphi
+        return _psi(L, t)
+    psi, dphi, r, dlr = _parts(L, t)
     g = beta * math.cos(0.5 * t) / r
     if g >= 1.0:
         return psi - _HALF_PI, dphi
@@ -186,14 +201,24 @@ def _solve(fun, level: float, lo: float, hi: float, x: float) -> float:
 def polish(plant: RigidZOH, beta: float, t: float) -> float:
     """One secant step on Im H (the scan's own function) from the root t of F̃: near β_max, K moves by
     ~1e-12 per ulp of θ, and Im H pins θ a few ulp closer than F̃'s sum of arguments does."""
+    return polish_h(plant, beta, t)[0]
+
+
+def polish_h(plant: RigidZOH, beta: float, t: float) -> tuple[float, complex]:
+    """``polish`` and H at the θ it returns (its K is Re H: ``re_h`` without evaluating H again)."""
     h = 64.0 * _EPS * t
-    f0, f1 = _h(plant, beta, t).imag, _h(plant, beta, t + h).imag
+    v0 = _h(plant, beta, t)
+    f0, f1 = v0.imag, _h(plant, beta, t + h).imag
     if f1 == f0 or f0 == 0.0:
-        return t
+        return t, v0
     t1 = t - f0 * h / (f1 - f0)
-    if abs(t1 - t) <= 8.0 * _EPS * t and t1 < math.pi and abs(_h(plant, beta, t1).imag) < abs(f0):
-        return t1
-    return t
+    if t1 == t:   # the step rounds away: H(t1) would be v0 again
+        return t, v0
+    if abs(t1 - t) <= 8.0 * _EPS * t and t1 < math.pi:
+        v1 = _h(plant, beta, t1)
+        if abs(v1.imag) < abs(f0):
+            return t1, v1
+    return t, v0
 
 
 def re_h(plant: RigidZOH, beta: float, t: float) -> float:
@@ -300,8 +325,8 @@ def fast_rigid(plant: RigidZOH, beta: float, beta_max: float | None = None,
     if not fk > 0.0:
         return None                           # no K crossover below θ_r (or β_max rounded the other way)
     t = _solve(lambda x: _k_eq(L, beta, x), 0.0, 0.0, hi, _start(L, L.omp + beta, _HALF_PI, hi))
-    t = polish(plant, beta, t)
-    return FastRigid(re_h(plant, beta, t), t, bmax)
+    t, h_t = polish_h(plant, beta, t)
+    return FastRigid(h_t.real, t, bmax)
 
 
 def rigid_crossovers(plant: RigidZOH, beta: float, first: tuple[float, float], tail,
@@ -321,12 +346,16 @@ def rigid_crossovers(plant: RigidZOH, beta: float, first: tuple[float, float], t
     if t0 < tr:
         top = (L.half_pis_at_pi - 1) * _HALF_PI if tr == math.pi else _k_eq(L, beta, tr)[0]
         lo, step = t0, 2.0 * math.pi / (L.slope + 0.5)
+        fun = (lambda x: _psi(L, x)) if beta == 0.0 else (lambda x: _k_eq(L, beta, x))
         k = 1
         while 2.0 * math.pi * k < top:
             level = 2.0 * math.pi * k
-            t = _solve(lambda x: _k_eq(L, beta, x), level, lo, tr, min(lo + step, 0.5 * (lo + tr)))
-            t = polish(plant, beta, t)
-            out.append((t, re_h(plant, beta, t)))
+            # from the second level on, the last spacing of the roots (F̃ is nearly linear there): Newton then
+            # starts a few digits from the root
+            start = lo + step if k == 1 else min(lo + (lo - out[-2][0]), 0.5 * (lo + tr))
+            t = _solve(fun, level, lo, tr, min(start, 0.5 * (lo + tr)))
+            t, h_t = polish_h(plant, beta, t)
+            out.append((t, h_t.real))
             lo, k = t, k + 1
     for t, a in tail(tr):
         if all(abs(t - u) > 1e-12 * t for u, _ in out):

@@ -27,7 +27,8 @@ from models.plants import stiffness_loop_plant
 from optim.errors import InputError
 from optim.stability.crossovers import Crossing, positive_real_crossings, scan_grid, theta_min
 from optim.stability.fast_cable import bounded_min_crossing
-from optim.stability.fast_rigid import fast_beta_max, fast_rigid, rigid_crossovers
+from optim.stability.fast_rigid import fast_beta_max, fast_rigid, rigid_crossovers, rigid_loop
+from optim.stability.rigid_tail import tail_is_clear
 from optim.stability.undamped_cable import (
     confirm_or_refuse,
     departs_outwards,
@@ -286,17 +287,33 @@ def _fast(device: Device, plant: RigidZOH, damping: float, b_max: float | None) 
             if near is None or abs(found[near][0] / res.theta - 1) > 1e-9:
                 raise RuntimeError(f"fast path and scan disagree on {device!r}, B = {damping!r}")
             found[near] = (res.theta, res.alpha)
-        return tuple(Crossover(th / t, a * scale) for th, a in found)
+        return _crossover_tuple([(th / t, a * scale) for th, a in found])
 
     return CriticalStiffness(k, w, every, damping, bm, path="fast")
 
 
+def _crossover_tuple(pairs: list[tuple[float, float]]) -> tuple[Crossover, ...]:
+    """Crossover(frequency, stiffness) of each pair, built without the frozen dataclass's __init__ (one
+    object.__setattr__ per field, ≈ 0.9 µs a crossover: a long delay's list holds hundreds): equal instances."""
+    new = object.__new__
+    out = []
+    for w, k in pairs:
+        c = new(Crossover)
+        fields = c.__dict__
+        fields["frequency"] = w
+        fields["stiffness"] = k
+        out.append(c)
+    return tuple(out)
+
+
 def _tail_crossings(device: Device, plant: RigidZOH, beta: float, lo: float) -> list[tuple[float, float]]:
-    """The scan (optim.stability.crossovers) of the K loop restricted to [lo, π]: (θ, α) of each crossover there."""
+    """(θ, α) of each crossover in [lo, π]: the Nyquist point alone where optim.stability.rigid_tail proves the rest
+    of the interval clear (``lo`` is θ_r of that loop), else the scan (optim.stability.crossovers) restricted to it."""
     def h(theta: np.ndarray) -> np.ndarray:
         return -plant.inverse_response(theta) + beta * np.expm1(-1j * theta)
 
-    if lo >= math.pi:
+    if lo >= math.pi or tail_is_clear(rigid_loop(plant), beta):
+        # nothing in [lo, π) (optim.stability.rigid_tail proves it): only the Nyquist point, as the scan finds it
         v = float(h(np.array([math.pi]))[0].real)
         return [(math.pi, v)] if v > 0 else []
     grid = _grid(device, plant, beta)

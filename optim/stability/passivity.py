@@ -34,6 +34,7 @@ __all__ = ["PassivityCheck", "PassiveStiffness", "passivity_samples", "kernel", 
            "is_passive", "max_passive_stiffness", "largest_passive_stiffness", "passive_alpha_on_grid",
            "batch_required_damping"]
 
+_EPS = float(np.finfo(float).eps)
 _GOLDEN_STEPS = 80         # a bracket of 2 grid steps shrinks by 0.618⁸⁰ ≈ 2e-17: θ to the last bit
 
 
@@ -108,39 +109,82 @@ def _p_slopes(theta: np.ndarray, d: int, hk: float, damping: float) -> tuple[np.
     return hk * ds + damping * e * np.sin(e * theta), hk * dds + damping * e * e * np.cos(e * theta)
 
 
-def _polish_max(d: int, hk: float, damping: float, lo: np.ndarray, hi: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """The local maximum of P inside each [lo, hi] (from the start ``x``): Newton on P' = 0 kept inside the
-    bracket by bisection.  Rows whose bracket holds no interior maximum (P' does not go from + to −) return
-    their start, which the caller's comparison with the grid samples discards."""
-    n = lo.size
+def _p_slopes_at(t: float, d: int, hk: float, damping: float) -> tuple[float, float]:
+    """``_p_slopes`` at one θ: the same sums, in plain floats up to 32 terms (array calls cost more there)."""
+    if d > 32:
+        fa, fpa = _p_slopes(np.array([t]), d, hk, damping)
+        return float(fa[0]), float(fpa[0])
+    ds = dds = 0.0
+    for k in range(1, d + 1):
+        ds += k * math.sin(k * t)
+        dds += k * k * math.cos(k * t)
+    e = d + 1.0
+    return hk * (-2.0 * ds) + damping * e * math.sin(e * t), hk * (-2.0 * dds) + damping * e * e * math.cos(e * t)
+
+
+def _polish_max(d: int, hk: float, damping: float, a: float, b: float, t: float) -> float:
+    """The local maximum of P inside [a, b] (from the start ``t``): Newton on P' = 0 kept inside the bracket by
+    bisection.  A bracket that holds no interior maximum (P' does not go from + to −) returns nan."""
     # the sign of P' just inside each end: P'(0) = P'(π) = 0 by symmetry, so there the curvature decides
-    f_end, c_end = _p_slopes(np.concatenate([lo, hi]), d, hk, damping)
-    live = np.where(lo == 0.0, c_end[:n] > 0, f_end[:n] > 0) & np.where(hi == math.pi, c_end[n:] > 0, f_end[n:] < 0)
-    out = x.astype(float)
-    eps4 = 4 * np.finfo(float).eps
-    for i in np.flatnonzero(live):   # one or two rows in practice: scalar steps beat array bookkeeping
-        a, b, t = float(lo[i]), float(hi[i]), float(x[i])
-        for _ in range(100):
-            fa, fpa = _p_slopes(np.array([t]), d, hk, damping)
-            f, fp = float(fa[0]), float(fpa[0])
-            if f == 0.0:
+    fa, ca = _p_slopes_at(a, d, hk, damping)
+    fb, cb = _p_slopes_at(b, d, hk, damping)
+    if not ((ca > 0 if a == 0.0 else fa > 0) and (cb > 0 if b == math.pi else fb < 0)):
+        return math.nan
+    eps4 = 4 * _EPS
+    for _ in range(100):
+        f, fp = _p_slopes_at(t, d, hk, damping)
+        if f == 0.0:
+            break
+        if f > 0:
+            a = t
+        else:
+            b = t
+        if fp < 0:
+            step = f / fp
+            if abs(step) <= eps4 * abs(t):   # converged: the step is below rounding (t may sit on a bracket end)
                 break
-            if f > 0:
-                a = t
-            else:
-                b = t
-            if fp < 0:
-                step = f / fp
-                if abs(step) <= eps4 * abs(t):   # converged: the step is below rounding (t may sit on a bracket end)
-                    break
-                newton = t - step
-                t = newton if a < newton < b else 0.5 * (a + b)
-            else:
-                t = 0.5 * (a + b)
-            if b - a <= eps4 * b:
-                break
-        out[i] = t
-    return out
+            newton = t - step
+            t = newton if a < newton < b else 0.5 * (a + b)
+        else:
+            t = 0.5 * (a + b)
+        if b - a <= eps4 * b:
+            break
+    return t
+
+
+#: where the general path puts the maximum of a constant P (d = 0, B = 0): the first of np.argpartition's top three
+_FLAT_WORST_ANGLE = float(_grid(0)[np.argpartition(np.zeros(_grid(0).size), 2)[0]])
+
+
+def _passivity_prefix(d: int, n: int, hk: float, damping: float) -> tuple[np.ndarray, np.ndarray, float]:
+    """(θ, P(θ)) on the part of ``_grid(d)`` (n samples) where P may reach its maximum, and P(π).
+
+    s_d = sin((d+1)θ)·cot(θ/2) − cos((d+1)θ), so P = hk·cot(θ/2)·sin u − (hk + B)·cos u with u = (d+1)θ, and
+    P(θ) ≤ E(θ) = √(hk²·cot²(θ/2) + (hk + B)²), which falls with θ.  With V the largest of P(π) and the first
+    samples (the first lobes), every sample past θ_c = 2·atan(hk/√(V² − (hk + B)²)) lies below V: it can neither
+    be the maximum nor refine to it.  The kept samples are the grid's own (linspace's arange·step), two past θ_c
+    so that each kept maximum has both grid neighbours."""
+    step = math.pi / (n - 1)
+
+    def samples(lo: int, hi: int) -> tuple[np.ndarray, np.ndarray]:
+        theta = np.arange(lo, hi) * step
+        if hi == n:
+            theta[-1] = math.pi                              # as linspace sets its end point
+        s, c = kernel(theta, d)
+        return theta, hk * s - damping * c
+
+    s_pi, c_pi = kernel(np.array([math.pi]), d)
+    v_pi = float(hk * s_pi[0] - damping * c_pi[0])
+    first = min(n, 3 * 64 + 3)
+    grid, vals = samples(0, first)
+    v_low, c = max(float(vals.max()), v_pi), hk + damping
+    keep = n
+    if v_low > c:
+        keep = min(n, int(2.0 * math.atan(hk / math.sqrt((v_low - c) * (v_low + c))) / step) + 3)
+    if keep > first:
+        more_t, more_v = samples(first, keep)
+        grid, vals = np.concatenate([grid, more_t]), np.concatenate([vals, more_v])
+    return grid, vals, v_pi
 
 
 def passivity_margin(device: Device, stiffness: float, damping: float) -> PassivityCheck:
@@ -148,29 +192,55 @@ def passivity_margin(device: Device, stiffness: float, damping: float) -> Passiv
 
     The grid's three largest samples, each refined by Newton on P'(θ) = 0 inside its two grid steps (the
     global maximum may sit between samples).  It replaced three bounded Brent searches (``minimize_scalar``,
-    ≈ 0.3-1 ms) with the same answer: tests/optim/stability/test_passivity_fast.py holds the two to 1e-12."""
+    ≈ 0.3-1 ms) with the same answer: tests/optim/stability/test_passivity_fast.py holds the two to 1e-12.
+    Only the samples the envelope of ``_passivity_prefix`` cannot rule out are computed, and B = 0 (sup at
+    θ = 0) and d = 0 (eq. 3) are answered in closed form, each as the grid would: 2-50 µs instead of
+    60-440 µs on the issue-20 loops."""
     d, conservative = passivity_samples(device)
     hk = stiffness * device.sample_time / 2
-    grid = _grid(d)
-    s, c = kernel(grid, d)
-    vals = hk * s - damping * c
-    top = np.argpartition(-vals, 2)[:3] if vals.size > 3 else np.arange(vals.size)
-    i_lo, i_hi = np.maximum(top - 1, 0), np.minimum(top + 1, grid.size - 1)
-    lo, hi = grid[i_lo], grid[i_hi]
-    # start at the vertex of the parabola through the three samples (the bracket's middle at an end)
-    v0, v1, v2 = vals[i_lo], vals[top], vals[i_hi]
-    curv = v0 - 2 * v1 + v2
-    with np.errstate(divide="ignore", invalid="ignore"):
-        vertex = grid[top] + 0.5 * (hi - lo) / 2 * (v0 - v2) / curv
-    inside = (i_lo < top) & (top < i_hi) & (curv < 0) & (vertex > lo) & (vertex < hi)
-    t_ref = _polish_max(d, hk, damping, lo, hi, np.where(inside, vertex, 0.5 * (lo + hi)))
-    s_ref, c_ref = kernel(t_ref, d)
-    v_ref = hk * s_ref - damping * c_ref
+    if d == 0 and damping > 0.0:
+        # eq. 3: s_0 = 1 exactly (the grid's samples too), so P = hk + B·(−cos θ) peaks at θ = π, the grid's
+        # last sample, which no refinement exceeds: the general path's answer, bit for bit
+        return PassivityCheck(device.damping > hk + damping, hk + damping, d, conservative, math.pi)
+    if damping == 0.0 and d > 0:
+        # |s_d| < 2d + 1 = s_d(0) away from θ = 0: the sup is the grid's first sample, which no refinement exceeds
+        # (the general path's answer, bit for bit)
+        v = hk * (2 * d + 1.0) - 0.0
+        return PassivityCheck(device.damping > v, v, d, conservative, 0.0)
+    if d == 0 and damping == 0.0:
+        # P = hk on every sample: the general path's answer is hk at the angle its partition happens to list first
+        return PassivityCheck(device.damping > hk, hk, d, conservative, _FLAT_WORST_ANGLE)
+    n = 64 * (d + 1) + 257
+    grid, vals, v_pi = _passivity_prefix(d, n, hk, damping)
+    top = (np.argpartition(-vals, 2)[:3] if vals.size > 3 else np.arange(vals.size)).tolist()
+    last = grid.size - 1
+    cand_t = [float(grid[i]) for i in top]
+    cand_v = [float(vals[i]) for i in top]
+    refined_t, refined_v = [], []
+    for row, i in enumerate(top):   # three rows: plain floats beat array bookkeeping
+        i_lo, i_hi = max(i - 1, 0), min(i + 1, last)
+        lo, hi = float(grid[i_lo]), float(grid[i_hi])
+        # a bracket of two grid steps (64 a lobe) holds one local maximum at most: one already found in it is this
+        # row's too (the top rows are often neighbours on one peak)
+        if any(lo < u < hi for u in refined_t):
+            continue
+        # start at the vertex of the parabola through the three samples (the bracket's middle at an end)
+        v0, v1, v2 = float(vals[i_lo]), float(vals[i]), float(vals[i_hi])
+        curv = v0 - 2 * v1 + v2
+        vertex = cand_t[row] + 0.5 * (hi - lo) / 2 * (v0 - v2) / curv if curv < 0 else math.nan
+        inside = i_lo < i < i_hi and curv < 0 and lo < vertex < hi
+        t = _polish_max(d, hk, damping, lo, hi, vertex if inside else 0.5 * (lo + hi))
+        if math.isnan(t):
+            continue
+        half = math.sin(t / 2)
+        s_t = math.sin((d + 0.5) * t) / half if half != 0.0 else 2 * d + 1.0
+        refined_t.append(t)
+        refined_v.append(hk * s_t - damping * math.cos((d + 1) * t))
     # the grid samples stay candidates (θ = 0 and π are ends no interior refinement reaches)
-    cand_t = np.concatenate([grid[top], t_ref])
-    cand_v = np.concatenate([vals[top], v_ref])
-    j = int(np.argmax(cand_v))
-    v_best, t_best = float(cand_v[j]), float(cand_t[j])
+    cand_t += [*refined_t, math.pi]
+    cand_v += [*refined_v, v_pi]
+    j = max(range(len(cand_v)), key=cand_v.__getitem__)   # the first of equal maxima, as np.argmax
+    v_best, t_best = cand_v[j], cand_t[j]
     return PassivityCheck(device.damping > v_best, v_best, d, conservative, t_best)
 
 
