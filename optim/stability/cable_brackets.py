@@ -71,7 +71,8 @@ class _Factor:
     sign: int         # +1: a factor of Q's numerator (c_k), −1: of its denominator (ζ_i)
     mag: float        # |c|
     om2: float        # (1 − |c|²)/2, without cancellation
-    gap: float        # | |c| − 1 |: the least |e^{jθ} − c|
+    gap: float        # | |c| − 1 |: the least |e^{jθ} − c|, less err
+    err: float        # how far c may be from the exact factor of the scan's function (a root's error)
     inside: bool
     base: float       # arg(−c) for a factor outside the unit circle (the continuous branch's constant)
     t_near: float | None   # the angle in [0, π] nearest to c (arg c), if any
@@ -93,13 +94,15 @@ class CableLoop:
     splits: tuple[float, ...]      # angles of the poles and zeros in (0, π)
 
 
-def _factor(w: complex, sign: int) -> _Factor:
+def _factor(w: complex, sign: int, err: float) -> _Factor:
     c = 1.0 + w
     om2 = -(w.real + 0.5 * abs(w) ** 2)
     mag = abs(c)
     psi = cmath.phase(c)
     inside = mag < 1.0
-    return _Factor(w, c, sign, mag, om2, abs(2.0 * om2) / (1.0 + mag), inside, 0.0 if inside else cmath.phase(-c),
+    err += 4.0 * _EPS * abs(w)
+    return _Factor(w, c, sign, mag, om2, abs(2.0 * om2) / (1.0 + mag) - err, err, inside,
+                   0.0 if inside else cmath.phase(-c),
                    _angles_in(psi), _angles_in(psi + math.pi), _angles_in(psi + 0.5 * math.pi),
                    _angles_in(psi - 0.5 * math.pi))
 
@@ -146,8 +149,14 @@ def _build(plant) -> CableLoop | None:
     if coef.size < 2 or not np.all(np.isfinite(coef)):
         return None
     wz = P.polyroots(coef)
-    factors = tuple(_factor(complex(v), 1) for v in lam) + tuple(_factor(complex(v), -1) for v in wz)
-    if any(f.gap < MIN_CIRCLE_GAP for f in factors):
+    # the modes λ are the scan's own (its modal response uses them): exact here; the roots in w are computed, and
+    # each is off by ≲ ε·Σ|a_k||w|^k/|p'(w)| (padded 64×), which every distance bound allows for
+    dcoef = P.polyder(coef)
+    errs = [64.0 * _EPS * P.polyval(abs(v), np.abs(coef)) / max(abs(P.polyval(v, dcoef)), 1e-300) for v in wz]
+    factors = tuple(_factor(complex(v), 1, 0.0) for v in lam) + \
+        tuple(_factor(complex(v), -1, e) for v, e in zip(wz, errs))
+    # a pole of G (or a zero of Q) this near the unit circle: H (nearly) infinite or zero there; scan instead
+    if any(f.gap < (MIN_CIRCLE_GAP if f.sign < 0 else 1e3 * f.err) or f.gap < 1e3 * f.err for f in factors):
         return None
     lead = float(coef[-1])
     loop = CableLoop(factors, plant.d + m + 1, 0.0 if lead > 0 else math.pi, abs(lead), modal, plant.d,
@@ -201,14 +210,16 @@ def _arg_term(f: _Factor, t: float, zm1: complex, zc: complex) -> float:
 
 
 def _point(loop: CableLoop, beta: float, cslope: float, t: float) -> tuple[float, float, float]:
-    """(F, F', R) at θ = t (F = φ + cslope·θ − asin g; g = 0 when β = 0)."""
+    """(F, F', R) at θ = t (F = φ + cslope·θ − asin g; g = 0 when β = 0).
+
+    φ and R are the modal response's (the scan's function: Q = (1/G_n)/(1 − e^{−jθ})); the factors only
+    unwrap φ (their phase is off by ≲ err/gap ≤ 1e-3 rad near a zero, far below the π that would matter)."""
     zm1 = _expm1j(t)
     zc = complex(math.cos(t), -math.sin(t))
     z = zm1 + 1.0
-    phi = (loop.s - 0.5 + cslope) * t - loop.lead_arg
+    phi = (loop.s - 0.5) * t - loop.lead_arg
     dphi = loop.s - 0.5 + cslope
     dlr = 0.0
-    logr = -math.log(loop.lead_abs)
     for f in loop.factors:
         diff = zm1 - f.w
         d2 = diff.real * diff.real + diff.imag * diff.imag
@@ -216,8 +227,10 @@ def _point(loop: CableLoop, beta: float, cslope: float, t: float) -> tuple[float
         phi += sign * _arg_term(f, t, zm1, zc)
         dphi += sign * (0.5 + f.om2 / d2)
         dlr += sign * (z * f.c.conjugate()).imag / d2
-        logr += sign * 0.5 * math.log(d2)
-    r = math.exp(logr)
+    q = _inverse(loop.modal, loop.d, t) / (1.0 - zc)
+    exact = cmath.phase(q) - 0.5 * t
+    phi = exact + _TWO_PI * round((phi - exact) / _TWO_PI) + cslope * t
+    r = abs(q)
     if beta == 0.0:
         return phi, dphi, r
     g = beta * math.cos(0.5 * t) / r
@@ -256,11 +269,11 @@ def _bounds_r(loop: CableLoop, a: float, b: float, pa: _Pt, pb: _Pt) -> tuple[fl
     ranges = []
     for j, f in enumerate(loop.factors):
         da, db = pa.dist[j], pb.dist[j]
-        mn, mx = (da, db) if da <= db else (db, da)
+        mn, mx = (da - f.err, db + f.err) if da <= db else (db - f.err, da + f.err)
         if f.t_near is not None and a <= f.t_near <= b:
             mn = f.gap
         if f.t_far is not None and a <= f.t_far <= b:
-            mx = 1.0 + f.mag
+            mx = 1.0 + f.mag + f.err
         ranges.append((mn, mx))
         if f.sign > 0:
             rmin *= mn
@@ -277,7 +290,7 @@ def _sin_bounds(f: _Factor, a: float, b: float, sa: float, sb: float) -> tuple[f
         mx = f.mag
     if f.t_smin is not None and a <= f.t_smin <= b:
         mn = -f.mag
-    return mn, mx
+    return mn - f.err, mx + f.err
 
 
 def _bounds_d(loop: CableLoop, beta: float, a: float, b: float, pa: _Pt, pb: _Pt, rmin: float, rmax: float,
@@ -304,15 +317,16 @@ def _bounds_d(loop: CableLoop, beta: float, a: float, b: float, pa: _Pt, pb: _Pt
     for j, f in enumerate(loop.factors):
         mn, mx = ranges[j]
         smn, smx = _sin_bounds(f, a, b, pa.sin[j], pb.sin[j])
+        om_lo, om_hi = f.om2 - f.err * (1.0 + f.mag), f.om2 + f.err * (1.0 + f.mag)
         if gh > 0.0:
-            n_lo = f.om2 + min(gl * smn, gh * smn)
-            n_hi = f.om2 + max(gl * smx, gh * smx)
+            n_lo = om_lo + min(gl * smn, gh * smn)
+            n_hi = om_hi + max(gl * smx, gh * smx)
         else:
-            n_lo = n_hi = f.om2
+            n_lo, n_hi = om_lo, om_hi
         t_lo = n_lo / (mx * mx) if n_lo >= 0.0 else n_lo / (mn * mn)
         t_hi = n_hi / (mn * mn) if n_hi >= 0.0 else n_hi / (mx * mx)
-        p_lo = f.om2 / (mx * mx) if f.om2 >= 0.0 else f.om2 / (mn * mn)
-        p_hi = f.om2 / (mn * mn) if f.om2 >= 0.0 else f.om2 / (mx * mx)
+        p_lo = om_lo / (mx * mx) if om_lo >= 0.0 else om_lo / (mn * mn)
+        p_hi = om_hi / (mn * mn) if om_hi >= 0.0 else om_hi / (mx * mx)
         s_lo = smn / (mx * mx) if smn >= 0.0 else smn / (mn * mn)
         s_hi = smx / (mn * mn) if smx >= 0.0 else smx / (mx * mx)
         if f.sign > 0:
@@ -387,8 +401,15 @@ def _h_im_re(loop: CableLoop, beta: float, damper: bool, t: float) -> complex:
     return -inv + beta * _expm1j(-t)
 
 
-def _polish(loop: CableLoop, beta: float, damper: bool, t0: float) -> tuple[float, float] | None:
-    """The root of Im H next to t0 (F's root), bracketed and solved to 4 ulp as the scan solves it; (θ, Re H)."""
+def _polish(loop: CableLoop, beta: float, damper: bool, t0: float, piece: tuple[float, float, float]
+            ) -> tuple[float, float] | None:
+    """The root of Im H next to t0 (F's root on ``piece`` = (a, b, level), F monotone there), bracketed and
+    solved to 4 ulp as the scan solves it; (θ, Re H).  F's sum of arguments pins θ to ~ε/θ·Σ|terms|, Im H
+    to ~ε: the bracket widens from 1e-14θ while F stays within 1 rad of the level at its ends (no other
+    zero of Im H, the K < 0 ones included, can lie between)."""
+    a, b, level = piece
+    cslope = 0.5 if damper else 0.0
+
     def f(x: float) -> float:
         return _h_im_re(loop, beta, damper, x).imag
 
@@ -396,10 +417,13 @@ def _polish(loop: CableLoop, beta: float, damper: bool, t0: float) -> tuple[floa
     if f0 == 0.0:
         return t0, _h_im_re(loop, beta, damper, t0).real
     bracket = None
-    for w in (1e-14, 1e-12, 1e-10, 1e-8):
-        lo, hi = t0 * (1.0 - w), min(t0 * (1.0 + w), math.pi)
+    for w in (1e-14, 1e-12, 1e-10, 1e-8, 1e-6, 1e-4):
+        lo, hi = max(t0 * (1.0 - w), a), min(t0 * (1.0 + w), b, math.pi)
+        if w > 1e-9 and not (abs(_point(loop, beta, cslope, lo)[0] - level) < 1.0
+                             and abs(_point(loop, beta, cslope, hi)[0] - level) < 1.0):
+            return None
         flo = f(lo)
-        if (flo > 0) != (f0 > 0):
+        if lo < t0 and (flo > 0) != (f0 > 0):
             bracket = (lo, t0, flo, f0)
             break
         fhi = f(hi)
@@ -447,7 +471,7 @@ def cable_min_crossing(loop: CableLoop, beta: float, theta_lo: float, damper: bo
     nyq = _h_im_re(loop, beta, damper, math.pi).real
     best = nyq if nyq > 0.0 else math.inf
     # F's roots (θ, K by the factored form); refined on Im H at the end, only those that may be the least
-    found: list[tuple[float, float]] = []
+    found: list[tuple[float, float, tuple[float, float, float]]] = []
     cuts = [theta_lo] + [x for x in loop.splits if theta_lo < x < math.pi] + [math.pi]
     pts = {x: _Pt(loop, beta, cslope, x) for x in cuts}
     # pieces by frequency; the flag: R ≥ β proved on the piece (R = β at its end, R monotone)
@@ -504,7 +528,7 @@ def cable_min_crossing(loop: CableLoop, beta: float, theta_lo: float, damper: bo
                 else:
                     t, v, k = got
                     if v > 0.0:
-                        found.append((t, v))
+                        found.append((t, v, (a, b, level0 + _TWO_PI * k)))
                         best = min(best, v)
                     if t >= b:
                         continue
@@ -520,9 +544,9 @@ def cable_min_crossing(loop: CableLoop, beta: float, theta_lo: float, damper: bo
         stack.append((mid, b, above, skip))
         stack.append((a, mid, above, skip))
     out = [(math.pi, nyq)] if nyq > 0.0 else []
-    for t, v in found:
+    for t, v, piece in found:
         if v <= best * (1.0 + 1e-6):
-            got = _polish(loop, beta, damper, t)
+            got = _polish(loop, beta, damper, t, piece)
             if got is None:
                 return None
             if got[1] > 0.0 and not (nyq > 0.0 and math.pi - got[0] <= 1e-9):

@@ -43,7 +43,7 @@ def _cable(rng: np.random.Generator, i: int) -> Device:
 
 
 def _agree(dev: Device, fast, scan, b_max: float | None):
-    assert fast.path in ("bounded-scan", "scan") and scan.path == "scan"
+    assert fast.path in ("fast", "bounded-scan", "scan") and scan.path == "scan"
     kf, ks = fast.critical_stiffness, scan.critical_stiffness
     if math.isinf(ks) or ks == 0.0:
         assert kf == ks, (kf, ks)
