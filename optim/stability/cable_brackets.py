@@ -75,6 +75,9 @@ class _Factor:
     err: float        # how far c may be from the exact factor of the scan's function (a root's error)
     inside: bool
     base: float       # arg(−c) for a factor outside the unit circle (the continuous branch's constant)
+    inv_neg_c: complex  # 1/(−c)
+    om_lo: float      # om2 ∓ its error (the root's error moves |c|)
+    om_hi: float
     t_near: float | None   # the angle in [0, π] nearest to c (arg c), if any
     t_far: float | None    # the farthest (arg c + π)
     t_smax: float | None   # where |c| sin(θ − arg c) is largest (arg c + π/2)
@@ -102,7 +105,7 @@ def _factor(w: complex, sign: int, err: float) -> _Factor:
     inside = mag < 1.0
     err += 4.0 * _EPS * abs(w)
     return _Factor(w, c, sign, mag, om2, abs(2.0 * om2) / (1.0 + mag) - err, err, inside,
-                   0.0 if inside else cmath.phase(-c),
+                   0.0 if inside else cmath.phase(-c), -1.0 / c, om2 - err * (1.0 + mag), om2 + err * (1.0 + mag),
                    _angles_in(psi), _angles_in(psi + math.pi), _angles_in(psi + 0.5 * math.pi),
                    _angles_in(psi - 0.5 * math.pi))
 
@@ -152,19 +155,20 @@ def _build(plant) -> CableLoop | None:
     # the modes λ are the scan's own (its modal response uses them): exact here; the roots in w are computed, and
     # each is off by ≲ ε·Σ|a_k||w|^k/|p'(w)| (padded 64×), which every distance bound allows for
     dcoef = P.polyder(coef)
-    errs = [64.0 * _EPS * P.polyval(abs(v), np.abs(coef)) / max(abs(P.polyval(v, dcoef)), 1e-300) for v in wz]
+    errs = [float(64.0 * _EPS * P.polyval(abs(v), np.abs(coef)) / max(abs(P.polyval(v, dcoef)), 1e-300))
+            for v in wz]
     factors = tuple(_factor(complex(v), 1, 0.0) for v in lam) + \
         tuple(_factor(complex(v), -1, e) for v, e in zip(wz, errs))
     # a pole of G (or a zero of Q) this near the unit circle: H (nearly) infinite or zero there; scan instead
     if any(f.gap < (MIN_CIRCLE_GAP if f.sign < 0 else 1e3 * f.err) or f.gap < 1e3 * f.err for f in factors):
         return None
     lead = float(coef[-1])
-    loop = CableLoop(factors, plant.d + m + 1, 0.0 if lead > 0 else math.pi, abs(lead), modal, plant.d,
+    loop = CableLoop(factors, plant.d + m + 1, 0.0 if lead > 0 else math.pi, abs(lead), _py_modal(modal), plant.d,
                      tuple(sorted({f.t_near for f in factors if f.t_near is not None and 0.0 < f.t_near < math.pi})))
     # the factored Q against the modal response (the scan's own evaluation) at a few angles
     for t in (1e-3, 0.1, 0.7, 1.3, 2.1, 2.9, 3.1):
         q = _q(loop, t)
-        ref = _inverse(modal, plant.d, t) / (-_expm1j(-t))
+        ref = _inverse(loop.modal, plant.d, t) / (-_expm1j(-t))
         if not abs(q / ref - 1.0) < 1e-9:
             return None
     return loop
@@ -176,17 +180,27 @@ def _expm1j(t: float) -> complex:
     return complex(-2.0 * sh * sh, math.sin(t))
 
 
-def _inverse(modal, d: int, t: float) -> complex:
-    """1/G_n(e^{jθ}) by the modal form, as StateSpaceZOH.response computes it (scalar)."""
+def _py_modal(modal) -> tuple:
+    """The modal form as Python numbers (numpy scalars are ~5× slower in scalar arithmetic)."""
     lam, c1, c2v, e12v, r0, r1, g0_1, g1_1 = modal
-    zm1 = _expm1j(t)
-    zinv = complex(math.cos(t), -math.sin(t))
+    modes = tuple((complex(lam[i]), complex(r0[i]), complex(r1[i]), complex(e12v[i]), complex(c2v[i]))
+                  for i in range(len(lam)))
+    return modes, complex(c1), complex(g0_1), complex(g1_1)
+
+
+def _inverse(modal, d: int, t: float) -> complex:
+    """1/G_n(e^{jθ}) by the modal form (_py_modal), as StateSpaceZOH.response computes it (scalar)."""
+    modes, c1, g0_1, g1_1 = modal
+    sh = math.sin(0.5 * t)
+    st = math.sin(t)
+    zm1 = complex(-2.0 * sh * sh, st)
+    zinv = complex(math.cos(t), -st)
     acc_e = 0j
     acc_c = 0j
-    for i in range(len(lam)):
-        y = (r0[i] + zinv * r1[i]) / (zm1 - lam[i])
-        acc_e += y * e12v[i]
-        acc_c += y * c2v[i]
+    for lam, r0, r1, e12, c2 in modes:
+        y = (r0 + zinv * r1) / (zm1 - lam)
+        acc_e += y * e12
+        acc_c += y * c2
     x1 = (g0_1 + zinv * g1_1 + acc_e) / zm1
     dt = d * t
     g = (c1 * x1 + acc_c) * complex(math.cos(dt), -math.sin(dt))
@@ -201,34 +215,35 @@ def _q(loop: CableLoop, t: float) -> complex:
     return out
 
 
-def _arg_term(f: _Factor, t: float, zm1: complex, zc: complex) -> float:
-    """arg(e^{jθ} − c), continuous on [0, π]: θ + Arg(1 − c e^{−jθ}) inside, arg(−c) + Arg(1 − z/c) outside."""
-    diff = zm1 - f.w
-    if f.inside:
-        return t + cmath.phase(diff * zc)
-    return f.base + cmath.phase(diff / (-f.c))
-
-
 def _point(loop: CableLoop, beta: float, cslope: float, t: float) -> tuple[float, float, float]:
     """(F, F', R) at θ = t (F = φ + cslope·θ − asin g; g = 0 when β = 0).
 
     φ and R are the modal response's (the scan's function: Q = (1/G_n)/(1 − e^{−jθ})); the factors only
-    unwrap φ (their phase is off by ≲ err/gap ≤ 1e-3 rad near a zero, far below the π that would matter)."""
-    zm1 = _expm1j(t)
-    zc = complex(math.cos(t), -math.sin(t))
-    z = zm1 + 1.0
+    unwrap φ (their phase is off by ≲ err/gap ≤ 1e-3 rad near a zero, far below the π that would matter), and
+    give F'.  arg(e^{jθ} − c) on [0, π], continuously: θ + Arg(1 − c e^{−jθ}) for c inside the unit circle,
+    arg(−c) + Arg(1 − z/c) outside (both Args within ±π/2)."""
+    sh = math.sin(0.5 * t)
+    st = math.sin(t)
+    ct = math.cos(t)
+    zm1 = complex(-2.0 * sh * sh, st)
+    zc = complex(ct, -st)
     phi = (loop.s - 0.5) * t - loop.lead_arg
     dphi = loop.s - 0.5 + cslope
     dlr = 0.0
+    phase = cmath.phase
     for f in loop.factors:
         diff = zm1 - f.w
         d2 = diff.real * diff.real + diff.imag * diff.imag
-        sign = f.sign
-        phi += sign * _arg_term(f, t, zm1, zc)
-        dphi += sign * (0.5 + f.om2 / d2)
-        dlr += sign * (z * f.c.conjugate()).imag / d2
+        if f.sign > 0:
+            phi += t + phase(diff * zc) if f.inside else f.base + phase(diff * f.inv_neg_c)
+            dphi += 0.5 + f.om2 / d2
+            dlr += (st * f.c.real - ct * f.c.imag) / d2
+        else:
+            phi -= t + phase(diff * zc) if f.inside else f.base + phase(diff * f.inv_neg_c)
+            dphi -= 0.5 + f.om2 / d2
+            dlr -= (st * f.c.real - ct * f.c.imag) / d2
     q = _inverse(loop.modal, loop.d, t) / (1.0 - zc)
-    exact = cmath.phase(q) - 0.5 * t
+    exact = phase(q) - 0.5 * t
     phi = exact + _TWO_PI * round((phi - exact) / _TWO_PI) + cslope * t
     r = abs(q)
     if beta == 0.0:
@@ -251,16 +266,24 @@ def _angles_in(base: float) -> float | None:
 
 
 class _Pt:
-    """F, F' and, per factor, |e^{jθ} − c| and |c| sin(θ − arg c) at one angle."""
+    """Per factor, |e^{jθ} − c| and |c| sin(θ − arg c) at one angle; F there on first use (a pruned piece
+    never needs it)."""
 
-    __slots__ = ("f", "dist", "sin")
+    __slots__ = ("_f", "dist", "sin", "_args")
 
     def __init__(self, loop: CableLoop, beta: float, cslope: float, t: float):
         zm1 = _expm1j(t)
         z = zm1 + 1.0
-        self.f = _point(loop, beta, cslope, t)[0]
+        self._f = None
+        self._args = (loop, beta, cslope, t)
         self.dist = [abs(zm1 - f.w) for f in loop.factors]
         self.sin = [(z * f.c.conjugate()).imag for f in loop.factors]
+
+    @property
+    def f(self) -> float:
+        if self._f is None:
+            self._f = _point(*self._args)[0]
+        return self._f
 
 
 def _bounds_r(loop: CableLoop, a: float, b: float, pa: _Pt, pb: _Pt) -> tuple[float, float, list]:
@@ -304,8 +327,13 @@ def _bounds_d(loop: CableLoop, beta: float, a: float, b: float, pa: _Pt, pb: _Pt
     if beta > 0.0:
         g_lo = beta * math.cos(0.5 * b) / rmax
         g_hi = beta * math.cos(0.5 * a) / rmin
-        root_hi = math.sqrt((1.0 - g_hi) * (1.0 + g_hi))
-        gl, gh = g_lo / math.sqrt((1.0 - g_lo) * (1.0 + g_lo)), g_hi / root_hi
+        # 1 − g without cancellation: (R − β + 2β sin²(θ/4))/R (R = β at a split point, θ tiny)
+        qa, qb = math.sin(0.25 * a), math.sin(0.25 * b)
+        root_hi = math.sqrt(((rmin - beta) + 2.0 * beta * qa * qa) / rmin * (1.0 + g_hi))
+        root_lo = math.sqrt(((rmax - beta) + 2.0 * beta * qb * qb) / rmax * (1.0 + g_lo))
+        if not root_hi > 0.0:
+            return -math.inf, math.inf
+        gl, gh = g_lo / root_lo, g_hi / root_hi
         # G·½tan(θ/2) = ½β sin(θ/2)/(R√(1 − g²))
         tan_lo = 0.5 * beta * math.sin(0.5 * a) / rmax
         tan_hi = 0.5 * beta * math.sin(0.5 * b) / (rmin * root_hi)
@@ -314,21 +342,23 @@ def _bounds_d(loop: CableLoop, beta: float, a: float, b: float, pa: _Pt, pb: _Pt
     lo = hi = base            # per-factor pairing
     plo = phi_ = base         # phase terms alone
     dl_lo = dl_hi = 0.0       # (log R)'
+    sa, sb = pa.sin, pb.sin
     for j, f in enumerate(loop.factors):
         mn, mx = ranges[j]
-        smn, smx = _sin_bounds(f, a, b, pa.sin[j], pb.sin[j])
-        om_lo, om_hi = f.om2 - f.err * (1.0 + f.mag), f.om2 + f.err * (1.0 + f.mag)
+        mn2, mx2 = mn * mn, mx * mx
+        om_lo, om_hi = f.om_lo, f.om_hi
+        p_lo = om_lo / mx2 if om_lo >= 0.0 else om_lo / mn2
+        p_hi = om_hi / mn2 if om_hi >= 0.0 else om_hi / mx2
         if gh > 0.0:
-            n_lo = om_lo + min(gl * smn, gh * smn)
-            n_hi = om_hi + max(gl * smx, gh * smx)
+            smn, smx = _sin_bounds(f, a, b, sa[j], sb[j])
+            n_lo = om_lo + (gl * smn if smn >= 0.0 else gh * smn)
+            n_hi = om_hi + (gh * smx if smx >= 0.0 else gl * smx)
+            t_lo = n_lo / mx2 if n_lo >= 0.0 else n_lo / mn2
+            t_hi = n_hi / mn2 if n_hi >= 0.0 else n_hi / mx2
+            s_lo = smn / mx2 if smn >= 0.0 else smn / mn2
+            s_hi = smx / mn2 if smx >= 0.0 else smx / mx2
         else:
-            n_lo, n_hi = om_lo, om_hi
-        t_lo = n_lo / (mx * mx) if n_lo >= 0.0 else n_lo / (mn * mn)
-        t_hi = n_hi / (mn * mn) if n_hi >= 0.0 else n_hi / (mx * mx)
-        p_lo = om_lo / (mx * mx) if om_lo >= 0.0 else om_lo / (mn * mn)
-        p_hi = om_hi / (mn * mn) if om_hi >= 0.0 else om_hi / (mx * mx)
-        s_lo = smn / (mx * mx) if smn >= 0.0 else smn / (mn * mn)
-        s_hi = smx / (mn * mn) if smx >= 0.0 else smx / (mx * mx)
+            t_lo, t_hi, s_lo, s_hi = p_lo, p_hi, 0.0, 0.0
         if f.sign > 0:
             lo += 0.5 + t_lo
             hi += 0.5 + t_hi
@@ -345,8 +375,9 @@ def _bounds_d(loop: CableLoop, beta: float, a: float, b: float, pa: _Pt, pb: _Pt
             dl_hi -= s_lo
     lo += tan_lo
     hi += tan_hi
-    lo = max(lo, plo + tan_lo + min(gl * dl_lo, gh * dl_lo))
-    hi = min(hi, phi_ + tan_hi + max(gl * dl_hi, gh * dl_hi))
+    if gh > 0.0:
+        lo = max(lo, plo + tan_lo + (gl * dl_lo if dl_lo >= 0.0 else gh * dl_lo))
+        hi = min(hi, phi_ + tan_hi + (gh * dl_hi if dl_hi >= 0.0 else gl * dl_hi))
     pad = _PAD * (abs(lo) + abs(hi) + loop.s)
     return lo - pad, hi + pad
 
@@ -539,7 +570,7 @@ def cable_min_crossing(loop: CableLoop, beta: float, theta_lo: float, damper: bo
             f_min, f_max = _range(fa, fb, dlo, dhi, b - a)
             if level0 + _TWO_PI * math.ceil((f_min - level0) / _TWO_PI) > f_max:
                 continue                          # F's range on [a, b] holds no level
-        mid = 0.5 * (a + b)
+        mid = math.sqrt(a * b) if b > 1000.0 * a else 0.5 * (a + b)   # geometric across decades (low θ)
         pts[mid] = _Pt(loop, beta, cslope, mid)
         stack.append((mid, b, above, skip))
         stack.append((a, mid, above, skip))
