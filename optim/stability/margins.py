@@ -229,7 +229,16 @@ def _bounded(device: Device, plant: StateSpaceZOH, damping: float, b_max: float 
             "bounded-scan"
 
     def every() -> tuple[Crossover, ...]:
-        return scan_critical_stiffness(device, damping, b_max=b_max).crossovers
+        found = scan_critical_stiffness(device, damping, b_max=b_max).crossovers
+        if path != "fast" or best is None:
+            return found
+        # the brackets' binding crossover in place of the scan's (the same one, to the last ulps of K): the
+        # list's minimum is K_cr exactly
+        w, k = best[0] / device.sample_time, best[1] * device.stiffness_scale
+        near = min(range(len(found)), key=lambda i: abs(found[i].frequency - w), default=None)
+        if near is None or abs(found[near].frequency / w - 1) > 1e-9:
+            raise RuntimeError(f"cable brackets and scan disagree on {device!r}, B = {damping!r}")
+        return found[:near] + (Crossover(w, k),) + found[near + 1:]
 
     if best is None:
         return CriticalStiffness(math.inf, None, (), damping, b_max, path=path,
