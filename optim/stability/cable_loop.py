@@ -78,7 +78,7 @@ def _factor(w: complex, sign: int, err: float) -> _Factor:
     inside = mag < 1.0
     err += 4.0 * _EPS * abs(w)
     return _Factor(w, c, sign, mag, om2, abs(2.0 * om2) / (1.0 + mag) - err, err, inside,
-                   0.0 if inside else cmath.phase(-c), -1.0 / c, om2 - err * (1.0 + mag), om2 + err * (1.0 + mag),
+                   0.0 if inside else cmath.phase(-c), 0j if inside else -1.0 / c, om2 - err * (1.0 + mag), om2 + err * (1.0 + mag),
                    _angles_in(psi), _angles_in(psi + math.pi), _angles_in(psi + 0.5 * math.pi),
                    _angles_in(psi - 0.5 * math.pi))
 
