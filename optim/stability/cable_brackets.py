@@ -46,7 +46,6 @@ import cmath
 import math
 
 from optim.stability.cable_loop import CableLoop, _expm1j, _Factor, _inverse, cable_loop
-from optim.stability.fast_rigid import _solve
 
 __all__ = ["CableLoop", "cable_loop", "cable_min_crossing", "MAX_PIECES"]
 
@@ -247,6 +246,29 @@ def _logr(loop: CableLoop, t: float) -> tuple[float, float]:
     return out, der
 
 
+def _solve(fun, level: float, lo: float, hi: float, x: float) -> float:
+    """fast_rigid's bracketed Newton (fun non-decreasing, fun(lo) < level ≤ fun(hi)), stopped at a relative step
+    of 1e-12: _polish then pins the root on Im H itself, to 4 ulp."""
+    for _ in range(200):
+        if not (lo < x < hi):
+            x = math.sqrt(lo * hi) if lo > 0.0 and hi > 8.0 * lo else 0.5 * (lo + hi)
+        fx, dfx = fun(x)
+        if fx == level:
+            return x
+        if fx < level:
+            lo = x
+        else:
+            hi = x
+        if hi - lo <= 1e-12 * hi:
+            return x
+        step = (fx - level) / dfx if dfx > 0.0 else math.inf
+        xn = x - step
+        if abs(step) <= 1e-12 * x and lo <= xn <= hi:
+            return xn
+        x = xn
+    return x
+
+
 def _k_of(beta: float, t: float, r: float) -> float:
     """k(θ) of the module docstring: K at a crossover with |Q| = r (a lower bound when r, θ are)."""
     if beta == 0.0:
@@ -436,10 +458,13 @@ def _first_root(loop: CableLoop, beta: float, damper: bool, cslope: float, level
     if len(ks) > 2 and b - a > 1e-6 * b:
         return None
     level = level0 + _TWO_PI * ks[0]
+    # start where the chord through (a, F(a)), (b, F(b)) meets the level (F is monotone on the piece)
+    x0 = a + (level - fa) / (fb - fa) * (b - a) if fb != fa else 0.5 * (a + b)
+    x0 = min(max(x0, a + 1e-3 * (b - a)), b - 1e-3 * (b - a))
     if up:
-        root = _solve(lambda x: _point(loop, beta, cslope, x)[:2], level, a, b, 0.5 * (a + b))
+        root = _solve(lambda x: _point(loop, beta, cslope, x)[:2], level, a, b, x0)
     else:
-        root = _solve(lambda x: tuple(-v for v in _point(loop, beta, cslope, x)[:2]), -level, a, b, 0.5 * (a + b))
+        root = _solve(lambda x: tuple(-v for v in _point(loop, beta, cslope, x)[:2]), -level, a, b, x0)
     r = _point(loop, beta, cslope, root)[2]
     return root, (r if damper else _k_of(beta, root, r)), ks[0]
 

@@ -134,7 +134,17 @@ def max_stable_damping(device: Device) -> float:
 
 
 def _cable_b_max(device: Device, plant: StateSpaceZOH) -> tuple[float, Path]:
-    """B_max of a cable device with its path: the cable brackets, else the bounded scan (modal form required)."""
+    """B_max of a cable device with its path: the cable brackets, else the bounded scan (modal form required).
+
+    Kept with the sampled plant (a property of the device alone, as the plant is; loop_plant caches both), so a
+    design or a study asking K_cr(B) of one device at many B finds it once."""
+    key = ("b_max", device.damping_scale)
+    if key not in plant._cache:
+        plant._cache[key] = _cable_b_max_uncached(device, plant)
+    return plant._cache[key]
+
+
+def _cable_b_max_uncached(device: Device, plant: StateSpaceZOH) -> tuple[float, Path]:
     loop = cable_loop(plant)
     got = None if loop is None else cable_min_crossing(loop, 0.0, _theta_min(device, 0.0), damper=True)
     if got is not None:
