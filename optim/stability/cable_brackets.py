@@ -291,7 +291,7 @@ def _polish(loop: CableLoop, beta: float, damper: bool, t0: float, piece: tuple[
             ) -> tuple[float, float] | None:
     """The root of Im H next to t0 (F's root on ``piece`` = (a, b, level), F monotone there), bracketed and
     solved to 4 ulp as the scan solves it; (θ, Re H).  F's sum of arguments pins θ to ~ε/θ·Σ|terms|, Im H
-    to ~ε: the bracket widens from 1e-14θ while F stays within 1 rad of the level at its ends (no other
+    to ~ε: the bracket widens from 1e-12θ while F stays within 1 rad of the level at its ends (no other
     zero of Im H, the K < 0 ones included, can lie between)."""
     a, b, level = piece
     cslope = 0.5 if damper else 0.0
@@ -303,7 +303,7 @@ def _polish(loop: CableLoop, beta: float, damper: bool, t0: float, piece: tuple[
     if f0 == 0.0:
         return t0, _h_im_re(loop, beta, damper, t0).real
     bracket = None
-    for w in (1e-14, 1e-12, 1e-10, 1e-8, 1e-6, 1e-4):
+    for w in (1e-12, 1e-10, 1e-8, 1e-6, 1e-4):
         lo, hi = max(t0 * (1.0 - w), a), min(t0 * (1.0 + w), b, math.pi)
         if w > 1e-9 and not (abs(_point(loop, beta, cslope, lo)[0] - level) < 1.0
                              and abs(_point(loop, beta, cslope, hi)[0] - level) < 1.0):
@@ -325,7 +325,7 @@ def _polish(loop: CableLoop, beta: float, damper: bool, t0: float, piece: tuple[
         if abs(b - a) <= tol * max(abs(a), abs(b)):
             break
         x = b - fb * (b - a) / (fb - fa) if fb != fa else 0.5 * (a + b)
-        if not (min(a, b) < x < max(a, b)) or it % 4 == 3:
+        if not (min(a, b) < x < max(a, b)) or it % 8 == 7:     # Illinois; a bisection now and then
             x = 0.5 * (a + b)
         fx = f(x)
         if fx == 0.0:
