@@ -7,9 +7,10 @@ a fractional delay enters python-control as the modified z-transform's numerator
 zwidth analyses).  python-control's ``stability_margins`` is run as labs use it (default: the
 crossover "closest to 0 dB") and with ``returnall=True`` taking the minimum.  Truth is the 40-digit
 reference rung.  Also: the batch path's rate over many random rigid devices and how many of them
-(and of the cases) fell back to the scan.  Writes docs/bench_core.md.
+(and of the cases) fell back to the scan, and which path answered on many random cable devices (the cable
+brackets or, where they do not close, the bounded scan).  Writes docs/bench_core.md.
 
-    python -m bench.bench_core [--repeats N] [--batch N] [--out docs/bench_core.md]
+    python -m bench.bench_core [--repeats N] [--batch N] [--cables N] [--out docs/bench_core.md]
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from __future__ import annotations
 import argparse
 import datetime as _dt
 import math
+import os
 import platform
 import statistics
 import time
@@ -44,6 +46,8 @@ CASES: list[tuple] = [
     ("rigid Phantom, d=200, B=0.9·B_max", {"mass": 1.05e-3, "damping": 0.0085, "delay": 0.2}, 0.9),
     ("rigid Phantom, d=12.25, B=0.99·B_max", {"mass": 1.05e-3, "damping": 0.0085, "delay": 0.01225}, 0.99),
     ("cable LHifAM, d=5, B=0.5·B_max", {"preset": "lhifam", "delay": 0.005}, 0.5),
+    ("cable LHifAM, d=3.7", {"preset": "lhifam", "delay": 0.0037}),
+    ("cable LHifAM, d=50, B=0.9·B_max", {"preset": "lhifam", "delay": 0.05}, 0.9),
 ]
 
 
@@ -73,6 +77,15 @@ def _control_system(dev: Device, damping: float = 0.0):
         num = [g0p, g1p - p * g0p + phi12 * g0v, phi12 * g1v - p * g1p]
         den = np.polymul(np.polymul([1.0, -1.0], [1.0, -p]), [1.0, 0.0])
         gd = control.tf([v * t * t / dev.mass for v in num], list(den), t)
+    elif dev.cable is not None and plant.f > 0.0:
+        # the modified z-transform of the cable: x⁺ = Φx + Γ0·u + Γ1·u⁻ (u⁻ the previous input, one more state)
+        phi, _, g0, g1 = plant.accurate_matrices()
+        n = phi.shape[0]
+        a = np.zeros((n + 1, n + 1))
+        a[:n, :n], a[:n, n] = phi, g1
+        bb = np.concatenate([g0, [1.0]])[:, None]
+        cc = np.concatenate([plant.c, [0.0]])[None, :] * (t * t / dev.mass)
+        gd = control.ss2tf(control.ss(a, bb, cc, np.zeros((1, 1)), t))
     else:
         if dev.cable is None:
             g = control.tf([1.0], [dev.mass, dev.damping, 0.0])
@@ -158,6 +171,46 @@ def measure_batch(n: int = 10_000, seed: int = 0) -> BatchRow:
     return BatchRow(n, time.perf_counter() - t0, res.scanned)
 
 
+@dataclass
+class CableFallbacks:
+    devices: int
+    fast: int
+    bounded: int
+    other: int
+    median_us: float
+
+
+def measure_cable_fallbacks(n: int = 1_000, seed: int = 0) -> CableFallbacks:
+    """Which path critical_stiffness takes on n random damped cable devices (δ 1e-10–1, modes 10 rad/s–0.9·Nyquist,
+    cable damping 1e-9–10 of critical, delays 0–200 samples whole and fractional, B = 0, uniform in [0, B_max) or
+    within 1e-4 of B_max), with its median time per call (plant and B_max known beforehand)."""
+    rng = np.random.default_rng(seed)
+    paths, times = [], []
+    for i in range(n):
+        t = float(rng.choice([5e-4, 1e-3, 2e-3]))
+        m = 10 ** rng.uniform(-3, 1)
+        delta = 10 ** rng.uniform(-10, 0)
+        ds = float(rng.integers(0, 201)) if i % 2 else float(rng.uniform(0, 200))
+        mr = m * rng.uniform(0.05, 0.9)
+        md = m - mr
+        wn = min(10 ** rng.uniform(1, 4), 0.9 * math.pi / t)
+        kc = wn ** 2 * mr * md / m
+        br = delta * m / t * rng.uniform(0, 1)
+        bc = 2.0 * math.sqrt(kc * mr * md / m) * 10 ** rng.uniform(-9, 1)
+        dev = Device(cable=dict(motor_mass=mr, body_mass=md, motor_damping=br, body_damping=delta * m / t - br,
+                                stiffness=kc, damping=bc), sample_time=t, delay=ds * t)
+        bm = max_stable_damping(dev)
+        kind = i % 3
+        frac = rng.uniform(0, 1) if kind == 1 else 1 - 10 ** rng.uniform(-4, -1)
+        b = 0.0 if kind == 0 or not math.isfinite(bm) else frac * bm
+        t0 = time.perf_counter()
+        res = critical_stiffness(dev, b, b_max=bm if b > 0 else None)
+        times.append(time.perf_counter() - t0)
+        paths.append(res.path)
+    return CableFallbacks(n, paths.count("fast"), paths.count("bounded-scan"),
+                          n - paths.count("fast") - paths.count("bounded-scan"), 1e6 * statistics.median(times))
+
+
 def _wrong(value: float, truth: float) -> bool:
     return not (math.isfinite(value) and abs(value / truth - 1) <= 0.01)
 
@@ -165,7 +218,8 @@ def _wrong(value: float, truth: float) -> bool:
 RIGID_TARGET, CABLE_TARGET = 0.001, 0.01   # issue 20: median time ratio zwidth / python-control
 
 
-def render(rows: list[Row], batch: BatchRow | None = None) -> str:
+def render(rows: list[Row], batch: BatchRow | None = None, cables: CableFallbacks | None = None,
+           load: tuple[float, float] | None = None) -> str:
     import control
 
     lines = [
@@ -173,11 +227,14 @@ def render(rows: list[Row], batch: BatchRow | None = None) -> str:
         "",
         f"Generated by `python -m bench.bench_core` on {_dt.date.today().isoformat()}, "
         f"{platform.machine()} {platform.python_implementation()} {platform.python_version()}, "
-        f"{platform.processor() or 'cpu'}; python-control {control.__version__}.",
+        f"{platform.processor() or 'cpu'}; python-control {control.__version__}"
+        + (f"; load average {load[0]:.1f} at the start, {load[1]:.1f} at the end ({os.cpu_count()} cores: only "
+           "the same-run ratios count on a loaded machine)." if load else "."),
         "Same ZOH-discretised loop for both (the damper B(1 − z⁻¹)/T closed with `feedback` when B > 0, a "
         "fractional delay as the modified z-transform); truth = the 40-digit reference rung. zwidth: the public "
-        "`optim.stability.margins.critical_stiffness(device, B)` (B_max included when B > 0), its *path* `fast` (no scan), "
-        "`bounded-scan` (cable) or `scan` (fallback). python-control: one `stability_margins` call (default) on its loop built beforehand "
+        "`optim.stability.margins.critical_stiffness(device, B)` (B_max included when B > 0), its *path* `fast` (no scan: "
+        "optim.stability.fast_rigid, and for damped cables optim.stability.cable_brackets), `bounded-scan` (a cable "
+        "where the brackets do not close: the scan's grid, fewer solves) or `scan` (fallback). python-control: one `stability_margins` call (default) on its loop built beforehand "
         "(c2d and `feedback` outside the timing); zwidth likewise reuses the sampled plant of a device it has seen "
         "(an LRU cache: a first call on a new device adds the discretisation, ~20 µs rigid). Median / p95 per call, "
         "same run. *wrong* = more than 1 % from the truth. Target (issue 20): ratio ≤ "
@@ -210,12 +267,27 @@ def render(rows: list[Row], batch: BatchRow | None = None) -> str:
         f"Summary: zwidth wrong on {wrong_exact}/{len(rows)}; python-control default wrong on {wrong_ctrl}/{len(rows)}, "
         f"its returnall minimum wrong on {wrong_min}/{len(rows)}. Median time ratio zwidth/python-control: "
         f"{statistics.median(ratios):.4f} (max {max(ratios):.4f}); target met on {met}/{len(rows)}. "
-        f"Paths: fast {sum(r.path == 'fast' for r in rows)}, bounded-scan {sum(r.path == 'bounded-scan' for r in rows)} "
-        f"(cable: the scan's grid and brackets, only the brackets a bound cannot exclude solved), "
-        f"fallbacks to the full scan {sum(r.path == 'scan' for r in rows)}/{len(rows)} cases "
-        f"({sum(r.path == 'scan' and not r.cable for r in rows)} rigid).",
+        f"Paths: fast {sum(r.path == 'fast' for r in rows)} ({sum(r.path == 'fast' and r.cable for r in rows)} cable), "
+        f"fallbacks to the bounded scan {sum(r.path == 'bounded-scan' for r in rows)} (cable: the scan's grid and "
+        f"brackets, only the brackets a bound cannot exclude solved), to the full scan "
+        f"{sum(r.path == 'scan' for r in rows)}/{len(rows)} cases ({sum(r.path == 'scan' and not r.cable for r in rows)} "
+        "rigid).",
         "",
     ]
+    if cables is not None:
+        lines += [
+            "## Cable fallbacks",
+            "",
+            f"`critical_stiffness` on {cables.devices:,} random damped cable devices (δ 1e-10–1, modes 10 rad/s–0.9·"
+            "Nyquist, cable damping 1e-9–10 of critical, delays 0–200 samples whole and fractional, B = 0, uniform "
+            "below B_max or within 1e-4 of it; B_max given): which path answered. A fallback is said in the "
+            "answer's `path` (and the exact rung's `source`).",
+            "",
+            "| devices | fast (cable brackets) | fell back to the bounded scan | other (scan) | median µs/call |",
+            "|---|---|---|---|---|",
+            f"| {cables.devices:,} | {cables.fast:,} | {cables.bounded:,} | {cables.other:,} | {cables.median_us:.0f} |",
+            "",
+        ]
     if batch is not None:
         lines += [
             "## Batch path",
@@ -237,9 +309,14 @@ def main(argv: list[str] | None = None) -> str:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--repeats", type=int, default=30)
     ap.add_argument("--batch", type=int, default=10_000, help="devices of the batch-rate row (0: skip it)")
+    ap.add_argument("--cables", type=int, default=1_000, help="random cable devices of the fallback count (0: skip)")
     ap.add_argument("--out", default="docs/bench_core.md")
     args = ap.parse_args(argv)
-    text = render(measure(repeats=args.repeats), measure_batch(args.batch) if args.batch else None)
+    load0 = os.getloadavg()[0]
+    rows = measure(repeats=args.repeats)
+    batch = measure_batch(args.batch) if args.batch else None
+    cables = measure_cable_fallbacks(args.cables) if args.cables else None
+    text = render(rows, batch, cables, (load0, os.getloadavg()[0]))
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     Path(args.out).write_text(text)
     print(text)

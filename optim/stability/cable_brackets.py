@@ -1,0 +1,489 @@
+"""Exact K_cr(B) and B_max of a damped cable device without a frequency scan (issue 20): certified brackets.
+
+Notation of optim.stability.margins and optim.stability.fast_rigid (dimensionless θ = ωT, α = KT²/m, β = BT/m).
+The modal form of the cable plant (models.discretize.StateSpaceZOH.modal_form: an exact integrator and three
+modes λ of E₂₂, in w = z − 1) factors the loop as
+
+    G_n(z) = L·Π(z − ζ_i) / ((z − 1)·Π(z − c_k)) · z^{−d−m},   c_k = 1 + λ_k (the rigid pole and the resonance),
+
+ζ_i the roots of the numerator polynomial in w (the anti-resonance pair and the sampling zero(s); m = 1 and
+one more zero for a fractional delay).  With Q = z/(z − 1)/G_n = z^s Π(z − c_k)/(L Π(z − ζ_i)), s = d + m + 1:
+
+    H(θ) = −1/G_n + β(e^{−jθ} − 1) = −2j·sin(θ/2)·e^{−jθ/2}·(Q + β),
+
+so (as in fast_rigid, with R = |Q| and φ = arg Q − θ/2 unwrapped, in closed form from the factors) a K > 0
+crossover is a root of F(θ) = φ − asin(g) = π/2 (mod 2π), g = β cos(θ/2)/R, where R > β, and there
+K = k(θ) = 2s·u/(√(u + β²s²) + βs), s = sin(θ/2), u = R² − β², which rises in R and in θ.  The damper-only
+loop −Q is real and positive where F_b = φ + θ/2 = π (mod 2π), with value R (B_max = min R there).
+
+Unlike the rigid loop, R dips at the resonance and peaks at the anti-resonance, and φ falls by ≈ π across the
+anti-resonance: nothing is monotone on all of (0, π].  So the axis is split (first at the angles of every pole
+and zero) and each piece [a, b] gets closed-form bounds, every one from the factors:
+
+* |z − c| on the arc: its minimum (the arc's nearest point to c) and maximum (the farthest), so
+  R_min ≤ R ≤ R_max;
+* F' = s − ½ + G·½tan(θ/2) + Σ_k T_{c_k} − Σ_i T_{ζ_i},  T_c = ½ + ((1 − |c|²)/2 + G·|c| sin(θ − arg c))/|z − c|²,
+  with G = g/√(1 − g²) ∈ [G_lo, G_hi] from the bounds of R (G = 0 for F_b and for β = 0): each term bounded
+  on its own by interval arithmetic (the resonance's two parts, which cancel, are bounded together).
+
+A piece is then (in this order): dropped when R_max ≤ β (no K > 0 crossover: one needs R > β); dropped when
+the lower bound k(sin(a/2), R_min) (R_min for F_b) of any K in it is above the best K found; solved when F is
+monotone on it (D_lo > 0 or D_hi < 0 with R_min > β): every level π/2 + 2πk between F(a) and F(b) has exactly
+one root, found by bracketed Newton (fast_rigid's solver), then refined on Im H itself (the scan's function,
+Illinois to 4 ulp, as the scan does) and K = Re H there; dropped when the derivative bounds keep F's whole
+range on the piece off every level; otherwise halved.  Pieces are taken by frequency, so the first crossover
+found bounds the rest.  The Nyquist point is the scan's (H(π) real: a crossover when positive).
+
+Where the factors are not trusted (the factored Q differs from the modal response by > 1e-9, a pole or zero
+within 1e-9 of the unit circle: an undamped cable, a sampling zero at −1) or the pieces do not resolve within
+a budget, ``None`` is returned and the caller runs the bounded scan (optim.stability.fast_cable), saying so in
+the answer's ``path``.
+"""
+
+from __future__ import annotations
+
+import cmath
+import math
+
+from optim.stability.cable_loop import CableLoop, _expm1j, _Factor, _inverse, cable_loop
+
+__all__ = ["CableLoop", "cable_loop", "cable_min_crossing", "MAX_PIECES"]
+
+_EPS = 2.220446049250313e-16
+_TWO_PI = 2.0 * math.pi
+#: pieces examined before giving up (the caller then scans)
+MAX_PIECES = 400
+_PAD = 1e-9          # relative padding of every bound (the factors are known to ~cond·ε ≤ 1e-12)
+
+
+def _point(loop: CableLoop, beta: float, cslope: float, t: float) -> tuple[float, float, float]:
+    """(F, F', R) at θ = t (F = φ + cslope·θ − asin g; g = 0 when β = 0).
+
+    φ and R are the modal response's (the scan's function: Q = (1/G_n)/(1 − e^{−jθ})); the factors only
+    unwrap φ (their phase is off by ≲ err/gap ≤ 1e-3 rad near a zero, far below the π that would matter), and
+    give F'.  arg(e^{jθ} − c) on [0, π], continuously: θ + Arg(1 − c e^{−jθ}) for c inside the unit circle,
+    arg(−c) + Arg(1 − z/c) outside (both Args within ±π/2)."""
+    sh = math.sin(0.5 * t)
+    st = math.sin(t)
+    ct = math.cos(t)
+    zm1 = complex(-2.0 * sh * sh, st)
+    zc = complex(ct, -st)
+    phi = (loop.s - 0.5) * t - loop.lead_arg
+    dphi = loop.s - 0.5 + cslope
+    dlr = 0.0
+    phase = cmath.phase
+    for f in loop.factors:
+        diff = zm1 - f.w
+        d2 = diff.real * diff.real + diff.imag * diff.imag
+        if f.sign > 0:
+            phi += t + phase(diff * zc) if f.inside else f.base + phase(diff * f.inv_neg_c)
+            dphi += 0.5 + f.om2 / d2
+            dlr += (st * f.c.real - ct * f.c.imag) / d2
+        else:
+            phi -= t + phase(diff * zc) if f.inside else f.base + phase(diff * f.inv_neg_c)
+            dphi -= 0.5 + f.om2 / d2
+            dlr -= (st * f.c.real - ct * f.c.imag) / d2
+    q = _inverse(loop.modal, loop.d, t) / (1.0 - zc)
+    exact = phase(q) - 0.5 * t
+    phi = exact + _TWO_PI * round((phi - exact) / _TWO_PI) + cslope * t
+    r = abs(q)
+    if beta == 0.0:
+        return phi, dphi, r
+    g = beta * math.cos(0.5 * t) / r
+    if g >= 1.0:
+        return phi - 0.5 * math.pi, dphi, r
+    root = math.sqrt((1.0 - g) * (1.0 + g))
+    big_g = g / root
+    return phi - math.asin(g), dphi + big_g * (0.5 * math.tan(0.5 * t) + dlr), r
+
+
+class _Pt:
+    """Per factor, |e^{jθ} − c| and |c| sin(θ − arg c) at one angle; F there on first use (a pruned piece
+    never needs it)."""
+
+    __slots__ = ("_f", "dist", "sin", "_args")
+
+    def __init__(self, loop: CableLoop, beta: float, cslope: float, t: float):
+        zm1 = _expm1j(t)
+        z = zm1 + 1.0
+        self._f = None
+        self._args = (loop, beta, cslope, t)
+        self.dist = [abs(zm1 - f.w) for f in loop.factors]
+        self.sin = [(z * f.c.conjugate()).imag for f in loop.factors]
+
+    @property
+    def f(self) -> float:
+        if self._f is None:
+            self._f = _point(*self._args)[0]
+        return self._f
+
+
+def _bounds_r(loop: CableLoop, a: float, b: float, pa: _Pt, pb: _Pt) -> tuple[float, float, list]:
+    """(R_min, R_max, per-factor (d_min, d_max)) on [a, b]: each |e^{jθ} − c| at its ends or its interior extrema."""
+    rmin = rmax = 1.0 / loop.lead_abs
+    ranges = []
+    for j, f in enumerate(loop.factors):
+        da, db = pa.dist[j], pb.dist[j]
+        mn, mx = (da - f.err, db + f.err) if da <= db else (db - f.err, da + f.err)
+        if f.t_near is not None and a <= f.t_near <= b:
+            mn = f.gap
+        if f.t_far is not None and a <= f.t_far <= b:
+            mx = 1.0 + f.mag + f.err
+        ranges.append((mn, mx))
+        if f.sign > 0:
+            rmin *= mn
+            rmax *= mx
+        else:
+            rmin /= mx
+            rmax /= mn
+    return rmin * (1.0 - _PAD), rmax * (1.0 + _PAD), ranges
+
+
+def _sin_bounds(f: _Factor, a: float, b: float, sa: float, sb: float) -> tuple[float, float]:
+    mn, mx = (sa, sb) if sa <= sb else (sb, sa)
+    if f.t_smax is not None and a <= f.t_smax <= b:
+        mx = f.mag
+    if f.t_smin is not None and a <= f.t_smin <= b:
+        mn = -f.mag
+    return mn - f.err, mx + f.err
+
+
+def _bounds_d(loop: CableLoop, beta: float, a: float, b: float, pa: _Pt, pb: _Pt, rmin: float, rmax: float,
+              ranges: list, cslope: float) -> tuple[float, float]:
+    """Bounds (D_lo, D_hi) of F' on [a, b] (module docstring); R ≥ rmin > β there (or β = 0).
+
+    Two ways, the tighter of each kept: every factor's phase term with its share of G·(log R)' (they cancel
+    at the resonance), and the phase terms alone plus G times the bounds of the whole (log R)' (whose sign
+    is known where R is monotone)."""
+    base = loop.s - 0.5 + cslope
+    if beta > 0.0:
+        g_lo = beta * math.cos(0.5 * b) / rmax
+        g_hi = beta * math.cos(0.5 * a) / rmin
+        # 1 − g without cancellation: (R − β + 2β sin²(θ/4))/R (R = β at a split point, θ tiny)
+        qa, qb = math.sin(0.25 * a), math.sin(0.25 * b)
+        root_hi = math.sqrt(((rmin - beta) + 2.0 * beta * qa * qa) / rmin * (1.0 + g_hi))
+        root_lo = math.sqrt(((rmax - beta) + 2.0 * beta * qb * qb) / rmax * (1.0 + g_lo))
+        if not root_hi > 0.0:
+            return -math.inf, math.inf
+        gl, gh = g_lo / root_lo, g_hi / root_hi
+        # G·½tan(θ/2) = ½β sin(θ/2)/(R√(1 − g²))
+        tan_lo = 0.5 * beta * math.sin(0.5 * a) / rmax
+        tan_hi = 0.5 * beta * math.sin(0.5 * b) / (rmin * root_hi)
+    else:
+        gl = gh = tan_lo = tan_hi = 0.0
+    lo = hi = base            # per-factor pairing
+    plo = phi_ = base         # phase terms alone
+    dl_lo = dl_hi = 0.0       # (log R)'
+    sa, sb = pa.sin, pb.sin
+    for j, f in enumerate(loop.factors):
+        mn, mx = ranges[j]
+        mn2, mx2 = mn * mn, mx * mx
+        om_lo, om_hi = f.om_lo, f.om_hi
+        p_lo = om_lo / mx2 if om_lo >= 0.0 else om_lo / mn2
+        p_hi = om_hi / mn2 if om_hi >= 0.0 else om_hi / mx2
+        if gh > 0.0:
+            smn, smx = _sin_bounds(f, a, b, sa[j], sb[j])
+            n_lo = om_lo + (gl * smn if smn >= 0.0 else gh * smn)
+            n_hi = om_hi + (gh * smx if smx >= 0.0 else gl * smx)
+            t_lo = n_lo / mx2 if n_lo >= 0.0 else n_lo / mn2
+            t_hi = n_hi / mn2 if n_hi >= 0.0 else n_hi / mx2
+            s_lo = smn / mx2 if smn >= 0.0 else smn / mn2
+            s_hi = smx / mn2 if smx >= 0.0 else smx / mx2
+        else:
+            t_lo, t_hi, s_lo, s_hi = p_lo, p_hi, 0.0, 0.0
+        if f.sign > 0:
+            lo += 0.5 + t_lo
+            hi += 0.5 + t_hi
+            plo += 0.5 + p_lo
+            phi_ += 0.5 + p_hi
+            dl_lo += s_lo
+            dl_hi += s_hi
+        else:
+            lo -= 0.5 + t_hi
+            hi -= 0.5 + t_lo
+            plo -= 0.5 + p_hi
+            phi_ -= 0.5 + p_lo
+            dl_lo -= s_hi
+            dl_hi -= s_lo
+    lo += tan_lo
+    hi += tan_hi
+    if gh > 0.0:
+        lo = max(lo, plo + tan_lo + (gl * dl_lo if dl_lo >= 0.0 else gh * dl_lo))
+        hi = min(hi, phi_ + tan_hi + (gh * dl_hi if dl_hi >= 0.0 else gl * dl_hi))
+    pad = _PAD * (abs(lo) + abs(hi) + loop.s)
+    return lo - pad, hi + pad
+
+
+def _dlogr_bounds(loop: CableLoop, a: float, b: float, pa: _Pt, pb: _Pt, ranges: list) -> tuple[float, float]:
+    """Bounds of (log R)' = Σ ±|c| sin(θ − arg c)/|e^{jθ} − c|² on [a, b]."""
+    lo = hi = 0.0
+    for j, f in enumerate(loop.factors):
+        mn, mx = ranges[j]
+        smn, smx = _sin_bounds(f, a, b, pa.sin[j], pb.sin[j])
+        t_lo = smn / (mx * mx) if smn >= 0.0 else smn / (mn * mn)
+        t_hi = smx / (mn * mn) if smx >= 0.0 else smx / (mx * mx)
+        if f.sign > 0:
+            lo += t_lo
+            hi += t_hi
+        else:
+            lo -= t_hi
+            hi -= t_lo
+    pad = _PAD * (abs(lo) + abs(hi))
+    return lo - pad, hi + pad
+
+
+def _logr(loop: CableLoop, t: float) -> tuple[float, float]:
+    """(log R, (log R)') at θ = t."""
+    zm1 = _expm1j(t)
+    z = zm1 + 1.0
+    out = -math.log(loop.lead_abs)
+    der = 0.0
+    for f in loop.factors:
+        diff = zm1 - f.w
+        d2 = diff.real * diff.real + diff.imag * diff.imag
+        out += f.sign * 0.5 * math.log(d2)
+        der += f.sign * (z * f.c.conjugate()).imag / d2
+    return out, der
+
+
+def _solve(fun, level: float, lo: float, hi: float, x: float) -> float:
+    """fast_rigid's bracketed Newton (fun non-decreasing, fun(lo) < level ≤ fun(hi)), stopped at a relative step
+    of 1e-12: _polish then pins the root on Im H itself, to 4 ulp."""
+    for _ in range(200):
+        if not (lo < x < hi):
+            x = math.sqrt(lo * hi) if lo > 0.0 and hi > 8.0 * lo else 0.5 * (lo + hi)
+        fx, dfx = fun(x)
+        if fx == level:
+            return x
+        if fx < level:
+            lo = x
+        else:
+            hi = x
+        if hi - lo <= 1e-12 * hi:
+            return x
+        step = (fx - level) / dfx if dfx > 0.0 else math.inf
+        xn = x - step
+        if abs(step) <= 1e-12 * x and lo <= xn <= hi:
+            return xn
+        x = xn
+    return x
+
+
+def _k_of(beta: float, t: float, r: float) -> float:
+    """k(θ) of the module docstring: K at a crossover with |Q| = r (a lower bound when r, θ are)."""
+    if beta == 0.0:
+        return 2.0 * math.sin(0.5 * t) * r
+    s = math.sin(0.5 * t)
+    u = (r - beta) * (r + beta)
+    if u <= 0.0:
+        return 0.0
+    return 2.0 * s * u / (math.sqrt(u + beta * beta * s * s) + beta * s)
+
+
+def _h_im_re(loop: CableLoop, beta: float, damper: bool, t: float) -> complex:
+    inv = _inverse(loop.modal, loop.d, t)
+    if damper:
+        return -inv / (-_expm1j(-t))
+    return -inv + beta * _expm1j(-t)
+
+
+def _polish(loop: CableLoop, beta: float, damper: bool, t0: float, piece: tuple[float, float, float]
+            ) -> tuple[float, float] | None:
+    """The root of Im H next to t0 (F's root on ``piece`` = (a, b, level), F monotone there), bracketed and
+    solved to 4 ulp as the scan solves it; (θ, Re H).  F's sum of arguments pins θ to ~ε/θ·Σ|terms|, Im H
+    to ~ε: the bracket widens from 1e-12θ while F stays within 1 rad of the level at its ends (no other
+    zero of Im H, the K < 0 ones included, can lie between)."""
+    a, b, level = piece
+    cslope = 0.5 if damper else 0.0
+
+    def f(x: float) -> float:
+        return _h_im_re(loop, beta, damper, x).imag
+
+    f0 = f(t0)
+    if f0 == 0.0:
+        return t0, _h_im_re(loop, beta, damper, t0).real
+    bracket = None
+    for w in (1e-12, 1e-10, 1e-8, 1e-6, 1e-4):
+        lo, hi = max(t0 * (1.0 - w), a), min(t0 * (1.0 + w), b, math.pi)
+        if w > 1e-9 and not (abs(_point(loop, beta, cslope, lo)[0] - level) < 1.0
+                             and abs(_point(loop, beta, cslope, hi)[0] - level) < 1.0):
+            return None
+        flo = f(lo)
+        if lo < t0 and (flo > 0) != (f0 > 0):
+            bracket = (lo, t0, flo, f0)
+            break
+        fhi = f(hi)
+        if hi > t0 and (fhi > 0) != (f0 > 0):
+            bracket = (t0, hi, f0, fhi)
+            break
+    if bracket is None:
+        return None
+    a, b, fa, fb = bracket
+    side = 0
+    tol = 4 * _EPS
+    for it in range(200):
+        if abs(b - a) <= tol * max(abs(a), abs(b)):
+            break
+        x = b - fb * (b - a) / (fb - fa) if fb != fa else 0.5 * (a + b)
+        if not (min(a, b) < x < max(a, b)) or it % 8 == 7:     # Illinois; a bisection now and then
+            x = 0.5 * (a + b)
+        fx = f(x)
+        if fx == 0.0:
+            a = b = x
+            fa = fb = 0.0
+            break
+        if (fx > 0) == (fa > 0):
+            if side == 1:
+                fb /= 2
+            a, fa, side = x, fx, 1
+        else:
+            if side == -1:
+                fa /= 2
+            b, fb, side = x, fx, -1
+    t = a if abs(fa) <= abs(fb) else b
+    return t, _h_im_re(loop, beta, damper, t).real
+
+
+def cable_min_crossing(loop: CableLoop, beta: float, theta_lo: float, damper: bool = False
+                       ) -> tuple[tuple[float, float] | None, int] | None:
+    """((θ, α) of the K > 0 crossover of least α on [θ_lo, π], or None when there is none; pieces examined).
+
+    ``damper``: the damper-only loop −Q (β = 0), whose least crossover value is β_max.  Returns None (not a
+    guess) where the pieces do not resolve within MAX_PIECES or a root cannot be refined on Im H."""
+    if damper:
+        beta = 0.0
+    cslope = 0.5 if damper else 0.0
+    level0 = math.pi if damper else 0.5 * math.pi
+    nyq = _h_im_re(loop, beta, damper, math.pi).real
+    best = nyq if nyq > 0.0 else math.inf
+    # F's roots (θ, K by the factored form); refined on Im H at the end, only those that may be the least
+    found: list[tuple[float, float, tuple[float, float, float]]] = []
+    cuts = [theta_lo] + [x for x in loop.splits if theta_lo < x < math.pi] + [math.pi]
+    pts = {x: _Pt(loop, beta, cslope, x) for x in cuts}
+    # pieces by frequency; the flag: R ≥ β proved on the piece (R = β at its end, R monotone)
+    stack = [(cuts[i], cuts[i + 1], False, None) for i in range(len(cuts) - 2, -1, -1)]
+    pieces = 0
+    log_beta = math.log(beta) if beta > 0.0 else -math.inf
+    while stack:
+        a, b, above, skip = stack.pop()
+        pieces += 1
+        if pieces > MAX_PIECES or not (b - a > 4.0 * _EPS * b):
+            return None
+        pa, pb = pts[a], pts[b]
+        rmin, rmax, ranges = _bounds_r(loop, a, b, pa, pb)
+        if above:
+            rmin = max(rmin, beta)
+        if rmax <= beta:
+            continue                              # no K > 0 crossover where R ≤ β
+        lower = rmin if damper else _k_of(beta, a, rmin)
+        if lower * (1.0 - 1e-9) > best:
+            continue
+        if beta > 0.0 and not (rmin > beta or above):
+            # R crosses β on [a, b]: where R is monotone the crossing is one root, split there
+            dl_lo, dl_hi = _dlogr_bounds(loop, a, b, pa, pb, ranges)
+            if dl_lo > 0.0 or dl_hi < 0.0:
+                up = dl_lo > 0.0
+                ra, rb = _logr(loop, a)[0], _logr(loop, b)[0]
+                low_end, high_end = (ra, rb) if up else (rb, ra)
+                if high_end <= log_beta:
+                    continue
+                if low_end >= log_beta:
+                    stack.append((a, b, True, skip))
+                    pieces -= 1
+                    continue
+                if up:
+                    ts = _solve(lambda x: _logr(loop, x), log_beta, a, b, 0.5 * (a + b))
+                else:
+                    ts = _solve(lambda x: tuple(-v for v in _logr(loop, x)), -log_beta, a, b, 0.5 * (a + b))
+                if not a < ts < b:
+                    return None
+                pts[ts] = _Pt(loop, beta, cslope, ts)
+                stack.append((ts, b, True, skip) if up else (a, ts, True, skip))
+                pieces -= 1
+                continue
+        elif beta == 0.0 or rmin > beta or above:
+            dlo, dhi = _bounds_d(loop, beta, a, b, pa, pb, rmin,
+                                 rmax, ranges, cslope)
+            fa, fb = pa.f, pb.f
+            if dlo > 0.0 or dhi < 0.0:
+                got = _first_root(loop, beta, damper, cslope, level0, a, b, fa, fb, dlo > 0.0, nyq, skip)
+                if got is False:
+                    continue                      # no level on this piece
+                if got is None:
+                    pass                          # many levels on it: halve it first (pruning acts on halves)
+                else:
+                    t, v, k = got
+                    if v > 0.0:
+                        found.append((t, v, (a, b, level0 + _TWO_PI * k)))
+                        best = min(best, v)
+                    if t >= b:
+                        continue
+                    # the rest of the piece, past this root, is a piece of its own (bounded, pruned, solved)
+                    pts.setdefault(t, _Pt(loop, beta, cslope, t))
+                    stack.append((t, b, above, k))
+                    continue
+            f_min, f_max = _range(fa, fb, dlo, dhi, b - a)
+            if level0 + _TWO_PI * math.ceil((f_min - level0) / _TWO_PI) > f_max:
+                continue                          # F's range on [a, b] holds no level
+        mid = math.sqrt(a * b) if b > 1000.0 * a else 0.5 * (a + b)   # geometric across decades (low θ)
+        pts[mid] = _Pt(loop, beta, cslope, mid)
+        stack.append((mid, b, above, skip))
+        stack.append((a, mid, above, skip))
+    out = [(math.pi, nyq)] if nyq > 0.0 else []
+    for t, v, piece in found:
+        if v <= best * (1.0 + 1e-6):
+            got = _polish(loop, beta, damper, t, piece)
+            if got is None:
+                return None
+            if got[1] > 0.0 and not (nyq > 0.0 and math.pi - got[0] <= 1e-9):
+                out.append(got)
+    if not out:
+        return None, pieces
+    return min(out, key=lambda c: (c[1], c[0])), pieces
+
+
+def _first_root(loop: CableLoop, beta: float, damper: bool, cslope: float, level0: float, a: float, b: float,
+                fa: float, fb: float, up: bool, nyq: float, skip: int | None):
+    """The lowest-frequency root of F on a piece where F is monotone, with its K by the factored form:
+    (θ, K, level index); False when no level lies between F(a) and F(b) (``skip``: a level already solved at
+    a); None when more than two do (the caller halves the piece: the halves may be pruned by their bounds)."""
+    lo_v, hi_v = (fa, fb) if up else (fb, fa)
+    k_lo = math.ceil((lo_v - level0) / _TWO_PI)
+    k_hi = math.floor((hi_v - level0) / _TWO_PI)
+    last_nyq = b == math.pi and nyq > 0.0
+    ks = [k for k in (range(k_lo, k_hi + 1) if up else range(k_hi, k_lo - 1, -1))   # by frequency
+          if k != skip and not (last_nyq and abs(level0 + _TWO_PI * k - fb) < 1e-6)]   # (π: the Nyquist point)
+    if not ks:
+        return False
+    if len(ks) > 2 and b - a > 1e-6 * b:
+        return None
+    level = level0 + _TWO_PI * ks[0]
+    # start where the chord through (a, F(a)), (b, F(b)) meets the level (F is monotone on the piece)
+    x0 = a + (level - fa) / (fb - fa) * (b - a) if fb != fa else 0.5 * (a + b)
+    x0 = min(max(x0, a + 1e-3 * (b - a)), b - 1e-3 * (b - a))
+    if up:
+        root = _solve(lambda x: _point(loop, beta, cslope, x)[:2], level, a, b, x0)
+    else:
+        root = _solve(lambda x: tuple(-v for v in _point(loop, beta, cslope, x)[:2]), -level, a, b, x0)
+    r = _point(loop, beta, cslope, root)[2]
+    return root, (r if damper else _k_of(beta, root, r)), ks[0]
+
+
+def _range(fa: float, fb: float, dlo: float, dhi: float, length: float) -> tuple[float, float]:
+    """Bounds of F on [a, b] from F(a), F(b) and dlo ≤ F' ≤ dhi (padded)."""
+    if dlo >= 0.0:
+        f_min = fa
+    elif dhi <= 0.0:
+        f_min = fb
+    else:
+        t = min(max((fb - fa - dhi * length) / (dlo - dhi), 0.0), length)
+        f_min = max(fa + dlo * t, fb - dhi * (length - t))
+    if dhi <= 0.0:
+        f_max = fa
+    elif dlo >= 0.0:
+        f_max = fb
+    else:
+        t = min(max((fb - fa - dlo * length) / (dhi - dlo), 0.0), length)
+        f_max = min(fa + dhi * t, fb - dlo * (length - t))
+    pad = 1e-9 * (abs(fa) + abs(fb) + 1.0)
+    return min(f_min, fa, fb) - pad, max(f_max, fa, fb) + pad

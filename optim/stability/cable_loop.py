@@ -1,0 +1,188 @@
+"""The cable loop factored from its modal form (issue 20), for the cable brackets (optim.stability.cable_brackets).
+
+With the modal form of models.discretize.StateSpaceZOH (an exact integrator and modes λ, in w = z − 1) the loop is
+G_n(z) = L·Π(z − ζ_i) / ((z − 1)·Π(z − c_k)) · z^{−d−m}, c_k = 1 + λ_k; the ζ_i are the roots of the numerator
+polynomial in w (computed: each carries an error estimate that every bound allows for), the c_k the modes
+themselves (exact: the scan's modal response uses them).  Also the scalar modal response (1/G_n at one θ, in Python
+numbers) the brackets evaluate.  ``cable_loop`` returns None where the factors are not trusted: Q = z/(z − 1)/G_n
+from the factors differs from the modal response by > 1e-9 at a few angles, or a zero of G (a pole of H) lies
+within 1e-9 of the unit circle, or any factor within 1e3 of its own error of it.
+"""
+
+from __future__ import annotations
+
+import cmath
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.polynomial import polynomial as P
+
+__all__ = ["CableLoop", "cable_loop", "MIN_CIRCLE_GAP"]
+
+_EPS = 2.220446049250313e-16
+_TWO_PI = 2.0 * math.pi
+#: zeros of G closer than this to the unit circle (| |ζ| − 1 |): not trusted (the caller scans)
+MIN_CIRCLE_GAP = 1e-9
+
+
+def _angles_in(base: float) -> float | None:
+    """The angle base + 2πk in [0, π], if any."""
+    for k in (-1, 0, 1):
+        x = base + _TWO_PI * k
+        if 0.0 <= x <= math.pi:
+            return x
+    return None
+
+
+@dataclass(frozen=True)
+class _Factor:
+    """A factor (z − c)^sign of Q, with what the bounds need of it."""
+
+    w: complex        # c − 1 (accurate: from λ or a root in w)
+    c: complex        # c = 1 + w
+    sign: int         # +1: a factor of Q's numerator (c_k), −1: of its denominator (ζ_i)
+    mag: float        # |c|
+    om2: float        # (1 − |c|²)/2, without cancellation
+    gap: float        # | |c| − 1 |: the least |e^{jθ} − c|, less err
+    err: float        # how far c may be from the exact factor of the scan's function (a root's error)
+    inside: bool
+    base: float       # arg(−c) for a factor outside the unit circle (the continuous branch's constant)
+    inv_neg_c: complex  # 1/(−c)
+    om_lo: float      # om2 ∓ its error (the root's error moves |c|)
+    om_hi: float
+    t_near: float | None   # the angle in [0, π] nearest to c (arg c), if any
+    t_far: float | None    # the farthest (arg c + π)
+    t_smax: float | None   # where |c| sin(θ − arg c) is largest (arg c + π/2)
+    t_smin: float | None   # and least (arg c − π/2)
+
+
+@dataclass(frozen=True)
+class CableLoop:
+    """The factored loop of the module docstring (dimensionless)."""
+
+    factors: tuple[_Factor, ...]   # Q's numerator's c_k (sign +1), then its denominator's ζ_i (sign −1)
+    s: int
+    lead_arg: float                # arg L
+    lead_abs: float                # |L|
+    modal: tuple
+    d: int
+    splits: tuple[float, ...]      # angles of the poles and zeros in (0, π)
+
+
+def _factor(w: complex, sign: int, err: float) -> _Factor:
+    c = 1.0 + w
+    om2 = -(w.real + 0.5 * abs(w) ** 2)
+    mag = abs(c)
+    psi = cmath.phase(c)
+    inside = mag < 1.0
+    err += 4.0 * _EPS * abs(w)
+    return _Factor(w, c, sign, mag, om2, abs(2.0 * om2) / (1.0 + mag) - err, err, inside,
+                   0.0 if inside else cmath.phase(-c), 0j if inside else -1.0 / c, om2 - err * (1.0 + mag), om2 + err * (1.0 + mag),
+                   _angles_in(psi), _angles_in(psi + math.pi), _angles_in(psi + 0.5 * math.pi),
+                   _angles_in(psi - 0.5 * math.pi))
+
+
+def _numerator_w(modal, fractional: bool) -> np.ndarray:
+    """Coefficients (ascending, in w) of z^m·G_n·z^d·w·Π(w − λ): the modal form's numerator."""
+    lam, c1, c2v, e12v, r0, r1, g0_1, g1_1 = modal
+    one_w = np.array([1.0, 1.0])                      # z = 1 + w
+    prod = np.array([1.0 + 0j])
+    for lk in lam:
+        prod = P.polymul(prod, np.array([-lk, 1.0]))
+    if fractional:
+        out = P.polymul(c1 * (g0_1 * one_w + np.array([g1_1, 0.0])), prod)
+    else:
+        out = c1 * g0_1 * prod
+    for i, li in enumerate(lam):
+        rest = np.array([1.0 + 0j])
+        for k, lk in enumerate(lam):
+            if k != i:
+                rest = P.polymul(rest, np.array([-lk, 1.0]))
+        inp = r0[i] * one_w + np.array([r1[i], 0.0]) if fractional else np.array([r0[i]])
+        term = P.polymul(P.polymul(inp, np.array([c1 * e12v[i], c2v[i]])), rest)
+        out = P.polyadd(out, term)
+    return np.real_if_close(out, tol=1e6).real if np.iscomplexobj(out) else out
+
+
+def cable_loop(plant) -> CableLoop | None:
+    """The factored form of a cable ``plant`` (models.discretize.StateSpaceZOH), cached on it; None when untrusted."""
+    cache = plant._cache
+    if "cable_loop" not in cache:
+        cache["cable_loop"] = _build(plant)
+    return cache["cable_loop"]
+
+
+def _build(plant) -> CableLoop | None:
+    modal = plant.modal_form()
+    if modal is None or len(modal[0]) != 3:
+        return None
+    lam = modal[0]
+    m = 1 if plant.f > 0.0 else 0
+    coef = _numerator_w(modal, m == 1)
+    while coef.size > 1 and coef[-1] == 0.0:
+        coef = coef[:-1]
+    if coef.size < 2 or not np.all(np.isfinite(coef)):
+        return None
+    wz = P.polyroots(coef)
+    # the modes λ are the scan's own (its modal response uses them): exact here; the roots in w are computed, and
+    # each is off by ≲ ε·Σ|a_k||w|^k/|p'(w)| (padded 64×), which every distance bound allows for
+    dcoef = P.polyder(coef)
+    errs = [float(64.0 * _EPS * P.polyval(abs(v), np.abs(coef)) / max(abs(P.polyval(v, dcoef)), 1e-300))
+            for v in wz]
+    factors = tuple(_factor(complex(v), 1, 0.0) for v in lam) + \
+        tuple(_factor(complex(v), -1, e) for v, e in zip(wz, errs))
+    # a pole of G (or a zero of Q) this near the unit circle: H (nearly) infinite or zero there; scan instead
+    if any(f.gap < (MIN_CIRCLE_GAP if f.sign < 0 else 1e3 * f.err) or f.gap < 1e3 * f.err for f in factors):
+        return None
+    lead = float(coef[-1])
+    loop = CableLoop(factors, plant.d + m + 1, 0.0 if lead > 0 else math.pi, abs(lead), _py_modal(modal), plant.d,
+                     tuple(sorted({f.t_near for f in factors if f.t_near is not None and 0.0 < f.t_near < math.pi})))
+    # the factored Q against the modal response (the scan's own evaluation) at a few angles
+    for t in (1e-3, 0.1, 0.7, 1.3, 2.1, 2.9, 3.1):
+        q = _q(loop, t)
+        ref = _inverse(loop.modal, plant.d, t) / (-_expm1j(-t))
+        if not abs(q / ref - 1.0) < 1e-9:
+            return None
+    return loop
+
+
+def _expm1j(t: float) -> complex:
+    """e^{jt} − 1 without cancellation."""
+    sh = math.sin(0.5 * t)
+    return complex(-2.0 * sh * sh, math.sin(t))
+
+
+def _py_modal(modal) -> tuple:
+    """The modal form as Python numbers (numpy scalars are ~5× slower in scalar arithmetic)."""
+    lam, c1, c2v, e12v, r0, r1, g0_1, g1_1 = modal
+    modes = tuple((complex(lam[i]), complex(r0[i]), complex(r1[i]), complex(e12v[i]), complex(c2v[i]))
+                  for i in range(len(lam)))
+    return modes, complex(c1), complex(g0_1), complex(g1_1)
+
+
+def _inverse(modal, d: int, t: float) -> complex:
+    """1/G_n(e^{jθ}) by the modal form (_py_modal), as StateSpaceZOH.response computes it (scalar)."""
+    modes, c1, g0_1, g1_1 = modal
+    sh = math.sin(0.5 * t)
+    st = math.sin(t)
+    zm1 = complex(-2.0 * sh * sh, st)
+    zinv = complex(math.cos(t), -st)
+    acc_e = 0j
+    acc_c = 0j
+    for lam, r0, r1, e12, c2 in modes:
+        y = (r0 + zinv * r1) / (zm1 - lam)
+        acc_e += y * e12
+        acc_c += y * c2
+    x1 = (g0_1 + zinv * g1_1 + acc_e) / zm1
+    dt = d * t
+    g = (c1 * x1 + acc_c) * complex(math.cos(dt), -math.sin(dt))
+    return 1.0 / g
+
+
+def _q(loop: CableLoop, t: float) -> complex:
+    zm1 = _expm1j(t)
+    out = cmath.exp(1j * loop.s * t) / (loop.lead_abs * cmath.exp(1j * loop.lead_arg))
+    for f in loop.factors:
+        out = out * (zm1 - f.w) if f.sign > 0 else out / (zm1 - f.w)
+    return out
