@@ -35,6 +35,7 @@ __all__ = [
     "rigid_coefficients",
     "StateSpaceZOH",
     "cable_state_space",
+    "fold_angle",
 ]
 
 _SERIES_TERMS = 30
@@ -349,17 +350,17 @@ class StateSpaceZOH:
 
     def pole_angles(self) -> tuple[float, ...]:
         lam = np.linalg.eigvals(self.a)
-        return tuple(_fold(abs(v.imag)) for v in lam if abs(v.imag) > 0)
+        return tuple(fold_angle(abs(v.imag)) for v in lam if abs(v.imag) > 0)
 
     def zero_angles(self) -> tuple[float, ...]:
-        return tuple(_fold(abs(w)) for w in self.zeros_hint)
+        return tuple(fold_angle(abs(w)) for w in self.zeros_hint)
 
     def matrices(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         phi, _, g0, g1 = self.accurate_matrices()
         return phi, g0, g1, self.c
 
 
-def _fold(angle: float) -> float:
+def fold_angle(angle: float) -> float:
     """An angle per sample folded into [0, π] (aliasing of a sampled mode)."""
     a = math.fmod(angle, 2 * math.pi)
     return 2 * math.pi - a if a > math.pi else a

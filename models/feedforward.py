@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from models.device import Device, Human
-from models.discretize import StateSpaceZOH, _fold, split_delay
+from models.discretize import StateSpaceZOH, fold_angle, split_delay
 
 __all__ = ["CHAPTER_HUMAN", "FeedforwardPlant", "feedforward_plant", "feedforward_state_space"]
 
@@ -155,7 +155,7 @@ def feedforward_plant(device: Device, human: Human) -> FeedforwardPlant:
     # mode): a well-damped grasp turns the phase slowly and the adaptive bisection of
     # optim/stability/crossovers.py resolves it; every extra cluster costs ~320 evaluations.
     light = [v for v in list(lam) + list(zeros) if abs(v.imag) > 0 and -v.real < 0.2 * abs(v)]
-    hints = tuple(sorted({_fold(abs(v.imag)) for v in light}))
+    hints = tuple(sorted({fold_angle(abs(v.imag)) for v in light}))
     width = min((abs(v.real) for v in light), default=0.0)
     return FeedforwardPlant(zoh=zoh, direct=float(dd), theta_min=theta_min, hints=hints,
                             width_hint=width)

@@ -44,7 +44,7 @@ from optim.stability.crossovers import (
     LOG_MIN_SAMPLES,
     LOG_PER_DECADE,
     STEPS_PER_DELAY_TURN,
-    _solve_brackets,
+    solve_brackets,
 )
 from optim.stability.crossovers import theta_min as scan_theta_min
 from optim.stability.fast_batch import fast_rigid_batch
@@ -234,7 +234,7 @@ def _dip_brackets(h: _Loop, r, lo, hi, vlo, vhi, sign):
 
 
 def _tangent_candidates_grid(grid, values, bad):
-    """As optim.stability.crossovers._tangential_pairs on the base grid: a local minimum of |arg H| below 0.05 at sample i
+    """As optim.stability.crossovers.tangential_pairs on the base grid: a local minimum of |arg H| below 0.05 at sample i
     with the same sign at i − 1, i, i + 1 (intervals that were bisected are searched leaf by leaf instead)."""
     arg = np.angle(values)
     mag = np.abs(arg)
@@ -280,7 +280,7 @@ def _min_crossing(h: _Loop, grid: np.ndarray, values: np.ndarray) -> tuple[np.nd
     exact = (vlo.imag == 0.0) & (vlo.real > 0)
     cand_r, cand_t, cand_v = [r[exact]], [lo[exact]], [vlo[exact].real]
     if br.size:
-        roots = _solve_brackets(lambda t: h(t, br).imag, a, b, fa, fb)
+        roots = solve_brackets(lambda t: h(t, br).imag, a, b, fa, fb)
         cand_r.append(br)
         cand_t.append(roots)
         cand_v.append(h(roots, br).real)

@@ -19,7 +19,7 @@ from pydantic import Field, TypeAdapter, ValidationError
 from models.device import Device
 from models.plants import Q_criterion
 from optim.errors import InputError, from_validation
-from optim.stability.crossovers import LOG_MIN_SAMPLES, LOG_PER_DECADE, _refine, theta_min
+from optim.stability.crossovers import LOG_MIN_SAMPLES, LOG_PER_DECADE, refine_grid, theta_min
 from optim.stability.margins import (
     Crossover,
     critical_stiffness,
@@ -175,7 +175,7 @@ def _crossing_below(plant, device: Device, beta: float, theta0: float, alpha: fl
     if lo >= theta0:
         return False
     grid = np.geomspace(lo, theta0, max(LOG_MIN_SAMPLES, int(LOG_PER_DECADE * math.log10(theta0 / lo)) + 2))
-    grid, h = _refine(lambda t: -plant.inverse_response(t) + beta * np.expm1(-1j * t), grid)
+    grid, h = refine_grid(lambda t: -plant.inverse_response(t) + beta * np.expm1(-1j * t), grid)
     im, re = h.imag, h.real
     change = (np.sign(im[:-1]) * np.sign(im[1:]) <= 0) & ((im[:-1] != 0) | (im[1:] != 0))
     # the crossing's K lies between the bracket's ends (refined: arg H turns < 0.25 rad across it)

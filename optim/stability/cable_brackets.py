@@ -45,7 +45,7 @@ from __future__ import annotations
 import cmath
 import math
 
-from optim.stability.cable_loop import CableLoop, _expm1j, _Factor, _inverse, cable_loop
+from optim.stability.cable_loop import CableLoop, Factor, cable_loop, expm1j, inverse_response_at
 
 __all__ = ["CableLoop", "cable_loop", "cable_min_crossing", "MAX_PIECES"]
 
@@ -83,7 +83,7 @@ def _point(loop: CableLoop, beta: float, cslope: float, t: float) -> tuple[float
             phi -= t + phase(diff * zc) if f.inside else f.base + phase(diff * f.inv_neg_c)
             dphi -= 0.5 + f.om2 / d2
             dlr -= (st * f.c.real - ct * f.c.imag) / d2
-    q = _inverse(loop.modal, loop.d, t) / (1.0 - zc)
+    q = inverse_response_at(loop.modal, loop.d, t) / (1.0 - zc)
     exact = phase(q) - 0.5 * t
     phi = exact + _TWO_PI * round((phi - exact) / _TWO_PI) + cslope * t
     r = abs(q)
@@ -104,7 +104,7 @@ class _Pt:
     __slots__ = ("_f", "dist", "sin", "_args")
 
     def __init__(self, loop: CableLoop, beta: float, cslope: float, t: float):
-        zm1 = _expm1j(t)
+        zm1 = expm1j(t)
         z = zm1 + 1.0
         self._f = None
         self._args = (loop, beta, cslope, t)
@@ -139,7 +139,7 @@ def _bounds_r(loop: CableLoop, a: float, b: float, pa: _Pt, pb: _Pt) -> tuple[fl
     return rmin * (1.0 - _PAD), rmax * (1.0 + _PAD), ranges
 
 
-def _sin_bounds(f: _Factor, a: float, b: float, sa: float, sb: float) -> tuple[float, float]:
+def _sin_bounds(f: Factor, a: float, b: float, sa: float, sb: float) -> tuple[float, float]:
     mn, mx = (sa, sb) if sa <= sb else (sb, sa)
     if f.t_smax is not None and a <= f.t_smax <= b:
         mx = f.mag
@@ -234,7 +234,7 @@ def _dlogr_bounds(loop: CableLoop, a: float, b: float, pa: _Pt, pb: _Pt, ranges:
 
 def _logr(loop: CableLoop, t: float) -> tuple[float, float]:
     """(log R, (log R)') at θ = t."""
-    zm1 = _expm1j(t)
+    zm1 = expm1j(t)
     z = zm1 + 1.0
     out = -math.log(loop.lead_abs)
     der = 0.0
@@ -281,10 +281,10 @@ def _k_of(beta: float, t: float, r: float) -> float:
 
 
 def _h_im_re(loop: CableLoop, beta: float, damper: bool, t: float) -> complex:
-    inv = _inverse(loop.modal, loop.d, t)
+    inv = inverse_response_at(loop.modal, loop.d, t)
     if damper:
-        return -inv / (-_expm1j(-t))
-    return -inv + beta * _expm1j(-t)
+        return -inv / (-expm1j(-t))
+    return -inv + beta * expm1j(-t)
 
 
 def _polish(loop: CableLoop, beta: float, damper: bool, t0: float, piece: tuple[float, float, float]

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.polynomial import polynomial as P
 
-__all__ = ["CableLoop", "cable_loop", "MIN_CIRCLE_GAP"]
+__all__ = ["CableLoop", "cable_loop", "MIN_CIRCLE_GAP", "Factor", "expm1j", "inverse_response_at"]
 
 _EPS = 2.220446049250313e-16
 _TWO_PI = 2.0 * math.pi
@@ -36,7 +36,7 @@ def _angles_in(base: float) -> float | None:
 
 
 @dataclass(frozen=True)
-class _Factor:
+class Factor:
     """A factor (z − c)^sign of Q, with what the bounds need of it."""
 
     w: complex        # c − 1 (accurate: from λ or a root in w)
@@ -61,7 +61,7 @@ class _Factor:
 class CableLoop:
     """The factored loop of the module docstring (dimensionless)."""
 
-    factors: tuple[_Factor, ...]   # Q's numerator's c_k (sign +1), then its denominator's ζ_i (sign −1)
+    factors: tuple[Factor, ...]   # Q's numerator's c_k (sign +1), then its denominator's ζ_i (sign −1)
     s: int
     lead_arg: float                # arg L
     lead_abs: float                # |L|
@@ -70,14 +70,14 @@ class CableLoop:
     splits: tuple[float, ...]      # angles of the poles and zeros in (0, π)
 
 
-def _factor(w: complex, sign: int, err: float) -> _Factor:
+def _factor(w: complex, sign: int, err: float) -> Factor:
     c = 1.0 + w
     om2 = -(w.real + 0.5 * abs(w) ** 2)
     mag = abs(c)
     psi = cmath.phase(c)
     inside = mag < 1.0
     err += 4.0 * _EPS * abs(w)
-    return _Factor(w, c, sign, mag, om2, abs(2.0 * om2) / (1.0 + mag) - err, err, inside,
+    return Factor(w, c, sign, mag, om2, abs(2.0 * om2) / (1.0 + mag) - err, err, inside,
                    0.0 if inside else cmath.phase(-c), 0j if inside else -1.0 / c, om2 - err * (1.0 + mag), om2 + err * (1.0 + mag),
                    _angles_in(psi), _angles_in(psi + math.pi), _angles_in(psi + 0.5 * math.pi),
                    _angles_in(psi - 0.5 * math.pi))
@@ -141,13 +141,13 @@ def _build(plant) -> CableLoop | None:
     # the factored Q against the modal response (the scan's own evaluation) at a few angles
     for t in (1e-3, 0.1, 0.7, 1.3, 2.1, 2.9, 3.1):
         q = _q(loop, t)
-        ref = _inverse(loop.modal, plant.d, t) / (-_expm1j(-t))
+        ref = inverse_response_at(loop.modal, plant.d, t) / (-expm1j(-t))
         if not abs(q / ref - 1.0) < 1e-9:
             return None
     return loop
 
 
-def _expm1j(t: float) -> complex:
+def expm1j(t: float) -> complex:
     """e^{jt} − 1 without cancellation."""
     sh = math.sin(0.5 * t)
     return complex(-2.0 * sh * sh, math.sin(t))
@@ -161,7 +161,7 @@ def _py_modal(modal) -> tuple:
     return modes, complex(c1), complex(g0_1), complex(g1_1)
 
 
-def _inverse(modal, d: int, t: float) -> complex:
+def inverse_response_at(modal, d: int, t: float) -> complex:
     """1/G_n(e^{jθ}) by the modal form (_py_modal), as StateSpaceZOH.response computes it (scalar)."""
     modes, c1, g0_1, g1_1 = modal
     sh = math.sin(0.5 * t)
@@ -181,7 +181,7 @@ def _inverse(modal, d: int, t: float) -> complex:
 
 
 def _q(loop: CableLoop, t: float) -> complex:
-    zm1 = _expm1j(t)
+    zm1 = expm1j(t)
     out = cmath.exp(1j * loop.s * t) / (loop.lead_abs * cmath.exp(1j * loop.lead_arg))
     for f in loop.factors:
         out = out * (zm1 - f.w) if f.sign > 0 else out / (zm1 - f.w)

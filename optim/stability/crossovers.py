@@ -22,7 +22,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 __all__ = ["Crossing", "positive_real_crossings", "scan_grid", "theta_min", "LOG_PER_DECADE", "LOG_END", "LOG_MIN_SAMPLES",
-           "LIN_STEP", "STEPS_PER_DELAY_TURN", "CLUSTER_HALF_WIDTH", "CLUSTER_POINTS", "CLUSTER_GEOM"]
+           "LIN_STEP", "STEPS_PER_DELAY_TURN", "CLUSTER_HALF_WIDTH", "CLUSTER_POINTS", "CLUSTER_GEOM", "refine_grid", "solve_brackets", "tangential_pairs"]
 
 # The scan grid's constants, shared with the batched scan of optim.robust.batch (one place to change them):
 LOG_PER_DECADE = 60           # log samples per decade from θ_min ...
@@ -80,7 +80,7 @@ def scan_grid(theta_min: float, delay_samples: float, hints: Sequence[float], wi
     return grid
 
 
-def _refine(h: Callable[[np.ndarray], np.ndarray], grid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def refine_grid(h: Callable[[np.ndarray], np.ndarray], grid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     values = h(grid)
     for _ in range(_MAX_REFINE_ROUNDS):
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -100,7 +100,7 @@ def _refine(h: Callable[[np.ndarray], np.ndarray], grid: np.ndarray) -> tuple[np
     return grid, values
 
 
-def _solve_brackets(f: Callable[[np.ndarray], np.ndarray], a: np.ndarray, b: np.ndarray,
+def solve_brackets(f: Callable[[np.ndarray], np.ndarray], a: np.ndarray, b: np.ndarray,
                     fa: np.ndarray, fb: np.ndarray) -> np.ndarray:
     """Roots of f in every bracket [a, b] at once (Illinois regula falsi, bisection-safeguarded).
 
@@ -137,7 +137,7 @@ def _solve_brackets(f: Callable[[np.ndarray], np.ndarray], a: np.ndarray, b: np.
     return np.where(np.abs(fa) <= np.abs(fb), a, b)
 
 
-def _tangential_pairs(h: Callable[[np.ndarray], np.ndarray], grid: np.ndarray, values: np.ndarray) -> list[Crossing]:
+def tangential_pairs(h: Callable[[np.ndarray], np.ndarray], grid: np.ndarray, values: np.ndarray) -> list[Crossing]:
     """Two crossings between samples that share the sign of Im H (a near-tangency).
 
     Where arg H comes within 0.05 rad of 0 at a local minimum of |arg H| without
@@ -161,7 +161,7 @@ def _tangential_pairs(h: Callable[[np.ndarray], np.ndarray], grid: np.ndarray, v
         a = np.array([lo, tm])
         b = np.array([tm, hi])
         fa, fb = h(a).imag, h(b).imag
-        roots = _solve_brackets(lambda t: h(t).imag, a, b, fa, fb)
+        roots = solve_brackets(lambda t: h(t).imag, a, b, fa, fb)
         vals = h(roots).real
         out += [Crossing(angle=float(t), value=float(v)) for t, v in zip(roots, vals) if v > 0]
     return out
@@ -173,15 +173,15 @@ def positive_real_crossings(h: Callable[[np.ndarray], np.ndarray], grid: np.ndar
     ``grid`` must end at π; h(π) is real for a real-coefficient loop and counts
     as a crossover (the Nyquist frequency, chapter eq. 32) when positive.
     """
-    grid, values = _refine(h, grid)
+    grid, values = refine_grid(h, grid)
     im, re = values.imag, values.real
     found: list[Crossing] = []
     idx = np.nonzero((np.sign(im[:-1]) * np.sign(im[1:]) < 0) & ((re[:-1] > 0) | (re[1:] > 0)))[0]
     if idx.size:
-        roots = _solve_brackets(lambda t: h(t).imag, grid[idx], grid[idx + 1], im[idx], im[idx + 1])
+        roots = solve_brackets(lambda t: h(t).imag, grid[idx], grid[idx + 1], im[idx], im[idx + 1])
         vals = h(roots).real
         found += [Crossing(angle=float(t), value=float(v)) for t, v in zip(roots, vals) if v > 0]
-    found += _tangential_pairs(h, grid, values)
+    found += tangential_pairs(h, grid, values)
     for i in np.nonzero(im[1:-1] == 0.0)[0] + 1:          # an exact zero on a sample
         if re[i] > 0:
             found.append(Crossing(angle=float(grid[i]), value=float(re[i])))

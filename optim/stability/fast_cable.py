@@ -30,7 +30,7 @@ import math
 
 import numpy as np
 
-from optim.stability.crossovers import _refine, _solve_brackets, _tangential_pairs
+from optim.stability.crossovers import refine_grid, solve_brackets, tangential_pairs
 
 __all__ = ["bounded_min_crossing", "modal_bound"]
 
@@ -68,9 +68,9 @@ def bounded_min_crossing(h, modal, d: int, beta: float, grid: np.ndarray, damper
     positive_real_crossings, every candidate included, but only the brackets the bound cannot exclude solved);
     None when there is no K > 0 crossover.  ``damper``: h is the damper-only loop −1/G_n/(1 − e^{−jθ}) (β = 0),
     whose modulus is |1/G_n|/(2 sin(θ/2)) ≥ the bound over 2 sin(b/2); the answer is then (θ_b, β_max)."""
-    grid, values = _refine(h, grid)
+    grid, values = refine_grid(h, grid)
     im, re = values.imag, values.real
-    cands: list[tuple[float, float]] = [(c.angle, c.value) for c in _tangential_pairs(h, grid, values)]
+    cands: list[tuple[float, float]] = [(c.angle, c.value) for c in tangential_pairs(h, grid, values)]
     for i in np.nonzero(im[1:-1] == 0.0)[0] + 1:
         if re[i] > 0:
             cands.append((float(grid[i]), float(re[i])))
@@ -93,7 +93,7 @@ def bounded_min_crossing(h, modal, d: int, beta: float, grid: np.ndarray, damper
             if sel.size == 0 or not lb[0] < best:
                 continue
             # the scan's own solver on the scan's brackets: the same root, to the bit, as the full scan
-            roots = _solve_brackets(lambda t: h(t).imag, grid[sel], grid[sel + 1], im[sel], im[sel + 1])
+            roots = solve_brackets(lambda t: h(t).imag, grid[sel], grid[sel + 1], im[sel], im[sel + 1])
             vals = h(roots).real
             for t, v in zip(roots, vals):
                 if v > 0 and not (nyquist and math.pi - t <= 1e-9):
