@@ -9,7 +9,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from models.device import Device as _Device
 from optim.identification.data import MAX_RESPONSE_POINTS, MAX_SAMPLES
-from optim.identification.models import response as _response
+from optim.identification.models import response as model_response
 
 from .common import STRICT
 from .finite import FiniteModel
@@ -51,7 +51,7 @@ class FrequencyResponseIn(BaseModel):
 def _example() -> dict:
     """A swept X/F of the rigid LHifAM (5.4 kg, 3.5 N·s/m) with 1.5 ms of loop delay, 16 points 1-300 Hz."""
     w = np.geomspace(2 * np.pi, 2 * np.pi * 300, 16)
-    h = _response(_Device(mass=5.4, damping=3.5, delay=0.0015), w, "continuous")
+    h = model_response(_Device(mass=5.4, damping=3.5, delay=0.0015), w, "continuous")
     r6 = lambda v: [float(f"{x:.6g}") for x in v]  # noqa: E731
     return {"model": "auto", "data": {"kind": "frequency_response", "frequency": r6(w), "real": r6(h.real),
                                       "imag": r6(h.imag)}}
