@@ -75,6 +75,14 @@ def _delay_samples(rng: np.random.Generator) -> float:
     return min(d, float(MAX_DELAY_SAMPLES))
 
 
+def _delay(d: float, t: float) -> float:
+    """d·T [s], rounded down to stay within the limit at d = MAX_DELAY_SAMPLES ((d·T)/T can exceed d by an ulp)."""
+    delay = d * t
+    while delay / t > MAX_DELAY_SAMPLES:
+        delay = math.nextafter(delay, 0.0)
+    return delay
+
+
 def _damping(rng: np.random.Generator, scale: float, zero_p: float) -> float:
     """A physical damping b [N·s/m] with δ = bT/m from 1e-10 to ~1 (log-uniform), or 0 with probability zero_p."""
     if rng.random() < zero_p:
@@ -89,7 +97,7 @@ def random_case(rng: np.random.Generator) -> Case:
     d = _delay_samples(rng)
     if rng.random() < 0.5:
         m = float(10 ** rng.uniform(-1.5, 1.5))
-        dev = Device(mass=m, damping=_damping(rng, m / t, 0.05), sample_time=t, delay=d * t)
+        dev = Device(mass=m, damping=_damping(rng, m / t, 0.05), sample_time=t, delay=_delay(d, t))
         kind = "rigid"
     else:
         m_r, m_d = float(10 ** rng.uniform(-1.5, 0.7)), float(10 ** rng.uniform(-0.5, 1.2))
@@ -99,7 +107,7 @@ def random_case(rng: np.random.Generator) -> Case:
                      motor_damping=0.0 if zero_all else _damping(rng, m / t, 0.2),
                      body_damping=0.0 if zero_all else _damping(rng, m / t, 0.3),
                      damping=0.0 if zero_all else _damping(rng, m / t, 0.2))
-        dev = Device(sample_time=t, delay=d * t, cable=cable)
+        dev = Device(sample_time=t, delay=_delay(d, t), cable=cable)
         kind = "cable" + (" undamped" if zero_all else "")
     gm = float(rng.choice([0.0, 3.0, 6.0, 6.0, 12.0, float(rng.uniform(0, 20))]))
     kw: dict = {"min_gain_margin_db": gm, "passivity": bool(rng.random() < 0.3)}
