@@ -95,6 +95,8 @@ class Verification:
     """designs: spectral radius at the designed gain itself (must be < 1)."""
     design_unstable_poles: int | None = None
     passivity: PassivityVerification | None = None
+    points: tuple | None = None
+    """robust designs: one optim.verification_robust.PointVerification per checked device of the box."""
 
 
 @dataclass(frozen=True)
