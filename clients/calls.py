@@ -182,7 +182,8 @@ def design_stiffness(device: DeviceLike, requirements: PartLike | None = None, *
                      verify: bool = False) -> Call[StiffnessDesignResponse]:
     """``POST /v1/design/stiffness``: the stiffest safe wall K [N/m] with its damping B [N·s/m].
 
-    ``verify=True`` adds ``.verification``: the margin and passivity checked on the closed loop."""
+    ``verify=True`` adds ``.verification``: the margin and passivity checked on the closed loop (a robust design:
+    at every corner of its box and its worst device, one verdict each in ``.verification.points``)."""
     return Call("POST", "/v1/design/stiffness", "design", _model(StiffnessDesignResponse),
                 json=_body(device=device, requirements=requirements, verify=verify or None))
 
@@ -191,7 +192,8 @@ def design_inertia(device: DeviceLike, requirements: PartLike | None = None, *,
                    verify: bool = False) -> Call[InertiaResponse]:
     """``POST /v1/design/inertia``: force-feedforward gain K_f, filter cutoff [Hz] and apparent mass [kg].
 
-    ``verify=True`` adds ``.verification``: the margin and K_f checked on the closed loop."""
+    ``verify=True`` adds ``.verification``: the margin and K_f checked on the closed loop (a robust design: at
+    every corner of its box and its worst device, one verdict each in ``.verification.points``)."""
     return Call("POST", "/v1/design/inertia", "design", _model(InertiaResponse),
                 json=_body(device=device, requirements=requirements, verify=verify or None))
 

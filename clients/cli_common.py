@@ -120,6 +120,12 @@ def verification_rows(v: Any) -> list[tuple[str, Any, str]]:
     """Table rows of a ``verification`` record (none when it was not asked for)."""
     if v is None:
         return []
+    if getattr(v, "points", None):   # a robust design: one verdict per checked device of the box
+        rows = [("verification", v.verdict, ""), ("verified by", v.method, "")]
+        rows += [(f"verified {p.kind}", f"{', '.join(f'{k} = {x:.6g}' for k, x in p.device.items())}: {p.verdict}, "
+                  f"margin {fmt(p.gain_margin_db)} dB" + (f" ({p.reason})" if p.reason else ""), "")
+                 for p in v.points]
+        return rows + [("verification time", v.elapsed_ms, "ms"), ("verification note", v.reason, "")]
     rows = [("verification", v.verdict, ""), ("verified by", v.method, ""), ("verification ε", v.epsilon, ""),
             ("radius below / above", f"{fmt(v.radius_below, 12)} / {fmt(v.radius_above, 12)}"
              if v.radius_below is not None or v.radius_above is not None else

@@ -7,6 +7,7 @@ design is infeasible or failed, 2 usage or a 422 naming the field, 3 the service
     zwidth robust stiffness lhifam --rigid --range device.mass=4:7 --range device.delay=0:0.002
     zwidth robust inertia lhifam --rigid --range device.human.mass=0.5:3 --target-mass 1.0
     zwidth robust hardware lhifam --rigid --free delay --stiffness 2e5 --force-gain 5   # optimal
+    zwidth robust stiffness lhifam --rigid --range device.mass=4:7 --verify   # checked at every corner
     zwidth robust hardware lhifam --free delay --stiffness 2e5 --force-gain 5   # infeasible: the sampling binds
     zwidth robust plot lhifam --rigid --range device.mass=4:7 --range device.delay=0:0.002 -o slice.png
     zwidth robust plot lhifam --rigid --free delay --stiffness 2e5 -o tradeoff.svg
@@ -80,11 +81,12 @@ def stiffness(preset: Preset = None, sets: Sets = None, device_file: DeviceFile 
               passivity: Annotated[bool | None, typer.Option("--passivity/--no-passivity",
                                                              help="also passive for every device of the box",
                                                              show_default=False)] = None,
-              local: Local = False, url: Url = DEFAULT_URL, token: Token = None, as_json: AsJson = False) -> None:
+              verify: c.Verify = False, local: Local = False, url: Url = DEFAULT_URL, token: Token = None,
+              as_json: AsJson = False) -> None:
     """The stiffest wall (K, B) whose gain margin holds for every device of the box."""
     body = _body(preset, device_file, sets, rigid, ranges, margin, passivity=passivity)
     with c.client_with_status(Connection(local, url, token), "designing the robust wall…", as_json) as zw:
-        r = zw.design_stiffness(body["device"], body["requirements"])
+        r = zw.design_stiffness(body["device"], body["requirements"], verify=verify)
 
     def human() -> None:
         w = r.worst_case
@@ -96,8 +98,10 @@ def stiffness(preset: Preset = None, sets: Sets = None, device_file: DeviceFile 
                 ("exact analyses", r.evaluations, ""), ("elapsed", r.elapsed_ms, "ms")]
         rows += [("reason", r.reason, "")] if r.reason else []
         rows += [("ignored paths", ", ".join(r.ignored_paths), "")] if r.ignored_paths else []
+        rows += c.verification_rows(r.verification)
         out.print(c.table("robust stiffness design", rows, device=body["device"]))
     emit(r, as_json, human)
+    c.exit_if_contradicted(r.verification)
     c.exit_unless_optimal(r.status)
 
 
@@ -107,11 +111,12 @@ def inertia(preset: Preset = None, sets: Sets = None, device_file: DeviceFile = 
             ranges: Ranges = None, margin: Margin = None,
             target_mass: Annotated[float | None, typer.Option(
                 "--target-mass", help="apparent mass to reach [kg] (requirements.target_apparent_mass)")] = None,
-            local: Local = False, url: Url = DEFAULT_URL, token: Token = None, as_json: AsJson = False) -> None:
+            verify: c.Verify = False, local: Local = False, url: Url = DEFAULT_URL, token: Token = None,
+            as_json: AsJson = False) -> None:
     """Force-feedforward gain and filter cutoff whose margin holds for every device of the box."""
     body = _body(preset, device_file, sets, rigid, ranges, margin, target_apparent_mass=target_mass)
     with c.client_with_status(Connection(local, url, token), "designing the robust feedforward…", as_json) as zw:
-        r = zw.design_inertia(body["device"], body["requirements"])
+        r = zw.design_inertia(body["device"], body["requirements"], verify=verify)
 
     def human() -> None:
         w = r.worst_case or {}
@@ -124,8 +129,10 @@ def inertia(preset: Preset = None, sets: Sets = None, device_file: DeviceFile = 
                 ("iterations", r.iterations, ""), ("elapsed", r.elapsed_ms, "ms")]
         rows += [("reason", r.reason, "")] if r.reason else []
         rows += [("note", n, "") for n in r.notes]
+        rows += c.verification_rows(r.verification)
         out.print(c.table("robust inertia design (force feedforward)", rows, device=body["device"]))
     emit(r, as_json, human)
+    c.exit_if_contradicted(r.verification)
     c.exit_unless_optimal(r.status)
 
 
@@ -161,7 +168,8 @@ def _scan_range(scan: str | None) -> tuple[float, float] | None:
 def hardware(preset: Preset = None, sets: Sets = None, device_file: DeviceFile = None, rigid: Rigid = False,
              free: Free = None, stiffness: TargetK = None, force_gain: TargetKf = None, apparent_mass: TargetM = None,
              margin: Margin = None, max_damping: MaxB = None, points: Points = None, scan: Scan = None,
-             local: Local = False, url: Url = DEFAULT_URL, token: Token = None, as_json: AsJson = False) -> None:
+             verify: c.Verify = False, local: Local = False, url: Url = DEFAULT_URL, token: Token = None,
+             as_json: AsJson = False) -> None:
     """The loosest value of one hardware parameter that still renders the target(s)."""
     value_range = _scan_range(scan)
     if free is None:
@@ -169,7 +177,8 @@ def hardware(preset: Preset = None, sets: Sets = None, device_file: DeviceFile =
     body = c.assemble({"device": _device(preset, device_file, sets, rigid)}, sets)
     with c.client_with_status(Connection(local, url, token), "scanning the hardware…", as_json) as zw:
         r = zw.design_hardware(body["device"], free, **_targets(stiffness, force_gain, apparent_mass, margin,
-                                                                 max_damping, points), value_range=value_range)
+                                                                 max_damping, points), value_range=value_range,
+                               verify=verify)
 
     def human() -> None:
         ctl = r.controller
@@ -187,8 +196,10 @@ def hardware(preset: Preset = None, sets: Sets = None, device_file: DeviceFile =
                  ("best achievable K_f", r.best_achievable_force_gain, ""), ("elapsed", r.elapsed_ms, "ms")]
         rows += [("reason", r.reason, "")] if r.reason else []
         rows += [("note", r.note, "")] if r.note else []
+        rows += c.verification_rows(r.verification)
         out.print(c.table("hardware design", rows, device=body["device"]))
     emit(r, as_json, human)
+    c.exit_if_contradicted(r.verification)
     c.exit_unless_optimal(r.status)
 
 

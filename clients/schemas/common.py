@@ -36,6 +36,40 @@ class PassivityVerificationOut(BaseModel):
     reason: str | None
 
 
+class PointVerificationOut(BaseModel):
+    model_config = ConfigDict(
+        extra="allow",
+    )
+    device: Annotated[
+        dict[str, float], Field(description="the uncertain parameters' values at this device (path → value, SI)")
+    ]
+    kind: Annotated[
+        Literal["corner", "worst", "least passive"],
+        Field(description="a corner of the box, the worst device the design found, or its least passive device"),
+    ]
+    critical_gain: Annotated[
+        float | None,
+        Field(
+            description=(
+                "K_cr(B) [N/m] (stiffness) or K_f,cr at the design's cutoff (inertia) of this device by the exact"
+                " analysis; null: every gain is stable"
+            )
+        ),
+    ]
+    gain_margin_db: Annotated[float | None, Field(description="20·log10(critical_gain / designed gain) [dB]")]
+    verdict: Annotated[
+        Literal["confirmed", "contradicted", "not_checkable"],
+        Field(
+            description=(
+                "this device: its critical gain, the designed gain (and passivity) on the closed loop, and its"
+                " margin ≥ the required one"
+            )
+        ),
+    ]
+    method: str | None
+    reason: str | None
+
+
 class VerificationOut(BaseModel):
     model_config = ConfigDict(
         extra="allow",
@@ -75,6 +109,15 @@ class VerificationOut(BaseModel):
     ] = None
     passivity: Annotated[
         PassivityVerificationOut | None, Field(description="independent check of a passivity label")
+    ] = None
+    points: Annotated[
+        list[PointVerificationOut] | None,
+        Field(
+            description=(
+                "robust designs (requirements.uncertainty): one verdict per checked device of the box (every corner"
+                " and the worst device found); the verdict above is the worst of them"
+            )
+        ),
     ] = None
     elapsed_ms: Annotated[float, Field(description="time the verification took [ms]")]
     reason: str | None

@@ -289,7 +289,7 @@ class StiffnessDesignResponse(BaseModel):
         float | None,
         Field(
             description=(
-                "K sits at least this far (relative, 1e-9) below the limits the analysis checks (g·K_cr(B), the passive"
+                "K sits at least this far (relative, 1e-8) below the limits the analysis checks (g·K_cr(B), the passive"
                 " K), so the design is strictly inside them; caps on K are met as K ≤ cap; null on the linear and grid"
                 " rungs"
             )

@@ -14,6 +14,7 @@ from optim.robust.stiffness import robust_design_stiffness
 from optim.solver_info import plain
 from optim.stiffness import StiffnessRequirements
 from optim.verification import verify_stiffness_design
+from optim.verification_robust import verify_robust_stiffness
 from service.cost import stiffness_design_cost_ms, verify_cost_ms
 from service.errors import solver_trouble
 from service.executor import Compute
@@ -35,8 +36,6 @@ async def design_stiffness_route(request: StiffnessDesignRequest, compute: Compu
     if request.requirements.uncertainty is not None:
         if request.method != "exact":
             raise InputError("method", "robust designs (requirements.uncertainty) are computed on the exact rung only")
-        if request.verify:
-            raise InputError("verify", "robust designs (requirements.uncertainty) are not verified yet")
         return await _robust(request, req, t0, compute)
     try:
         design, rung = await compute.arun(
@@ -86,4 +85,9 @@ async def _robust(request: StiffnessDesignRequest, req: StiffnessRequirements, t
     data["critical_stiffness"] = worst.get("critical_stiffness")
     data["crossover_frequency"] = worst.get("crossover_frequency")
     data["active_constraints"] = list(data["active_constraints"])
+    if request.verify and d.status == "optimal":
+        # every corner of the box and the worst (least passive) device found, on the closed loop
+        data["verification"] = verification_out(await compute.arun(
+            verify_robust_stiffness, box, d.stiffness, d.damping, req.min_gain_margin_db, req.passivity,
+            worst.get("device"), (d.passivity_worst_case or {}).get("device"), cost_ms=None))
     return StiffnessDesignResponse(robust=True, **data)

@@ -81,8 +81,6 @@ async def inertia(req: InertiaRequest, compute: Compute) -> InertiaResponse:
     if r.uncertainty is not None:
         if req.method != "exact":
             raise InputError("method", "robust designs (requirements.uncertainty) are computed on the exact rung only")
-        if req.verify:
-            raise InputError("verify", "robust designs (requirements.uncertainty) are not verified yet")
         return await _robust_inertia(req, spec, compute)
     try:
         d, rung = await compute.arun(design_inertia_on_rung, req.device, spec, req.method, req.grid_points,
@@ -143,6 +141,7 @@ def _rigid_out(d, notes: list[str], who: str) -> dict | None:
 async def _robust_inertia(req: InertiaRequest, spec: InertiaRequirements, compute: Compute) -> InertiaResponse:
     from optim.robust.box import UncertaintyBox
     from optim.robust.inertia import robust_design_inertia
+    from optim.verification_robust import verify_robust_inertia
 
     from .design_stiffness import input_error
 
@@ -160,6 +159,12 @@ async def _robust_inertia(req: InertiaRequest, spec: InertiaRequirements, comput
                      "device and the worst devices the search added); only the design's cutoff is verified over the "
                      "whole box")
     rigid = _rigid_out(d, notes, "the rigid model of the worst device")
+    verification = None
+    if req.verify and d.status == "optimal" and d.force_gain is not None and d.filter_cutoff_hz is not None:
+        # every corner of the box and the worst device found, on the closed loop
+        verification = verification_out(await compute.arun(
+            verify_robust_inertia, box, d.force_gain, d.filter_cutoff_hz, d.filter_order, spec.min_gain_margin_db,
+            (d.worst_case or {}).get("device"), cost_ms=None))
     return InertiaResponse(
         status=d.status, objective=d.objective, force_gain=d.force_gain, filter_cutoff_hz=d.filter_cutoff_hz,
         filter_order=d.filter_order, apparent_mass=d.apparent_mass,
@@ -173,4 +178,4 @@ async def _robust_inertia(req: InertiaRequest, spec: InertiaRequirements, comput
         solver=dict(d.solver), reason=d.reason, notes=notes, elapsed_ms=d.elapsed_ms, robust=True,
         worst_case=d.worst_case, nominal_gain_margin_db=d.nominal_gain_margin_db,
         apparent_mass_range=d.apparent_mass_range, scenarios=list(d.scenarios), iterations=d.iterations,
-        evaluations=d.evaluations)
+        evaluations=d.evaluations, verification=verification)

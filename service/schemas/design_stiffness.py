@@ -111,7 +111,7 @@ class StiffnessDesignResponse(FiniteModel):
     linear_estimate_error: float | None = Field(None, description="(linear − exact)/exact K_cr at the chosen B")
     max_stable_damping: float | None = Field(None, description="B_max: no K > 0 is stable above it [N·s/m]")
     active_constraints: list[str] = Field(default_factory=list)
-    back_off: float | None = Field(None, description="K sits at least this far (relative, 1e-9) below the limits "
+    back_off: float | None = Field(None, description="K sits at least this far (relative, 1e-8) below the limits "
                                                      "the analysis checks (g·K_cr(B), the passive K), so the design "
                                                      "is strictly inside them; caps on K are met as K ≤ cap; null "
                                                      "on the linear and grid rungs")

@@ -26,6 +26,21 @@ class PassivityVerificationOut(BaseModel):
     reason: str | None
 
 
+class PointVerificationOut(BaseModel):
+    device: dict[str, float] = Field(description="the uncertain parameters' values at this device (path → value, SI)")
+    kind: Literal["corner", "worst", "least passive"] = Field(
+        description="a corner of the box, the worst device the design found, or its least passive device")
+    critical_gain: float | None = Field(description="K_cr(B) [N/m] (stiffness) or K_f,cr at the design's cutoff "
+                                                    "(inertia) of this device by the exact analysis; null: every "
+                                                    "gain is stable")
+    gain_margin_db: float | None = Field(description="20·log10(critical_gain / designed gain) [dB]")
+    verdict: Literal["confirmed", "contradicted", "not_checkable"] = Field(
+        description="this device: its critical gain, the designed gain (and passivity) on the closed loop, and "
+                    "its margin ≥ the required one")
+    method: str | None
+    reason: str | None
+
+
 class VerificationOut(BaseModel):
     verdict: Literal["confirmed", "contradicted", "not_checkable"] = Field(
         description="confirmed: stable below and unstable above the answer; contradicted: the closed loop says "
@@ -41,6 +56,9 @@ class VerificationOut(BaseModel):
     design_radius: float | None = Field(None, description="spectral radius at the wall itself (designs, or a given controller)")
     design_unstable_poles: int | None = Field(None, description="poles outside the unit circle at the wall itself")
     passivity: PassivityVerificationOut | None = Field(None, description="independent check of a passivity label")
+    points: list[PointVerificationOut] | None = Field(
+        None, description="robust designs (requirements.uncertainty): one verdict per checked device of the box "
+                          "(every corner and the worst device found); the verdict above is the worst of them")
     elapsed_ms: float = Field(description="time the verification took [ms]")
     reason: str | None
 

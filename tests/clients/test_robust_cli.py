@@ -135,3 +135,17 @@ def test_hardware_scan_range():
                            code=2).output
     assert "range.min" in run("hardware", "lhifam", "--free", "delay", "--stiffness", "2e5", "--scan", "0.01:0.001",
                               code=2).output
+
+
+@pytest.mark.slow
+def test_verify_on_robust_stiffness_and_hardware():
+    """--verify: a robust wall checked at every corner (one row per device), the hardware design's controller."""
+    body = json.loads(run("stiffness", "lhifam", "--rigid", "--range", "device.delay=0:0.001", "--verify",
+                          "--json").output)
+    v = body["verification"]
+    assert v["verdict"] == "confirmed" and [p["kind"] for p in v["points"]] == ["corner", "corner"]
+    table = run("stiffness", "lhifam", "--rigid", "--range", "device.delay=0:0.001", "--verify").output
+    assert "verified corner" in table and "device.delay = 0.001: confirmed" in table
+    body = json.loads(run("hardware", "lhifam", "--rigid", "--free", "delay", "--stiffness", "2e5",
+                          "--force-gain", "9", "--points", "9", "--verify", "--json").output)
+    assert body["status"] == "optimal" and body["verification"]["verdict"] == "confirmed"

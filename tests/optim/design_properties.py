@@ -12,7 +12,12 @@ A design's labels must agree with zwidth's own analysis of it:
 * ``failed`` is an honest "do not know" but counted: none is expected.
 
 Optionally (``optimality=True``, for delays up to ``OPTIMALITY_MAX_DELAY`` samples where the scan is cheap),
-an ``optimal`` K must not be below the scan's best by more than ``OPTIMALITY_RTOL``.
+an ``optimal`` K must not be below the scan's best by more than ``OPTIMALITY_RTOL``; the scan is skipped only
+where it cannot find better: K equal to a cap on K (every wall the scan tries is capped there too).
+
+Optionally (``verify=True``), an ``optimal`` design is verified independently (optim.verification
+.verify_stiffness_design: the closed loop at the critical gain its margin implies, at K itself, and its
+passivity recomputed): ``contradicted`` is a disagreement, ``not_checkable`` is counted with its reason.
 """
 
 from __future__ import annotations
@@ -26,6 +31,7 @@ import numpy as np
 from models.device import MAX_DELAY_SAMPLES, Device
 from optim.stability.analysis import analyse_stability
 from optim.stiffness import StiffnessRequirements, design_stiffness
+from optim.verification import verify_stiffness_design
 from tests.optim.stiffness_scan import scan_best
 
 OPTIMALITY_MAX_DELAY = 200
@@ -46,6 +52,10 @@ class Outcome:
     problems: list[str] = field(default_factory=list)
     seconds: float = 0.0
     optimality_checked: bool = False
+    verify: str | None = None
+    """verify's verdict on an optimal design (confirmed / contradicted / not_checkable), None when not run."""
+    verify_reason: str | None = None
+    verify_seconds: float = 0.0
 
 
 def _delay_samples(rng: np.random.Generator) -> float:
@@ -65,6 +75,14 @@ def _delay_samples(rng: np.random.Generator) -> float:
     return min(d, float(MAX_DELAY_SAMPLES))
 
 
+def _delay(d: float, t: float) -> float:
+    """d·T [s], rounded down to stay within the limit at d = MAX_DELAY_SAMPLES ((d·T)/T can exceed d by an ulp)."""
+    delay = d * t
+    while delay / t > MAX_DELAY_SAMPLES:
+        delay = math.nextafter(delay, 0.0)
+    return delay
+
+
 def _damping(rng: np.random.Generator, scale: float, zero_p: float) -> float:
     """A physical damping b [N·s/m] with δ = bT/m from 1e-10 to ~1 (log-uniform), or 0 with probability zero_p."""
     if rng.random() < zero_p:
@@ -79,7 +97,7 @@ def random_case(rng: np.random.Generator) -> Case:
     d = _delay_samples(rng)
     if rng.random() < 0.5:
         m = float(10 ** rng.uniform(-1.5, 1.5))
-        dev = Device(mass=m, damping=_damping(rng, m / t, 0.05), sample_time=t, delay=d * t)
+        dev = Device(mass=m, damping=_damping(rng, m / t, 0.05), sample_time=t, delay=_delay(d, t))
         kind = "rigid"
     else:
         m_r, m_d = float(10 ** rng.uniform(-1.5, 0.7)), float(10 ** rng.uniform(-0.5, 1.2))
@@ -89,7 +107,7 @@ def random_case(rng: np.random.Generator) -> Case:
                      motor_damping=0.0 if zero_all else _damping(rng, m / t, 0.2),
                      body_damping=0.0 if zero_all else _damping(rng, m / t, 0.3),
                      damping=0.0 if zero_all else _damping(rng, m / t, 0.2))
-        dev = Device(sample_time=t, delay=d * t, cable=cable)
+        dev = Device(sample_time=t, delay=_delay(d, t), cable=cable)
         kind = "cable" + (" undamped" if zero_all else "")
     gm = float(rng.choice([0.0, 3.0, 6.0, 6.0, 12.0, float(rng.uniform(0, 20))]))
     kw: dict = {"min_gain_margin_db": gm, "passivity": bool(rng.random() < 0.3)}
@@ -102,7 +120,7 @@ def random_case(rng: np.random.Generator) -> Case:
     return Case(dev, StiffnessRequirements(**kw), label)
 
 
-def check(case: Case, optimality: bool = False) -> Outcome:
+def check(case: Case, optimality: bool = False, verify: bool = False) -> Outcome:
     dev, req = case.device, case.req
     t0 = time.perf_counter()
     d = design_stiffness(dev, req)
@@ -126,11 +144,19 @@ def check(case: Case, optimality: bool = False) -> Outcome:
         for name, cap in req.damping_caps(dev.sample_time).items():
             if d.damping > cap:
                 bad(f"B above {name}")
+        at_cap = any(d.stiffness == cap for cap in req.stiffness_caps().values())
         if optimality and dev.delay_samples <= OPTIMALITY_MAX_DELAY:
-            best, _ = scan_best(dev, req)
             out.optimality_checked = True
+            best = -math.inf if at_cap else scan_best(dev, req)[0]
             if math.isfinite(best) and d.stiffness < best * (1 - OPTIMALITY_RTOL):
                 bad(f"labelled optimal with K = {d.stiffness!r} but the dense scan finds K = {best!r}")
+        if verify:
+            tv = time.perf_counter()
+            v = verify_stiffness_design(dev, d.stiffness, d.damping, d.gain_margin_db,
+                                        True if req.passivity else None)
+            out.verify, out.verify_reason, out.verify_seconds = v.verdict, v.reason, time.perf_counter() - tv
+            if v.verdict == "contradicted":
+                bad(f"verify contradicts the design (K = {d.stiffness!r}, B = {d.damping!r}): {v.reason}")
     elif d.status == "infeasible":
         best, b = scan_best(dev, req)
         if best > 0:

@@ -83,12 +83,35 @@ def test_boundary_verify(client):
     assert v["reason"].startswith("9 points")
 
 
-def test_robust_designs_refuse_verify_rather_than_ignore_it(client):
+@pytest.mark.slow
+def test_robust_stiffness_design_verify(client):
+    """A robust wall is verified at every corner of its box (and its worst / least passive device)."""
+    body = {"device": LHIFAM_RIGID, "requirements": {"passivity": True, "uncertainty": {
+        "device.mass": {"min": 4, "max": 7}, "device.delay": {"min": 0, "max": 0.002}}}, "verify": True}
+    r = client.post("/v1/design/stiffness", json=body)
+    assert r.status_code == 200, r.text
+    out = r.json()
+    assert out["robust"] is True and out["status"] == "optimal"
+    v = out["verification"]
+    assert v["verdict"] == "confirmed", v
+    kinds = [p["kind"] for p in v["points"]]
+    assert kinds.count("corner") == 4 and "least passive" in kinds
+    assert all(p["verdict"] == "confirmed" and p["gain_margin_db"] >= 6.0 for p in v["points"])
+    assert {tuple(p["device"]) for p in v["points"]} == {("device.mass", "device.delay")}
+    body.pop("verify")
+    assert client.post("/v1/design/stiffness", json=body).json()["verification"] is None
+
+
+@pytest.mark.slow
+def test_robust_inertia_design_verify(client):
     body = {"device": LHIFAM_RIGID, "requirements": {"uncertainty": {"device.mass": {"min": 5, "max": 6}}},
             "verify": True}
-    for path in ("/v1/design/stiffness", "/v1/design/inertia"):
-        r = client.post(path, json=body)
-        assert r.status_code == 422 and "verify" in r.text, (path, r.text)
+    r = client.post("/v1/design/inertia", json=body)
+    assert r.status_code == 200, r.text
+    v = r.json()["verification"]
+    assert v["verdict"] == "confirmed", v
+    assert sorted(p["device"]["device.mass"] for p in v["points"]) == [5.0, 6.0]
+    assert all(p["critical_gain"] > 0 and p["gain_margin_db"] >= 6.0 - 1e-9 for p in v["points"])
 
 
 @pytest.mark.slow

@@ -79,8 +79,8 @@ def test_passive_and_margin_on_corners_and_2000_random_points(designs, name):
     assert pw["passivity_margin"] >= -PASSIVE_ATOL
     assert pw["passivity_margin"] <= min(margins) + 1e-12      # no sampled device is less passive than it
     if "passivity" in d.active_constraints:
-        # strictly passive by the design's back-off (1e-9 of K: ~1e-9 of the required damping), and no more
-        assert 0.0 < pw["passivity_margin"] <= 1e-8
+        # strictly passive by the design's back-off (1e-8 of K: ~1e-8 of the required damping b ≈ 2-3.5), and no more
+        assert 0.0 < pw["passivity_margin"] <= 1e-7
     else:
         assert pw["passivity_margin"] > 1e-3
     assert d.passivity_delay_samples == pw["delay_samples_used"]
