@@ -46,6 +46,7 @@ import cmath
 import math
 
 from optim.stability.cable_loop import CableLoop, Factor, cable_loop, expm1j, inverse_response_at
+from optim.stability.fast_rigid import bracketed_newton
 
 __all__ = ["CableLoop", "cable_loop", "cable_min_crossing", "MAX_PIECES"]
 
@@ -249,24 +250,7 @@ def _logr(loop: CableLoop, t: float) -> tuple[float, float]:
 def _solve(fun, level: float, lo: float, hi: float, x: float) -> float:
     """fast_rigid's bracketed Newton (fun non-decreasing, fun(lo) < level ≤ fun(hi)), stopped at a relative step
     of 1e-12: _polish then pins the root on Im H itself, to 4 ulp."""
-    for _ in range(200):
-        if not (lo < x < hi):
-            x = math.sqrt(lo * hi) if lo > 0.0 and hi > 8.0 * lo else 0.5 * (lo + hi)
-        fx, dfx = fun(x)
-        if fx == level:
-            return x
-        if fx < level:
-            lo = x
-        else:
-            hi = x
-        if hi - lo <= 1e-12 * hi:
-            return x
-        step = (fx - level) / dfx if dfx > 0.0 else math.inf
-        xn = x - step
-        if abs(step) <= 1e-12 * x and lo <= xn <= hi:
-            return xn
-        x = xn
-    return x
+    return bracketed_newton(fun, level, lo, hi, x, step_rtol=1e-12, bracket_rtol=1e-12)
 
 
 def _k_of(beta: float, t: float, r: float) -> float:

@@ -40,6 +40,7 @@ from functools import lru_cache
 from models.discretize import RigidZOH
 
 __all__ = ["RigidLoop", "FastRigid", "rigid_loop", "fast_rigid", "fast_beta_max", "rigid_crossovers", "re_h",
+           "bracketed_newton",
            "MIN_ZERO_GAP"]
 
 _EPS = 2.220446049250313e-16
@@ -175,9 +176,12 @@ def _k_eq(L: RigidLoop, beta: float, t: float) -> tuple[float, float]:
     return psi - math.asin(g), dphi - dg / math.sqrt((1.0 - g) * (1.0 + g))
 
 
-def _solve(fun, level: float, lo: float, hi: float, x: float) -> float:
-    """The root of the non-decreasing fun(θ) = level in [lo, hi] (fun(lo) < level ≤ fun(hi)): Newton steps,
-    kept in the bracket (bisection, geometric while the bracket spans decades), to a relative step of 2 ulp."""
+def bracketed_newton(fun, level: float, lo: float, hi: float, x: float, step_rtol: float = 2.0 * _EPS,
+                     bracket_rtol: float = 4.0 * _EPS) -> float:
+    """The root of the non-decreasing fun(θ) = level in [lo, hi] (fun(lo) < level ≤ fun(hi); fun returns the value
+    and its derivative): Newton steps, kept in the bracket (bisection, geometric while the bracket spans decades),
+    to a relative step of ``step_rtol`` or a bracket of ``bracket_rtol`` (by default 2 and 4 ulp).  Shared by the
+    rigid fast path and the cable brackets (optim.stability.cable_brackets)."""
     for _ in range(200):
         if not (lo < x < hi):
             x = math.sqrt(lo * hi) if lo > 0.0 and hi > 8.0 * lo else 0.5 * (lo + hi)
@@ -188,14 +192,15 @@ def _solve(fun, level: float, lo: float, hi: float, x: float) -> float:
             lo = x
         else:
             hi = x
-        if hi - lo <= 4.0 * _EPS * hi:
+        if hi - lo <= bracket_rtol * hi:
             return x
         step = (fx - level) / dfx if dfx > 0.0 else math.inf
         xn = x - step
-        if abs(step) <= 2.0 * _EPS * x and lo <= xn <= hi:   # converged (from one side, hi stays far)
+        if abs(step) <= step_rtol * x and lo <= xn <= hi:   # converged (from one side, hi stays far)
             return xn
         x = xn
     return x
+
 
 
 def polish(plant: RigidZOH, beta: float, t: float) -> float:
@@ -286,7 +291,7 @@ def _damper_root(L: RigidLoop) -> tuple[float, float] | None:
     if tr == math.pi and L.half_pis_at_pi == 1:
         tb = math.pi                          # the Nyquist point: ψ + θ/2 reaches π/2 only there
     else:
-        tb = _solve(lambda t: _damper_eq(L, t), _HALF_PI, 0.0, tr, _damper_start(L, tr))
+        tb = bracketed_newton(lambda t: _damper_eq(L, t), _HALF_PI, 0.0, tr, _damper_start(L, tr))
     return tb, _parts(L, tb)[2]
 
 
@@ -324,7 +329,7 @@ def fast_rigid(plant: RigidZOH, beta: float, beta_max: float | None = None,
         fk, _ = _k_eq(L, beta, hi)
     if not fk > 0.0:
         return None                           # no K crossover below θ_r (or β_max rounded the other way)
-    t = _solve(lambda x: _k_eq(L, beta, x), 0.0, 0.0, hi, _start(L, L.omp + beta, _HALF_PI, hi))
+    t = bracketed_newton(lambda x: _k_eq(L, beta, x), 0.0, 0.0, hi, _start(L, L.omp + beta, _HALF_PI, hi))
     t, h_t = polish_h(plant, beta, t)
     return FastRigid(h_t.real, t, bmax)
 
@@ -353,7 +358,7 @@ def rigid_crossovers(plant: RigidZOH, beta: float, first: tuple[float, float], t
             # from the second level on, the last spacing of the roots (F̃ is nearly linear there): Newton then
             # starts a few digits from the root
             start = lo + step if k == 1 else min(lo + (lo - out[-2][0]), 0.5 * (lo + tr))
-            t = _solve(fun, level, lo, tr, min(start, 0.5 * (lo + tr)))
+            t = bracketed_newton(fun, level, lo, tr, min(start, 0.5 * (lo + tr)))
             t, h_t = polish_h(plant, beta, t)
             out.append((t, h_t.real))
             lo, k = t, k + 1
