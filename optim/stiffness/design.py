@@ -205,8 +205,10 @@ def _coarse_profile(ctx: DesignContext) -> tuple[np.ndarray, np.ndarray, np.ndar
     """Objective min(g·K_cr, passive K, caps)/(m/T²) on a β grid that includes the curve's vertices."""
     hi = ctx.beta_hi
     inside = ctx.curve.beta[(ctx.curve.beta > 0) & (ctx.curve.beta < hi)]
+    # with passivity, no K > 0 is passive above the passive band of B, which may be ≪ the B range: seed inside it
+    band = np.linspace(0.0, safeguards.passive_beta_bound(ctx), 41) if ctx.req.passivity else np.zeros(0)
     betas = np.unique(np.concatenate([np.linspace(0.0, hi, 161)[:-1], hi * (1 - np.geomspace(1e-6, 1e-2, 5)),
-                                      inside[:: max(1, inside.size // 300)], np.array(ctx.curve.breakpoints)]))
+                                      inside[:: max(1, inside.size // 300)], np.array(ctx.curve.breakpoints), band]))
     betas = betas[(betas >= 0) & (betas <= hi * (1 - 1e-9))]
     obj = ctx.req.gain_factor * coarse_critical(ctx.curve, betas)
     if ctx.device.delta <= 0.0:

@@ -20,7 +20,7 @@ if TYPE_CHECKING:
     from optim.stiffness.design import DesignAttempt, DesignContext
 
 __all__ = ["starts", "value", "settled", "ipopt_ok", "locally_optimal", "scan_attempt", "exact_profile",
-           "passive_profile"]
+           "passive_profile", "passive_beta_bound"]
 
 MAX_STARTS = 6
 #: Ipopt statuses whose iterate is kept: it stalls a hair from the optimum when its 1e-11 tolerance is below the
@@ -85,9 +85,9 @@ def value(ctx: DesignContext, at: DesignAttempt) -> float:
 
 
 #: zoom refinement of the exact B scan: points per bracket and rounds (each round shrinks the bracket to two of
-#: its steps, a factor (ZOOM_POINTS + 1)/2 = 5; 16 rounds take a bracket below 1e-11 of itself)
+#: its steps, a factor (ZOOM_POINTS + 1)/2 = 5; 8 rounds take it to 2.6e-6 of itself, where Brent polishes)
 ZOOM_POINTS = 9
-ZOOM_ROUNDS = 16
+ZOOM_ROUNDS = 8
 
 
 def _zoom(f, lo: float, hi: float, x0: float, f0: float) -> tuple[float, float]:
@@ -182,6 +182,17 @@ def passive_profile(delta: float, d: int, betas: np.ndarray) -> tuple[np.ndarray
     return np.interp(betas, sub, pa), th[np.searchsorted(pick, near)]
 
 
+def passive_beta_bound(ctx: DesignContext) -> float:
+    """A dimensionless β above which no K > 0 is passive (the passive band of B), capped at the B range.
+
+    P(θ) = (K·T/2)·s_d(θ) − B·cos((d+1)θ) < b: at θ = π it reads (−1)^d·(K·T/2 + B) < b, so B < b for even d; where
+    s_d vanishes (θ_k = 2πk/(2d+1)) it reads −B·cos((d+1)θ_k) < b, and for k = 1 that is B < b/cos(π/(2d+1)).
+    With b ≪ B_max (δ ~ 1e-9) the band is a few 1e-4 of the B range: grids over [0, B_max] step over it."""
+    b = ctx.device.damping
+    bound = b if ctx.d_pass == 0 else b / math.cos(math.pi / (2 * ctx.d_pass + 1))
+    return min(ctx.beta_hi, bound / ctx.device.damping_scale * (1 + 1e-9))
+
+
 def exact_profile(ctx: DesignContext, points: int = 33) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The objective of ``_coarse_profile`` from the exact analysis (optim.stability.margins, optim.stability.passivity) at a few β:
     evenly spaced, next to B_max, and log-spaced near 0 (a passive wall needs B of the order of b, often ≪ B_max:
@@ -189,6 +200,12 @@ def exact_profile(ctx: DesignContext, points: int = 33) -> tuple[np.ndarray, np.
     hi = ctx.beta_hi
     betas = np.unique(np.concatenate([np.linspace(0.0, hi, points)[:-1], hi * (1 - np.geomspace(1e-6, 1e-2, 3)),
                                       hi * np.geomspace(1e-7, 1.0 / points, 12)]))
+    if ctx.req.passivity:
+        # every passive wall has B below the bound: the profile is spent there (issue 17: a cable passive only for
+        # B < 7.8e-6 of a 9.5e-3 N·s/m range had 1 point of 63 in its band)
+        band = passive_beta_bound(ctx)
+        betas = np.unique(np.concatenate([np.linspace(0.0, band, points + 1),
+                                          band * np.geomspace(1e-7, 1.0 / points, 12)]))
     dev, bs, ks = ctx.device, ctx.device.damping_scale, ctx.device.stiffness_scale
     obj, theta = np.zeros(betas.size), np.zeros(betas.size)
     for j, beta in enumerate(betas):
