@@ -69,3 +69,23 @@ def test_zoom_finds_a_peak_next_to_a_plateau():
     peak = 78.0 / 11.0
     assert x == pytest.approx(peak, rel=1e-5) and v == pytest.approx(peak, rel=1e-5)
     assert math.isfinite(v)
+
+
+def test_an_ipopt_answer_below_its_seed_goes_to_the_exact_scan(monkeypatch):
+    # a local optimum stand-in: Ipopt's converged answer 10 % low (rigid device, m = 1 kg, b = 0.5 N·s/m, T = 1 ms,
+    # 3 samples, no passivity): the exact objective at its seed beats it, so the exact B scan must answer
+    import optim.stiffness.design as design
+
+    dev, req = Device(mass=1.0, damping=0.5, sample_time=1e-3, delay=3e-3), StiffnessRequirements()
+    honest = design_stiffness(dev, req)
+    assert honest.status == "optimal" and honest.solver.name == "ipopt"
+    solve = design._solve_from
+
+    def low(*args, **kw):
+        at = solve(*args, **kw)
+        at.stiffness *= 0.9
+        return at
+    monkeypatch.setattr(design, "_solve_from", low)
+    d = design.design_stiffness(dev, req)
+    assert d.status == "optimal" and d.solver.name == "exact B scan" and "below the exact objective" in d.solver["why"]
+    assert d.stiffness == pytest.approx(honest.stiffness, rel=1e-6)
