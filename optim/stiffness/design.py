@@ -38,6 +38,7 @@ _MAX_EXCHANGES = 16
 _PASSIVITY_RTOL = 1e-7   # cutting planes converge linearly at a smooth passivity optimum: stop here, then clip
 _VERIFY_RTOL = 1e-8          # an NLP optimum may exceed the exact bound by this much before we re-solve
 _ACTIVE_RTOL = 1e-6
+_SEED_RTOL = 1e-7            # an Ipopt answer this far below the exact objective at a seed is not taken as optimal
 
 
 @dataclass(frozen=True)
@@ -162,11 +163,15 @@ def design_stiffness(device: Device, requirements: StiffnessRequirements | None 
                            "the design is unbounded", t0)
     setup_ms = (time.perf_counter() - t0) * 1e3
     best, first, failures = None, None, 0
+    seeds, seed_best = [], 0.0
     for j in safeguards.starts(ctx, betas, objective):
         if best is not None and not objective[j] > safeguards.value(ctx, best) / ks * (1 + 1e-6):
             break                 # no other interval's seed can beat the verified answer
         at = _solve_from(ctx, float(betas[j]), float(objective[j]), pass_theta[j])
         first = first or at
+        # the seed is a feasible point of the exact problem: an answer below it is not the optimum
+        seeds.append(float(betas[j]))
+        seed_best = max(seed_best, safeguards.exact_objective(ctx, float(betas[j]) * bs))
         v = safeguards.value(ctx, at)
         if v > 0 and (best is None or v > safeguards.value(ctx, best)) and safeguards.locally_optimal(ctx, at):
             best = at
@@ -177,7 +182,17 @@ def design_stiffness(device: Device, requirements: StiffnessRequirements | None 
     if best is None:
         # Ipopt failed on every start (seen with passivity at long delays, where the kernel has ~d local maxima,
         # and on undamped cables): the 1-D problem in B is solved on the exact analysis instead
-        best, fallback = safeguards.scan_attempt(ctx, first), first.sol.return_status if first else "no start"
+        best = safeguards.scan_attempt(ctx, first, tuple(seeds))
+        fallback = f"Ipopt did not converge ({first.sol.return_status if first else 'no start'}) from any seed"
+    elif seed_best > safeguards.value(ctx, best) * (1 + _SEED_RTOL):
+        # Ipopt ended below the exact objective at one of its own seeds (a local optimum, or a point the passivity
+        # cuts or crossover exchange settled on early): it is not the optimum, so the exact scan decides
+        v_ipopt = safeguards.value(ctx, best)
+        scan = safeguards.scan_attempt(ctx, best, tuple(seeds) + (best.damping / bs,))
+        if safeguards.value(ctx, scan) > v_ipopt:
+            best = scan
+            fallback = (f"Ipopt's optimum K = {v_ipopt:.6g} N/m is below the exact objective at its seed, "
+                        f"{seed_best:.6g} N/m")
     solve_ms = (time.perf_counter() - t0) * 1e3 - setup_ms
     return _finish(ctx, best, b_max, k_caps, b_caps, pass_note, t0, setup_ms, solve_ms, fallback)
 
@@ -190,8 +205,10 @@ def _coarse_profile(ctx: DesignContext) -> tuple[np.ndarray, np.ndarray, np.ndar
     """Objective min(g·K_cr, passive K, caps)/(m/T²) on a β grid that includes the curve's vertices."""
     hi = ctx.beta_hi
     inside = ctx.curve.beta[(ctx.curve.beta > 0) & (ctx.curve.beta < hi)]
+    # with passivity, no K > 0 is passive above the passive band of B, which may be ≪ the B range: seed inside it
+    band = np.linspace(0.0, safeguards.passive_beta_bound(ctx), 41) if ctx.req.passivity else np.zeros(0)
     betas = np.unique(np.concatenate([np.linspace(0.0, hi, 161)[:-1], hi * (1 - np.geomspace(1e-6, 1e-2, 5)),
-                                      inside[:: max(1, inside.size // 300)], np.array(ctx.curve.breakpoints)]))
+                                      inside[:: max(1, inside.size // 300)], np.array(ctx.curve.breakpoints), band]))
     betas = betas[(betas >= 0) & (betas <= hi * (1 - 1e-9))]
     obj = ctx.req.gain_factor * coarse_critical(ctx.curve, betas)
     if ctx.device.delta <= 0.0:
@@ -319,10 +336,10 @@ def _finish(ctx: DesignContext, at: DesignAttempt, b_max: float, k_caps: dict, b
                        "nyquist": at.key.nyquist, "passivity_cuts": at.key.cuts}),))
     if fallback is not None:
         solver = SolverInfo("exact B scan", details=(
-            ("why", f"Ipopt did not converge ({fallback}) from any seed"),
+            ("why", fallback),
             ("method", "the exact objective min(g·K_cr(B), passive K(B), caps) at 63 values of B (even, "
-                       "log-spaced near 0, next to B_max), then bounded Brent refinement around the two best "
-                       "(optimal to the scan's resolution in B)")))
+                       "log-spaced near 0, next to B_max) and at the coarse profile's seeds, then nested grids "
+                       "and bounded Brent around the three best (optimal to the scan's resolution in B)")))
     common = dict(max_stable_damping=_fin(b_max), passivity_delay_samples=ctx.d_pass if req.passivity else None,
                   passivity_note=pass_note, solver=solver, setup_ms=setup_ms, solve_ms=solve_ms)
     if not safeguards.settled(at):

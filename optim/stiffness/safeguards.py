@@ -20,7 +20,7 @@ if TYPE_CHECKING:
     from optim.stiffness.design import DesignAttempt, DesignContext
 
 __all__ = ["starts", "value", "settled", "ipopt_ok", "locally_optimal", "scan_attempt", "exact_profile",
-           "passive_profile"]
+           "passive_profile", "passive_beta_bound"]
 
 MAX_STARTS = 6
 #: Ipopt statuses whose iterate is kept: it stalls a hair from the optimum when its 1e-11 tolerance is below the
@@ -84,24 +84,69 @@ def value(ctx: DesignContext, at: DesignAttempt) -> float:
     return min(ks)
 
 
-def scan_attempt(ctx: DesignContext, like: DesignAttempt | None) -> DesignAttempt:
-    """Maximise the exact objective min(g·K_cr(B), passive K(B), caps) over B: the exact profile, then bounded
-    Brent refinement around its two best points (the method of the independent test comparator)."""
+#: zoom refinement of the exact B scan: points per bracket and rounds (each round shrinks the bracket to two of
+#: its steps, a factor (ZOOM_POINTS + 1)/2 = 5; 8 rounds take it to 2.6e-6 of itself, where Brent polishes)
+ZOOM_POINTS = 9
+ZOOM_ROUNDS = 8
+
+
+def _zoom(f, lo: float, hi: float, x0: float, f0: float) -> tuple[float, float]:
+    """The largest f on [lo, hi] by nested grids around the best point so far.
+
+    The exact objective min(g·K_cr, passive K, caps) is 0 wherever no K is passive: its peak can sit next to a
+    plateau of zeros (a cable with b = 7.8e-6 N·s/m and 71 samples of delay is passive only for B < 7.8e-6 of a
+    9.5e-3 N·s/m range), where bounded Brent, comparing equal zeros, stopped at the bracket's grid point 1.8 %
+    below the peak (issue 17).  A grid does not need the function to be unimodal: it keeps the best sample and
+    shrinks around it."""
+    best_x, best_f = x0, f0
+    for _ in range(ZOOM_ROUNDS):
+        if not hi > lo:
+            break
+        xs = np.linspace(lo, hi, ZOOM_POINTS + 2)
+        vals = [f0 if x == best_x else f(float(x)) for x in xs]
+        i = int(np.argmax(vals))
+        if vals[i] > best_f:
+            best_x, best_f = float(xs[i]), float(vals[i])
+        i = int(np.argmin(np.abs(xs - best_x)))
+        lo, hi = float(xs[max(i - 1, 0)]), float(xs[min(i + 1, xs.size - 1)])
+        f0 = best_f
+    return best_x, best_f
+
+
+def scan_attempt(ctx: DesignContext, like: DesignAttempt | None, seeds: tuple[float, ...] = ()) -> DesignAttempt:
+    """Maximise the exact objective min(g·K_cr(B), passive K(B), caps) over B: the exact profile (plus ``seeds``,
+    dimensionless β's the coarse profile or Ipopt found good), then nested grids around its three best points, and
+    bounded Brent inside the final bracket (the peak of a smooth piece to the last bits)."""
     betas, obj, _ = exact_profile(ctx, 49)
     dev, bs, ks = ctx.device, ctx.device.damping_scale, ctx.device.stiffness_scale
 
     def f(beta: float) -> float:
+        if not 0.0 <= beta <= ctx.beta_hi:
+            return -math.inf
         b = beta * bs
         a = ctx.req.gain_factor * critical_stiffness(dev, b, b_max=ctx.b_max).critical_stiffness / ks
         if ctx.req.passivity:
             a = min(a, largest_passive_stiffness(dev, b).stiffness / ks)
         return min(a, ctx.alpha_cap)
+    extra = np.array([s for s in seeds if 0.0 <= s < ctx.beta_hi and not np.any(betas == s)])
+    if extra.size:
+        betas = np.concatenate([betas, extra])
+        obj = np.concatenate([obj, [f(float(s)) for s in extra]])
+        order = np.argsort(betas)
+        betas, obj = betas[order], obj[order]
     best_a, best_b = float(obj.max()), float(betas[int(obj.argmax())])
-    for i in np.argsort(-obj)[:2]:
+    for i in np.argsort(-obj)[:3]:
+        if not obj[i] > 0.0:
+            break
         lo, hi = betas[max(i - 1, 0)], betas[min(i + 1, betas.size - 1)]
-        res = minimize_scalar(lambda x: -f(x), bounds=(lo, hi), method="bounded", options={"xatol": 1e-9 * hi})
-        if -res.fun > best_a:
-            best_a, best_b = float(-res.fun), float(res.x)
+        x, v = _zoom(f, float(lo), float(hi), float(betas[i]), float(obj[i]))
+        step = (hi - lo) / ((ZOOM_POINTS + 1) / 2.0) ** ZOOM_ROUNDS
+        res = minimize_scalar(lambda t: -f(t), bounds=(max(lo, x - 2 * step), min(hi, x + 2 * step)),
+                              method="bounded", options={"xatol": 1e-3 * step})
+        if -res.fun > v:
+            x, v = float(res.x), float(-res.fun)
+        if v > best_a:
+            best_a, best_b = v, x
     b = best_b * bs
     exact = critical_stiffness(dev, b, b_max=ctx.b_max)
     pk = largest_passive_stiffness(dev, b).stiffness if ctx.req.passivity else None
@@ -137,6 +182,17 @@ def passive_profile(delta: float, d: int, betas: np.ndarray) -> tuple[np.ndarray
     return np.interp(betas, sub, pa), th[np.searchsorted(pick, near)]
 
 
+def passive_beta_bound(ctx: DesignContext) -> float:
+    """A dimensionless β above which no K > 0 is passive (the passive band of B), capped at the B range.
+
+    P(θ) = (K·T/2)·s_d(θ) − B·cos((d+1)θ) < b: at θ = π it reads (−1)^d·(K·T/2 + B) < b, so B < b for even d; where
+    s_d vanishes (θ_k = 2πk/(2d+1)) it reads −B·cos((d+1)θ_k) < b, and for k = 1 that is B < b/cos(π/(2d+1)).
+    With b ≪ B_max (δ ~ 1e-9) the band is a few 1e-4 of the B range: grids over [0, B_max] step over it."""
+    b = ctx.device.damping
+    bound = b if ctx.d_pass == 0 else b / math.cos(math.pi / (2 * ctx.d_pass + 1))
+    return min(ctx.beta_hi, bound / ctx.device.damping_scale * (1 + 1e-9))
+
+
 def exact_profile(ctx: DesignContext, points: int = 33) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The objective of ``_coarse_profile`` from the exact analysis (optim.stability.margins, optim.stability.passivity) at a few β:
     evenly spaced, next to B_max, and log-spaced near 0 (a passive wall needs B of the order of b, often ≪ B_max:
@@ -144,6 +200,12 @@ def exact_profile(ctx: DesignContext, points: int = 33) -> tuple[np.ndarray, np.
     hi = ctx.beta_hi
     betas = np.unique(np.concatenate([np.linspace(0.0, hi, points)[:-1], hi * (1 - np.geomspace(1e-6, 1e-2, 3)),
                                       hi * np.geomspace(1e-7, 1.0 / points, 12)]))
+    if ctx.req.passivity:
+        # every passive wall has B below the bound: the profile is spent there (issue 17: a cable passive only for
+        # B < 7.8e-6 of a 9.5e-3 N·s/m range had 1 point of 63 in its band)
+        band = passive_beta_bound(ctx)
+        betas = np.unique(np.concatenate([np.linspace(0.0, band, points + 1),
+                                          band * np.geomspace(1e-7, 1.0 / points, 12)]))
     dev, bs, ks = ctx.device, ctx.device.damping_scale, ctx.device.stiffness_scale
     obj, theta = np.zeros(betas.size), np.zeros(betas.size)
     for j, beta in enumerate(betas):

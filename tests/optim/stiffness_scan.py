@@ -27,6 +27,11 @@ def scan_best(device: Device, req, points: int = 121) -> tuple[float, float]:
     """(best K, its B) by a dense B scan (exact K_cr at every point) and bounded refinement of the 3 best."""
     upper = min([max_stable_damping(device), *req.damping_caps(device.sample_time).values()])
     grid = np.concatenate([np.linspace(0.0, upper, points), upper * np.geomspace(1e-4, 3e-2, 12)])
+    if req.passivity:
+        # P(π) = (−1)^d·(K·T/2 + B) and, where the kernel vanishes, −B·cos((d+1)θ) must stay below b: no passive
+        # wall has B ≥ 2b, and with b ≪ B_max that band is missed by the grid above (issue 17)
+        band = min(upper, 2.0 * device.damping)
+        grid = np.concatenate([grid, np.linspace(0.0, band, 61), band * np.geomspace(1e-6, 1e-2, 9)])
     grid = np.unique(grid[grid <= upper])
     vals = np.array([objective(device, req, b) for b in grid])
     best_k, best_b = float(vals.max()), float(grid[int(vals.argmax())])
