@@ -6,18 +6,29 @@ It shares nothing with optim.stiffness except the exact analysis it is meant to 
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from scipy.optimize import minimize_scalar
 
 from models.device import Device
+from optim.errors import InputError
 from optim.stability.margins import critical_stiffness, max_stable_damping
 from optim.stability.passivity import max_passive_stiffness
 
 
 def objective(device: Device, req, b: float) -> float:
-    k = req.gain_factor * critical_stiffness(device, b).critical_stiffness
+    """The best K at this B; 0 where no claim can be made: no passive K (then K_cr is not needed), or the exact
+    analysis refuses this B with a 422 (an undamped cable whose closed loop it cannot confirm at B)."""
+    k = math.inf
     if req.passivity:
-        k = min(k, max_passive_stiffness(device, b))
+        k = max_passive_stiffness(device, b)
+        if k <= 0.0:
+            return 0.0
+    try:
+        k = min(k, req.gain_factor * critical_stiffness(device, b).critical_stiffness)
+    except InputError:
+        return 0.0
     for cap in req.stiffness_caps().values():
         k = min(k, cap)
     return k
@@ -25,7 +36,13 @@ def objective(device: Device, req, b: float) -> float:
 
 def scan_best(device: Device, req, points: int = 121) -> tuple[float, float]:
     """(best K, its B) by a dense B scan (exact K_cr at every point) and bounded refinement of the 3 best."""
-    upper = min([max_stable_damping(device), *req.damping_caps(device.sample_time).values()])
+    try:
+        b_max = max_stable_damping(device)
+    except InputError:
+        # B_max refused (an undamped cable whose mode moves along the circle): scan B up to 10·m/T, far above
+        # any B_max of a rigid device of the same mass (~2m/T), and say nothing beyond it
+        b_max = 10.0 * device.mass / device.sample_time
+    upper = min([b_max, *req.damping_caps(device.sample_time).values()])
     grid = np.concatenate([np.linspace(0.0, upper, points), upper * np.geomspace(1e-4, 3e-2, 12)])
     if req.passivity:
         # P(π) = (−1)^d·(K·T/2 + B) and, where the kernel vanishes, −B·cos((d+1)θ) must stay below b: no passive
