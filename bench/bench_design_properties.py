@@ -58,6 +58,7 @@ def table(outcomes: dict, requested: int, seed: int, workers: int, total: float,
     vtimes: list[float] = []
     problems: list[str] = []
     unchecked: list[str] = []
+    refused: list[str] = []
     for i in sorted(outcomes):
         out = outcomes[i]
         key = _bucket(out.case)
@@ -71,6 +72,8 @@ def table(outcomes: dict, requested: int, seed: int, workers: int, total: float,
             vtimes.append(out.verify_seconds)
             if out.verify == "not_checkable":
                 unchecked.append(f"{i}: {out.case.label}: {out.verify_reason}")
+        if out.status == "refused":
+            refused.append(f"{i}: {out.case.label}: {out.verify_reason}")
         times.setdefault(key, []).append(out.seconds)
         problems += [f"{i}: {out.case.label}: {p}" for p in out.problems]
     n = len(outcomes)
@@ -86,15 +89,17 @@ def table(outcomes: dict, requested: int, seed: int, workers: int, total: float,
              "its passivity recomputed from the complex form) does not contradict it, and "
              f"(delays ≤ {OPTIMALITY_MAX_DELAY} samples) K not below a dense exact B scan's best by more than "
              f"{OPTIMALITY_RTOL:g} (skipped when K equals a cap on K, which no wall can exceed); `infeasible` ⇒ the "
-             "dense scan (tests/optim/stiffness_scan.py) finds no feasible wall; `failed` counts as a disagreement.  "
+             "dense scan (tests/optim/stiffness_scan.py) finds no feasible wall; `failed` counts as a disagreement; "
+             "`refused` is a design that raised InputError (a 422 over HTTP naming the field and the rule), not an "
+             "answer, listed below.  "
              f"Designs sit {DESIGN_BACK_OFF:g} (relative) inside the analysed limits (`back_off`).",
              "",
-             "| devices | cases | optimal | infeasible | failed | optimality checked | verify confirmed | "
+             "| devices | cases | optimal | infeasible | failed | refused (422) | optimality checked | verify confirmed | "
              "verify not checkable | verify contradicted | agree | disagree | design p50 s | design max s |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
 
     def row(name, c, ts):
-        return (f"| {name} | {c['cases']} | {c['optimal']} | {c['infeasible']} | {c['failed']} | "
+        return (f"| {name} | {c['cases']} | {c['optimal']} | {c['infeasible']} | {c['failed']} | {c['refused']} | "
                 f"{c['optimality checked']} | {c['verify confirmed']} | {c['verify not_checkable']} | "
                 f"{c['verify contradicted']} | {c['agree']} | {c['disagree']} | "
                 f"{np.median(ts):.3g} | {max(ts):.3g} |")
@@ -107,6 +112,8 @@ def table(outcomes: dict, requested: int, seed: int, workers: int, total: float,
                       f"max {1e3 * max(vtimes):.3g} ms."]
     lines += ["", "## Disagreements", ""]
     lines += [f"- {p}" for p in problems] or ["None."]
+    lines += ["", "## Designs refused (InputError, a 422 over HTTP)", ""]
+    lines += [f"- {p}" for p in refused] or ["None."]
     lines += ["", "## Optimal designs verify could not check", ""]
     lines += [f"- {p}" for p in unchecked] or ["None."]
     return "\n".join(lines) + "\n"
