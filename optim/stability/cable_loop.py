@@ -18,12 +18,16 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.polynomial import polynomial as P
 
-__all__ = ["CableLoop", "cable_loop", "MIN_CIRCLE_GAP", "Factor", "expm1j", "inverse_response_at"]
+__all__ = ["CableLoop", "cable_loop", "MIN_CIRCLE_GAP", "MIN_MODE_GAP", "Factor", "expm1j", "inverse_response_at"]
 
 _EPS = 2.220446049250313e-16
 _TWO_PI = 2.0 * math.pi
 #: zeros of G closer than this to the unit circle (| |ζ| − 1 |): not trusted (the caller scans)
 MIN_CIRCLE_GAP = 1e-9
+#: modes (poles of G) closer than this to the unit circle: the bounded scan answers.  The brackets gave K_cr 3.7e-4
+#: too high on a cable whose resonance pole sat 2.4e-11 from the circle (δ = 1e-9; design property run of
+#: 2026-12-01, seed 17 case 2741, at B = 0.35·B_max; the scan and the closed loop agree on the lower K_cr)
+MIN_MODE_GAP = 1e-8
 
 
 def _angles_in(base: float) -> float | None:
@@ -133,7 +137,8 @@ def _build(plant) -> CableLoop | None:
     factors = tuple(_factor(complex(v), 1, 0.0) for v in lam) + \
         tuple(_factor(complex(v), -1, e) for v, e in zip(wz, errs))
     # a pole of G (or a zero of Q) this near the unit circle: H (nearly) infinite or zero there; scan instead
-    if any(f.gap < (MIN_CIRCLE_GAP if f.sign < 0 else 1e3 * f.err) or f.gap < 1e3 * f.err for f in factors):
+    if any(f.gap < (MIN_CIRCLE_GAP if f.sign < 0 else max(MIN_MODE_GAP, 1e3 * f.err)) or f.gap < 1e3 * f.err
+           for f in factors):
         return None
     lead = float(coef[-1])
     loop = CableLoop(factors, plant.d + m + 1, 0.0 if lead > 0 else math.pi, abs(lead), _py_modal(modal), plant.d,
