@@ -113,9 +113,12 @@ def _documented_hardware_examples() -> list[tuple[str, str]]:
 
 @pytest.mark.slow
 @pytest.mark.parametrize("command,status", _documented_hardware_examples())
-def test_documented_hardware_examples_run_as_documented(command, status):
+def test_documented_hardware_examples_run_as_documented(command, status, monkeypatch):
     """Issue 17: each documented example answers its documented status (exit 1 when infeasible), and an
-    infeasible one names what binds, not the free parameter at its bound (zero delay)."""
+    infeasible one names what binds, not the free parameter at its bound (zero delay).  The request budget is
+    raised: each takes ~6 s on a quiet machine, and the 30 s default was passed once on a machine loaded 4×
+    (a 503 there is the budget working, not the documented answer this test is about)."""
+    monkeypatch.setenv("ZWIDTH_REQUEST_TIMEOUT", "300")
     args = command.split()[2:]
     body = json.loads(run(*args, "--json", code=0 if status == "optimal" else 1).output)
     assert body["status"] == status
