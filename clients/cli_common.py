@@ -332,6 +332,16 @@ def emit(result: BaseModel | Sequence[BaseModel] | Mapping[str, Any], as_json: b
         human()
 
 
+def emit_design(result: Any, as_json: bool, title: str, device: Any,
+                rows: Callable[[], list[tuple[str, Any, str]]]) -> None:
+    """A design's answer (``--json`` or a table of ``rows()`` and its verification), then its exit code:
+    1 when the verification contradicts it or it is not ``optimal``."""
+    emit(result, as_json, lambda: out.print(table(title, rows() + verification_rows(result.verification),
+                                                  device=device)))
+    exit_if_contradicted(result.verification)
+    exit_unless_optimal(result.status)
+
+
 @contextlib.contextmanager
 def progress_status(message: str, quiet: bool) -> Iterator[None]:
     """A spinner on stderr while the service works (never on stdout, which scripts read)."""

@@ -11,7 +11,7 @@ from typing import Annotated, Any
 import typer
 
 from . import cli_common as c
-from .cli_common import DEFAULT_URL, AsJson, Connection, DeviceFile, Local, Preset, Sets, Token, Url, emit, out
+from .cli_common import DEFAULT_URL, AsJson, Connection, DeviceFile, Local, Preset, Sets, Token, Url
 
 app = typer.Typer(help="Design a controller: the stiffest wall, or the lightest feel (force feedforward).",
                   no_args_is_help=True)
@@ -44,7 +44,7 @@ def stiffness(preset: Preset = None, sets: Sets = None, device_file: DeviceFile 
     with c.client_with_status(Connection(local, url, token), "designing the wall…", as_json) as zw:
         r = zw.design_stiffness(body["device"], body["requirements"], verify=verify)
 
-    def human() -> None:
+    def table_rows() -> list[tuple[str, Any, str]]:
         rows = [("status", r.status, ""), ("stiffness K", r.stiffness, "N/m"), ("damping B", r.damping, "N·s/m"),
                 ("critical stiffness at B", r.critical_stiffness, "N/m"), ("gain margin", r.gain_margin_db, "dB"),
                 ("crossover frequency", r.crossover_frequency, "rad/s"),
@@ -54,11 +54,8 @@ def stiffness(preset: Preset = None, sets: Sets = None, device_file: DeviceFile 
                 ("elapsed", r.elapsed_ms, "ms")]
         rows += [("reason", r.reason, "")] if r.reason else []
         rows += [(f"sensitivity: {s.parameter}", s.statement, "") for s in r.sensitivities]
-        rows += c.verification_rows(r.verification)
-        out.print(c.table("stiffness design", rows, device=body["device"]))
-    emit(r, as_json, human)
-    c.exit_if_contradicted(r.verification)
-    c.exit_unless_optimal(r.status)
+        return rows
+    c.emit_design(r, as_json, "stiffness design", body["device"], table_rows)
 
 
 @app.command("inertia")
@@ -75,7 +72,7 @@ def inertia(preset: Preset = None, sets: Sets = None, device_file: DeviceFile = 
     with c.client_with_status(Connection(local, url, token), "designing the force feedforward…", as_json) as zw:
         r = zw.design_inertia(body["device"], body["requirements"], verify=verify)
 
-    def human() -> None:
+    def table_rows() -> list[tuple[str, Any, str]]:
         rows = [("status", r.status, ""), ("objective", r.objective, ""), ("force gain K_f", r.force_gain, ""),
                 ("filter cutoff", r.filter_cutoff_hz, "Hz"), ("filter order", r.filter_order, ""),
                 ("apparent mass", r.apparent_mass, "kg"), ("critical force gain", r.critical_force_gain, ""),
@@ -84,8 +81,5 @@ def inertia(preset: Preset = None, sets: Sets = None, device_file: DeviceFile = 
                 ("grasp", r.human_source, ""), ("elapsed", r.elapsed_ms, "ms")]
         rows += [("reason", r.reason, "")] if r.reason else []
         rows += [("note", n, "") for n in r.notes]
-        rows += c.verification_rows(r.verification)
-        out.print(c.table("inertia design (force feedforward)", rows, device=body["device"]))
-    emit(r, as_json, human)
-    c.exit_if_contradicted(r.verification)
-    c.exit_unless_optimal(r.status)
+        return rows
+    c.emit_design(r, as_json, "inertia design (force feedforward)", body["device"], table_rows)

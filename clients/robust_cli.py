@@ -21,7 +21,7 @@ from typing import Annotated, Any
 import typer
 
 from . import cli_common as c
-from .cli_common import DEFAULT_URL, AsJson, Connection, DeviceFile, Local, Preset, Sets, Token, Url, emit, out
+from .cli_common import DEFAULT_URL, AsJson, Connection, DeviceFile, Local, Preset, Sets, Token, Url, out
 
 __all__ = ["robust_app", "parse_range"]
 
@@ -88,7 +88,7 @@ def stiffness(preset: Preset = None, sets: Sets = None, device_file: DeviceFile 
     with c.client_with_status(Connection(local, url, token), "designing the robust wall…", as_json) as zw:
         r = zw.design_stiffness(body["device"], body["requirements"], verify=verify)
 
-    def human() -> None:
+    def table_rows() -> list[tuple[str, Any, str]]:
         w = r.worst_case
         rows = [("status", r.status, ""), ("stiffness K", r.stiffness, "N/m"), ("damping B", r.damping, "N·s/m"),
                 ("worst device", _worst(w.model_dump() if w else None), ""),
@@ -98,11 +98,8 @@ def stiffness(preset: Preset = None, sets: Sets = None, device_file: DeviceFile 
                 ("exact analyses", r.evaluations, ""), ("elapsed", r.elapsed_ms, "ms")]
         rows += [("reason", r.reason, "")] if r.reason else []
         rows += [("ignored paths", ", ".join(r.ignored_paths), "")] if r.ignored_paths else []
-        rows += c.verification_rows(r.verification)
-        out.print(c.table("robust stiffness design", rows, device=body["device"]))
-    emit(r, as_json, human)
-    c.exit_if_contradicted(r.verification)
-    c.exit_unless_optimal(r.status)
+        return rows
+    c.emit_design(r, as_json, "robust stiffness design", body["device"], table_rows)
 
 
 @robust_app.command("inertia")
@@ -118,7 +115,7 @@ def inertia(preset: Preset = None, sets: Sets = None, device_file: DeviceFile = 
     with c.client_with_status(Connection(local, url, token), "designing the robust feedforward…", as_json) as zw:
         r = zw.design_inertia(body["device"], body["requirements"], verify=verify)
 
-    def human() -> None:
+    def table_rows() -> list[tuple[str, Any, str]]:
         w = r.worst_case or {}
         mass = r.apparent_mass_range
         rows = [("status", r.status, ""), ("force gain K_f", r.force_gain, ""),
@@ -129,11 +126,8 @@ def inertia(preset: Preset = None, sets: Sets = None, device_file: DeviceFile = 
                 ("iterations", r.iterations, ""), ("elapsed", r.elapsed_ms, "ms")]
         rows += [("reason", r.reason, "")] if r.reason else []
         rows += [("note", n, "") for n in r.notes]
-        rows += c.verification_rows(r.verification)
-        out.print(c.table("robust inertia design (force feedforward)", rows, device=body["device"]))
-    emit(r, as_json, human)
-    c.exit_if_contradicted(r.verification)
-    c.exit_unless_optimal(r.status)
+        return rows
+    c.emit_design(r, as_json, "robust inertia design (force feedforward)", body["device"], table_rows)
 
 
 def _targets(stiffness, force_gain, apparent_mass, margin, max_damping, points) -> dict[str, Any]:
@@ -180,7 +174,7 @@ def hardware(preset: Preset = None, sets: Sets = None, device_file: DeviceFile =
                                                                  max_damping, points), value_range=value_range,
                                verify=verify)
 
-    def human() -> None:
+    def table_rows() -> list[tuple[str, Any, str]]:
         ctl = r.controller
         rows = [("status", r.status, ""), (f"loosest {r.free} ({r.direction})", r.value, ""),
                 ("bounded in the scanned range", r.bounded, ""),
@@ -196,11 +190,8 @@ def hardware(preset: Preset = None, sets: Sets = None, device_file: DeviceFile =
                  ("best achievable K_f", r.best_achievable_force_gain, ""), ("elapsed", r.elapsed_ms, "ms")]
         rows += [("reason", r.reason, "")] if r.reason else []
         rows += [("note", r.note, "")] if r.note else []
-        rows += c.verification_rows(r.verification)
-        out.print(c.table("hardware design", rows, device=body["device"]))
-    emit(r, as_json, human)
-    c.exit_if_contradicted(r.verification)
-    c.exit_unless_optimal(r.status)
+        return rows
+    c.emit_design(r, as_json, "hardware design", body["device"], table_rows)
 
 
 @robust_app.command("plot")
