@@ -33,7 +33,7 @@ DROP = {"minimum", "maximum", "exclusiveMinimum", "exclusiveMaximum", "minLength
         "minItems", "maxItems"}
 CODEGEN_OPTIONS = ["--input-file-type", "openapi", "--output-model-type", "pydantic_v2.BaseModel",
                    "--target-python-version", "3.11", "--use-annotated", "--use-double-quotes",
-                   "--enum-field-as-literal", "all", "--extra-fields", "allow", "--treat-dot-as-module",
+                   "--enum-field-as-literal", "all", "--base-class", "clients.schemas.answer.Answer", "--treat-dot-as-module",
                    "--disable-timestamp", "--use-schema-description", "--strict-nullable"]
 
 

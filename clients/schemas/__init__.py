@@ -6,13 +6,14 @@ zwidth), keeping only the response models and the types nested in them, one modu
 
     datamodel-codegen --input openapi.json --input-file-type openapi \\
         --output-model-type pydantic_v2.BaseModel --target-python-version 3.11 --use-annotated \\
-        --use-double-quotes --enum-field-as-literal all --extra-fields allow --treat-dot-as-module \\
+        --use-double-quotes --enum-field-as-literal all --base-class clients.schemas.answer.Answer --treat-dot-as-module \\
         --disable-timestamp --use-schema-description --strict-nullable --output clients/schemas
 
 with the components renamed ``<module>.<Name>`` and the input rules (bounds, lengths, patterns, property
 titles) dropped before generating: the server has already validated what it sends, and an older client
-must read a newer server's answers.  For the same reason every model has ``extra="allow"``: a field the
-server adds later is kept (and shown by ``--json``), not refused.  Three edits after generating: black
+must read a newer server's answers.  For the same reason every model derives from
+:class:`~clients.schemas.answer.Answer` (``extra="allow"``): a field the server adds later is kept (and
+shown by ``--json``), not refused.  Three edits after generating: black
 at 120 columns; ``Cable.natural_frequency`` (eq. 24, shown by the presets table); and the list and map
 fields that the server fills with an empty default (a default the schema does not show) given
 ``default_factory`` instead of the generator's ``| None = None``.

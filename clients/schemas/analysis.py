@@ -4,33 +4,26 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import Field
+
+from clients.schemas.answer import Answer
 
 from . import common
 
 
-class BoundaryPointOut(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class BoundaryPointOut(Answer):
     damping: Annotated[float, Field(description="B [N·s/m]")]
     critical_stiffness: Annotated[float | None, Field(description="K_cr(B) [N/m]")]
     crossover_frequency: Annotated[float | None, Field(description="ω [rad/s]")]
     linear_estimate: Annotated[float, Field(description="eq. 10 [N/m]")]
 
 
-class ForceCrossoverOut(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class ForceCrossoverOut(Answer):
     frequency: Annotated[float, Field(description="ω [rad/s]")]
     force_gain: Annotated[float, Field(description="K_f putting a closed-loop pole at e^{jωT}")]
 
 
-class BoundaryResponse(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class BoundaryResponse(Answer):
     points: list[BoundaryPointOut]
     optimum: Annotated[BoundaryPointOut, Field(description="the B allowing the stiffest stable wall")]
     max_stable_damping: Annotated[float | None, Field(description="B_max [N·s/m]")]
@@ -44,10 +37,7 @@ class BoundaryResponse(BaseModel):
     ] = None
 
 
-class ForceFeedforwardResponse(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class ForceFeedforwardResponse(Answer):
     critical_force_gain: Annotated[
         float | None, Field(description="K_f,cr (eq. 32/34); null when no K_f > 0 is unstable")
     ]
@@ -78,10 +68,7 @@ class ForceFeedforwardResponse(BaseModel):
     verification: Annotated[common.VerificationOut | None, Field(description="present when verify was true")] = None
 
 
-class StabilityResponse(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class StabilityResponse(Answer):
     critical_stiffness: Annotated[
         float | None, Field(description="K_cr(B) [N/m]; 0 when no K > 0 is stable; null when every K is")
     ]

@@ -4,30 +4,23 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import Field
+
+from clients.schemas.answer import Answer
 
 
-class CrossoverOut(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class CrossoverOut(Answer):
     frequency: Annotated[float, Field(description="ω [rad/s]")]
     stiffness: Annotated[float, Field(description="K [N/m] that puts a closed-loop pole at e^{jωT}")]
 
 
-class HumanOut(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class HumanOut(Answer):
     mass: Annotated[float, Field(description="m_h [kg]")]
     damping: Annotated[float, Field(description="b_h [N·s/m]")]
     stiffness: Annotated[float, Field(description="k_h [N/m]")]
 
 
-class PassivityVerificationOut(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class PassivityVerificationOut(Answer):
     verdict: Literal["confirmed", "contradicted", "not_checkable"]
     required_damping: Annotated[
         float | None, Field(description="the delayed Colgate–Schenkel bound recomputed from its complex form [N·s/m]")
@@ -36,10 +29,7 @@ class PassivityVerificationOut(BaseModel):
     reason: str | None
 
 
-class PointVerificationOut(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class PointVerificationOut(Answer):
     device: Annotated[
         dict[str, float], Field(description="the uncertain parameters' values at this device (path → value, SI)")
     ]
@@ -70,10 +60,7 @@ class PointVerificationOut(BaseModel):
     reason: str | None
 
 
-class VerificationOut(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class VerificationOut(Answer):
     verdict: Annotated[
         Literal["confirmed", "contradicted", "not_checkable"],
         Field(

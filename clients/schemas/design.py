@@ -4,15 +4,14 @@ from __future__ import annotations
 
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import Field
+
+from clients.schemas.answer import Answer
 
 from . import common
 
 
-class ControllerOut(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class ControllerOut(Answer):
     stiffness: Annotated[float | None, Field(description="the target K [N/m]")] = None
     damping: Annotated[float | None, Field(description="B of the best controller at the loosest value [N·s/m]")] = None
     achievable_stiffness: Annotated[
@@ -40,10 +39,7 @@ class ControllerOut(BaseModel):
     force_gain_margin_db: Annotated[float | None, Field(description="20·log10(K_f,cr/force_gain) [dB]")] = None
 
 
-class CurvePoint(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class CurvePoint(Answer):
     value: Annotated[float, Field(description="the free parameter [SI]")]
     achievable_stiffness: Annotated[
         float | None,
@@ -65,24 +61,18 @@ class CurvePoint(BaseModel):
     apparent_mass: Annotated[float | None, Field(description="m/(1 + achievable K_f) at this value [kg]")] = None
 
 
-class EdgeOut(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class EdgeOut(Answer):
     value: Annotated[float, Field(description="an edge of the feasible set [SI]")]
     limiting_target: Annotated[
         Literal["stiffness", "force_gain", "apparent_mass"], Field(description="the target that binds there")
     ]
 
 
-class ExactCheckOut(BaseModel):
+class ExactCheckOut(Answer):
     """
     The exact analysis of a design produced by an approximate rung (linear, grid).
     """
 
-    model_config = ConfigDict(
-        extra="allow",
-    )
     critical_value: Annotated[
         float | None, Field(description="exact K_cr(B) [N/m] (stiffness) or K_f,cr at the cutoff (inertia)")
     ]
@@ -93,20 +83,14 @@ class ExactCheckOut(BaseModel):
     statement: Annotated[str, Field(description="'safe: …' or 'UNSAFE: …'")]
 
 
-class ParetoPointOut(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class ParetoPointOut(Answer):
     filter_cutoff_hz: float
     critical_force_gain: float | None
     force_gain: Annotated[float | None, Field(description="best K_f with the required margin at this cutoff")]
     apparent_mass: Annotated[float | None, Field(description="m/(1 + force_gain) [kg]")]
 
 
-class PassivityWorstCaseOut(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class PassivityWorstCaseOut(Answer):
     device: Annotated[dict[str, float], Field(description="box values of the least passive device (SI)")]
     delay_samples_used: Annotated[int, Field(description="whole samples of delay its passivity test uses, ⌈t_d/T⌉")]
     approached: Annotated[
@@ -124,20 +108,14 @@ class PassivityWorstCaseOut(BaseModel):
     worst_angle: Annotated[float | None, Field(description="θ = ωT where P is largest [rad per sample]")] = None
 
 
-class RigidComparisonOut(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class RigidComparisonOut(Answer):
     critical_force_gain: Annotated[float | None, Field(description="the rigid model's K_f,cr at the design's cutoff")]
     force_gain: Annotated[float | None, Field(description="the K_f the rigid model would have allowed")]
     optimism: Annotated[float | None, Field(description="K_f,cr(rigid)/K_f,cr(cable) − 1")]
     optimistic: Annotated[bool, Field(description="rigid model optimistic by more than 20 %")]
 
 
-class SensitivityOut(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class SensitivityOut(Answer):
     parameter: Literal["damping", "delay", "sample_time", "mass"]
     derivative: Annotated[float, Field(description="dK*/dq, re-optimised [N/m per SI unit of q]")]
     step: Annotated[float, Field(description="a designer's step of q [SI unit of q]")]
@@ -146,20 +124,14 @@ class SensitivityOut(BaseModel):
     statement: str
 
 
-class WorstCaseOut(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class WorstCaseOut(Answer):
     device: Annotated[dict[str, float], Field(description="the worst device's values of the uncertain paths (SI)")]
     critical_stiffness: Annotated[float, Field(description="exact K_cr(B) of the worst device [N/m]")]
     crossover_frequency: Annotated[float | None, Field(description="ω of its critical crossover [rad/s]")] = None
     gain_margin_db: Annotated[float | None, Field(description="20·log10(K_cr/K) of the worst device [dB]")] = None
 
 
-class HardwareDesignResponse(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class HardwareDesignResponse(Answer):
     status: Literal["optimal", "infeasible", "failed"]
     free: str
     direction: Annotated[Literal["max", "min"], Field(description="the direction in which the hardware gets looser")]
@@ -218,10 +190,7 @@ class HardwareDesignResponse(BaseModel):
     ] = None
 
 
-class InertiaResponse(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class InertiaResponse(Answer):
     status: Literal["optimal", "infeasible", "failed"]
     objective: Literal["min_apparent_mass", "target_apparent_mass"]
     force_gain: Annotated[float | None, Field(description="K_f")]
@@ -267,10 +236,7 @@ class InertiaResponse(BaseModel):
     verification: Annotated[common.VerificationOut | None, Field(description="present when verify was true")] = None
 
 
-class StiffnessDesignResponse(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class StiffnessDesignResponse(Answer):
     status: Literal["optimal", "infeasible", "failed"]
     stiffness: Annotated[float | None, Field(description="K [N/m]")] = None
     damping: Annotated[float | None, Field(description="B [N·s/m]")] = None

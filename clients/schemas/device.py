@@ -5,17 +5,16 @@ from __future__ import annotations
 import math
 from typing import Annotated
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import Field
+
+from clients.schemas.answer import Answer
 
 
-class Cable(BaseModel):
+class Cable(Answer):
     """
     Two-mass cable transmission of the chapter's §4 (Fig. 11b, eq. 15-18).
     """
 
-    model_config = ConfigDict(
-        extra="allow",
-    )
     motor_mass: Annotated[float, Field(description="m_r, mass pushed by the motor [kg or kg·m²]")]
     motor_damping: Annotated[float, Field(description="b_r, damping of the motor mass to ground [N·s/m or N·m·s/rad]")]
     body_mass: Annotated[float, Field(description="m_d, mass pushed by the user [kg or kg·m²]")]
@@ -31,31 +30,25 @@ class Cable(BaseModel):
         return math.sqrt(self.stiffness * (m_r + m_d) / (m_r * m_d))
 
 
-class ForceSensor(BaseModel):
+class ForceSensor(Answer):
     """
     Anti-aliasing filter of the force sensor, G_f(s) = 1/(1 + T_f s) (eq. 31).
     """
 
-    model_config = ConfigDict(
-        extra="allow",
-    )
     time_constant: Annotated[float, Field(description="T_f [s]; 0 means no filter")]
 
 
-class Human(BaseModel):
+class Human(Answer):
     """
     The user's grasp Z_h(s) = m_h s² + b_h s + k_h (eq. 30).
     """
 
-    model_config = ConfigDict(
-        extra="allow",
-    )
     mass: Annotated[float, Field(description="m_h [kg]")]
     damping: Annotated[float, Field(description="b_h [N·s/m]")]
     stiffness: Annotated[float, Field(description="k_h [N/m]")]
 
 
-class Device(BaseModel):
+class Device(Answer):
     """
     A haptic device in one axis.
 
@@ -66,9 +59,6 @@ class Device(BaseModel):
     rigid model of the same device).
     """
 
-    model_config = ConfigDict(
-        extra="allow",
-    )
     preset: Annotated[str | None, Field(description="name of a preset; other fields override it")] = None
     mass: Annotated[float, Field(description="m, total moving mass [kg or kg·m²]")]
     damping: Annotated[float, Field(description="b, total physical damping [N·s/m or N·m·s/rad]")]

@@ -4,13 +4,12 @@ from __future__ import annotations
 
 from typing import Annotated
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import Field
+
+from clients.schemas.answer import Answer
 
 
-class ComputeQueue(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class ComputeQueue(Answer):
     depth: Annotated[int, Field(description="expensive calls waiting for a compute worker")]
     max_depth: Annotated[
         int, Field(description="waiting calls beyond which a new one is refused with 503 (ZWIDTH_COMPUTE_QUEUE)")
@@ -22,18 +21,12 @@ class ComputeQueue(BaseModel):
     ]
 
 
-class Health(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class Health(Answer):
     status: Annotated[str, Field(description="'ok' when the service answers")]
     version: Annotated[str, Field(description="zwidth version")]
 
 
-class Readiness(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class Readiness(Answer):
     ready: Annotated[
         bool, Field(description="the service takes requests at full speed: the warm-up is done (or disabled)")
     ]

@@ -4,13 +4,12 @@ from __future__ import annotations
 
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import Field
+
+from clients.schemas.answer import Answer
 
 
-class ComparisonOut(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class ComparisonOut(Answer):
     model: Literal["rigid", "cable"]
     aic: float | None
     bic: float | None
@@ -19,10 +18,7 @@ class ComparisonOut(BaseModel):
     reason: str | None = None
 
 
-class FitOut(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class FitOut(Answer):
     nrmse: Annotated[float | None, Field(description="‖residual‖/‖measured − mean‖")]
     rmse: Annotated[float | None, Field(description="RMS residual [m] (time series) or relative error [-] (response)")]
     residual_whiteness: Annotated[
@@ -34,27 +30,18 @@ class FitOut(BaseModel):
     starts: int
 
 
-class ParameterOut(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class ParameterOut(Answer):
     value: Annotated[float, Field(description="estimate [kg, N·s/m, N/m, s or N]")]
     std_error: Annotated[float | None, Field(description="linearised standard error (same unit)")]
     interval: Annotated[list[float | None], Field(description="[lo, hi] at the requested confidence (same unit)")]
 
 
-class RangeOut(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class RangeOut(Answer):
     min: float
     max: float
 
 
-class IdentifyResponse(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class IdentifyResponse(Answer):
     status: Literal["identified", "failed"]
     model: Literal["rigid", "cable"] | None
     reason: str

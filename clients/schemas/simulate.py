@@ -4,15 +4,14 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import Field
+
+from clients.schemas.answer import Answer
 
 from . import common
 
 
-class CycleOut(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class CycleOut(Answer):
     pattern: Annotated[list[int], Field(description="half-period lengths [samples], starting with the +a half")]
     period_samples: int
     frequency: Annotated[float, Field(description="[rad/s]")]
@@ -23,20 +22,14 @@ class CycleOut(BaseModel):
     sign_margin: Annotated[float, Field(description="[m] smallest signed |y| over the period (< 0: a condition fails)")]
 
 
-class DominantPoleOut(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class DominantPoleOut(Answer):
     modulus: Annotated[float, Field(description="|z| [-]")]
     angle: Annotated[float, Field(description="arg z [rad per sample], 0..π")]
     frequency: Annotated[float, Field(description="arg z / T [rad/s]")]
     growth_rate: Annotated[float | None, Field(description="ln|z| / T [1/s] (null when z = 0)")]
 
 
-class MeasuredVerdictOut(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class MeasuredVerdictOut(Answer):
     state: Annotated[
         Literal["stable", "unstable", "undetermined", "limit_cycle"],
         Field(
@@ -62,10 +55,7 @@ class MeasuredVerdictOut(BaseModel):
     ]
 
 
-class PolesOut(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class PolesOut(Answer):
     state: Annotated[
         Literal["stable", "unstable", "marginal"],
         Field(description="every pole inside the unit circle, one outside, or one on it within rounding"),
@@ -97,10 +87,7 @@ class PolesOut(BaseModel):
     reason: str
 
 
-class SettledOut(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class SettledOut(Answer):
     repeats: bool
     pattern: list[int] | None
     symmetric: bool
@@ -120,10 +107,7 @@ class SettledOut(BaseModel):
     frequency_error: float | None
 
 
-class TrajectoryOut(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class TrajectoryOut(Answer):
     time: Annotated[list[float], Field(description="[s]")]
     motor_position: Annotated[list[float], Field(description="x_r [m] (encoder side)")]
     body_position: Annotated[list[float], Field(description="x_d [m]")]
@@ -131,10 +115,7 @@ class TrajectoryOut(BaseModel):
     energy_generated: Annotated[list[float], Field(description="energy the virtual wall generated so far [J]")]
 
 
-class VerdictOut(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class VerdictOut(Answer):
     state: Annotated[
         Literal["stable", "unstable", "undetermined", "limit_cycle"],
         Field(
@@ -179,10 +160,7 @@ class VerdictOut(BaseModel):
     ] = None
 
 
-class RelayOut(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class RelayOut(Answer):
     amplitude: Annotated[float, Field(description="relay force a [N]")]
     start_position: Annotated[float, Field(description="[m]")]
     start_velocity: Annotated[float, Field(description="[m/s]")]
@@ -199,10 +177,7 @@ class RelayOut(BaseModel):
     notes: list[str]
 
 
-class SimulateResponse(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class SimulateResponse(Answer):
     effects_simulated: list[str]
     not_simulated: Annotated[
         list[str], Field(description="device blocks left out because the scene does not name them")

@@ -4,23 +4,19 @@ from __future__ import annotations
 
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import Field
+
+from clients.schemas.answer import Answer
 
 
-class StudyCreated(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class StudyCreated(Answer):
     id: str
     status: str
     points: Annotated[int, Field(description="points the study will compute")]
     problem: str
 
 
-class StudyResults(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class StudyResults(Answer):
     id: str
     status: str
     total: int
@@ -31,10 +27,7 @@ class StudyResults(BaseModel):
     rows: list[dict[str, Any]]
 
 
-class StudyStatus(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class StudyStatus(Answer):
     id: str
     name: str | None
     problem: str
@@ -53,10 +46,7 @@ class StudyStatus(BaseModel):
     sweep: Annotated[list[str], Field(description="the swept parameter paths, in column order")]
 
 
-class StudyList(BaseModel):
-    model_config = ConfigDict(
-        extra="allow",
-    )
+class StudyList(Answer):
     studies: list[StudyStatus]
     offset: int
     limit: int
