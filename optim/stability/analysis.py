@@ -18,7 +18,7 @@ from pydantic import Field, TypeAdapter, ValidationError
 
 from models.device import Device
 from models.plants import Q_criterion
-from optim.errors import InputError, from_validation
+from optim.errors import NOT_REPRESENTABLE, InputError, from_validation
 from optim.stability.crossovers import LOG_MIN_SAMPLES, LOG_PER_DECADE, refine_grid, theta_min
 from optim.stability.margins import (
     Crossover,
@@ -258,7 +258,7 @@ def analyse_stability(device: Device, stiffness: float | None = None, damping: f
         with np.errstate(over="raise", invalid="raise"):
             return _analyse(device, stiffness, damping, method, grid_points)
     except (FloatingPointError, OverflowError, ZeroDivisionError) as exc:
-        raise InputError("device", f"the parameters are outside the numerically representable range ({exc})") from exc
+        raise InputError("device", NOT_REPRESENTABLE) from exc
 
 
 @dataclass(frozen=True)
@@ -322,11 +322,9 @@ def _exact_rung(device: Device, damping: float) -> RungAnswer:
 def _reference_rung(device: Device, damping: float) -> RungAnswer:
     """40-digit mpmath discretisation and bisection (optim.stability.reference)."""
     res = reference_critical_stiffness(device, damping)
-    reason = ("virtual damping at or above the largest stable virtual damping: no positive stiffness is stable"
-              if res.critical_stiffness == 0.0 else None)
     return RungAnswer(res.critical_stiffness, res.crossover_frequency,
                       tuple(Crossover(frequency=a, stiffness=b) for a, b in res.crossovers),
-                      10.0 ** (-(res.digits - 5)), f"{res.digits}-digit mpmath discretisation and bisection", reason)
+                      10.0 ** (-(res.digits - 5)), f"{res.digits}-digit mpmath discretisation and bisection", res.reason)
 
 
 @dataclass(frozen=True)

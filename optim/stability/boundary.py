@@ -10,7 +10,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from models.device import Device
-from optim.errors import InputError
+from optim.errors import NOT_REPRESENTABLE, InputError
 from optim.stability.margins import critical_stiffness, linear_estimate, max_stable_damping
 
 __all__ = ["BoundaryPoint", "Boundary", "stability_boundary", "MAX_BOUNDARY_POINTS"]
@@ -56,7 +56,7 @@ def stability_boundary(device: Device, damping_max: float | None = None, points:
         with np.errstate(over="raise", invalid="raise"):
             return _boundary(device, damping_max, points)
     except (FloatingPointError, OverflowError, ZeroDivisionError) as exc:
-        raise InputError("device", f"the parameters are outside the numerically representable range ({exc})") from exc
+        raise InputError("device", NOT_REPRESENTABLE) from exc
 
 
 def _boundary(device: Device, damping_max: float | None, points: int) -> Boundary:

@@ -18,6 +18,8 @@ import mpmath as mp
 from models.device import Device
 from models.discretize import split_delay
 from optim.errors import InputError
+from optim.stability.undamped_cable import is_undamped_cable
+from optim.stability.undamped_cable import refuse as refuse_undamped
 
 __all__ = ["ReferenceResult", "reference_critical_stiffness", "REFERENCE_STIFFNESS_MAX_DELAY_SAMPLES"]
 
@@ -32,14 +34,26 @@ class ReferenceResult:
     crossovers: tuple[tuple[float, float], ...]
     """(ω [rad/s], K [N/m]) of every crossover with K > 0."""
     digits: int
+    reason: str | None = None
+    """Why K_cr is 0 or ∞ when the scan did not find it (None otherwise)."""
 
 
 def _rigid_h(delta, d: int, f, beta):
     one = mp.mpf(1)
     a = delta
 
+    def g0(z):
+        # a = 0 (no physical damping): 1/s², step response y(τ) = τ²/2; Σ (k + m)²/2 z^{-k} from Σ z^{-k},
+        # Σ k z^{-k} = z/(z − 1)² and Σ k² z^{-k} = z(z + 1)/(z − 1)³ (m = 0 without a fractional delay).
+        m_ = one - f if f > 0 else mp.mpf(0)
+        zm1 = z - 1
+        zs = z / zm1 * m_**2 / 2 + z / zm1**2 * m_ + z * (z + 1) / zm1**3 / 2
+        return (1 - 1 / z) * z ** (-d - (1 if f > 0 else 0)) * zs
+
     def g(z):
         # Modified z-transform of 1/(s²(s+a)) (dimensionless, m = T = 1), ZOH and delay d + f.
+        if a == 0:
+            return g0(z)
         m_ = one - f                                         # modified-z parameter
         e = mp.exp(-a)
         em = mp.exp(-a * m_)
@@ -139,7 +153,10 @@ def _scan(h, device: Device, beta: float, digits: int) -> list[tuple[float, floa
     """Every θ in (0, π] with h(θ) real and positive, bisected to ``digits`` digits."""
     damp = device.delta + beta
     dd = device.delay_samples
-    lo = 1e-4 * min(1.0, math.sqrt(damp / (1 + 2 * dd)), 10 * damp)
+    # The first crossover of a lightly damped loop sits near sqrt(damping/(1 + 2d)); without any damping (only
+    # the damper-only loop of a frictionless device is scanned so) nothing crosses at low θ, where H → 0 along
+    # the imaginary axis.
+    lo = 1e-4 * min(1.0, math.sqrt(damp / (1 + 2 * dd)), 10 * damp) if damp > 0 else 1e-4 / math.sqrt(1 + 2 * dd)
     pts = [lo * (0.05 / lo) ** (i / 300) for i in range(301)] if lo < 0.05 else []
     step = min(0.01, math.pi / (12 * (dd + 1)))
     n = int(math.ceil((math.pi - 0.05) / step))
@@ -167,11 +184,23 @@ def _scan(h, device: Device, beta: float, digits: int) -> list[tuple[float, floa
 
 
 def reference_critical_stiffness(device: Device, damping: float = 0.0, digits: int = 40) -> ReferenceResult:
-    """K_cr(B) in ``digits``-digit arithmetic (B below B_max is assumed; see optim.stability.margins)."""
+    """K_cr(B) in ``digits``-digit arithmetic (B below B_max is assumed; see optim.stability.margins).
+
+    Without any damping (δ = β = 0) the rigid mode is a double pole at z = 1 that every K > 0 with the hold's lag
+    drives out: K_cr = 0 in closed form, as the exact rung's linear condition says.  A cable with every damping 0
+    and B > 0 has its mode on the unit circle, where this scan cannot tell it from a crossing: refused (the exact
+    rung decides it by the root locus and the closed loop, optim.stability.undamped_cable).
+    """
     if device.delay_samples > REFERENCE_STIFFNESS_MAX_DELAY_SAMPLES:
         raise InputError("delay", f"the reference rung is capped at {REFERENCE_STIFFNESS_MAX_DELAY_SAMPLES} samples of delay")
-    # The rigid closed form cancels like 1/δ² (partial fractions): carry extra digits for it.
-    extra = 10 + 2 * max(0, int(-math.log10(max(device.delta, 1e-300))))
+    if device.delta == 0.0 and damping == 0.0:
+        return ReferenceResult(0.0, None, (), digits, "no physical or virtual damping (δ = β = 0): the double pole "
+                               "at z = 1 leaves the unit circle at any K > 0, so no positive stiffness is stable")
+    if is_undamped_cable(device):
+        raise refuse_undamped("the reference rung's scan cannot tell the cable mode on the unit circle from a "
+                              "crossing (method 'exact' decides it by the root locus and the closed loop)")
+    # The rigid closed form cancels like 1/δ² (partial fractions): carry extra digits for it (δ = 0 has its own).
+    extra = 10 + 2 * max(0, int(-math.log10(device.delta))) if device.delta > 0 else 10
     with mp.workdps(digits + extra):
         d_int, f = split_delay(device.delay_samples)
         f = mp.mpf(f)
@@ -186,7 +215,8 @@ def reference_critical_stiffness(device: Device, damping: float = 0.0, digits: i
             hb = (lambda th: (h(th) + beta * (1 - 1 / mp.expj(th))) / (1 - 1 / mp.expj(th)))
             b_cross = _scan(hb, device, 0.0, digits)
             if b_cross and float(beta) >= min(v for _, v in b_cross):
-                return ReferenceResult(0.0, None, (), digits)
+                return ReferenceResult(0.0, None, (), digits, "virtual damping at or above the largest stable "
+                                       "virtual damping: no positive stiffness is stable")
     scale, t = device.stiffness_scale, device.sample_time
     cross = tuple((th / t, v * scale) for th, v in found)
     if not cross:

@@ -53,3 +53,30 @@ def test_linear_designs_carry_their_exact_margin(client):
     assert j["method"] == "linear" and j["exact_check"]["meets_min_gain_margin"] is False
     j = client.post("/v1/design/stiffness", json={"device": {"preset": "lhifam"}}).json()
     assert j["method"] == "exact" and j["exact_check"] is None and j["error_estimate"] <= 1e-12
+
+
+FRICTIONLESS = {"mass": 5.4, "damping": 0.0, "sample_time": 1e-3, "delay": 1e-3}
+
+
+def test_reference_rung_answers_a_frictionless_device(client):
+    """Was a 422 "outside the numerically representable range (float division by zero)" on any b = 0 device."""
+    out = {}
+    for m in ("exact", "reference"):
+        r = client.post("/v1/analysis/stability", json={"device": FRICTIONLESS, "method": m,
+                                                        "controller": {"stiffness": 100.0, "damping": 1.0}})
+        assert r.status_code == 200, r.text
+        out[m] = r.json()["critical_stiffness"]
+    assert out["reference"] == pytest.approx(out["exact"], rel=1e-12)
+    j = client.post("/v1/analysis/stability", json={"device": FRICTIONLESS, "method": "reference",
+                                                    "controller": {"stiffness": 100.0, "damping": 0.0}}).json()
+    assert j["critical_stiffness"] == 0.0 and j["stable"] is False and "no physical or virtual damping" in j["reason"]
+
+
+def test_reference_rung_refuses_an_undamped_cable_with_b_on_the_cable(client):
+    cable = {"motor_mass": 0.3, "motor_damping": 0.0, "body_mass": 5.1, "body_damping": 0.0, "stiffness": 79500.0,
+             "damping": 0.0}
+    r = client.post("/v1/analysis/stability", json={"device": {**FRICTIONLESS, "cable": cable}, "method": "reference",
+                                                    "controller": {"stiffness": 100.0, "damping": 1.0}})
+    assert r.status_code == 422
+    d = r.json()["detail"][0]
+    assert d["loc"][-2:] == ["device", "cable"] and "method 'exact'" in d["msg"]
