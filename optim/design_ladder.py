@@ -157,7 +157,9 @@ def _grid_kcr_rows(device: Device, betas: np.ndarray, points: int) -> np.ndarray
         w = im[:, :-1] / (im[:, :-1] - im[:, 1:])
     k = re[:, :-1] + w * (re[:, 1:] - re[:, :-1])
     k = np.where(cross & (k > 0), k, np.inf).min(axis=1)
-    return np.minimum(k, np.where(re[:, -1] > 0, re[:, -1], np.inf))
+    k = np.minimum(k, np.where(re[:, -1] > 0, re[:, -1], np.inf))
+    # without any damping (δ = β = 0) the crossover is at θ → 0⁺ with K → 0, below the grid (analysis.py likewise)
+    return np.where(device.delta + betas <= 0.0, 0.0, k)
 
 
 def _grid_max_damping(device: Device, points: int) -> float:

@@ -35,6 +35,7 @@ from optim.stability.closed_loop import (
 
 __all__ = [
     "DEFAULT_EPSILON",
+    "claimed_epsilon",
     "EIG_MAX_STATES",
     "PASSIVITY_RTOL",
     "PassivityVerification",
@@ -118,6 +119,19 @@ def _check_point(device: Device, plant: SampledPlant, alpha: float, beta: float)
     if cnt.count is None:
         return _Point(None, None, None, ARGUMENT, cnt.reason)
     return _Point(cnt.count == 0, None, cnt.count, ARGUMENT, None)
+
+
+def claimed_epsilon(method: str, error_estimate: float | None, linear_factor: float = 1.0) -> float | None:
+    """The relative step ε at which an answer of rung ``method`` is checked: its own claim.
+
+    :data:`DEFAULT_EPSILON` for ``exact`` and ``reference`` (they claim 1e-12 and better); the rung's error estimate
+    for ``grid``, times ``linear_factor`` for ``linear`` (the stiffness rung documents its estimate as within 2× of
+    the true error), never below DEFAULT_EPSILON; None when the estimate is unbounded (the rung claims no bound)."""
+    if method in ("exact", "reference"):
+        return DEFAULT_EPSILON
+    if error_estimate is None or not math.isfinite(error_estimate):
+        return None
+    return max(float(error_estimate) * (linear_factor if method == "linear" else 1.0), DEFAULT_EPSILON)
 
 
 def _not_checkable(t0: float, reason: str, eps: float | None = None, **kw) -> Verification:
@@ -315,13 +329,17 @@ def _with_labels(v: Verification, device: Device, stiffness: float, damping: flo
 
 
 def verify_stiffness_design(device: Device, stiffness: float, damping: float, gain_margin_db: float | None,
-                            passive: bool | None = None, epsilon: float = DEFAULT_EPSILON,
+                            passive: bool | None = None, epsilon: float | None = DEFAULT_EPSILON,
                             critical: float | None = None) -> Verification:
-    """A design (K, B): its margin says the critical gain is K·10^(GM/20): check that gain like K_cr, check
-    that K itself is stable (a design is always said stable), and, when the design states it, its passivity."""
+    """A design (K, B): its margin says the critical gain is K·10^(GM/20): check that gain like K_cr at ±``epsilon``
+    (the design rung's claim, :func:`claimed_epsilon`; None: it claims no bound), check that K itself is stable (a
+    design is always said stable), and, when the design states it, its passivity."""
     t0 = time.perf_counter()
     kc = stiffness * 10.0 ** (gain_margin_db / 20.0) if gain_margin_db is not None else critical
-    v = verify_critical_stiffness(device, damping, kc, epsilon)
+    if epsilon is None:
+        v = _not_checkable(t0, "the design's rung states no error bound on its K_cr: its margin claims nothing to check")
+    else:
+        v = verify_critical_stiffness(device, damping, kc, epsilon)
     return _with_labels(v, device, stiffness, damping, True, passive, t0)
 
 
@@ -332,15 +350,11 @@ def verify_analysis(device: Device, analysis) -> Verification:
     at ± its own error estimate (its claim), and not at all when it claims no bound.  The labels of a given
     wall (stable, passive) are checked too."""
     t0 = time.perf_counter()
-    if analysis.method in ("exact", "reference"):
-        eps = DEFAULT_EPSILON
-    else:
-        est = analysis.error_estimate
-        if est is None or not math.isfinite(est):
-            return _not_checkable(t0, f"the {analysis.method} rung states no error bound (its estimate is unbounded): "
-                                      "there is no claim to check")
-        # the linear rung documents its estimate as within 2× of the true error (optim.stability.analysis): check that claim
-        eps = max(float(est) * (2.0 if analysis.method == "linear" else 1.0), DEFAULT_EPSILON)
+    # the linear rung documents its estimate as within 2× of the true error (optim.stability.analysis): check that claim
+    eps = claimed_epsilon(analysis.method, analysis.error_estimate, linear_factor=2.0)
+    if eps is None:
+        return _not_checkable(t0, f"the {analysis.method} rung states no error bound (its estimate is unbounded): "
+                                  "there is no claim to check")
     kcr = analysis.critical_stiffness
     above = [c.stiffness for c in analysis.crossovers
              if kcr is not None and c.stiffness > kcr * (1 + 1e-9)] if analysis.method != "linear" else []
@@ -373,7 +387,7 @@ def _ff_point(loop, force_gain: float) -> _Point:
 
 
 def verify_critical_force_gain(device: Device, human, critical: float | None, order: int | None = None,
-                               cutoff_hz: float | None = None, epsilon: float = DEFAULT_EPSILON,
+                               cutoff_hz: float | None = None, epsilon: float | None = DEFAULT_EPSILON,
                                next_crossing: float | None = None, design_gain: float | None = None) -> Verification:
     """Is 1 + K_f·D·G_1 stable at K_f,cr·(1 − ε) and unstable at K_f,cr·(1 + ε)?  ``design_gain``: a
     designed K_f, checked stable too (its spectral radius is reported as design_radius)."""
@@ -390,6 +404,8 @@ def verify_critical_force_gain(device: Device, human, critical: float | None, or
                                 (time.perf_counter() - t0) * 1e3, "every K_f was said stable, but this K_f is not")
         return _not_checkable(t0, "no finite set of gains proves that every K_f > 0 is stable", method=p.method,
                               gain_above=probe)
+    if epsilon is None:
+        return _not_checkable(t0, "the rung states no error bound on K_f,cr: there is no claim to check")
     eps = epsilon
     if next_crossing is not None and math.isfinite(next_crossing) and next_crossing > critical:
         eps = min(eps, 0.5 * (next_crossing / critical - 1.0))
@@ -418,13 +434,9 @@ def verify_critical_force_gain(device: Device, human, critical: float | None, or
 def verify_force_feedforward(device: Device, analysis, order: int | None, cutoff_hz: float | None) -> Verification:
     """Verify an optim.transparency.feedforward_ladder.ForceFeedforwardAnalysis on its rung (ε as for the stiffness rungs)."""
     t0 = time.perf_counter()
-    if analysis.method in ("exact", "reference"):
-        eps = DEFAULT_EPSILON
-    else:
-        est = analysis.error_estimate
-        if est is None or not math.isfinite(est):
-            return _not_checkable(t0, f"the {analysis.method} rung states no error bound: there is no claim to check")
-        eps = max(float(est), DEFAULT_EPSILON)
+    eps = claimed_epsilon(analysis.method, analysis.error_estimate)
+    if eps is None:
+        return _not_checkable(t0, f"the {analysis.method} rung states no error bound: there is no claim to check")
     kcr = analysis.critical_force_gain
     above = [c.force_gain for c in analysis.crossovers if math.isfinite(kcr) and c.force_gain > kcr * (1 + 1e-9)]
     return verify_critical_force_gain(device, analysis.human, kcr, order, cutoff_hz, eps,

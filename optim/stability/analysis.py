@@ -21,6 +21,7 @@ from models.plants import Q_criterion
 from optim.errors import NOT_REPRESENTABLE, InputError, from_validation
 from optim.stability.crossovers import LOG_MIN_SAMPLES, LOG_PER_DECADE, refine_grid, theta_min
 from optim.stability.margins import (
+    NO_DAMPING_REASON,
     Crossover,
     critical_stiffness,
     gain_margin_db,
@@ -126,6 +127,8 @@ def grid_critical_stiffness(device: Device, damping: float, points: int) -> tupl
     The estimate is ∞ (unbounded: the grid cannot vouch for its answer) when the grid shows
     that it missed crossovers (see ``grid_unresolved``), and when B ≥ B_max (exact), where no K > 0 is stable.
     """
+    if device.damping + damping <= 0.0:
+        return 0.0, None, (), 0.0          # no damping at all: K_cr = 0 (the crossover at θ → 0⁺, below the grid)
     plant = loop_plant(device)
     beta = damping / device.damping_scale
     theta = np.geomspace(1e-3, math.pi, points)
@@ -291,6 +294,10 @@ def _grid_rung(device: Device, damping: float, grid_points: int) -> RungAnswer:
     """A fixed log grid of ω, crossings interpolated (grid_critical_stiffness)."""
     if not (10 <= grid_points <= MAX_GRID_POINTS):
         raise InputError("grid_points", f"must be between 10 and {MAX_GRID_POINTS}")
+    if device.damping + damping <= 0.0:
+        # the crossover sits at θ → 0⁺ with K → 0, below any grid: the closed-form limit, not the grid, answers
+        return RungAnswer(0.0, None, (), 0.0, "closed form (δ = β = 0): the crossover is at ω → 0 with K → 0",
+                          NO_DAMPING_REASON)
     kcr, w, crossovers, err = grid_critical_stiffness(device, damping, grid_points)
     return RungAnswer(kcr, w, crossovers, err, (
         f"the whole change of K across the bracketing grid interval ({grid_points} log-spaced ω from 1e-3/T "

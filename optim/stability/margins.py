@@ -39,8 +39,13 @@ from optim.stability.undamped_cable import (
 )
 from optim.stability.undamped_cable import refuse as undamped_refusal
 
-__all__ = ["Crossover", "CriticalStiffness", "critical_stiffness", "scan_critical_stiffness", "max_stable_damping",
+__all__ = ["NO_DAMPING_REASON", "Crossover", "CriticalStiffness", "critical_stiffness", "scan_critical_stiffness", "max_stable_damping",
            "linear_estimate", "gain_margin_db", "loop_plant"]
+
+#: Why K_cr = 0 without any damping (δ = β = 0), on every rung: the limit of the linear condition, and the double
+#: pole at z = 1 that any K > 0 with the hold's lag drives out of the unit circle.
+NO_DAMPING_REASON = ("no physical or virtual damping: no positive stiffness is stable "
+                     "(linear condition α < 2(δ+β)/(1+2d) with δ = β = 0)")
 
 
 @dataclass(frozen=True)
@@ -184,9 +189,7 @@ def critical_stiffness(device: Device, damping: float = 0.0, *, b_max: float | N
         raise InputError("damping", "virtual damping B must be finite and ≥ 0")
     plant = loop_plant(device)
     if device.damping + damping <= 0.0:
-        return CriticalStiffness(0.0, None, (), damping, 0.0,
-                                 reason="no physical or virtual damping: no positive stiffness is stable "
-                                        "(linear condition α < 2(δ+β)/(1+2d) with δ = β = 0)")
+        return CriticalStiffness(0.0, None, (), damping, 0.0, reason=NO_DAMPING_REASON)
     if is_undamped_cable(device):
         return _undamped(device, plant, damping)
     if isinstance(plant, RigidZOH):
@@ -376,9 +379,7 @@ def scan_critical_stiffness(device: Device, damping: float = 0.0, *, b_max: floa
     plant = loop_plant(device)
     beta = damping / device.damping_scale
     if device.damping + damping <= 0.0:
-        return CriticalStiffness(0.0, None, (), damping, 0.0,
-                                 reason="no physical or virtual damping: no positive stiffness is stable "
-                                        "(linear condition α < 2(δ+β)/(1+2d) with δ = β = 0)")
+        return CriticalStiffness(0.0, None, (), damping, 0.0, reason=NO_DAMPING_REASON)
     if is_undamped_cable(device):
         return _undamped(device, plant, damping)
     if damping > 0.0:

@@ -13,7 +13,7 @@ from optim.robust.box import UncertaintyBox
 from optim.robust.stiffness import robust_design_stiffness
 from optim.solver_info import plain
 from optim.stiffness import StiffnessRequirements
-from optim.verification import verify_stiffness_design
+from optim.verification import claimed_epsilon, verify_stiffness_design
 from optim.verification_robust import verify_robust_stiffness
 from service.cost import stiffness_design_cost_ms, verify_cost_ms
 from service.errors import solver_trouble
@@ -52,7 +52,7 @@ async def design_stiffness_route(request: StiffnessDesignRequest, compute: Compu
         passive = True if req.passivity else None
         data["verification"] = verification_out(await compute.arun(
             verify_stiffness_design, request.device, design.stiffness, design.damping, design.gain_margin_db, passive,
-            cost_ms=verify_cost_ms(request.device)))
+            claimed_epsilon(rung.method, rung.error_estimate, linear_factor=2.0), cost_ms=verify_cost_ms(request.device)))
     return StiffnessDesignResponse(**data, **rung_fields(rung))
 
 

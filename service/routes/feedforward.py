@@ -12,7 +12,7 @@ from optim.design_ladder import design_inertia_on_rung
 from optim.errors import InputError
 from optim.transparency.feedforward import apparent_mass, resolve_human
 from optim.transparency.inertia import RIGID_OPTIMISM_FLAG, InertiaRequirements
-from optim.verification import verify_critical_force_gain, verify_force_feedforward
+from optim.verification import claimed_epsilon, verify_critical_force_gain, verify_force_feedforward
 
 from ..cost import force_feedforward_cost_ms, inertia_design_cost_ms, verify_cost_ms
 from ..errors import numerics_refused
@@ -106,7 +106,8 @@ async def inertia(req: InertiaRequest, compute: Compute) -> InertiaResponse:
         critical = d.force_gain * 10 ** (gm / 20) if gm is not None and math.isfinite(gm) else d.critical_force_gain
         verification = verification_out(await compute.arun(
             verify_critical_force_gain, req.device, human, critical, d.filter_order, d.filter_cutoff_hz,
-            design_gain=d.force_gain, cost_ms=verify_cost_ms(req.device)))
+            claimed_epsilon(rung.method, rung.error_estimate), design_gain=d.force_gain,
+            cost_ms=verify_cost_ms(req.device)))
     return InertiaResponse(
         status=d.status, objective=d.objective, force_gain=d.force_gain,
         filter_cutoff_hz=d.filter_cutoff_hz, filter_order=d.filter_order, apparent_mass=d.apparent_mass,

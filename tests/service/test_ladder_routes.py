@@ -80,3 +80,21 @@ def test_reference_rung_refuses_an_undamped_cable_with_b_on_the_cable(client):
     assert r.status_code == 422
     d = r.json()["detail"][0]
     assert d["loc"][-2:] == ["device", "cable"] and "method 'exact'" in d["msg"]
+
+
+@pytest.mark.parametrize("cable", [None, {"motor_mass": 0.3, "motor_damping": 0.0, "body_mass": 5.1,
+                                          "body_damping": 0.0, "stiffness": 79500.0, "damping": 15.0}])
+def test_grid_rung_without_any_damping_says_zero_not_the_nyquist_value(client, cable):
+    """The grid answered K_cr = 43.2e6 N/m (H at π/T) with error estimate 0 and 'stable' on a frictionless device
+    at B = 0, where every rung else says 0; its stiffness design then picked B = 0 and K = 21.7e6 N/m, which the
+    closed loop contradicts."""
+    dev = {**FRICTIONLESS, "cable": cable}
+    j = client.post("/v1/analysis/stability", json={"device": dev, "method": "grid",
+                                                    "controller": {"stiffness": 100.0, "damping": 0.0}}).json()
+    assert j["critical_stiffness"] == 0.0 and j["stable"] is False and "no physical or virtual damping" in j["reason"]
+    d = client.post("/v1/design/stiffness", json={"device": dev, "method": "grid", "verify": True}).json()
+    assert d["status"] == "optimal" and d["damping"] > 0, d
+    # checked at the grid design's own claim (its error estimate), not at the exact rungs' 1e-6
+    assert d["verification"]["verdict"] == "confirmed", d["verification"]
+    assert d["verification"]["epsilon"] == pytest.approx(d["error_estimate"], rel=1e-12)
+    assert d["exact_check"]["meets_min_gain_margin"] is True, d["exact_check"]
