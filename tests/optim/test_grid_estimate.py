@@ -51,7 +51,9 @@ def test_missed_crossovers_below_the_grid_give_a_null_estimate(device, old_estim
 def _check(device: Device, damping: float, points: int = 1000) -> tuple[float, float, float]:
     k, _, _, err = grid_critical_stiffness(device, damping, points)
     exact = critical_stiffness(device, damping).critical_stiffness
-    if math.isfinite(err):
+    if math.isfinite(err) and exact == 0.0:          # no damping at all (δ = β = 0): nothing is stable
+        assert k == 0.0, (device, damping, k, exact, err)
+    elif math.isfinite(err):
         assert math.isfinite(k) and exact > 0 and math.isfinite(exact), (device, damping, k, exact, err)
         assert abs(k / exact - 1) <= err, (device, damping, k, exact, err)
     return k, err, exact
@@ -63,18 +65,20 @@ def _random_device(rng: np.random.Generator) -> Device:
     tiny = lambda: 0.0 if rng.random() < 0.1 else float(10 ** rng.uniform(-10, 0))   # noqa: E731
     if rng.random() < 0.4:
         m = float(10 ** rng.uniform(-1, 1.3))
-        return Device(mass=m, damping=max(tiny(), 1e-10 * m / t), sample_time=t, delay=d * t)
+        b = tiny()                     # 0 (a frictionless device) one time in ten, else δ ≥ 1e-10
+        return Device(mass=m, damping=0.0 if b == 0.0 else max(b, 1e-10 * m / t), sample_time=t, delay=d * t)
     cable = dict(motor_mass=float(10 ** rng.uniform(-1.5, 1)), motor_damping=tiny(),
                  body_mass=float(10 ** rng.uniform(-0.5, 1.2)), body_damping=tiny(),
                  stiffness=float(10 ** rng.uniform(2, 5.5)), damping=tiny())
-    if cable["motor_damping"] + cable["body_damping"] == 0.0:
-        cable["body_damping"] = 1e-6
+    if cable["motor_damping"] + cable["body_damping"] + cable["damping"] == 0.0:
+        cable["damping"] = 1e-6        # not the lossless cable (optim.stability.undamped_cable); δ = 0 stays
     return Device(sample_time=t, delay=d * t, cable=cable)
 
 
 @pytest.mark.slow
 def test_grid_answer_is_within_its_estimate_or_null_on_random_devices():
-    """Rigid and cable devices, dampings down to 1e-10 (and 0 in a cable's parts), 0–20 samples of delay
+    """Rigid and cable devices, dampings down to 1e-10 and 0 (frictionless: b = 0, and 0 in a cable's parts), 0–20
+    samples of delay
     (whole and fractional), B from 0 to 0.95·B_max."""
     rng = np.random.default_rng(17)
     finite = 0

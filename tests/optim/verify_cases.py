@@ -10,7 +10,7 @@ from models.device import Device
 
 
 def random_device(rng: np.random.Generator) -> Device:
-    """Rigid or cable, δ = bT/m log-uniform down to 1e-10 (and exactly 0 for some cables), delays 0–10,000
+    """Rigid or cable, δ = bT/m log-uniform down to 10^-9.5 and 0 (one in twenty), delays 0–10,000
     samples (whole, fractional, short and long), sample times 30 µs–10 ms."""
     t = 10 ** rng.uniform(-4.5, -2)
     m = 10 ** rng.uniform(-1, 1.5)
@@ -20,7 +20,9 @@ def random_device(rng: np.random.Generator) -> Device:
     if rng.random() < 0.3:
         d = float(round(d))
     kw = dict(sample_time=t, delay=d * t)
-    b = delta * m / t
+    # δ's lowest twentieth (1e-10 … 10^-9.5) becomes δ = 0: frictionless devices (rigid b = 0; a cable with
+    # b_r = b_d = 0), with no extra draw, so that every other device of a seed stays what it was
+    b = delta * m / t if delta >= 10 ** -9.5 else 0.0
     if rng.random() < 0.5:
         return Device(mass=m, damping=b, **kw)
     mr = m * rng.uniform(0.05, 0.5)
