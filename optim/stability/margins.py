@@ -31,9 +31,12 @@ from optim.stability.fast_cable import bounded_min_crossing
 from optim.stability.fast_rigid import fast_beta_max, fast_rigid, rigid_crossovers, rigid_loop
 from optim.stability.rigid_tail import tail_is_clear
 from optim.stability.undamped_cable import (
+    NEAR_LOSSLESS_GAP,
+    confirm_near_lossless,
     confirm_or_refuse,
     departs_outwards,
     is_undamped_cable,
+    mode_gap,
     stable_at_small_k,
     true_crossings,
 )
@@ -197,7 +200,10 @@ def critical_stiffness(device: Device, damping: float = 0.0, *, b_max: float | N
         if fast is not None:
             return fast
     elif isinstance(plant, StateSpaceZOH) and plant.modal_form() is not None:
-        return _bounded(device, plant, damping, b_max)
+        res = _bounded(device, plant, damping, b_max)
+        if mode_gap(plant) < NEAR_LOSSLESS_GAP:
+            confirm_near_lossless(device, damping, res.critical_stiffness)
+        return res
     return scan_critical_stiffness(device, damping, b_max=b_max)
 
 
