@@ -24,11 +24,15 @@ from optim.verification import (
 __all__ = ["verify_hardware_design"]
 
 
-def verify_hardware_design(device: Device, free: str, value: float | None, controller: dict | None) -> Verification | None:
-    """None when the design delivered nothing to check (no value or no controller)."""
-    if value is None or not controller:
-        return None
+def verify_hardware_design(device: Device, free: str, value: float | None, controller: dict | None) -> Verification:
+    """The design's controller at its value of the free parameter; not checkable, with the reason, when it delivered
+    no value (the target holds over the whole scanned range: unbounded) or no controller."""
     t0 = time.perf_counter()
+    if value is None or not controller:
+        return Verification("not_checkable", None, None, None, None, None, None, None, None,
+                            (time.perf_counter() - t0) * 1e3,
+                            "the design states no value of the free parameter (the target holds over the whole "
+                            "scanned range: unbounded)" if value is None else "the design states no controller")
     dev = device_with(device, free, value)
     parts: list[tuple[str, Verification]] = []
     k, b, gm = controller.get("stiffness"), controller.get("damping"), controller.get("gain_margin_db")

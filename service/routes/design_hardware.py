@@ -47,5 +47,5 @@ async def design_hardware_route(request: HardwareDesignRequest, compute: Compute
     if request.verify and design.status == "optimal":
         v = await compute.arun(verify_hardware_design, request.device, request.free, design.value,
                                design.controller, cost_ms=None)
-        data["verification"] = verification_out(v) if v is not None else None
+        data["verification"] = verification_out(v)
     return HardwareDesignResponse(**data)

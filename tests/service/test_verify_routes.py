@@ -126,3 +126,14 @@ def test_hardware_design_verify(client):
     assert v["verdict"] == "confirmed", v
     assert v["design_radius"] < 1
     assert client.post("/v1/plots/hardware", json=body).status_code == 422
+
+
+def test_hardware_design_verify_without_a_value_says_why(client):
+    """The target holds over the whole scanned delay range (bounded: false, value null): verify answered nothing
+    at all where it was asked for; now not checkable with the reason."""
+    body = {"device": {"mass": 5.4, "damping": 0.0, "sample_time": 1e-3}, "target": {"stiffness": 1000},
+            "free": "delay", "points": 9, "verify": True}
+    out = client.post("/v1/design/hardware", json=body).json()
+    assert out["status"] == "optimal" and out["value"] is None and out["bounded"] is False, out
+    v = out["verification"]
+    assert v["verdict"] == "not_checkable" and "no value of the free parameter" in v["reason"], v
