@@ -22,7 +22,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from bench.live_server import ROOT, LiveServer
+from bench.live_server import ROOT, LiveServer, timed_design_post
 
 PATH = "/v1/design/stiffness"
 BODY = {"device": {"mass": 5.4, "damping": 3.5, "sample_time": 0.001}}
@@ -44,14 +44,7 @@ def _pct(samples: list[float], q: float) -> float:
 
 
 def _post(conn: http.client.HTTPConnection, payload: bytes) -> float:
-    t0 = time.perf_counter()
-    conn.request("POST", PATH, body=payload, headers={"Content-Type": "application/json"})
-    r = conn.getresponse()
-    data = r.read()
-    dt = time.perf_counter() - t0
-    if r.status != 200 or json.loads(data)["status"] != "optimal":
-        raise RuntimeError(f"HTTP {r.status}: {data[:200]!r}")
-    return dt
+    return timed_design_post(conn, PATH, payload)
 
 
 def run(n: int = 300, out: Path | None = None) -> dict[str, Stats]:

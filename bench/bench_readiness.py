@@ -24,7 +24,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from bench.live_server import ROOT, LiveServer
+from bench.live_server import ROOT, LiveServer, timed_design_post
 
 PATH = "/v1/design/stiffness"
 #: Not a preset, so that no cache of the server's warm-up holds it.
@@ -41,14 +41,7 @@ COLD_SCRIPT = ("import time; t0 = time.perf_counter()\n"
 
 
 def _post(conn: http.client.HTTPConnection) -> float:
-    t0 = time.perf_counter()
-    conn.request("POST", PATH, body=json.dumps(BODY).encode(), headers={"Content-Type": "application/json"})
-    r = conn.getresponse()
-    data = r.read()
-    dt = time.perf_counter() - t0
-    if r.status != 200 or json.loads(data)["status"] != "optimal":
-        raise RuntimeError(f"HTTP {r.status}: {data[:200]!r}")
-    return dt
+    return timed_design_post(conn, PATH, json.dumps(BODY).encode())
 
 
 def _until_ready(port: int, timeout: float = 300.0) -> None:

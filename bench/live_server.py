@@ -4,6 +4,7 @@ that need a real server (tests/service: live server, offline docs, SIGKILL resum
 from __future__ import annotations
 
 import http.client
+import json
 import os
 import signal
 import socket
@@ -14,7 +15,7 @@ import time
 from pathlib import Path
 from typing import IO
 
-__all__ = ["free_port", "LiveServer", "session_pids", "rss_kib"]
+__all__ = ["free_port", "LiveServer", "session_pids", "rss_kib", "timed_design_post"]
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -42,6 +43,19 @@ def session_pids(sid: int) -> list[int]:
             if st is not None and int(st[3]) == sid and st[0] not in ("Z", "X"):
                 out.append(int(entry))
     return sorted(out)
+
+
+def timed_design_post(conn: http.client.HTTPConnection, path: str, payload: bytes) -> float:
+    """Wall time [s] of one POST of a design on a keep-alive connection; anything but 200 with status
+    ``optimal`` is an error (a benchmark must not time refusals)."""
+    t0 = time.perf_counter()
+    conn.request("POST", path, body=payload, headers={"Content-Type": "application/json"})
+    r = conn.getresponse()
+    data = r.read()
+    dt = time.perf_counter() - t0
+    if r.status != 200 or json.loads(data)["status"] != "optimal":
+        raise RuntimeError(f"HTTP {r.status}: {data[:200]!r}")
+    return dt
 
 
 def rss_kib(pid: int) -> int:
