@@ -57,45 +57,102 @@ MAX_PIECES = 400
 _PAD = 1e-9          # relative padding of every bound (the factors are known to ~cond·ε ≤ 1e-12)
 
 
-def _point(loop: CableLoop, beta: float, cslope: float, t: float) -> tuple[float, float, float]:
+def _point(loop: CableLoop, beta: float, cslope: float, t: float,
+           window: tuple[float, float] | None = None) -> tuple[float, float, float]:
     """(F, F', R) at θ = t (F = φ + cslope·θ − asin g; g = 0 when β = 0).
 
     φ and R are the modal response's (the scan's function: Q = (1/G_n)/(1 − e^{−jθ})); the factors only
     unwrap φ (their phase is off by ≲ err/gap ≤ 1e-3 rad near a zero, far below the π that would matter), and
     give F'.  arg(e^{jθ} − c) on [0, π], continuously: θ + Arg(1 − c e^{−jθ}) for c inside the unit circle,
-    arg(−c) + Arg(1 − z/c) outside (both Args within ±π/2)."""
+    arg(−c) + Arg(1 − z/c) outside (both Args within ±π/2).  ``window``: F is known to lie in it (t inside a
+    bracket of a piece where F is monotone, F at the bracket's ends): when it is narrower than 2π less a margin,
+    it alone picks the branch (the same one the factors pick: there is only one in it), without the factors'
+    arguments (the Newton steps' hot path)."""
     sh = math.sin(0.5 * t)
     st = math.sin(t)
     ct = math.cos(t)
     zm1 = complex(-2.0 * sh * sh, st)
     zc = complex(ct, -st)
-    phi = (loop.s - 0.5) * t - loop.lead_arg
     dphi = loop.s - 0.5 + cslope
     dlr = 0.0
-    phase = cmath.phase
-    for f in loop.factors:
-        diff = zm1 - f.w
+    for w, _, _, _, om2, cr, ci in loop.num:
+        diff = zm1 - w
         d2 = diff.real * diff.real + diff.imag * diff.imag
-        if f.sign > 0:
-            phi += t + phase(diff * zc) if f.inside else f.base + phase(diff * f.inv_neg_c)
-            dphi += 0.5 + f.om2 / d2
-            dlr += (st * f.c.real - ct * f.c.imag) / d2
-        else:
-            phi -= t + phase(diff * zc) if f.inside else f.base + phase(diff * f.inv_neg_c)
-            dphi -= 0.5 + f.om2 / d2
-            dlr -= (st * f.c.real - ct * f.c.imag) / d2
+        dphi += 0.5 + om2 / d2
+        dlr += (st * cr - ct * ci) / d2
+    for w, _, _, _, om2, cr, ci in loop.den:
+        diff = zm1 - w
+        d2 = diff.real * diff.real + diff.imag * diff.imag
+        dphi -= 0.5 + om2 / d2
+        dlr -= (st * cr - ct * ci) / d2
     q = inverse_response_at(loop.modal, loop.d, t) / (1.0 - zc)
-    exact = phase(q) - 0.5 * t
-    phi = exact + _TWO_PI * round((phi - exact) / _TWO_PI) + cslope * t
+    exact = cmath.phase(q) - 0.5 * t
     r = abs(q)
     if beta == 0.0:
+        g = 0.0
+        sub = 0.0
+    else:
+        g = beta * math.cos(0.5 * t) / r
+        sub = 0.5 * math.pi if g >= 1.0 else math.asin(g)
+    k = None
+    if window is not None:
+        lo, hi = window
+        pad = 1e-6 * (1.0 + abs(lo) + abs(hi))
+        if hi - lo + 2.0 * pad < math.pi:
+            base = exact + cslope * t - sub
+            k = math.ceil((lo - pad - base) / _TWO_PI)
+            if k != math.floor((hi + pad - base) / _TWO_PI):
+                k = None                          # no branch in the window (rounding): the factors decide
+    if k is None:
+        phi = (loop.s - 0.5) * t - loop.lead_arg
+        phase = cmath.phase
+        for w, inside, base, rot, _, _, _ in loop.num:
+            phi += t + phase((zm1 - w) * zc) if inside else base + phase((zm1 - w) * rot)
+        for w, inside, base, rot, _, _, _ in loop.den:
+            phi -= t + phase((zm1 - w) * zc) if inside else base + phase((zm1 - w) * rot)
+        k = round((phi - exact) / _TWO_PI)
+    phi = exact + _TWO_PI * k + cslope * t
+    if beta == 0.0:
         return phi, dphi, r
-    g = beta * math.cos(0.5 * t) / r
     if g >= 1.0:
-        return phi - 0.5 * math.pi, dphi, r
+        return phi - sub, dphi, r
     root = math.sqrt((1.0 - g) * (1.0 + g))
     big_g = g / root
-    return phi - math.asin(g), dphi + big_g * (0.5 * math.tan(0.5 * t) + dlr), r
+    return phi - sub, dphi + big_g * (0.5 * math.tan(0.5 * t) + dlr), r
+
+
+def _r_at(loop: CableLoop, t: float) -> float:
+    """R = |Q| at θ = t, as _point computes it."""
+    return abs(inverse_response_at(loop.modal, loop.d, t) / (1.0 - complex(math.cos(t), -math.sin(t))))
+
+
+def _newton(loop: CableLoop, beta: float, cslope: float, level: float, a: float, b: float, fa: float, fb: float,
+            x: float, up: bool) -> float:
+    """The root of F = level on [a, b], F monotone there (rising when ``up``; F(a), F(b) given): fast_rigid's
+    bracketed_newton step for step (on −F when falling) to a relative step or bracket of 1e-12 (_polish then pins
+    the root on Im H itself, to 4 ulp), F unwrapped against its values at the current bracket's ends."""
+    lev = level if up else -level
+    lo, hi = a, b
+    f_lo, f_hi = fa, fb
+    for _ in range(200):
+        if not (lo < x < hi):
+            x = math.sqrt(lo * hi) if lo > 0.0 and hi > 8.0 * lo else 0.5 * (lo + hi)
+        f, df, _ = _point(loop, beta, cslope, x, (f_lo, f_hi) if up else (f_hi, f_lo))
+        fx, dfx = (f, df) if up else (-f, -df)
+        if fx == lev:
+            return x
+        if fx < lev:
+            lo, f_lo = x, f
+        else:
+            hi, f_hi = x, f
+        if hi - lo <= 1e-12 * hi:
+            return x
+        step = (fx - lev) / dfx if dfx > 0.0 else math.inf
+        xn = x - step
+        if abs(step) <= 1e-12 * x and lo <= xn <= hi:   # converged (from one side, hi stays far)
+            return xn
+        x = xn
+    return x
 
 
 class _Pt:
@@ -445,11 +502,8 @@ def _first_root(loop: CableLoop, beta: float, damper: bool, cslope: float, level
     # start where the chord through (a, F(a)), (b, F(b)) meets the level (F is monotone on the piece)
     x0 = a + (level - fa) / (fb - fa) * (b - a) if fb != fa else 0.5 * (a + b)
     x0 = min(max(x0, a + 1e-3 * (b - a)), b - 1e-3 * (b - a))
-    if up:
-        root = _solve(lambda x: _point(loop, beta, cslope, x)[:2], level, a, b, x0)
-    else:
-        root = _solve(lambda x: tuple(-v for v in _point(loop, beta, cslope, x)[:2]), -level, a, b, x0)
-    r = _point(loop, beta, cslope, root)[2]
+    root = _newton(loop, beta, cslope, level, a, b, fa, fb, x0, up)
+    r = _r_at(loop, root)
     return root, (r if damper else _k_of(beta, root, r)), ks[0]
 
 
