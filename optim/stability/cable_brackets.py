@@ -73,18 +73,15 @@ def _point(loop: CableLoop, beta: float, cslope: float, t: float,
     ct = math.cos(t)
     zm1 = complex(-2.0 * sh * sh, st)
     zc = complex(ct, -st)
-    dphi = loop.s - 0.5 + cslope
-    dlr = 0.0
-    for w, _, _, _, om2, cr, ci in loop.num:
-        diff = zm1 - w
-        d2 = diff.real * diff.real + diff.imag * diff.imag
-        dphi += 0.5 + om2 / d2
-        dlr += (st * cr - ct * ci) / d2
-    for w, _, _, _, om2, cr, ci in loop.den:
-        diff = zm1 - w
-        d2 = diff.real * diff.real + diff.imag * diff.imag
-        dphi -= 0.5 + om2 / d2
-        dlr -= (st * cr - ct * ci) / d2
+    # (log Q)' = j·z·Σ ±1/(z − c): arg Q' = Re, (log R)' = −Im of z·Σ (Newton's slope, F')
+    acc = 0j
+    for w in loop.num_w:
+        acc += 1.0 / (zm1 - w)
+    for w in loop.den_w:
+        acc -= 1.0 / (zm1 - w)
+    zs = complex(ct, st) * acc
+    dphi = loop.s - 0.5 + cslope + zs.real
+    dlr = -zs.imag
     q = inverse_response_at(loop.modal, loop.d, t) / (1.0 - zc)
     exact = cmath.phase(q) - 0.5 * t
     r = abs(q)
@@ -291,17 +288,18 @@ def _dlogr_bounds(loop: CableLoop, a: float, b: float, pa: _Pt, pb: _Pt, ranges:
 
 
 def _logr(loop: CableLoop, t: float) -> tuple[float, float]:
-    """(log R, (log R)') at θ = t."""
-    zm1 = expm1j(t)
-    z = zm1 + 1.0
-    out = -math.log(loop.lead_abs)
-    der = 0.0
-    for f in loop.factors:
-        diff = zm1 - f.w
-        d2 = diff.real * diff.real + diff.imag * diff.imag
-        out += f.sign * 0.5 * math.log(d2)
-        der += f.sign * (z * f.c.conjugate()).imag / d2
-    return out, der
+    """(log R, (log R)') at θ = t: R = |Q| by the modal response (as _point), the slope from the factors."""
+    sh = math.sin(0.5 * t)
+    st = math.sin(t)
+    ct = math.cos(t)
+    zm1 = complex(-2.0 * sh * sh, st)
+    acc = 0j
+    for w in loop.num_w:
+        acc += 1.0 / (zm1 - w)
+    for w in loop.den_w:
+        acc -= 1.0 / (zm1 - w)
+    q = inverse_response_at(loop.modal, loop.d, t) / (1.0 - complex(ct, -st))
+    return math.log(abs(q)), -(complex(ct, st) * acc).imag
 
 
 def _solve(fun, level: float, lo: float, hi: float, x: float) -> float:
@@ -337,12 +335,15 @@ def _polish(loop: CableLoop, beta: float, damper: bool, t0: float, piece: tuple[
     a, b, level = piece
     cslope = 0.5 if damper else 0.0
 
+    seen: dict[float, complex] = {}
+
     def f(x: float) -> float:
-        return _h_im_re(loop, beta, damper, x).imag
+        v = seen[x] = _h_im_re(loop, beta, damper, x)
+        return v.imag
 
     f0 = f(t0)
     if f0 == 0.0:
-        return t0, _h_im_re(loop, beta, damper, t0).real
+        return t0, seen[t0].real
     bracket = None
     for w in (1e-12, 1e-10, 1e-8, 1e-6, 1e-4):
         lo, hi = max(t0 * (1.0 - w), a), min(t0 * (1.0 + w), b, math.pi)
@@ -365,9 +366,18 @@ def _polish(loop: CableLoop, beta: float, damper: bool, t0: float, piece: tuple[
     for it in range(200):
         if abs(b - a) <= tol * max(abs(a), abs(b)):
             break
-        x = b - fb * (b - a) / (fb - fa) if fb != fa else 0.5 * (a + b)
-        if not (min(a, b) < x < max(a, b)) or it % 8 == 7:     # Illinois; a bisection now and then
-            x = 0.5 * (a + b)
+        mid = 0.5 * (a + b)
+        x = b - fb * (b - a) / (fb - fa) if fb != fa else mid
+        lo, hi = (a, b) if a < b else (b, a)
+        m = 2.0 * _EPS * hi
+        if not (lo <= x <= hi) or it % 8 == 7:     # Illinois; a bisection now and then
+            x = mid
+        # a step onto or within 2 ulp of an end goes 2 ulp inside (the root sits by that end: one more step
+        # closes the bracket to 4 ulp, where Illinois alone would creep up on it by halvings)
+        elif x - lo < m:
+            x = min(lo + m, mid)
+        elif hi - x < m:
+            x = max(hi - m, mid)
         fx = f(x)
         if fx == 0.0:
             a = b = x
@@ -382,7 +392,7 @@ def _polish(loop: CableLoop, beta: float, damper: bool, t0: float, piece: tuple[
                 fa /= 2
             b, fb, side = x, fx, -1
     t = a if abs(fa) <= abs(fb) else b
-    return t, _h_im_re(loop, beta, damper, t).real
+    return t, seen[t].real
 
 
 def cable_min_crossing(loop: CableLoop, beta: float, theta_lo: float, damper: bool = False
@@ -432,10 +442,13 @@ def cable_min_crossing(loop: CableLoop, beta: float, theta_lo: float, damper: bo
                     stack.append((a, b, True, skip))
                     pieces -= 1
                     continue
+                # start where log R, interpolated in log θ (R ∝ θ^p at low θ) or in θ, meets log β
+                frac = (log_beta - ra) / (rb - ra)
+                x0 = a * (b / a) ** frac if b > 2.0 * a else a + frac * (b - a)
                 if up:
-                    ts = _solve(lambda x: _logr(loop, x), log_beta, a, b, 0.5 * (a + b))
+                    ts = _solve(lambda x: _logr(loop, x), log_beta, a, b, x0)
                 else:
-                    ts = _solve(lambda x: tuple(-v for v in _logr(loop, x)), -log_beta, a, b, 0.5 * (a + b))
+                    ts = _solve(lambda x: tuple(-v for v in _logr(loop, x)), -log_beta, a, b, x0)
                 if not a < ts < b:
                     return None
                 pts[ts] = _Pt(loop, beta, cslope, ts)

@@ -76,6 +76,8 @@ class CableLoop:
     # loop: (w, inside, base, inv_neg_c, om2, Re c, Im c)
     num: tuple = ()
     den: tuple = ()
+    num_w: tuple = ()              # the w of num and of den alone
+    den_w: tuple = ()
 
 
 def _factor(w: complex, sign: int, err: float) -> Factor:
@@ -149,7 +151,8 @@ def _build(plant) -> CableLoop | None:
     loop = CableLoop(factors, plant.d + m + 1, 0.0 if lead > 0 else math.pi, abs(lead), _py_modal(modal), plant.d,
                      tuple(sorted({f.t_near for f in factors if f.t_near is not None and 0.0 < f.t_near < math.pi})),
                      tuple(h for h, f in zip(hot, factors) if f.sign > 0),
-                     tuple(h for h, f in zip(hot, factors) if f.sign < 0))
+                     tuple(h for h, f in zip(hot, factors) if f.sign < 0),
+                     tuple(f.w for f in factors if f.sign > 0), tuple(f.w for f in factors if f.sign < 0))
     # the factored Q against the modal response (the scan's own evaluation) at a few angles
     for t in (1e-3, 0.1, 0.7, 1.3, 2.1, 2.9, 3.1):
         q = _q(loop, t)
