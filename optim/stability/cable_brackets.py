@@ -48,13 +48,57 @@ import math
 from optim.stability.cable_loop import CableLoop, Factor, cable_loop, expm1j, inverse_response_at
 from optim.stability.fast_rigid import bracketed_newton
 
-__all__ = ["CableLoop", "cable_loop", "cable_min_crossing", "MAX_PIECES"]
+__all__ = ["CableLoop", "cable_loop", "cable_min_crossing", "clear_memo", "MAX_PIECES"]
 
 _EPS = 2.220446049250313e-16
 _TWO_PI = 2.0 * math.pi
 #: pieces examined before giving up (the caller then scans)
 MAX_PIECES = 400
 _PAD = 1e-9          # relative padding of every bound (the factors are known to ~cond·ε ≤ 1e-12)
+
+
+def _parts(loop: CableLoop, t: float) -> tuple[float, float, float, float, complex, complex]:
+    """What F needs at θ = t that does not depend on β: (arg Q − θ/2 by the modal response, principal value;
+    (arg Q)' − ½ from the factors; (log R)'; R; e^{jθ} − 1; e^{−jθ})."""
+    sh = math.sin(0.5 * t)
+    st = math.sin(t)
+    ct = math.cos(t)
+    zm1 = complex(-2.0 * sh * sh, st)
+    zc = complex(ct, -st)
+    # (log Q)' = j·z·Σ ±1/(z − c): (arg Q)' = Re, (log R)' = −Im of z·Σ (Newton's slope, F')
+    acc = 0j
+    for w in loop.num_w:
+        acc += 1.0 / (zm1 - w)
+    for w in loop.den_w:
+        acc -= 1.0 / (zm1 - w)
+    zs = complex(ct, st) * acc
+    q = inverse_response_at(loop.modal, loop.d, t) / (1.0 - zc)
+    return cmath.phase(q) - 0.5 * t, loop.s - 0.5 + zs.real, -zs.imag, abs(q), zm1, zc
+
+
+def _branch(loop: CableLoop, t: float, zm1: complex, zc: complex, exact: float) -> int:
+    """k with exact + 2πk the continuous φ: the factors' arguments summed (module docstring of _point)."""
+    phi = (loop.s - 0.5) * t - loop.lead_arg
+    phase = cmath.phase
+    for w, inside, base, rot, _, _, _ in loop.num:
+        phi += t + phase((zm1 - w) * zc) if inside else base + phase((zm1 - w) * rot)
+    for w, inside, base, rot, _, _, _ in loop.den:
+        phi -= t + phase((zm1 - w) * zc) if inside else base + phase((zm1 - w) * rot)
+    return round((phi - exact) / _TWO_PI)
+
+
+def _assemble(beta: float, cslope: float, t: float, phi_u: float, dphi0: float, dlr: float, r: float
+              ) -> tuple[float, float, float]:
+    """(F, F', R) from the β-free parts (phi_u: φ unwrapped)."""
+    phi = phi_u + cslope * t
+    dphi = dphi0 + cslope
+    if beta == 0.0:
+        return phi, dphi, r
+    g = beta * math.cos(0.5 * t) / r
+    if g >= 1.0:
+        return phi - 0.5 * math.pi, dphi, r
+    root = math.sqrt((1.0 - g) * (1.0 + g))
+    return phi - math.asin(g), dphi + g / root * (0.5 * math.tan(0.5 * t) + dlr), r
 
 
 def _point(loop: CableLoop, beta: float, cslope: float, t: float,
@@ -65,57 +109,24 @@ def _point(loop: CableLoop, beta: float, cslope: float, t: float,
     unwrap φ (their phase is off by ≲ err/gap ≤ 1e-3 rad near a zero, far below the π that would matter), and
     give F'.  arg(e^{jθ} − c) on [0, π], continuously: θ + Arg(1 − c e^{−jθ}) for c inside the unit circle,
     arg(−c) + Arg(1 − z/c) outside (both Args within ±π/2).  ``window``: F is known to lie in it (t inside a
-    bracket of a piece where F is monotone, F at the bracket's ends): when it is narrower than 2π less a margin,
-    it alone picks the branch (the same one the factors pick: there is only one in it), without the factors'
+    bracket of a piece where F is monotone, F at the bracket's ends): when it is narrower than π, it alone
+    picks the branch (the same one the factors pick: there is only one in it), without the factors'
     arguments (the Newton steps' hot path)."""
-    sh = math.sin(0.5 * t)
-    st = math.sin(t)
-    ct = math.cos(t)
-    zm1 = complex(-2.0 * sh * sh, st)
-    zc = complex(ct, -st)
-    # (log Q)' = j·z·Σ ±1/(z − c): arg Q' = Re, (log R)' = −Im of z·Σ (Newton's slope, F')
-    acc = 0j
-    for w in loop.num_w:
-        acc += 1.0 / (zm1 - w)
-    for w in loop.den_w:
-        acc -= 1.0 / (zm1 - w)
-    zs = complex(ct, st) * acc
-    dphi = loop.s - 0.5 + cslope + zs.real
-    dlr = -zs.imag
-    q = inverse_response_at(loop.modal, loop.d, t) / (1.0 - zc)
-    exact = cmath.phase(q) - 0.5 * t
-    r = abs(q)
-    if beta == 0.0:
-        g = 0.0
-        sub = 0.0
-    else:
-        g = beta * math.cos(0.5 * t) / r
-        sub = 0.5 * math.pi if g >= 1.0 else math.asin(g)
+    exact, dphi0, dlr, r, zm1, zc = _parts(loop, t)
     k = None
     if window is not None:
         lo, hi = window
         pad = 1e-6 * (1.0 + abs(lo) + abs(hi))
         if hi - lo + 2.0 * pad < math.pi:
+            g = beta * math.cos(0.5 * t) / r
+            sub = 0.0 if beta == 0.0 else 0.5 * math.pi if g >= 1.0 else math.asin(g)
             base = exact + cslope * t - sub
             k = math.ceil((lo - pad - base) / _TWO_PI)
             if k != math.floor((hi + pad - base) / _TWO_PI):
                 k = None                          # no branch in the window (rounding): the factors decide
     if k is None:
-        phi = (loop.s - 0.5) * t - loop.lead_arg
-        phase = cmath.phase
-        for w, inside, base, rot, _, _, _ in loop.num:
-            phi += t + phase((zm1 - w) * zc) if inside else base + phase((zm1 - w) * rot)
-        for w, inside, base, rot, _, _, _ in loop.den:
-            phi -= t + phase((zm1 - w) * zc) if inside else base + phase((zm1 - w) * rot)
-        k = round((phi - exact) / _TWO_PI)
-    phi = exact + _TWO_PI * k + cslope * t
-    if beta == 0.0:
-        return phi, dphi, r
-    if g >= 1.0:
-        return phi - sub, dphi, r
-    root = math.sqrt((1.0 - g) * (1.0 + g))
-    big_g = g / root
-    return phi - sub, dphi + big_g * (0.5 * math.tan(0.5 * t) + dlr), r
+        k = _branch(loop, t, zm1, zc, exact)
+    return _assemble(beta, cslope, t, exact + _TWO_PI * k, dphi0, dlr, r)
 
 
 def _r_at(loop: CableLoop, t: float) -> float:
@@ -153,24 +164,47 @@ def _newton(loop: CableLoop, beta: float, cslope: float, level: float, a: float,
 
 
 class _Pt:
-    """Per factor, |e^{jθ} − c| and |c| sin(θ − arg c) at one angle; F there on first use (a pruned piece
-    never needs it)."""
+    """Per factor, |e^{jθ} − c| and |c| sin(θ − arg c) at one angle; the β-free parts of F there on first use (a
+    pruned piece never needs them).  Independent of β: kept for the device (_memo)."""
 
-    __slots__ = ("_f", "dist", "sin", "_args")
+    __slots__ = ("t", "dist", "sin", "_base")
 
-    def __init__(self, loop: CableLoop, beta: float, cslope: float, t: float):
+    def __init__(self, loop: CableLoop, t: float):
         zm1 = expm1j(t)
         z = zm1 + 1.0
-        self._f = None
-        self._args = (loop, beta, cslope, t)
+        self.t = t
+        self._base = None
         self.dist = [abs(zm1 - f.w) for f in loop.factors]
         self.sin = [(z * f.c.conjugate()).imag for f in loop.factors]
 
-    @property
-    def f(self) -> float:
-        if self._f is None:
-            self._f = _point(*self._args)[0]
-        return self._f
+    def base(self, loop: CableLoop) -> tuple[float, float, float, float]:
+        """(φ unwrapped, (arg Q)' − ½, (log R)', R) at t."""
+        if self._base is None:
+            exact, dphi0, dlr, r, zm1, zc = _parts(loop, self.t)
+            self._base = (exact + _TWO_PI * _branch(loop, self.t, zm1, zc, exact), dphi0, dlr, r)
+        return self._base
+
+
+#: the β-free work of the last device's calls (points, and pieces' bounds of R): a design, a boundary or a study
+#: asks K_cr(B) of one device at many B.  One device only (bounded memory); values that depend on the device
+#: alone, so an answer is the same, to the bit, whether they were found now or before.
+_MEMO_MAX = 4096
+_last_memo: tuple = (None, {})
+
+
+def clear_memo() -> None:
+    """Forget the kept work (tests: an answer must not depend on it)."""
+    global _last_memo
+    _last_memo = (None, {})
+
+
+def _memo(loop: CableLoop) -> dict:
+    global _last_memo
+    held, memo = _last_memo
+    if held is not loop:
+        memo = {}
+        _last_memo = (loop, memo)
+    return memo
 
 
 def _bounds_r(loop: CableLoop, a: float, b: float, pa: _Pt, pb: _Pt) -> tuple[float, float, list]:
@@ -410,7 +444,42 @@ def cable_min_crossing(loop: CableLoop, beta: float, theta_lo: float, damper: bo
     # F's roots (θ, K by the factored form); refined on Im H at the end, only those that may be the least
     found: list[tuple[float, float, tuple[float, float, float]]] = []
     cuts = [theta_lo] + [x for x in loop.splits if theta_lo < x < math.pi] + [math.pi]
-    pts = {x: _Pt(loop, beta, cslope, x) for x in cuts}
+    memo = _memo(loop)
+    fvals: dict[float, float] = {}
+
+    def pt(x: float) -> _Pt:
+        got = memo.get(x)
+        if got is None:
+            got = _Pt(loop, x)
+            if len(memo) < _MEMO_MAX:
+                memo[x] = got
+        return got
+
+    def f_at(x: float) -> float:
+        v = fvals.get(x)
+        if v is None:
+            v = fvals[x] = _assemble(beta, cslope, x, *pts[x].base(loop))[0]
+        return v
+
+    def bounds_r(a: float, b: float) -> tuple[float, float, list]:
+        key = ("r", a, b)
+        got = memo.get(key)
+        if got is None:
+            got = _bounds_r(loop, a, b, pts[a], pts[b])
+            if len(memo) < _MEMO_MAX:
+                memo[key] = got
+        return got
+
+    def dlogr_bounds(a: float, b: float, ranges: list) -> tuple[float, float]:
+        key = ("dl", a, b)
+        got = memo.get(key)
+        if got is None:
+            got = _dlogr_bounds(loop, a, b, pts[a], pts[b], ranges)
+            if len(memo) < _MEMO_MAX:
+                memo[key] = got
+        return got
+
+    pts = {x: pt(x) for x in cuts}
     # pieces by frequency; the flag: R ≥ β proved on the piece (R = β at its end, R monotone)
     stack = [(cuts[i], cuts[i + 1], False, None) for i in range(len(cuts) - 2, -1, -1)]
     pieces = 0
@@ -421,7 +490,7 @@ def cable_min_crossing(loop: CableLoop, beta: float, theta_lo: float, damper: bo
         if pieces > MAX_PIECES or not (b - a > 4.0 * _EPS * b):
             return None
         pa, pb = pts[a], pts[b]
-        rmin, rmax, ranges = _bounds_r(loop, a, b, pa, pb)
+        rmin, rmax, ranges = bounds_r(a, b)
         if above:
             rmin = max(rmin, beta)
         if rmax <= beta:
@@ -431,10 +500,10 @@ def cable_min_crossing(loop: CableLoop, beta: float, theta_lo: float, damper: bo
             continue
         if beta > 0.0 and not (rmin > beta or above):
             # R crosses β on [a, b]: where R is monotone the crossing is one root, split there
-            dl_lo, dl_hi = _dlogr_bounds(loop, a, b, pa, pb, ranges)
+            dl_lo, dl_hi = dlogr_bounds(a, b, ranges)
             if dl_lo > 0.0 or dl_hi < 0.0:
                 up = dl_lo > 0.0
-                ra, rb = _logr(loop, a)[0], _logr(loop, b)[0]
+                ra, rb = math.log(pa.base(loop)[3]), math.log(pb.base(loop)[3])
                 low_end, high_end = (ra, rb) if up else (rb, ra)
                 if high_end <= log_beta:
                     continue
@@ -451,14 +520,14 @@ def cable_min_crossing(loop: CableLoop, beta: float, theta_lo: float, damper: bo
                     ts = _solve(lambda x: tuple(-v for v in _logr(loop, x)), -log_beta, a, b, x0)
                 if not a < ts < b:
                     return None
-                pts[ts] = _Pt(loop, beta, cslope, ts)
+                pts[ts] = pt(ts)
                 stack.append((ts, b, True, skip) if up else (a, ts, True, skip))
                 pieces -= 1
                 continue
         elif beta == 0.0 or rmin > beta or above:
             dlo, dhi = _bounds_d(loop, beta, a, b, pa, pb, rmin,
                                  rmax, ranges, cslope)
-            fa, fb = pa.f, pb.f
+            fa, fb = f_at(a), f_at(b)
             if dlo > 0.0 or dhi < 0.0:
                 got = _first_root(loop, beta, damper, cslope, level0, a, b, fa, fb, dlo > 0.0, nyq, skip)
                 if got is False:
@@ -473,14 +542,15 @@ def cable_min_crossing(loop: CableLoop, beta: float, theta_lo: float, damper: bo
                     if t >= b:
                         continue
                     # the rest of the piece, past this root, is a piece of its own (bounded, pruned, solved)
-                    pts.setdefault(t, _Pt(loop, beta, cslope, t))
+                    if t not in pts:
+                        pts[t] = pt(t)
                     stack.append((t, b, above, k))
                     continue
             f_min, f_max = _range(fa, fb, dlo, dhi, b - a)
             if level0 + _TWO_PI * math.ceil((f_min - level0) / _TWO_PI) > f_max:
                 continue                          # F's range on [a, b] holds no level
         mid = math.sqrt(a * b) if b > 1000.0 * a else 0.5 * (a + b)   # geometric across decades (low θ)
-        pts[mid] = _Pt(loop, beta, cslope, mid)
+        pts[mid] = pt(mid)
         stack.append((mid, b, above, skip))
         stack.append((a, mid, above, skip))
     out = [(math.pi, nyq)] if nyq > 0.0 else []

@@ -20,7 +20,7 @@ import pytest
 
 from models.device import Device
 from models.plants import stiffness_loop_plant
-from optim.stability.cable_brackets import cable_loop
+from optim.stability.cable_brackets import cable_loop, clear_memo
 from optim.stability.margins import (
     _damper_crossings,
     critical_stiffness,
@@ -169,3 +169,21 @@ def test_lhifam_takes_the_brackets():
         dev = Device(preset="lhifam", delay=delay)
         assert critical_stiffness(dev).path == "fast"
         assert critical_stiffness(dev, 0.5 * max_stable_damping(dev)).path == "fast"
+
+
+def test_the_devices_memo_changes_no_bit():
+    """The brackets keep a device's β-free work (points, R's bounds on pieces) for its next call: a sweep in B with
+    it warm answers, to the bit, as each B alone with it cleared (and as a repeated call)."""
+    rng = np.random.default_rng(41)
+    for dev in _devices(12, 41, "medium") + [Device(preset="lhifam", delay=d) for d in (0.0, 0.0037, 0.05)]:
+        bm = max_stable_damping(dev)
+        bs = [0.0] + ([f * bm for f in rng.uniform(0, 1, 3)] if math.isfinite(bm) else [])
+        clear_memo()
+        warm = [critical_stiffness(dev, b, b_max=bm if b > 0 else None) for b in bs]
+        for b, w in zip(bs, warm):
+            clear_memo()
+            cold = critical_stiffness(dev, b, b_max=bm if b > 0 else None)
+            again = critical_stiffness(dev, b, b_max=bm if b > 0 else None)
+            for r in (cold, again):
+                assert (r.critical_stiffness, r.crossover_frequency, r.path) == \
+                    (w.critical_stiffness, w.crossover_frequency, w.path), (dev, b)
