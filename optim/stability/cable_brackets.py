@@ -211,8 +211,7 @@ def _bounds_r(loop: CableLoop, a: float, b: float, pa: _Pt, pb: _Pt) -> tuple[fl
     """(R_min, R_max, per-factor (d_min, d_max)) on [a, b]: each |e^{jθ} − c| at its ends or its interior extrema."""
     rmin = rmax = 1.0 / loop.lead_abs
     ranges = []
-    for j, f in enumerate(loop.factors):
-        da, db = pa.dist[j], pb.dist[j]
+    for f, da, db in zip(loop.factors, pa.dist, pb.dist):
         mn, mx = (da - f.err, db + f.err) if da <= db else (db - f.err, da + f.err)
         if f.t_near is not None and a <= f.t_near <= b:
             mn = f.gap
@@ -263,15 +262,22 @@ def _bounds_d(loop: CableLoop, beta: float, a: float, b: float, pa: _Pt, pb: _Pt
     lo = hi = base            # per-factor pairing
     plo = phi_ = base         # phase terms alone
     dl_lo = dl_hi = 0.0       # (log R)'
-    sa, sb = pa.sin, pb.sin
-    for j, f in enumerate(loop.factors):
-        mn, mx = ranges[j]
+    for f, (mn, mx), sa, sb in zip(loop.factors, ranges, pa.sin, pb.sin):
         mn2, mx2 = mn * mn, mx * mx
         om_lo, om_hi = f.om_lo, f.om_hi
         p_lo = om_lo / mx2 if om_lo >= 0.0 else om_lo / mn2
         p_hi = om_hi / mn2 if om_hi >= 0.0 else om_hi / mx2
         if gh > 0.0:
-            smn, smx = _sin_bounds(f, a, b, sa[j], sb[j])
+            # _sin_bounds, inline (the hot loop)
+            smn, smx = (sa, sb) if sa <= sb else (sb, sa)
+            ts = f.t_smax
+            if ts is not None and a <= ts <= b:
+                smx = f.mag
+            ts = f.t_smin
+            if ts is not None and a <= ts <= b:
+                smn = -f.mag
+            smn -= f.err
+            smx += f.err
             n_lo = om_lo + (gl * smn if smn >= 0.0 else gh * smn)
             n_hi = om_hi + (gh * smx if smx >= 0.0 else gl * smx)
             t_lo = n_lo / mx2 if n_lo >= 0.0 else n_lo / mn2
@@ -306,9 +312,8 @@ def _bounds_d(loop: CableLoop, beta: float, a: float, b: float, pa: _Pt, pb: _Pt
 def _dlogr_bounds(loop: CableLoop, a: float, b: float, pa: _Pt, pb: _Pt, ranges: list) -> tuple[float, float]:
     """Bounds of (log R)' = Σ ±|c| sin(θ − arg c)/|e^{jθ} − c|² on [a, b]."""
     lo = hi = 0.0
-    for j, f in enumerate(loop.factors):
-        mn, mx = ranges[j]
-        smn, smx = _sin_bounds(f, a, b, pa.sin[j], pb.sin[j])
+    for f, (mn, mx), sa, sb in zip(loop.factors, ranges, pa.sin, pb.sin):
+        smn, smx = _sin_bounds(f, a, b, sa, sb)
         t_lo = smn / (mx * mx) if smn >= 0.0 else smn / (mn * mn)
         t_hi = smx / (mn * mn) if smx >= 0.0 else smx / (mx * mx)
         if f.sign > 0:
@@ -445,7 +450,7 @@ def cable_min_crossing(loop: CableLoop, beta: float, theta_lo: float, damper: bo
     found: list[tuple[float, float, tuple[float, float, float]]] = []
     cuts = [theta_lo] + [x for x in loop.splits if theta_lo < x < math.pi] + [math.pi]
     memo = _memo(loop)
-    fvals: dict[float, float] = {}
+    fvals: dict[float, tuple[float, float, float]] = {}
 
     def pt(x: float) -> _Pt:
         got = memo.get(x)
@@ -455,10 +460,10 @@ def cable_min_crossing(loop: CableLoop, beta: float, theta_lo: float, damper: bo
                 memo[x] = got
         return got
 
-    def f_at(x: float) -> float:
+    def f_at(x: float) -> tuple[float, float, float]:
         v = fvals.get(x)
         if v is None:
-            v = fvals[x] = _assemble(beta, cslope, x, *pts[x].base(loop))[0]
+            v = fvals[x] = _assemble(beta, cslope, x, *pts[x].base(loop))
         return v
 
     def bounds_r(a: float, b: float) -> tuple[float, float, list]:
@@ -527,9 +532,9 @@ def cable_min_crossing(loop: CableLoop, beta: float, theta_lo: float, damper: bo
         elif beta == 0.0 or rmin > beta or above:
             dlo, dhi = _bounds_d(loop, beta, a, b, pa, pb, rmin,
                                  rmax, ranges, cslope)
-            fa, fb = f_at(a), f_at(b)
+            (fa, dfa, _), (fb, dfb, _) = f_at(a), f_at(b)
             if dlo > 0.0 or dhi < 0.0:
-                got = _first_root(loop, beta, damper, cslope, level0, a, b, fa, fb, dlo > 0.0, nyq, skip)
+                got = _first_root(loop, beta, damper, cslope, level0, a, b, fa, fb, dlo > 0.0, nyq, skip, dfa, dfb)
                 if got is False:
                     continue                      # no level on this piece
                 if got is None:
@@ -567,7 +572,7 @@ def cable_min_crossing(loop: CableLoop, beta: float, theta_lo: float, damper: bo
 
 
 def _first_root(loop: CableLoop, beta: float, damper: bool, cslope: float, level0: float, a: float, b: float,
-                fa: float, fb: float, up: bool, nyq: float, skip: int | None):
+                fa: float, fb: float, up: bool, nyq: float, skip: int | None, dfa: float, dfb: float):
     """The lowest-frequency root of F on a piece where F is monotone, with its K by the factored form:
     (θ, K, level index); False when no level lies between F(a) and F(b) (``skip``: a level already solved at
     a); None when more than two do (the caller halves the piece: the halves may be pruned by their bounds)."""
@@ -583,7 +588,11 @@ def _first_root(loop: CableLoop, beta: float, damper: bool, cslope: float, level
         return None
     level = level0 + _TWO_PI * ks[0]
     # start where the chord through (a, F(a)), (b, F(b)) meets the level (F is monotone on the piece)
+    # start at the median of the chord's and the two end tangents' meetings with the level: for F concave (or
+    # convex) on the piece it is the tangent estimate nearest the root, from the side Newton converges from
     x0 = a + (level - fa) / (fb - fa) * (b - a) if fb != fa else 0.5 * (a + b)
+    if dfa * dfb > 0.0 and (dfa > 0.0) == up:
+        x0 = sorted((x0, a + (level - fa) / dfa, b - (fb - level) / dfb))[1]
     x0 = min(max(x0, a + 1e-3 * (b - a)), b - 1e-3 * (b - a))
     root = _newton(loop, beta, cslope, level, a, b, fa, fb, x0, up)
     r = _r_at(loop, root)
