@@ -109,21 +109,19 @@ def _point(loop: CableLoop, beta: float, cslope: float, t: float,
     unwrap φ (their phase is off by ≲ err/gap ≤ 1e-3 rad near a zero, far below the π that would matter), and
     give F'.  arg(e^{jθ} − c) on [0, π], continuously: θ + Arg(1 − c e^{−jθ}) for c inside the unit circle,
     arg(−c) + Arg(1 − z/c) outside (both Args within ±π/2).  ``window``: F is known to lie in it (t inside a
-    bracket of a piece where F is monotone, F at the bracket's ends): when it is narrower than π, it alone
-    picks the branch (the same one the factors pick: there is only one in it), without the factors'
-    arguments (the Newton steps' hot path)."""
+    bracket of a piece where F is monotone, F at the bracket's ends): when it holds one branch only, that one
+    is F's (the one the factors pick), found without the factors' arguments (the Newton steps' hot path)."""
     exact, dphi0, dlr, r, zm1, zc = _parts(loop, t)
     k = None
     if window is not None:
         lo, hi = window
         pad = 1e-6 * (1.0 + abs(lo) + abs(hi))
-        if hi - lo + 2.0 * pad < math.pi:
-            g = beta * math.cos(0.5 * t) / r
-            sub = 0.0 if beta == 0.0 else 0.5 * math.pi if g >= 1.0 else math.asin(g)
-            base = exact + cslope * t - sub
-            k = math.ceil((lo - pad - base) / _TWO_PI)
-            if k != math.floor((hi + pad - base) / _TWO_PI):
-                k = None                          # no branch in the window (rounding): the factors decide
+        g = beta * math.cos(0.5 * t) / r
+        sub = 0.0 if beta == 0.0 else 0.5 * math.pi if g >= 1.0 else math.asin(g)
+        base = exact + cslope * t - sub
+        k = math.ceil((lo - pad - base) / _TWO_PI)
+        if k != math.floor((hi + pad - base) / _TWO_PI):
+            k = None                              # two branches in the window (or none: rounding): the factors decide
     if k is None:
         k = _branch(loop, t, zm1, zc, exact)
     return _assemble(beta, cslope, t, exact + _TWO_PI * k, dphi0, dlr, r)
@@ -137,8 +135,9 @@ def _r_at(loop: CableLoop, t: float) -> float:
 def _newton(loop: CableLoop, beta: float, cslope: float, level: float, a: float, b: float, fa: float, fb: float,
             x: float, up: bool) -> float:
     """The root of F = level on [a, b], F monotone there (rising when ``up``; F(a), F(b) given): fast_rigid's
-    bracketed_newton step for step (on −F when falling) to a relative step or bracket of 1e-12 (_polish then pins
-    the root on Im H itself, to 4 ulp), F unwrapped against its values at the current bracket's ends."""
+    bracketed_newton (on −F when falling; its steps in log θ while the bracket spans a ratio > 4) to a relative
+    step or bracket of 1e-12 (_polish then pins the root on Im H itself, to 4 ulp), F unwrapped against its
+    values at the current bracket's ends."""
     lev = level if up else -level
     lo, hi = a, b
     f_lo, f_hi = fa, fb
@@ -155,9 +154,14 @@ def _newton(loop: CableLoop, beta: float, cslope: float, level: float, a: float,
             hi, f_hi = x, f
         if hi - lo <= 1e-12 * hi:
             return x
-        step = (fx - lev) / dfx if dfx > 0.0 else math.inf
-        xn = x - step
-        if abs(step) <= 1e-12 * x and lo <= xn <= hi:   # converged (from one side, hi stays far)
+        if dfx > 0.0:
+            step = (fx - lev) / dfx
+            u = -step / x
+            # a bracket spanning a ratio > 4 (low θ, where F ≈ A + B·log θ): the Newton step in log θ
+            xn = x * math.exp(u) if hi > 4.0 * lo and -50.0 < u < 50.0 else x - step
+        else:
+            xn = -math.inf                    # bisect
+        if abs(xn - x) <= 1e-12 * x and lo <= xn <= hi:   # converged (from one side, hi stays far)
             return xn
         x = xn
     return x
@@ -365,13 +369,13 @@ def _h_im_re(loop: CableLoop, beta: float, damper: bool, t: float) -> complex:
     return -inv + beta * expm1j(-t)
 
 
-def _polish(loop: CableLoop, beta: float, damper: bool, t0: float, piece: tuple[float, float, float]
+def _polish(loop: CableLoop, beta: float, damper: bool, t0: float, piece: tuple[float, float, float, bool]
             ) -> tuple[float, float] | None:
-    """The root of Im H next to t0 (F's root on ``piece`` = (a, b, level), F monotone there), bracketed and
+    """The root of Im H next to t0 (F's root on ``piece`` = (a, b, level, F rising), F monotone there), bracketed and
     solved to 4 ulp as the scan solves it; (θ, Re H).  F's sum of arguments pins θ to ~ε/θ·Σ|terms|, Im H
     to ~ε: the bracket widens from 1e-12θ while F stays within 1 rad of the level at its ends (no other
     zero of Im H, the K < 0 ones included, can lie between)."""
-    a, b, level = piece
+    a, b, level, up = piece
     cslope = 0.5 if damper else 0.0
 
     seen: dict[float, complex] = {}
@@ -389,13 +393,15 @@ def _polish(loop: CableLoop, beta: float, damper: bool, t0: float, piece: tuple[
         if w > 1e-9 and not (abs(_point(loop, beta, cslope, lo)[0] - level) < 1.0
                              and abs(_point(loop, beta, cslope, hi)[0] - level) < 1.0):
             return None
-        flo = f(lo)
-        if lo < t0 and (flo > 0) != (f0 > 0):
-            bracket = (lo, t0, flo, f0)
-            break
-        fhi = f(hi)
-        if hi > t0 and (fhi > 0) != (f0 > 0):
-            bracket = (t0, hi, f0, fhi)
+        # the side Im H points to first (it rises with F where β = 0, where arg H = F − level): one probe
+        # fewer when it does, the same bracket either way
+        for side_hi in ((True, False) if (f0 < 0.0) == up else (False, True)):
+            x = hi if side_hi else lo
+            fx = f(x)
+            if (x > t0 if side_hi else x < t0) and (fx > 0) != (f0 > 0):
+                bracket = (t0, x, f0, fx) if side_hi else (x, t0, fx, f0)
+                break
+        if bracket is not None:
             break
     if bracket is None:
         return None
@@ -447,7 +453,7 @@ def cable_min_crossing(loop: CableLoop, beta: float, theta_lo: float, damper: bo
     nyq = _h_im_re(loop, beta, damper, math.pi).real
     best = nyq if nyq > 0.0 else math.inf
     # F's roots (θ, K by the factored form); refined on Im H at the end, only those that may be the least
-    found: list[tuple[float, float, tuple[float, float, float]]] = []
+    found: list[tuple[float, float, tuple[float, float, float, bool]]] = []
     cuts = [theta_lo] + [x for x in loop.splits if theta_lo < x < math.pi] + [math.pi]
     memo = _memo(loop)
     fvals: dict[float, tuple[float, float, float]] = {}
@@ -542,7 +548,7 @@ def cable_min_crossing(loop: CableLoop, beta: float, theta_lo: float, damper: bo
                 else:
                     t, v, k = got
                     if v > 0.0:
-                        found.append((t, v, (a, b, level0 + _TWO_PI * k)))
+                        found.append((t, v, (a, b, level0 + _TWO_PI * k, dlo > 0.0)))
                         best = min(best, v)
                     if t >= b:
                         continue
