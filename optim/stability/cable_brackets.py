@@ -362,8 +362,10 @@ def _k_of(beta: float, t: float, r: float) -> float:
     return 2.0 * s * u / (math.sqrt(u + beta * beta * s * s) + beta * s)
 
 
-def _h_im_re(loop: CableLoop, beta: float, damper: bool, t: float) -> complex:
-    inv = inverse_response_at(loop.modal, loop.d, t)
+def _h_im_re(loop: CableLoop, beta: float, damper: bool, t: float, inv: complex | None = None) -> complex:
+    """H(θ) (the K loop at β, or the damper-only loop); ``inv``: 1/G_n(e^{jθ}) when known."""
+    if inv is None:
+        inv = inverse_response_at(loop.modal, loop.d, t)
     if damper:
         return -inv / (-expm1j(-t))
     return -inv + beta * expm1j(-t)
@@ -450,12 +452,15 @@ def cable_min_crossing(loop: CableLoop, beta: float, theta_lo: float, damper: bo
         beta = 0.0
     cslope = 0.5 if damper else 0.0
     level0 = math.pi if damper else 0.5 * math.pi
-    nyq = _h_im_re(loop, beta, damper, math.pi).real
+    memo = _memo(loop)
+    inv_pi = memo.get("inv_pi")
+    if inv_pi is None:
+        inv_pi = memo["inv_pi"] = inverse_response_at(loop.modal, loop.d, math.pi)
+    nyq = _h_im_re(loop, beta, damper, math.pi, inv_pi).real
     best = nyq if nyq > 0.0 else math.inf
     # F's roots (θ, K by the factored form); refined on Im H at the end, only those that may be the least
     found: list[tuple[float, float, tuple[float, float, float, bool]]] = []
     cuts = [theta_lo] + [x for x in loop.splits if theta_lo < x < math.pi] + [math.pi]
-    memo = _memo(loop)
     fvals: dict[float, tuple[float, float, float]] = {}
 
     def pt(x: float) -> _Pt:
