@@ -28,33 +28,18 @@ from optim.stability.margins import (
     max_stable_damping,
     scan_critical_stiffness,
 )
+from tests.optim.stability.random_cables import random_cable
 
 RTOL = 1e-12
 
 
 def _devices(n: int, seed: int, delays: str) -> list[Device]:
     rng = np.random.default_rng(seed)
-    out = []
-    for i in range(n):
-        t = float(rng.choice([5e-4, 1e-3, 2e-3]))
-        m = 10 ** rng.uniform(-3, 1)
-        delta = 10 ** rng.uniform(-10, 0)
-        top = {"short": 20, "medium": 200, "long": 10_000}[delays]
-        low = {"short": 0, "medium": 20, "long": 200}[delays]
-        ds = float(rng.integers(low, top + 1)) if i % 2 else float(rng.uniform(low, top))
-        if delays == "short" and i % 5 == 0:
-            ds = float(rng.integers(0, 4)) if i % 2 else float(rng.uniform(0, 4))
-        mr = m * rng.uniform(0.05, 0.9)
-        md = m - mr
-        wn = min(10 ** rng.uniform(1, 4), 0.9 * math.pi / t)
-        kc = wn ** 2 * mr * md / m
-        b = delta * m / t
-        br = b * rng.uniform(0, 1)
-        # cable damping from 1e-9 of critical (a resonance 1e-9 from the unit circle) to ~10× critical
-        bc = 2.0 * math.sqrt(kc * mr * md / m) * 10 ** rng.uniform(-9, 1)
-        out.append(Device(cable=dict(motor_mass=mr, body_mass=md, motor_damping=br, body_damping=b - br,
-                                     stiffness=kc, damping=bc), sample_time=t, delay=ds * t))
-    return out
+    low, top = {"short": (0, 20), "medium": (20, 200), "long": (200, 10_000)}[delays]
+    # every fifth short one within 4 samples; cable damping from 1e-9 of critical (a resonance 1e-9 from the unit
+    # circle) to ~10× critical
+    return [random_cable(rng, i, low=low, top=top, short_top=4 if delays == "short" else None,
+                         cable_damping="critical") for i in range(n)]
 
 
 def _scan_b_max(dev: Device) -> tuple[float, float]:
