@@ -88,23 +88,35 @@ def scan_grid(theta_min: float, delay_samples: float, hints: Sequence[float], wi
 
 
 def refine_grid(h: Callable[[np.ndarray], np.ndarray], grid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The grid with every interval where arg H turns by more than _MAX_ARG_STEP bisected (up to
+    _MAX_REFINE_ROUNDS times), and H on it.  Each round looks only at the intervals the last one made (the others
+    stay as they were), in grid order, so h sees the same arrays as when every round re-sorted the whole grid
+    (issue 20: that re-sort was most of a long delay's bounded scan): the same samples and values, to the bit."""
     values = h(grid)
+    lo, hi, vlo, vhi = grid[:-1], grid[1:], values[:-1], values[1:]
+    new_t, new_v = [grid], [values]
     for _ in range(_MAX_REFINE_ROUNDS):
         with np.errstate(divide="ignore", invalid="ignore"):
-            turn = np.abs(np.angle(values[1:] / values[:-1]))
+            turn = np.abs(np.angle(vhi / vlo))
         # a sample exactly at 0 (an undamped pole of G sampled at its angle: 1/G = 0) has no argument
-        bad = (turn > _MAX_ARG_STEP) | (values[1:] == 0) | (values[:-1] == 0)
-        width_ok = (grid[1:] - grid[:-1]) > 1e-14 * grid[1:]
-        bad &= width_ok
+        bad = (turn > _MAX_ARG_STEP) | (vhi == 0) | (vlo == 0)
+        bad &= (hi - lo) > 1e-14 * hi
         if not bad.any():
             break
-        mids = 0.5 * (grid[:-1][bad] + grid[1:][bad])
+        lo, hi, vlo, vhi = lo[bad], hi[bad], vlo[bad], vhi[bad]
+        order = np.argsort(lo, kind="stable")
+        lo, hi, vlo, vhi = lo[order], hi[order], vlo[order], vhi[order]
+        mids = 0.5 * (lo + hi)
         mid_vals = h(mids)
-        grid = np.concatenate([grid, mids])
-        values = np.concatenate([values, mid_vals])
-        order = np.argsort(grid, kind="stable")
-        grid, values = grid[order], values[order]
-    return grid, values
+        new_t.append(mids)
+        new_v.append(mid_vals)
+        lo, hi = np.concatenate([lo, mids]), np.concatenate([mids, hi])
+        vlo, vhi = np.concatenate([vlo, mid_vals]), np.concatenate([mid_vals, vhi])
+    if len(new_t) == 1:
+        return grid, values
+    grid, values = np.concatenate(new_t), np.concatenate(new_v)
+    order = np.argsort(grid, kind="stable")
+    return grid[order], values[order]
 
 
 def solve_brackets(f: Callable[[np.ndarray], np.ndarray], a: np.ndarray, b: np.ndarray,
