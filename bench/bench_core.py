@@ -8,9 +8,10 @@ zwidth analyses).  python-control's ``stability_margins`` is run as labs use it 
 crossover "closest to 0 dB") and with ``returnall=True`` taking the minimum.  Truth is the 40-digit
 reference rung.  Also: the batch path's rate over many random rigid devices and how many of them
 (and of the cases) fell back to the scan, and which path answered on many random cable devices (the cable
-brackets or, where they do not close, the bounded scan).  Writes docs/bench_core.md.
+brackets or, where they do not close, the bounded scan), and the batch path's time on random cables.  Writes
+docs/bench_core.md.
 
-    python -m bench.bench_core [--repeats N] [--batch N] [--cables N] [--out docs/bench_core.md]
+    python -m bench.bench_core [--repeats N] [--batch N] [--cables N] [--cable-batch N] [--out docs/bench_core.md]
 """
 
 from __future__ import annotations
@@ -186,19 +187,7 @@ def measure_cable_fallbacks(n: int = 1_000, seed: int = 0) -> CableFallbacks:
     within 1e-4 of B_max), with its median time per call (plant and B_max known beforehand)."""
     rng = np.random.default_rng(seed)
     paths, times = [], []
-    for i in range(n):
-        t = float(rng.choice([5e-4, 1e-3, 2e-3]))
-        m = 10 ** rng.uniform(-3, 1)
-        delta = 10 ** rng.uniform(-10, 0)
-        ds = float(rng.integers(0, 201)) if i % 2 else float(rng.uniform(0, 200))
-        mr = m * rng.uniform(0.05, 0.9)
-        md = m - mr
-        wn = min(10 ** rng.uniform(1, 4), 0.9 * math.pi / t)
-        kc = wn ** 2 * mr * md / m
-        br = delta * m / t * rng.uniform(0, 1)
-        bc = 2.0 * math.sqrt(kc * mr * md / m) * 10 ** rng.uniform(-9, 1)
-        dev = Device(cable=dict(motor_mass=mr, body_mass=md, motor_damping=br, body_damping=delta * m / t - br,
-                                stiffness=kc, damping=bc), sample_time=t, delay=ds * t)
+    for i, dev in enumerate(_random_cables(n, rng)):
         bm = max_stable_damping(dev)
         kind = i % 3
         frac = rng.uniform(0, 1) if kind == 1 else 1 - 10 ** rng.uniform(-4, -1)
@@ -211,6 +200,49 @@ def measure_cable_fallbacks(n: int = 1_000, seed: int = 0) -> CableFallbacks:
                           n - paths.count("fast") - paths.count("bounded-scan"), 1e6 * statistics.median(times))
 
 
+def _random_cables(n: int, rng: np.random.Generator):
+    """Random damped cable devices (δ 1e-10–1, modes 10 rad/s–0.9·Nyquist, cable damping 1e-9–10 of critical,
+    delays 0–200 samples whole and fractional), one at a time (the caller draws from rng between them)."""
+    for i in range(n):
+        t = float(rng.choice([5e-4, 1e-3, 2e-3]))
+        m = 10 ** rng.uniform(-3, 1)
+        delta = 10 ** rng.uniform(-10, 0)
+        ds = float(rng.integers(0, 201)) if i % 2 else float(rng.uniform(0, 200))
+        mr = m * rng.uniform(0.05, 0.9)
+        md = m - mr
+        wn = min(10 ** rng.uniform(1, 4), 0.9 * math.pi / t)
+        kc = wn ** 2 * mr * md / m
+        br = delta * m / t * rng.uniform(0, 1)
+        bc = 2.0 * math.sqrt(kc * mr * md / m) * 10 ** rng.uniform(-9, 1)
+        yield Device(cable=dict(motor_mass=mr, body_mass=md, motor_damping=br, body_damping=delta * m / t - br,
+                                stiffness=kc, damping=bc), sample_time=t, delay=ds * t)
+
+
+@dataclass
+class CableBatch:
+    devices: int
+    seconds: float
+    sweep_points: int
+    sweep_seconds: float
+
+
+def measure_cable_batch(n: int = 100, seed: int = 1) -> CableBatch:
+    """optim.robust.batch.batch_critical_stiffness on n random damped cables (as the fallback count's, other seeds:
+    devices not seen before) at B = 0 (B_max found inside), and on n/10 more at 8 B each, B = 0–2× the device's
+    own damping (a study's B axis: one device at many B)."""
+    devs = list(_random_cables(n, np.random.default_rng(seed)))
+    t0 = time.perf_counter()
+    batch_critical_stiffness(devs, 0.0)
+    seconds = time.perf_counter() - t0
+    fresh = list(_random_cables(max(n // 10, 1), np.random.default_rng(seed + 1)))
+    frac = np.linspace(0.0, 2.0, 8)
+    sweep = [d for d in fresh for _ in frac]
+    b = np.array([f * d.damping for d in fresh for f in frac])
+    t0 = time.perf_counter()
+    batch_critical_stiffness(sweep, b)
+    return CableBatch(n, seconds, len(sweep), time.perf_counter() - t0)
+
+
 def _wrong(value: float, truth: float) -> bool:
     return not (math.isfinite(value) and abs(value / truth - 1) <= 0.01)
 
@@ -219,7 +251,7 @@ RIGID_TARGET, CABLE_TARGET = 0.001, 0.01   # issue 20: median time ratio zwidth 
 
 
 def render(rows: list[Row], batch: BatchRow | None = None, cables: CableFallbacks | None = None,
-           load: tuple[float, float] | None = None) -> str:
+           load: tuple[float, float] | None = None, cable_batch: CableBatch | None = None) -> str:
     import control
 
     lines = [
@@ -288,6 +320,22 @@ def render(rows: list[Row], batch: BatchRow | None = None, cables: CableFallback
             f"| {cables.devices:,} | {cables.fast:,} | {cables.bounded:,} | {cables.other:,} | {cables.median_us:.0f} |",
             "",
         ]
+    if cable_batch is not None:
+        cb = cable_batch
+        lines += [
+            "## Batch path, cable devices",
+            "",
+            "`optim.robust.batch.batch_critical_stiffness` on random damped cables as above (devices not seen before): "
+            "each takes optim.stability.margins' own answer (the cable brackets, else the bounded scan; B_max kept "
+            "with the device's plant), no batched scan. B = 0 (B_max found for each), and a B axis: 8 B from 0 to 2× "
+            "the device's damping on each of a tenth as many devices.",
+            "",
+            "| devices at B = 0 | ms/device | points of the B axis | ms/point |",
+            "|---|---|---|---|",
+            f"| {cb.devices:,} | {1e3 * cb.seconds / cb.devices:.2f} | {cb.sweep_points:,} | "
+            f"{1e3 * cb.sweep_seconds / cb.sweep_points:.2f} |",
+            "",
+        ]
     if batch is not None:
         lines += [
             "## Batch path",
@@ -310,13 +358,16 @@ def main(argv: list[str] | None = None) -> str:
     ap.add_argument("--repeats", type=int, default=30)
     ap.add_argument("--batch", type=int, default=10_000, help="devices of the batch-rate row (0: skip it)")
     ap.add_argument("--cables", type=int, default=1_000, help="random cable devices of the fallback count (0: skip)")
+    ap.add_argument("--cable-batch", type=int, default=100,
+                    help="random cable devices of the cable batch row (0: skip it)")
     ap.add_argument("--out", default="docs/bench_core.md")
     args = ap.parse_args(argv)
     load0 = os.getloadavg()[0]
     rows = measure(repeats=args.repeats)
     batch = measure_batch(args.batch) if args.batch else None
     cables = measure_cable_fallbacks(args.cables) if args.cables else None
-    text = render(rows, batch, cables, (load0, os.getloadavg()[0]))
+    cable_batch = measure_cable_batch(args.cable_batch) if args.cable_batch else None
+    text = render(rows, batch, cables, (load0, os.getloadavg()[0]), cable_batch)
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     Path(args.out).write_text(text)
     print(text)

@@ -18,6 +18,13 @@ How it stays exact:
   found by minimising the signed arg over each interval where |arg H| dips below 0.05;
 * each bracket is refined by the vectorised Illinois solver of optim.stability.crossovers.
 
+Damped cable devices (with a modal form) are not scanned here: each takes optim.stability.margins' own answer
+(max_stable_damping and critical_stiffness: the cable brackets, else the bounded scan), device by device.  Their
+B_max stays with the device's cached plant, so the rows of one device at many B solve it once.  Measured (issue
+20, loaded machine, 24 random damped cables, half at B > 0): delays up to 200 samples 53–73 → 13–16 ms a device;
+up to 20 samples 6–8 → 10 ms (the batched scan shares numpy's overhead across devices there; with B swept on
+one device the cable's B_max is found once: 6 cables × 8 B up to 20 samples, 6.8 → 2.0 ms a point).
+
 It is checked against optim.stability.margins.critical_stiffness device by device
 (tests/optim/robust/test_batch.py).
 """
@@ -48,6 +55,8 @@ from optim.stability.crossovers import (
 )
 from optim.stability.crossovers import theta_min as scan_theta_min
 from optim.stability.fast_batch import fast_rigid_batch
+from optim.stability.margins import critical_stiffness, max_stable_damping
+from optim.stability.undamped_cable import is_undamped_cable
 
 __all__ = ["BatchCritical", "batch_critical_stiffness", "rigid_critical_stiffness"]
 
@@ -68,8 +77,8 @@ class BatchCritical:
     max_stable_damping: np.ndarray
     """B_max [N·s/m] (inf when the damper-only loop has no crossover)."""
     scanned: int = 0
-    """How many devices the scan decided (cable devices, and rigid ones where optim.stability.fast_batch's bounds
-    did not close); the others took the fast path."""
+    """How many devices the batched scan decided (undamped cables, and rigid ones where optim.stability.fast_batch's
+    bounds did not close); the others took a fast path (damped cables: optim.stability.margins' own, per device)."""
 
 
 class _Evaluator:
@@ -318,6 +327,10 @@ def batch_critical_stiffness(devices: Sequence[Device], damping: float | np.ndar
     if rigid:
         rest += _fast_rigid_rows([devices[i] for i in rigid], bvec, np.array(rigid), kcr, ang, bmax)
     plants = {i: stiffness_loop_plant(devices[i]) for i in rest}
+    cables = [i for i in rest if _damped_cable(devices[i], plants[i])]
+    if cables:
+        _cable_rows([devices[i] for i in cables], bvec, np.array(cables), kcr, ang, bmax)
+        rest = [i for i in rest if i not in set(cables)]
     groups: dict[tuple, list[int]] = {}
     for i in sorted(rest):
         p = plants[i]
@@ -345,6 +358,27 @@ def rigid_critical_stiffness(mass: np.ndarray, damping: np.ndarray, sample_time:
         sub = batch_critical_stiffness(devices(rest), bvec[rest])
         kcr[rest], ang[rest], bmax[rest] = sub.critical_stiffness, sub.crossover_angle, sub.max_stable_damping
     return BatchCritical(kcr, ang, bmax, len(rest))
+
+
+def _damped_cable(device: Device, plant) -> bool:
+    """A cable with some damping and a modal form: optim.stability.margins answers it without a full scan."""
+    return (device.cable is not None and isinstance(plant, StateSpaceZOH) and not is_undamped_cable(device)
+            and plant.modal_form() is not None)
+
+
+def _cable_rows(devices, bvec, idx, kcr, ang, bmax) -> None:
+    """Damped cables (results written in place) by optim.stability.margins, device by device: B_max
+    (max_stable_damping: the bounded scan of the damper-only loop, kept with the device's cached plant, so rows of
+    one device at many B find it once) and K_cr(B) (critical_stiffness: the cable brackets, else its bounded
+    scan).  The single-device answers themselves: a row depends on its own device alone."""
+    for dev, i in zip(devices, idx):
+        b = float(bvec[i])
+        bm = max_stable_damping(dev)
+        res = critical_stiffness(dev, b, b_max=bm if b > 0.0 else None)
+        bmax[i] = bm
+        kcr[i] = res.critical_stiffness
+        w = res.crossover_frequency
+        ang[i] = math.nan if w is None else w * dev.sample_time
 
 
 def _fast_rigid_rows(devices, bvec, idx, kcr, ang, bmax) -> list[int]:

@@ -37,18 +37,30 @@ found bounds the rest.  The Nyquist point is the scan's (H(π) real: a crossover
 Where the factors are not trusted (the factored Q differs from the modal response by > 1e-9, a pole or zero
 within 1e-9 of the unit circle: an undamped cable, a sampling zero at −1) or the pieces do not resolve within
 a budget, ``None`` is returned and the caller runs the bounded scan (optim.stability.fast_cable), saying so in
-the answer's ``path``.
+the answer's ``path``.  The evaluations (F at one angle, the Newton solve, the polish on Im H, the device's β-free
+work kept between calls) are optim.stability.cable_points'.
 """
 
 from __future__ import annotations
 
-import cmath
 import math
 
-from optim.stability.cable_loop import CableLoop, Factor, cable_loop, expm1j, inverse_response_at
+from optim.stability.cable_loop import CableLoop, Factor, cable_loop, inverse_response_at
+from optim.stability.cable_points import (
+    MEMO_MAX,
+    Point,
+    assemble,
+    clear_memo,
+    h_at,
+    log_r,
+    memo_for,
+    newton,
+    polish,
+    r_at,
+)
 from optim.stability.fast_rigid import bracketed_newton
 
-__all__ = ["CableLoop", "cable_loop", "cable_min_crossing", "MAX_PIECES"]
+__all__ = ["CableLoop", "cable_loop", "cable_min_crossing", "clear_memo", "MAX_PIECES"]
 
 _EPS = 2.220446049250313e-16
 _TWO_PI = 2.0 * math.pi
@@ -57,74 +69,11 @@ MAX_PIECES = 400
 _PAD = 1e-9          # relative padding of every bound (the factors are known to ~cond·ε ≤ 1e-12)
 
 
-def _point(loop: CableLoop, beta: float, cslope: float, t: float) -> tuple[float, float, float]:
-    """(F, F', R) at θ = t (F = φ + cslope·θ − asin g; g = 0 when β = 0).
-
-    φ and R are the modal response's (the scan's function: Q = (1/G_n)/(1 − e^{−jθ})); the factors only
-    unwrap φ (their phase is off by ≲ err/gap ≤ 1e-3 rad near a zero, far below the π that would matter), and
-    give F'.  arg(e^{jθ} − c) on [0, π], continuously: θ + Arg(1 − c e^{−jθ}) for c inside the unit circle,
-    arg(−c) + Arg(1 − z/c) outside (both Args within ±π/2)."""
-    sh = math.sin(0.5 * t)
-    st = math.sin(t)
-    ct = math.cos(t)
-    zm1 = complex(-2.0 * sh * sh, st)
-    zc = complex(ct, -st)
-    phi = (loop.s - 0.5) * t - loop.lead_arg
-    dphi = loop.s - 0.5 + cslope
-    dlr = 0.0
-    phase = cmath.phase
-    for f in loop.factors:
-        diff = zm1 - f.w
-        d2 = diff.real * diff.real + diff.imag * diff.imag
-        if f.sign > 0:
-            phi += t + phase(diff * zc) if f.inside else f.base + phase(diff * f.inv_neg_c)
-            dphi += 0.5 + f.om2 / d2
-            dlr += (st * f.c.real - ct * f.c.imag) / d2
-        else:
-            phi -= t + phase(diff * zc) if f.inside else f.base + phase(diff * f.inv_neg_c)
-            dphi -= 0.5 + f.om2 / d2
-            dlr -= (st * f.c.real - ct * f.c.imag) / d2
-    q = inverse_response_at(loop.modal, loop.d, t) / (1.0 - zc)
-    exact = phase(q) - 0.5 * t
-    phi = exact + _TWO_PI * round((phi - exact) / _TWO_PI) + cslope * t
-    r = abs(q)
-    if beta == 0.0:
-        return phi, dphi, r
-    g = beta * math.cos(0.5 * t) / r
-    if g >= 1.0:
-        return phi - 0.5 * math.pi, dphi, r
-    root = math.sqrt((1.0 - g) * (1.0 + g))
-    big_g = g / root
-    return phi - math.asin(g), dphi + big_g * (0.5 * math.tan(0.5 * t) + dlr), r
-
-
-class _Pt:
-    """Per factor, |e^{jθ} − c| and |c| sin(θ − arg c) at one angle; F there on first use (a pruned piece
-    never needs it)."""
-
-    __slots__ = ("_f", "dist", "sin", "_args")
-
-    def __init__(self, loop: CableLoop, beta: float, cslope: float, t: float):
-        zm1 = expm1j(t)
-        z = zm1 + 1.0
-        self._f = None
-        self._args = (loop, beta, cslope, t)
-        self.dist = [abs(zm1 - f.w) for f in loop.factors]
-        self.sin = [(z * f.c.conjugate()).imag for f in loop.factors]
-
-    @property
-    def f(self) -> float:
-        if self._f is None:
-            self._f = _point(*self._args)[0]
-        return self._f
-
-
-def _bounds_r(loop: CableLoop, a: float, b: float, pa: _Pt, pb: _Pt) -> tuple[float, float, list]:
+def _bounds_r(loop: CableLoop, a: float, b: float, pa: Point, pb: Point) -> tuple[float, float, list]:
     """(R_min, R_max, per-factor (d_min, d_max)) on [a, b]: each |e^{jθ} − c| at its ends or its interior extrema."""
     rmin = rmax = 1.0 / loop.lead_abs
     ranges = []
-    for j, f in enumerate(loop.factors):
-        da, db = pa.dist[j], pb.dist[j]
+    for f, da, db in zip(loop.factors, pa.dist, pb.dist):
         mn, mx = (da - f.err, db + f.err) if da <= db else (db - f.err, da + f.err)
         if f.t_near is not None and a <= f.t_near <= b:
             mn = f.gap
@@ -149,7 +98,7 @@ def _sin_bounds(f: Factor, a: float, b: float, sa: float, sb: float) -> tuple[fl
     return mn - f.err, mx + f.err
 
 
-def _bounds_d(loop: CableLoop, beta: float, a: float, b: float, pa: _Pt, pb: _Pt, rmin: float, rmax: float,
+def _bounds_d(loop: CableLoop, beta: float, a: float, b: float, pa: Point, pb: Point, rmin: float, rmax: float,
               ranges: list, cslope: float) -> tuple[float, float]:
     """Bounds (D_lo, D_hi) of F' on [a, b] (module docstring); R ≥ rmin > β there (or β = 0).
 
@@ -175,15 +124,22 @@ def _bounds_d(loop: CableLoop, beta: float, a: float, b: float, pa: _Pt, pb: _Pt
     lo = hi = base            # per-factor pairing
     plo = phi_ = base         # phase terms alone
     dl_lo = dl_hi = 0.0       # (log R)'
-    sa, sb = pa.sin, pb.sin
-    for j, f in enumerate(loop.factors):
-        mn, mx = ranges[j]
+    for f, (mn, mx), sa, sb in zip(loop.factors, ranges, pa.sin, pb.sin):
         mn2, mx2 = mn * mn, mx * mx
         om_lo, om_hi = f.om_lo, f.om_hi
         p_lo = om_lo / mx2 if om_lo >= 0.0 else om_lo / mn2
         p_hi = om_hi / mn2 if om_hi >= 0.0 else om_hi / mx2
         if gh > 0.0:
-            smn, smx = _sin_bounds(f, a, b, sa[j], sb[j])
+            # _sin_bounds, inline (the hot loop)
+            smn, smx = (sa, sb) if sa <= sb else (sb, sa)
+            ts = f.t_smax
+            if ts is not None and a <= ts <= b:
+                smx = f.mag
+            ts = f.t_smin
+            if ts is not None and a <= ts <= b:
+                smn = -f.mag
+            smn -= f.err
+            smx += f.err
             n_lo = om_lo + (gl * smn if smn >= 0.0 else gh * smn)
             n_hi = om_hi + (gh * smx if smx >= 0.0 else gl * smx)
             t_lo = n_lo / mx2 if n_lo >= 0.0 else n_lo / mn2
@@ -215,12 +171,11 @@ def _bounds_d(loop: CableLoop, beta: float, a: float, b: float, pa: _Pt, pb: _Pt
     return lo - pad, hi + pad
 
 
-def _dlogr_bounds(loop: CableLoop, a: float, b: float, pa: _Pt, pb: _Pt, ranges: list) -> tuple[float, float]:
+def _dlogr_bounds(loop: CableLoop, a: float, b: float, pa: Point, pb: Point, ranges: list) -> tuple[float, float]:
     """Bounds of (log R)' = Σ ±|c| sin(θ − arg c)/|e^{jθ} − c|² on [a, b]."""
     lo = hi = 0.0
-    for j, f in enumerate(loop.factors):
-        mn, mx = ranges[j]
-        smn, smx = _sin_bounds(f, a, b, pa.sin[j], pb.sin[j])
+    for f, (mn, mx), sa, sb in zip(loop.factors, ranges, pa.sin, pb.sin):
+        smn, smx = _sin_bounds(f, a, b, sa, sb)
         t_lo = smn / (mx * mx) if smn >= 0.0 else smn / (mn * mn)
         t_hi = smx / (mn * mn) if smx >= 0.0 else smx / (mx * mx)
         if f.sign > 0:
@@ -231,20 +186,6 @@ def _dlogr_bounds(loop: CableLoop, a: float, b: float, pa: _Pt, pb: _Pt, ranges:
             hi -= t_lo
     pad = _PAD * (abs(lo) + abs(hi))
     return lo - pad, hi + pad
-
-
-def _logr(loop: CableLoop, t: float) -> tuple[float, float]:
-    """(log R, (log R)') at θ = t."""
-    zm1 = expm1j(t)
-    z = zm1 + 1.0
-    out = -math.log(loop.lead_abs)
-    der = 0.0
-    for f in loop.factors:
-        diff = zm1 - f.w
-        d2 = diff.real * diff.real + diff.imag * diff.imag
-        out += f.sign * 0.5 * math.log(d2)
-        der += f.sign * (z * f.c.conjugate()).imag / d2
-    return out, der
 
 
 def _solve(fun, level: float, lo: float, hi: float, x: float) -> float:
@@ -264,70 +205,6 @@ def _k_of(beta: float, t: float, r: float) -> float:
     return 2.0 * s * u / (math.sqrt(u + beta * beta * s * s) + beta * s)
 
 
-def _h_im_re(loop: CableLoop, beta: float, damper: bool, t: float) -> complex:
-    inv = inverse_response_at(loop.modal, loop.d, t)
-    if damper:
-        return -inv / (-expm1j(-t))
-    return -inv + beta * expm1j(-t)
-
-
-def _polish(loop: CableLoop, beta: float, damper: bool, t0: float, piece: tuple[float, float, float]
-            ) -> tuple[float, float] | None:
-    """The root of Im H next to t0 (F's root on ``piece`` = (a, b, level), F monotone there), bracketed and
-    solved to 4 ulp as the scan solves it; (θ, Re H).  F's sum of arguments pins θ to ~ε/θ·Σ|terms|, Im H
-    to ~ε: the bracket widens from 1e-12θ while F stays within 1 rad of the level at its ends (no other
-    zero of Im H, the K < 0 ones included, can lie between)."""
-    a, b, level = piece
-    cslope = 0.5 if damper else 0.0
-
-    def f(x: float) -> float:
-        return _h_im_re(loop, beta, damper, x).imag
-
-    f0 = f(t0)
-    if f0 == 0.0:
-        return t0, _h_im_re(loop, beta, damper, t0).real
-    bracket = None
-    for w in (1e-12, 1e-10, 1e-8, 1e-6, 1e-4):
-        lo, hi = max(t0 * (1.0 - w), a), min(t0 * (1.0 + w), b, math.pi)
-        if w > 1e-9 and not (abs(_point(loop, beta, cslope, lo)[0] - level) < 1.0
-                             and abs(_point(loop, beta, cslope, hi)[0] - level) < 1.0):
-            return None
-        flo = f(lo)
-        if lo < t0 and (flo > 0) != (f0 > 0):
-            bracket = (lo, t0, flo, f0)
-            break
-        fhi = f(hi)
-        if hi > t0 and (fhi > 0) != (f0 > 0):
-            bracket = (t0, hi, f0, fhi)
-            break
-    if bracket is None:
-        return None
-    a, b, fa, fb = bracket
-    side = 0
-    tol = 4 * _EPS
-    for it in range(200):
-        if abs(b - a) <= tol * max(abs(a), abs(b)):
-            break
-        x = b - fb * (b - a) / (fb - fa) if fb != fa else 0.5 * (a + b)
-        if not (min(a, b) < x < max(a, b)) or it % 8 == 7:     # Illinois; a bisection now and then
-            x = 0.5 * (a + b)
-        fx = f(x)
-        if fx == 0.0:
-            a = b = x
-            fa = fb = 0.0
-            break
-        if (fx > 0) == (fa > 0):
-            if side == 1:
-                fb /= 2
-            a, fa, side = x, fx, 1
-        else:
-            if side == -1:
-                fa /= 2
-            b, fb, side = x, fx, -1
-    t = a if abs(fa) <= abs(fb) else b
-    return t, _h_im_re(loop, beta, damper, t).real
-
-
 def cable_min_crossing(loop: CableLoop, beta: float, theta_lo: float, damper: bool = False
                        ) -> tuple[tuple[float, float] | None, int] | None:
     """((θ, α) of the K > 0 crossover of least α on [θ_lo, π], or None when there is none; pieces examined).
@@ -338,12 +215,50 @@ def cable_min_crossing(loop: CableLoop, beta: float, theta_lo: float, damper: bo
         beta = 0.0
     cslope = 0.5 if damper else 0.0
     level0 = math.pi if damper else 0.5 * math.pi
-    nyq = _h_im_re(loop, beta, damper, math.pi).real
+    memo = memo_for(loop)
+    inv_pi = memo.get("inv_pi")
+    if inv_pi is None:
+        inv_pi = memo["inv_pi"] = inverse_response_at(loop.modal, loop.d, math.pi)
+    nyq = h_at(loop, beta, damper, math.pi, inv_pi).real
     best = nyq if nyq > 0.0 else math.inf
     # F's roots (θ, K by the factored form); refined on Im H at the end, only those that may be the least
-    found: list[tuple[float, float, tuple[float, float, float]]] = []
+    found: list[tuple[float, float, tuple[float, float, float, bool]]] = []
     cuts = [theta_lo] + [x for x in loop.splits if theta_lo < x < math.pi] + [math.pi]
-    pts = {x: _Pt(loop, beta, cslope, x) for x in cuts}
+    fvals: dict[float, tuple[float, float, float]] = {}
+
+    def pt(x: float) -> Point:
+        got = memo.get(x)
+        if got is None:
+            got = Point(loop, x)
+            if len(memo) < MEMO_MAX:
+                memo[x] = got
+        return got
+
+    def f_at(x: float) -> tuple[float, float, float]:
+        v = fvals.get(x)
+        if v is None:
+            v = fvals[x] = assemble(beta, cslope, x, *pts[x].base(loop))
+        return v
+
+    def bounds_r(a: float, b: float) -> tuple[float, float, list]:
+        key = ("r", a, b)
+        got = memo.get(key)
+        if got is None:
+            got = _bounds_r(loop, a, b, pts[a], pts[b])
+            if len(memo) < MEMO_MAX:
+                memo[key] = got
+        return got
+
+    def dlogr_bounds(a: float, b: float, ranges: list) -> tuple[float, float]:
+        key = ("dl", a, b)
+        got = memo.get(key)
+        if got is None:
+            got = _dlogr_bounds(loop, a, b, pts[a], pts[b], ranges)
+            if len(memo) < MEMO_MAX:
+                memo[key] = got
+        return got
+
+    pts = {x: pt(x) for x in cuts}
     # pieces by frequency; the flag: R ≥ β proved on the piece (R = β at its end, R monotone)
     stack = [(cuts[i], cuts[i + 1], False, None) for i in range(len(cuts) - 2, -1, -1)]
     pieces = 0
@@ -354,7 +269,7 @@ def cable_min_crossing(loop: CableLoop, beta: float, theta_lo: float, damper: bo
         if pieces > MAX_PIECES or not (b - a > 4.0 * _EPS * b):
             return None
         pa, pb = pts[a], pts[b]
-        rmin, rmax, ranges = _bounds_r(loop, a, b, pa, pb)
+        rmin, rmax, ranges = bounds_r(a, b)
         if above:
             rmin = max(rmin, beta)
         if rmax <= beta:
@@ -364,10 +279,10 @@ def cable_min_crossing(loop: CableLoop, beta: float, theta_lo: float, damper: bo
             continue
         if beta > 0.0 and not (rmin > beta or above):
             # R crosses β on [a, b]: where R is monotone the crossing is one root, split there
-            dl_lo, dl_hi = _dlogr_bounds(loop, a, b, pa, pb, ranges)
+            dl_lo, dl_hi = dlogr_bounds(a, b, ranges)
             if dl_lo > 0.0 or dl_hi < 0.0:
                 up = dl_lo > 0.0
-                ra, rb = _logr(loop, a)[0], _logr(loop, b)[0]
+                ra, rb = math.log(pa.base(loop)[3]), math.log(pb.base(loop)[3])
                 low_end, high_end = (ra, rb) if up else (rb, ra)
                 if high_end <= log_beta:
                     continue
@@ -375,22 +290,25 @@ def cable_min_crossing(loop: CableLoop, beta: float, theta_lo: float, damper: bo
                     stack.append((a, b, True, skip))
                     pieces -= 1
                     continue
+                # start where log R, interpolated in log θ (R ∝ θ^p at low θ) or in θ, meets log β
+                frac = (log_beta - ra) / (rb - ra)
+                x0 = a * (b / a) ** frac if b > 2.0 * a else a + frac * (b - a)
                 if up:
-                    ts = _solve(lambda x: _logr(loop, x), log_beta, a, b, 0.5 * (a + b))
+                    ts = _solve(lambda x: log_r(loop, x), log_beta, a, b, x0)
                 else:
-                    ts = _solve(lambda x: tuple(-v for v in _logr(loop, x)), -log_beta, a, b, 0.5 * (a + b))
+                    ts = _solve(lambda x: tuple(-v for v in log_r(loop, x)), -log_beta, a, b, x0)
                 if not a < ts < b:
                     return None
-                pts[ts] = _Pt(loop, beta, cslope, ts)
+                pts[ts] = pt(ts)
                 stack.append((ts, b, True, skip) if up else (a, ts, True, skip))
                 pieces -= 1
                 continue
         elif beta == 0.0 or rmin > beta or above:
             dlo, dhi = _bounds_d(loop, beta, a, b, pa, pb, rmin,
                                  rmax, ranges, cslope)
-            fa, fb = pa.f, pb.f
+            (fa, dfa, _), (fb, dfb, _) = f_at(a), f_at(b)
             if dlo > 0.0 or dhi < 0.0:
-                got = _first_root(loop, beta, damper, cslope, level0, a, b, fa, fb, dlo > 0.0, nyq, skip)
+                got = _first_root(loop, beta, damper, cslope, level0, a, b, fa, fb, dlo > 0.0, nyq, skip, dfa, dfb)
                 if got is False:
                     continue                      # no level on this piece
                 if got is None:
@@ -398,25 +316,26 @@ def cable_min_crossing(loop: CableLoop, beta: float, theta_lo: float, damper: bo
                 else:
                     t, v, k = got
                     if v > 0.0:
-                        found.append((t, v, (a, b, level0 + _TWO_PI * k)))
+                        found.append((t, v, (a, b, level0 + _TWO_PI * k, dlo > 0.0)))
                         best = min(best, v)
                     if t >= b:
                         continue
                     # the rest of the piece, past this root, is a piece of its own (bounded, pruned, solved)
-                    pts.setdefault(t, _Pt(loop, beta, cslope, t))
+                    if t not in pts:
+                        pts[t] = pt(t)
                     stack.append((t, b, above, k))
                     continue
             f_min, f_max = _range(fa, fb, dlo, dhi, b - a)
             if level0 + _TWO_PI * math.ceil((f_min - level0) / _TWO_PI) > f_max:
                 continue                          # F's range on [a, b] holds no level
         mid = math.sqrt(a * b) if b > 1000.0 * a else 0.5 * (a + b)   # geometric across decades (low θ)
-        pts[mid] = _Pt(loop, beta, cslope, mid)
+        pts[mid] = pt(mid)
         stack.append((mid, b, above, skip))
         stack.append((a, mid, above, skip))
     out = [(math.pi, nyq)] if nyq > 0.0 else []
     for t, v, piece in found:
         if v <= best * (1.0 + 1e-6):
-            got = _polish(loop, beta, damper, t, piece)
+            got = polish(loop, beta, damper, t, piece)
             if got is None:
                 return None
             if got[1] > 0.0 and not (nyq > 0.0 and math.pi - got[0] <= 1e-9):
@@ -427,7 +346,7 @@ def cable_min_crossing(loop: CableLoop, beta: float, theta_lo: float, damper: bo
 
 
 def _first_root(loop: CableLoop, beta: float, damper: bool, cslope: float, level0: float, a: float, b: float,
-                fa: float, fb: float, up: bool, nyq: float, skip: int | None):
+                fa: float, fb: float, up: bool, nyq: float, skip: int | None, dfa: float, dfb: float):
     """The lowest-frequency root of F on a piece where F is monotone, with its K by the factored form:
     (θ, K, level index); False when no level lies between F(a) and F(b) (``skip``: a level already solved at
     a); None when more than two do (the caller halves the piece: the halves may be pruned by their bounds)."""
@@ -443,13 +362,14 @@ def _first_root(loop: CableLoop, beta: float, damper: bool, cslope: float, level
         return None
     level = level0 + _TWO_PI * ks[0]
     # start where the chord through (a, F(a)), (b, F(b)) meets the level (F is monotone on the piece)
+    # start at the median of the chord's and the two end tangents' meetings with the level: for F concave (or
+    # convex) on the piece it is the tangent estimate nearest the root, from the side Newton converges from
     x0 = a + (level - fa) / (fb - fa) * (b - a) if fb != fa else 0.5 * (a + b)
+    if dfa * dfb > 0.0 and (dfa > 0.0) == up:
+        x0 = sorted((x0, a + (level - fa) / dfa, b - (fb - level) / dfb))[1]
     x0 = min(max(x0, a + 1e-3 * (b - a)), b - 1e-3 * (b - a))
-    if up:
-        root = _solve(lambda x: _point(loop, beta, cslope, x)[:2], level, a, b, x0)
-    else:
-        root = _solve(lambda x: tuple(-v for v in _point(loop, beta, cslope, x)[:2]), -level, a, b, x0)
-    r = _point(loop, beta, cslope, root)[2]
+    root = newton(loop, beta, cslope, level, a, b, fa, fb, x0, up)
+    r = r_at(loop, root)
     return root, (r if damper else _k_of(beta, root, r)), ks[0]
 
 

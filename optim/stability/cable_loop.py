@@ -72,6 +72,12 @@ class CableLoop:
     modal: tuple
     d: int
     splits: tuple[float, ...]      # angles of the poles and zeros in (0, π)
+    # per factor of Q's numerator (num) and denominator (den), in plain Python numbers for the brackets' hot
+    # loop: (w, inside, base, inv_neg_c, om2, Re c, Im c)
+    num: tuple = ()
+    den: tuple = ()
+    num_w: tuple = ()              # the w of num and of den alone
+    den_w: tuple = ()
 
 
 def _factor(w: complex, sign: int, err: float) -> Factor:
@@ -141,8 +147,12 @@ def _build(plant) -> CableLoop | None:
            for f in factors):
         return None
     lead = float(coef[-1])
+    hot = [(f.w, f.inside, f.base, f.inv_neg_c, f.om2, f.c.real, f.c.imag) for f in factors]
     loop = CableLoop(factors, plant.d + m + 1, 0.0 if lead > 0 else math.pi, abs(lead), _py_modal(modal), plant.d,
-                     tuple(sorted({f.t_near for f in factors if f.t_near is not None and 0.0 < f.t_near < math.pi})))
+                     tuple(sorted({f.t_near for f in factors if f.t_near is not None and 0.0 < f.t_near < math.pi})),
+                     tuple(h for h, f in zip(hot, factors) if f.sign > 0),
+                     tuple(h for h, f in zip(hot, factors) if f.sign < 0),
+                     tuple(f.w for f in factors if f.sign > 0), tuple(f.w for f in factors if f.sign < 0))
     # the factored Q against the modal response (the scan's own evaluation) at a few angles
     for t in (1e-3, 0.1, 0.7, 1.3, 2.1, 2.9, 3.1):
         q = _q(loop, t)

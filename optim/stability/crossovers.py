@@ -52,6 +52,13 @@ def theta_min(damp, delay_samples):
     (damp = δ + β, dimensionless).  The damper-only loop (β = 0) has its crossovers at O(1/(1 + d)); with no
     damping at all that is the only scale.  Floats or arrays (elementwise: the batched scan's rows get the same
     bits as the scalar scan); the one definition for every scan of the stiffness loop (issue 19)."""
+    if type(damp) is float and type(delay_samples) in (float, int):
+        # the same IEEE operations in scalars (sqrt, min and max round alike): ~0.3 µs instead of ~14 µs of numpy
+        # per call on the fast paths; tests/optim/stability/test_margins.py holds the two to the bit
+        scale = 1.0 / (1.0 + 2.0 * float(delay_samples))
+        if damp > 0.0:
+            return 1e-4 * min(min(1.0, math.sqrt(damp * scale)), 10 * damp)
+        return 1e-4 * scale
     damp = np.asarray(damp, dtype=float)
     scale = 1.0 / (1.0 + 2.0 * np.asarray(delay_samples, dtype=float))
     with np.errstate(invalid="ignore"):
@@ -81,34 +88,50 @@ def scan_grid(theta_min: float, delay_samples: float, hints: Sequence[float], wi
 
 
 def refine_grid(h: Callable[[np.ndarray], np.ndarray], grid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The grid with every interval where arg H turns by more than _MAX_ARG_STEP bisected (up to
+    _MAX_REFINE_ROUNDS times), and H on it.  Each round looks only at the intervals the last one made (the others
+    stay as they were), in grid order, so h sees the same arrays as when every round re-sorted the whole grid
+    (issue 20: that re-sort was most of a long delay's bounded scan): the same samples and values, to the bit."""
     values = h(grid)
+    lo, hi, vlo, vhi = grid[:-1], grid[1:], values[:-1], values[1:]
+    new_t, new_v = [grid], [values]
     for _ in range(_MAX_REFINE_ROUNDS):
         with np.errstate(divide="ignore", invalid="ignore"):
-            turn = np.abs(np.angle(values[1:] / values[:-1]))
+            turn = np.abs(np.angle(vhi / vlo))
         # a sample exactly at 0 (an undamped pole of G sampled at its angle: 1/G = 0) has no argument
-        bad = (turn > _MAX_ARG_STEP) | (values[1:] == 0) | (values[:-1] == 0)
-        width_ok = (grid[1:] - grid[:-1]) > 1e-14 * grid[1:]
-        bad &= width_ok
+        bad = (turn > _MAX_ARG_STEP) | (vhi == 0) | (vlo == 0)
+        bad &= (hi - lo) > 1e-14 * hi
         if not bad.any():
             break
-        mids = 0.5 * (grid[:-1][bad] + grid[1:][bad])
+        lo, hi, vlo, vhi = lo[bad], hi[bad], vlo[bad], vhi[bad]
+        order = np.argsort(lo, kind="stable")
+        lo, hi, vlo, vhi = lo[order], hi[order], vlo[order], vhi[order]
+        mids = 0.5 * (lo + hi)
         mid_vals = h(mids)
-        grid = np.concatenate([grid, mids])
-        values = np.concatenate([values, mid_vals])
-        order = np.argsort(grid, kind="stable")
-        grid, values = grid[order], values[order]
-    return grid, values
+        new_t.append(mids)
+        new_v.append(mid_vals)
+        lo, hi = np.concatenate([lo, mids]), np.concatenate([mids, hi])
+        vlo, vhi = np.concatenate([vlo, mid_vals]), np.concatenate([mid_vals, vhi])
+    if len(new_t) == 1:
+        return grid, values
+    grid, values = np.concatenate(new_t), np.concatenate(new_v)
+    order = np.argsort(grid, kind="stable")
+    return grid[order], values[order]
 
 
 def solve_brackets(f: Callable[[np.ndarray], np.ndarray], a: np.ndarray, b: np.ndarray,
                     fa: np.ndarray, fb: np.ndarray) -> np.ndarray:
     """Roots of f in every bracket [a, b] at once (Illinois regula falsi, bisection-safeguarded).
 
-    Stops when a bracket is 4 ulp wide or f is exactly 0: full double precision.
+    Stops when a bracket is 4 ulp wide or f is exactly 0: full double precision.  A step that lands on or
+    within 2 ulp of an end goes 2 ulp inside: the root then sits by that end, and the next step closes the
+    bracket to 4 ulp, where regula falsi alone crept up on it by bisections (about half the steps of the cable
+    bounded scan's B_max, issue 20; the roots stay 4-ulp brackets' ends, within 2 ulp of the old ones).
     """
     a, b, fa, fb = a.copy(), b.copy(), fa.copy(), fb.copy()
     side = np.zeros(a.shape, dtype=int)
-    tol = 4 * np.finfo(float).eps
+    eps = np.finfo(float).eps
+    tol = 4 * eps
     x = 0.5 * (a + b)
     for it in range(200):
         active = np.abs(b - a) > tol * np.maximum(np.abs(a), np.abs(b))
@@ -116,9 +139,12 @@ def solve_brackets(f: Callable[[np.ndarray], np.ndarray], a: np.ndarray, b: np.n
             break
         with np.errstate(divide="ignore", invalid="ignore"):
             x = np.where(fb != fa, b - fb * (b - a) / (fb - fa), 0.5 * (a + b))
+        lo, hi, mid = np.minimum(a, b), np.maximum(a, b), 0.5 * (a + b)
         # every fourth step bisects, so a bracket always shrinks geometrically
-        bad = ~((x > np.minimum(a, b)) & (x < np.maximum(a, b))) | (it % 4 == 3)
-        x = np.where(bad, 0.5 * (a + b), x)
+        bad = ~((x >= lo) & (x <= hi)) | (it % 4 == 3)
+        m = 2 * eps * hi
+        x = np.where(bad, mid, np.where(x - lo < m, np.minimum(lo + m, mid),
+                                        np.where(hi - x < m, np.maximum(hi - m, mid), x)))
         x = np.where(active, x, a)
         fx = np.where(active, f(x), fa)
         done = fx == 0.0

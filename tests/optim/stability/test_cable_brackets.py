@@ -20,7 +20,7 @@ import pytest
 
 from models.device import Device
 from models.plants import stiffness_loop_plant
-from optim.stability.cable_brackets import cable_loop
+from optim.stability.cable_brackets import cable_loop, clear_memo
 from optim.stability.margins import (
     _damper_crossings,
     critical_stiffness,
@@ -28,33 +28,18 @@ from optim.stability.margins import (
     max_stable_damping,
     scan_critical_stiffness,
 )
+from tests.optim.stability.random_cables import random_cable
 
 RTOL = 1e-12
 
 
 def _devices(n: int, seed: int, delays: str) -> list[Device]:
     rng = np.random.default_rng(seed)
-    out = []
-    for i in range(n):
-        t = float(rng.choice([5e-4, 1e-3, 2e-3]))
-        m = 10 ** rng.uniform(-3, 1)
-        delta = 10 ** rng.uniform(-10, 0)
-        top = {"short": 20, "medium": 200, "long": 10_000}[delays]
-        low = {"short": 0, "medium": 20, "long": 200}[delays]
-        ds = float(rng.integers(low, top + 1)) if i % 2 else float(rng.uniform(low, top))
-        if delays == "short" and i % 5 == 0:
-            ds = float(rng.integers(0, 4)) if i % 2 else float(rng.uniform(0, 4))
-        mr = m * rng.uniform(0.05, 0.9)
-        md = m - mr
-        wn = min(10 ** rng.uniform(1, 4), 0.9 * math.pi / t)
-        kc = wn ** 2 * mr * md / m
-        b = delta * m / t
-        br = b * rng.uniform(0, 1)
-        # cable damping from 1e-9 of critical (a resonance 1e-9 from the unit circle) to ~10× critical
-        bc = 2.0 * math.sqrt(kc * mr * md / m) * 10 ** rng.uniform(-9, 1)
-        out.append(Device(cable=dict(motor_mass=mr, body_mass=md, motor_damping=br, body_damping=b - br,
-                                     stiffness=kc, damping=bc), sample_time=t, delay=ds * t))
-    return out
+    low, top = {"short": (0, 20), "medium": (20, 200), "long": (200, 10_000)}[delays]
+    # every fifth short one within 4 samples; cable damping from 1e-9 of critical (a resonance 1e-9 from the unit
+    # circle) to ~10× critical
+    return [random_cable(rng, i, low=low, top=top, short_top=4 if delays == "short" else None,
+                         cable_damping="critical") for i in range(n)]
 
 
 def _scan_b_max(dev: Device) -> tuple[float, float]:
@@ -169,3 +154,21 @@ def test_lhifam_takes_the_brackets():
         dev = Device(preset="lhifam", delay=delay)
         assert critical_stiffness(dev).path == "fast"
         assert critical_stiffness(dev, 0.5 * max_stable_damping(dev)).path == "fast"
+
+
+def test_the_devices_memo_changes_no_bit():
+    """The brackets keep a device's β-free work (points, R's bounds on pieces) for its next call: a sweep in B with
+    it warm answers, to the bit, as each B alone with it cleared (and as a repeated call)."""
+    rng = np.random.default_rng(41)
+    for dev in _devices(12, 41, "medium") + [Device(preset="lhifam", delay=d) for d in (0.0, 0.0037, 0.05)]:
+        bm = max_stable_damping(dev)
+        bs = [0.0] + ([f * bm for f in rng.uniform(0, 1, 3)] if math.isfinite(bm) else [])
+        clear_memo()
+        warm = [critical_stiffness(dev, b, b_max=bm if b > 0 else None) for b in bs]
+        for b, w in zip(bs, warm):
+            clear_memo()
+            cold = critical_stiffness(dev, b, b_max=bm if b > 0 else None)
+            again = critical_stiffness(dev, b, b_max=bm if b > 0 else None)
+            for r in (cold, again):
+                assert (r.critical_stiffness, r.crossover_frequency, r.path) == \
+                    (w.critical_stiffness, w.crossover_frequency, w.path), (dev, b)

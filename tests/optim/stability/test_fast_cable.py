@@ -19,28 +19,14 @@ from optim.stability import margins
 from optim.stability.fast_cable import modal_bound
 from optim.stability.margins import critical_stiffness, loop_plant, max_stable_damping, scan_critical_stiffness
 from optim.stability.reference import reference_critical_stiffness
+from tests.optim.stability.random_cables import random_cable
 
 RTOL = 1e-12
 
 
 def _cable(rng: np.random.Generator, i: int) -> Device:
-    t = float(rng.choice([5e-4, 1e-3, 2e-3]))
-    m = 10 ** rng.uniform(-3, 1)
-    delta = 10 ** rng.uniform(-10, 0)
-    ds = float(rng.integers(0, 201)) if i % 2 else float(rng.uniform(0, 200))
-    if i % 5 == 0:
-        ds = float(rng.integers(0, 8)) if i % 2 else float(rng.uniform(0, 8))
-    mr = m * rng.uniform(0.05, 0.9)
-    md = m - mr
-    wn = min(10 ** rng.uniform(1, 4), 0.9 * math.pi / t)
-    kc = wn ** 2 * mr * md / m
-    b = delta * m / t
-    br = b * rng.uniform(0, 1)
-    bc = rng.uniform(0, 1) * 10 ** rng.uniform(-4, 1)
-    if i % 40 == 7:
-        br, b, bc = 0.0, 0.0, 0.0
-    return Device(cable=dict(motor_mass=mr, body_mass=md, motor_damping=br, body_damping=b - br,
-                             stiffness=kc, damping=bc), sample_time=t, delay=ds * t)
+    # cable damping 0–10 N·s/m over five decades; every fortieth cable undamped (every damping 0)
+    return random_cable(rng, i, short_top=8, cable_damping="absolute", undamped=lambda j: j % 40 == 7)
 
 
 def _agree(dev: Device, fast, scan, b_max: float | None):

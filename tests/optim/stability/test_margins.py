@@ -302,3 +302,17 @@ def test_no_physical_damping_with_virtual_damping(d):
     # the linear limit with δ = 0: α < 2β/(1+2d) for small β
     small = critical_stiffness(dev, 1e-4 * dev.damping_scale).critical_stiffness / dev.stiffness_scale
     assert small == pytest.approx(2e-4 / (1 + 2 * d), rel=(1 + d) * 1e-3)
+
+
+def test_theta_min_scalar_path_is_the_array_path_to_the_bit():
+    """optim.stability.crossovers.theta_min takes scalars without numpy (the fast paths call it once per K_cr): the
+    same bits as its array form, which the batched scan uses."""
+    from optim.stability.crossovers import theta_min
+
+    rng = np.random.default_rng(5)
+    damp = np.concatenate([10 ** rng.uniform(-14, 3, 2000), [0.0, -1e-3, 1e-300, 5e-324, 1e300, math.inf]])
+    ds = np.concatenate([rng.uniform(0, 10_000, 2000), rng.integers(0, 6, 6).astype(float)])
+    arr = theta_min(damp, ds)
+    for i in range(damp.size):
+        assert theta_min(float(damp[i]), float(ds[i])) == arr[i]
+        assert theta_min(float(damp[i]), int(ds[i])) == theta_min(damp[i:i + 1], float(int(ds[i])))[0]
