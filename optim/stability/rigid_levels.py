@@ -1,0 +1,224 @@
+"""Every K > 0 crossover of a rigid loop on its rising range, all levels at once (issue 20).
+
+Notation of optim.stability.fast_rigid.  On [0, θ_r] F̃ = ψ − asin(min(g, 1)) rises, so the K > 0 crossovers
+there are its roots at the levels 2πk, k = 0, 1, … (F̃(θ_r) above the last one), one per level, and each lies
+in [θ₀, θ_r] (θ₀ the binding crossover of fast_rigid, level 0): for every level F̃(θ₀) = 0 < 2πk < F̃(θ_r).
+The roots are independent, so they are solved together: the same bracketed Newton as
+fast_rigid.bracketed_newton, elementwise over the array of levels (each element keeps its own bracket, its own
+bisection and its own stopping rule: a step of 2 ulp or a bracket of 4 ulp), then the same secant polish on Im H
+(fast_rigid.polish_h), elementwise.  H is evaluated with CPython's own complex arithmetic written out in real
+arrays (products and Smith's quotient term by term, math's sin/cos and numpy's agree bit for bit), so a root that
+lands on the same θ as the one-at-a-time solve gets the same K to the last bit; F̃'s atan2/asin/tan may round a
+last bit differently from math's, which moves a root by an ulp at most before the polish.
+
+A python loop over levels cost ≈ 6 µs a crossover (the 200-sample-delay loop of issue 20 has 100 of them); the
+arrays cost a few numpy passes whatever their length.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from models.discretize import RigidZOH
+from optim.stability.fast_rigid import RigidLoop, bracketed_newton, k_equation, polish_h, rigid_loop
+
+__all__ = ["rigid_crossovers", "k_eq_array", "h_array", "newton_levels", "polish_array"]
+
+_EPS = 2.220446049250313e-16
+_HALF_PI = 0.5 * math.pi
+_TWO_PI = 2.0 * math.pi
+
+
+def k_eq_array(L: RigidLoop, beta: float, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """fast_rigid's F̃ − π/2 and its derivative (``_k_eq``; ``_psi`` at β = 0), elementwise, by the same
+    expressions in the same order."""
+    sh, ch = np.sin(0.5 * t), np.cos(0.5 * t)
+    st = 2.0 * sh * ch
+    re_p = L.omp - 2.0 * sh * sh
+    den_p = re_p * re_p + st * st
+    psi = L.slope * t - np.arctan2(re_p, st)
+    dphi = L.slope + (L.omp + 2.0 * L.p * sh * sh) / den_p
+    ch2 = 2.0 * ch * ch
+    if beta == 0.0:
+        for q, omq in L.zeros:
+            re_q = ch2 - omq
+            psi -= np.arctan2(st, re_q)
+            dphi -= (omq + 2.0 * q * ch * ch) / (re_q * re_q + st * st)
+        return psi, dphi
+    dlr = L.p * st / den_p
+    mag = np.sqrt(den_p) / L.lead
+    for q, omq in L.zeros:
+        re_q = ch2 - omq
+        den_q = re_q * re_q + st * st
+        psi -= np.arctan2(st, re_q)
+        dphi -= (omq + 2.0 * q * ch * ch) / den_q
+        dlr += q * st / den_q
+        mag /= np.sqrt(den_q)
+    g = beta * ch / mag
+    cap = g >= 1.0
+    if cap.any():
+        gc = np.where(cap, 0.0, g)
+        dg = gc * (-0.5 * np.tan(0.5 * t) - dlr)
+        return (np.where(cap, psi - _HALF_PI, psi - np.arcsin(gc)),
+                np.where(cap, dphi, dphi - dg / np.sqrt((1.0 - gc) * (1.0 + gc))))
+    dg = g * (-0.5 * np.tan(0.5 * t) - dlr)
+    return psi - np.arcsin(g), dphi - dg / np.sqrt((1.0 - g) * (1.0 + g))
+
+
+def _prod(ar, ai, br, bi):
+    """CPython's complex product (_Py_c_prod), term by term."""
+    return ar * br - ai * bi, ar * bi + ai * br
+
+
+def _quot(ar, ai, br, bi):
+    """CPython's complex quotient (_Py_c_quot, Smith's method with its two branches), term by term."""
+    first = np.abs(br) >= np.abs(bi)
+    r1 = bi / np.where(first, br, 1.0)
+    d1 = br + bi * r1
+    r2 = br / np.where(first, 1.0, bi)
+    d2 = br * r2 + bi
+    return (np.where(first, (ar + ai * r1) / d1, (ar * r2 + ai) / d2),
+            np.where(first, (ai - ar * r1) / d1, (ai * r2 - ar) / d2))
+
+
+def h_array(plant: RigidZOH, beta: float, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(Re H, Im H) at each θ: fast_rigid's ``_h`` (H = −1/G_n + β(e^{−jθ} − 1)) elementwise, every complex
+    operation of it written out as CPython performs it (a float operand taken as complex with imaginary 0)."""
+    sh = np.sin(0.5 * t)
+    st = np.sin(t)
+    cz = np.cos(t)
+    zr = -2.0 * sh * sh                               # z − 1 = (zr, st), without cancellation
+    omp, phi12, g0p, g0v, g1p, g1v, _ = plant.coefficients()
+    if plant.f == 0.0:
+        a, c = plant.f0_numerator()
+        nr, ni = a * (cz + 1.0) + c, a * st             # a·(z + 1) + c
+    else:
+        ir, ii = _quot(1.0, 0.0, cz, st)               # 1/z
+        pr, pi_ = g0p + g1p * ir, g1p * ii             # g0p + g1p/z
+        vr, vi = g0v + g1v * ir, g1v * ii              # g0v + g1v/z
+        nr, ni = _prod(pr, pi_, zr + omp, st)
+        nr, ni = nr + phi12 * vr, ni + phi12 * vi
+    dt = plant.d * t
+    ur, ui = _prod(zr, st, zr + omp, st)               # (z − 1)(z − 1 + 1 − p)
+    ur, ui = _prod(ur, ui, np.cos(dt), np.sin(dt))
+    ur, ui = _quot(ur, ui, nr, ni)
+    return -ur - 2.0 * beta * sh * sh, -ui - beta * st
+
+
+#: Newton passes over all levels at once; a level not settled by then is solved alone (fast_rigid's scalar path)
+_PASSES = 3
+#: fewest levels solved together (below it a python loop over them is cheaper than the numpy passes)
+_VECTOR_MIN = 40
+#: a Newton step below this (relative) leaves the next iterate within rounding of the root (quadratic
+#: convergence); the polish's secant step on Im H then confirms it to 8 ulp, else the level is solved alone
+_SETTLED = 1e-8
+
+
+def newton_levels(L: RigidLoop, beta: float, levels: np.ndarray, lo: float, hi: float,
+                  x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Newton on F̃ = level for every level at once from the starts ``x``: (iterates, settled) where settled marks
+    the levels whose last step was below _SETTLED (relative) with the iterate inside (lo, hi) and F̃' > 0 (F̃ rises
+    on [lo, hi] ⊂ [0, θ_r], so a root there is the level's only one)."""
+    for _ in range(_PASSES):
+        f, df = k_eq_array(L, beta, x)
+        rising = df > 0.0
+        step = (f - levels) / np.where(rising, df, np.inf)   # a level where F̃' ≤ 0 stays put, never settled
+        x = np.clip(x - step, lo, hi)
+        small = np.abs(step) <= _SETTLED * x
+        if small.all():
+            break
+    settled = small & rising & (lo < x) & (x < hi)
+    return x, settled
+
+
+def polish_array(plant: RigidZOH, beta: float, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """fast_rigid.polish_h elementwise: one secant step on Im H from each root, kept where it lowers |Im H|.
+    Returns (θ, Re H at θ, confirmed): confirmed where Im H is 0 at t, or the secant step is within 8 ulp of t (t
+    was within rounding of H's crossover); elsewhere the caller solves the level alone."""
+    n = t.size
+    h = 64.0 * _EPS * t
+    re, im = h_array(plant, beta, np.concatenate([t, t + h]))
+    re0, f0, f1 = re[:n], im[:n], im[n:]
+    flat = f1 == f0
+    t1 = t - f0 * h / np.where(flat, 1.0, f1 - f0)
+    near = np.abs(t1 - t) <= 8.0 * _EPS * t
+    confirmed = (f0 == 0.0) | (~flat & near)
+    try_ = ~flat & (f0 != 0.0) & (t1 != t) & near & (t1 < math.pi)
+    if not try_.any():
+        return t, re0, confirmed
+    re1, im1 = h_array(plant, beta, np.where(try_, t1, t))
+    take = try_ & (np.abs(im1) < np.abs(f0))
+    return np.where(take, t1, t), np.where(take, re1, re0), confirmed
+
+
+def _together(plant: RigidZOH, L: RigidLoop, beta: float, n: int, t0: float, tr: float,
+              top: float) -> list[tuple[float, float]]:
+    """The roots at the levels 2πk, k = 1…n, by numpy passes over all of them (module docstring)."""
+    levels = _TWO_PI * np.arange(1, n + 1)
+    # start on the chord of F̃ over [θ₀, θ_r] (F̃ nearly linear: (d + m + ½)θ plus bounded arguments)
+    x, settled = newton_levels(L, beta, levels, t0, tr, t0 + (tr - t0) * (levels / top))
+    theta, alpha, confirmed = polish_array(plant, beta, x)
+    pairs = list(zip(theta.tolist(), alpha.tolist()))
+    for i in np.flatnonzero(~(settled & confirmed)).tolist():
+        # alone, as _one_by_one solves it: bracketed Newton in [θ_{k−1}, θ_r] (F̃ = 2π(k − 1) < 2πk < F̃(θ_r)) from
+        # the last spacing, polished
+        pairs[i] = _level(plant, L, beta, i + 1, [(t0, 0.0), *pairs[:i]], tr)
+    return pairs
+
+
+def _level(plant: RigidZOH, L: RigidLoop, beta: float, k: int, below: list[tuple[float, float]],
+           tr: float) -> tuple[float, float]:
+    """The root at level 2πk alone, ``below`` the roots at the levels 0…k − 1: fast_rigid's bracketed Newton in
+    [θ_{k−1}, θ_r], started from the last spacing of the roots (F̃ is nearly linear there: Newton then starts a few
+    digits from the root), then polished."""
+    lo = below[-1][0]
+    start = lo + 2.0 * math.pi / (L.slope + 0.5) if k == 1 else min(lo + (lo - below[-2][0]), 0.5 * (lo + tr))
+    t = bracketed_newton(lambda x: k_equation(L, beta, x), _TWO_PI * k, lo, tr, min(start, 0.5 * (lo + tr)))
+    t, h_t = polish_h(plant, beta, t)
+    return t, h_t.real
+
+
+def _one_by_one(plant: RigidZOH, L: RigidLoop, beta: float, n: int, t0: float, tr: float) -> list[tuple[float, float]]:
+    """The roots at the levels 2πk, k = 1…n, in turn (few levels: numpy's per-call cost exceeds the loop's)."""
+    out = [(t0, 0.0)]
+    for k in range(1, n + 1):
+        out.append(_level(plant, L, beta, k, out, tr))
+    return out[1:]
+
+
+def rigid_crossovers(plant: RigidZOH, beta: float, first: tuple[float, float], tail,
+                     loop: RigidLoop | None = None) -> list[tuple[float, float]] | None:
+    """Every K > 0 crossover (θ, α), by frequency, for β below β_max; ``first`` is fast_rigid's (θ, α).
+
+    On [0, θ_r] the crossovers are F̃'s roots at the levels 2πk (k = 0 is ``first``), solved together (module
+    docstring); past θ_r, where nothing is monotone, ``tail(θ_r)`` (the scan restricted to [θ_r, π], Nyquist
+    included, or the Nyquist point alone where optim.stability.rigid_tail proves the rest clear) lists them.
+    None where the fast path has no θ_r (the caller scans everything)."""
+    L = loop if loop is not None else rigid_loop(plant)
+    if L is None:
+        return None
+    tr = L.theta_r
+    t0, a0 = first
+    out = [(t0, a0)]
+    if t0 < tr:
+        top = (L.half_pis_at_pi - 1) * _HALF_PI if tr == math.pi else k_equation(L, beta, tr)[0]
+        n = max(int(top // _TWO_PI), 0)                 # the levels 2πk < top, k ≥ 1, as the scalar loop counts
+        while _TWO_PI * (n + 1) < top:
+            n += 1
+        while n > 0 and not _TWO_PI * n < top:
+            n -= 1
+        if n >= _VECTOR_MIN:
+            out += _together(plant, L, beta, n, t0, tr, top)
+        elif n > 0:
+            out += _one_by_one(plant, L, beta, n, t0, tr)
+    # a tail crossover already listed (within 1e-12): the tail's lie in [θ_r, π] and the roots below θ_r rise
+    # with k, so the nearest root is the last one
+    seen = [out[-1][0]]
+    for t, a in tail(tr):
+        if all(abs(t - u) > 1e-12 * t for u in seen):
+            out.append((t, a))
+            seen.append(t)
+    out.sort()
+    return [c for c in out if c[1] > 0.0]
