@@ -3,16 +3,23 @@
 Notation of optim.stability.fast_rigid.  On [0, θ_r] F̃ = ψ − asin(min(g, 1)) rises, so the K > 0 crossovers
 there are its roots at the levels 2πk, k = 0, 1, … (F̃(θ_r) above the last one), one per level, and each lies
 in [θ₀, θ_r] (θ₀ the binding crossover of fast_rigid, level 0): for every level F̃(θ₀) = 0 < 2πk < F̃(θ_r).
-The roots are independent, so they are solved together: the same bracketed Newton as
-fast_rigid.bracketed_newton, elementwise over the array of levels (each element keeps its own bracket, its own
-bisection and its own stopping rule: a step of 2 ulp or a bracket of 4 ulp), then the same secant polish on Im H
-(fast_rigid.polish_h), elementwise.  H is evaluated with CPython's own complex arithmetic written out in real
-arrays (products and Smith's quotient term by term, math's sin/cos and numpy's agree bit for bit), so a root that
-lands on the same θ as the one-at-a-time solve gets the same K to the last bit; F̃'s atan2/asin/tan may round a
-last bit differently from math's, which moves a root by an ulp at most before the polish.
+The roots are independent, so past _VECTOR_MIN levels they are solved together: Newton passes on F̃ over the
+array of levels from the chord of F̃ on [θ₀, θ_r] (F̃ is (d + m + ½)θ plus bounded arguments: nearly linear), then
+fast_rigid.polish_h's secant step on Im H elementwise.  A level counts as solved when its last Newton step was
+below 1e-8 (relative; quadratic convergence leaves the next iterate within rounding of the root) inside (θ₀, θ_r)
+with F̃' > 0, AND the polish's secant step lands within 8 ulp (Im H confirms the crossover there); any other level
+(typically the last one, where the zero near −1 bends F̃ just below θ_r) is solved alone exactly as before
+(fast_rigid.bracketed_newton in [θ_{k−1}, θ_r], polished).  The count of roots is the monotonicity argument's, as
+before; no root is accepted without its bracket (θ₀, θ_r) and its confirmation.
 
-A python loop over levels cost ≈ 6 µs a crossover (the 200-sample-delay loop of issue 20 has 100 of them); the
-arrays cost a few numpy passes whatever their length.
+H is evaluated with CPython's own complex arithmetic written out in real arrays (products and Smith's quotient
+term by term; math's sin/cos and numpy's agree bit for bit), so polish_array returns fast_rigid.polish_h's bits at
+the same θ; F̃'s atan2/asin/tan in numpy may round a last bit differently from math's and the Newton path differs,
+which moves a root by an ulp or two at most (tests/optim/stability/test_rigid_levels.py).
+
+A python loop over levels costs ≈ 6 µs a crossover (the 200-sample-delay loop of issue 20 has 100 of them); the
+numpy passes cost ≈ 0.4 µs per operation whatever the length (≈ 150 operations in all), so below _VECTOR_MIN
+levels the loop stays.
 """
 
 from __future__ import annotations
