@@ -245,11 +245,12 @@ def _h(plant: RigidZOH, beta: float, t: float) -> complex:
     st = math.sin(t)
     z = complex(math.cos(t), st)
     zm1 = complex(-2.0 * sh * sh, st)                 # z − 1 without cancellation
-    omp, phi12, g0p, g0v, g1p, g1v, _ = plant.coefficients()
     if plant.f == 0.0:
+        omp = plant.coefficients()[0]
         a, c = plant.f0_numerator()
         num = a * (z + 1.0) + c
     else:
+        omp, phi12, g0p, g0v, g1p, g1v, _ = plant.coefficients()
         zinv = 1.0 / z
         num = (g0p + g1p * zinv) * (zm1 + omp) + phi12 * (g0v + g1v * zinv)
     dt = plant.d * t
@@ -333,6 +334,7 @@ def fast_rigid(plant: RigidZOH, beta: float, beta_max: float | None = None,
         fk, _ = _k_eq(L, beta, hi)
     if not fk > 0.0:
         return None                           # no K crossover below θ_r (or β_max rounded the other way)
-    t = bracketed_newton(lambda x: _k_eq(L, beta, x), 0.0, 0.0, hi, _start(L, L.omp + beta, _HALF_PI, hi))
+    fun = (lambda x: _psi(L, x)) if beta == 0.0 else (lambda x: _k_eq(L, beta, x))   # _k_eq's own branch, one call less
+    t = bracketed_newton(fun, 0.0, 0.0, hi, _start(L, L.omp + beta, _HALF_PI, hi))
     t, h_t = polish_h(plant, beta, t)
     return FastRigid(h_t.real, t, bmax)

@@ -18,8 +18,8 @@ the same θ; F̃'s atan2/asin/tan in numpy may round a last bit differently from
 which moves a root by an ulp or two at most (tests/optim/stability/test_rigid_levels.py).
 
 A python loop over levels costs ≈ 6 µs a crossover (the 200-sample-delay loop of issue 20 has 100 of them); the
-numpy passes cost ≈ 0.4 µs per operation whatever the length (≈ 150 operations in all), so below _VECTOR_MIN
-levels the loop stays.
+numpy passes cost ≈ 0.4 µs per operation whatever the length (≈ 250 operations in all), so below _VECTOR_MIN
+levels the loop stays (with fast_rigid's evaluators bound to the loop's numbers once: the same operations).
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ import math
 import numpy as np
 
 from models.discretize import RigidZOH
-from optim.stability.fast_rigid import RigidLoop, bracketed_newton, k_equation, polish_h, rigid_loop
+from optim.stability.fast_rigid import RigidLoop, bracketed_newton, k_equation, rigid_loop
 
 __all__ = ["rigid_crossovers", "k_eq_array", "h_array", "newton_levels", "polish_array"]
 
@@ -116,8 +116,10 @@ def h_array(plant: RigidZOH, beta: float, t: np.ndarray) -> tuple[np.ndarray, np
 
 #: Newton passes over all levels at once; a level not settled by then is solved alone (fast_rigid's scalar path)
 _PASSES = 3
-#: fewest levels solved together (below it a python loop over them is cheaper than the numpy passes)
-_VECTOR_MIN = 40
+#: fewest levels solved together: below it the python loop is cheaper, hot and above all right after the process
+#: slept (a server between requests), where numpy's larger code path pays more cache misses (d = 80, 42 crossovers:
+#: 262 µs by the loop against 323 µs; d = 130, 67 crossovers: 385 against 350; 0.5 ms sleep before each call)
+_VECTOR_MIN = 48
 #: a Newton step below this (relative) leaves the next iterate within rounding of the root (quadratic
 #: convergence); the polish's secant step on Im H then confirms it to 8 ulp, else the level is solved alone
 _SETTLED = 1e-8
@@ -175,23 +177,96 @@ def _together(plant: RigidZOH, L: RigidLoop, beta: float, n: int, t0: float, tr:
     return pairs
 
 
+def _scalar_h(plant: RigidZOH):
+    """fast_rigid's ``_h`` (H at one θ) with the plant's coefficients bound once: the same operations, so the same
+    bits (the per-call unpacking of the coefficients was a sixth of a level's cost)."""
+    omp, phi12, g0p, g0v, g1p, g1v, _ = plant.coefficients()
+    d, sin, cos = plant.d, math.sin, math.cos
+    if plant.f == 0.0:
+        a, c = plant.f0_numerator()
+
+        def h(beta: float, t: float) -> complex:
+            sh = sin(0.5 * t)
+            st = sin(t)
+            z = complex(cos(t), st)
+            zm1 = complex(-2.0 * sh * sh, st)
+            num = a * (z + 1.0) + c
+            dt = d * t
+            inv = zm1 * (zm1 + omp) * complex(cos(dt), sin(dt)) / num
+            return complex(-inv.real - 2.0 * beta * sh * sh, -inv.imag - beta * st)
+        return h
+
+    def h_frac(beta: float, t: float) -> complex:
+        sh = sin(0.5 * t)
+        st = sin(t)
+        z = complex(cos(t), st)
+        zm1 = complex(-2.0 * sh * sh, st)
+        zinv = 1.0 / z
+        num = (g0p + g1p * zinv) * (zm1 + omp) + phi12 * (g0v + g1v * zinv)
+        dt = d * t
+        inv = zm1 * (zm1 + omp) * complex(cos(dt), sin(dt)) / num
+        return complex(-inv.real - 2.0 * beta * sh * sh, -inv.imag - beta * st)
+    return h_frac
+
+
+def _scalar_k_eq(L: RigidLoop, beta: float):
+    """fast_rigid's F̃ (``k_equation``) at one θ; at β = 0 with one zero (a whole-sample delay) its ``_psi`` with the
+    loop's numbers bound once, the same operations (so the same bits)."""
+    if beta != 0.0 or len(L.zeros) != 1:
+        return lambda t: k_equation(L, beta, t)
+    omp, slope, two_p = L.omp, L.slope, 2.0 * L.p
+    (q, omq), = L.zeros
+    two_q, sin, cos, atan2 = 2.0 * q, math.sin, math.cos, math.atan2
+
+    def psi(t: float) -> tuple[float, float]:
+        sh, ch = sin(0.5 * t), cos(0.5 * t)
+        st = 2.0 * sh * ch
+        re_p = omp - 2.0 * sh * sh
+        den_p = re_p * re_p + st * st
+        phi = slope * t - atan2(re_p, st)
+        dphi = slope + (omp + two_p * sh * sh) / den_p
+        re_q = 2.0 * ch * ch - omq
+        phi -= atan2(st, re_q)
+        dphi -= (omq + two_q * ch * ch) / (re_q * re_q + st * st)
+        return phi, dphi
+    return psi
+
+
+def _polish(h, beta: float, t: float) -> tuple[float, float]:
+    """fast_rigid.polish_h with the bound H of ``_scalar_h``: (θ, Re H(θ))."""
+    dh = 64.0 * _EPS * t
+    v0 = h(beta, t)
+    f0, f1 = v0.imag, h(beta, t + dh).imag
+    if f1 == f0 or f0 == 0.0:
+        return t, v0.real
+    t1 = t - f0 * dh / (f1 - f0)
+    if t1 == t:
+        return t, v0.real
+    if abs(t1 - t) <= 8.0 * _EPS * t and t1 < math.pi:
+        v1 = h(beta, t1)
+        if abs(v1.imag) < abs(f0):
+            return t1, v1.real
+    return t, v0.real
+
+
 def _level(plant: RigidZOH, L: RigidLoop, beta: float, k: int, below: list[tuple[float, float]],
-           tr: float) -> tuple[float, float]:
+           tr: float, fun=None, h=None) -> tuple[float, float]:
     """The root at level 2πk alone, ``below`` the roots at the levels 0…k − 1: fast_rigid's bracketed Newton in
     [θ_{k−1}, θ_r], started from the last spacing of the roots (F̃ is nearly linear there: Newton then starts a few
-    digits from the root), then polished."""
+    digits from the root), then polished.  ``fun``, ``h``: _scalar_k_eq and _scalar_h of this loop, when the caller
+    has them."""
     lo = below[-1][0]
     start = lo + 2.0 * math.pi / (L.slope + 0.5) if k == 1 else min(lo + (lo - below[-2][0]), 0.5 * (lo + tr))
-    t = bracketed_newton(lambda x: k_equation(L, beta, x), _TWO_PI * k, lo, tr, min(start, 0.5 * (lo + tr)))
-    t, h_t = polish_h(plant, beta, t)
-    return t, h_t.real
+    t = bracketed_newton(fun or _scalar_k_eq(L, beta), _TWO_PI * k, lo, tr, min(start, 0.5 * (lo + tr)))
+    return _polish(h or _scalar_h(plant), beta, t)
 
 
 def _one_by_one(plant: RigidZOH, L: RigidLoop, beta: float, n: int, t0: float, tr: float) -> list[tuple[float, float]]:
     """The roots at the levels 2πk, k = 1…n, in turn (few levels: numpy's per-call cost exceeds the loop's)."""
     out = [(t0, 0.0)]
+    fun, h = _scalar_k_eq(L, beta), _scalar_h(plant)
     for k in range(1, n + 1):
-        out.append(_level(plant, L, beta, k, out, tr))
+        out.append(_level(plant, L, beta, k, out, tr, fun, h))
     return out[1:]
 
 
