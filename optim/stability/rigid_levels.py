@@ -261,8 +261,71 @@ def _level(plant: RigidZOH, L: RigidLoop, beta: float, k: int, below: list[tuple
     return _polish(h or _scalar_h(plant), beta, t)
 
 
+def _undamped_whole(plant: RigidZOH, L: RigidLoop, n: int, t0: float, tr: float) -> list[tuple[float, float]]:
+    """_one_by_one at β = 0 with one zero (a whole-sample delay), the commonest loop: fast_rigid's bracketed Newton
+    and ``_psi`` written out in one loop (the same operations, so the same roots), and the polish's secant slope
+    taken from the root's own derivative: at β = 0, H = −2j·sin(θ/2)·R·e^{jφ}, so arg H = ψ (mod 2π) and at a
+    crossover d(Im H)/dθ = Re H·φ', where polish_h spent an evaluation of H 64 ulp away on it.  The step is ≤ 8 ulp
+    and kept only where it lowers |Im H| (polish_h's test), so θ moves by the same ulps up to rounding of the step."""
+    h = _scalar_h(plant)
+    omp, slope, two_p = L.omp, L.slope, 2.0 * L.p
+    (q, omq), = L.zeros
+    two_q, sin, cos, atan2, sqrt = 2.0 * q, math.sin, math.cos, math.atan2, math.sqrt
+    eps2, eps4, eps8, step1 = 2.0 * _EPS, 4.0 * _EPS, 8.0 * _EPS, 2.0 * math.pi / (L.slope + 0.5)
+    out = [(t0, 0.0)]
+    for k in range(1, n + 1):
+        level, lo, hi = _TWO_PI * k, out[-1][0], tr
+        start = lo + step1 if k == 1 else min(lo + (lo - out[-2][0]), 0.5 * (lo + tr))
+        x = min(start, 0.5 * (lo + tr))
+        t = dphi = math.nan
+        for _ in range(200):                              # fast_rigid.bracketed_newton, default tolerances
+            if not (lo < x < hi):
+                x = sqrt(lo * hi) if lo > 0.0 and hi > 8.0 * lo else 0.5 * (lo + hi)
+            sh, ch = sin(0.5 * x), cos(0.5 * x)           # fast_rigid._psi
+            st = 2.0 * sh * ch
+            re_p = omp - 2.0 * sh * sh
+            den_p = re_p * re_p + st * st
+            fx = slope * x - atan2(re_p, st)
+            dphi = slope + (omp + two_p * sh * sh) / den_p
+            re_q = 2.0 * ch * ch - omq
+            fx -= atan2(st, re_q)
+            dphi -= (omq + two_q * ch * ch) / (re_q * re_q + st * st)
+            if fx == level:
+                t = x
+                break
+            if fx < level:
+                lo = x
+            else:
+                hi = x
+            if hi - lo <= eps4 * hi:
+                t = x
+                break
+            step = (fx - level) / dphi if dphi > 0.0 else math.inf
+            xn = x - step
+            if abs(step) <= eps2 * x and lo <= xn <= hi:
+                t = xn
+                break
+            x = xn
+        else:
+            t = x
+        v0 = h(0.0, t)
+        f0, a0 = v0.imag, v0.real
+        if f0 != 0.0 and a0 > 0.0 and dphi > 0.0:
+            t1 = t - f0 / (a0 * dphi)
+            if t1 != t and abs(t1 - t) <= eps8 * t and t1 < math.pi:
+                v1 = h(0.0, t1)
+                if abs(v1.imag) < abs(f0):
+                    t, a0 = t1, v1.real
+        elif f0 != 0.0:
+            t, a0 = _polish(h, 0.0, t)
+        out.append((t, a0))
+    return out[1:]
+
+
 def _one_by_one(plant: RigidZOH, L: RigidLoop, beta: float, n: int, t0: float, tr: float) -> list[tuple[float, float]]:
     """The roots at the levels 2πk, k = 1…n, in turn (few levels: numpy's per-call cost exceeds the loop's)."""
+    if beta == 0.0 and len(L.zeros) == 1:
+        return _undamped_whole(plant, L, n, t0, tr)
     out = [(t0, 0.0)]
     fun, h = _scalar_k_eq(L, beta), _scalar_h(plant)
     for k in range(1, n + 1):
