@@ -286,8 +286,10 @@ def _damper_start(L: RigidLoop, hi: float) -> float:
     return min(x, 0.5 * hi)
 
 
+@lru_cache(maxsize=4096)
 def _damper_root(L: RigidLoop) -> tuple[float, float] | None:
-    """(θ_b, β_max): the damper-only loop's first crossover, or None when it is past θ_rb."""
+    """(θ_b, β_max): the damper-only loop's first crossover, or None when it is past θ_rb.  A property of the
+    device's loop alone, cached as rigid_loop is (a design or a study asks K_cr(B) of one device at many B)."""
     tr = L.theta_rb
     # at θ = π exactly: ψ(π) = (half_pis_at_pi − 1)·π/2, so ψ + θ/2 = half_pis_at_pi·π/2
     fb = L.half_pis_at_pi * _HALF_PI if tr == math.pi else _damper_eq(L, tr)[0]

@@ -39,38 +39,40 @@ _TWO_PI = 2.0 * math.pi
 
 
 def k_eq_array(L: RigidLoop, beta: float, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """fast_rigid's F̃ − π/2 and its derivative (``_k_eq``; ``_psi`` at β = 0), elementwise, by the same
-    expressions in the same order."""
-    sh, ch = np.sin(0.5 * t), np.cos(0.5 * t)
+    """fast_rigid's F̃ − π/2 and its derivative (``_k_eq``; ``_psi`` at β = 0), elementwise: the same formulas, the
+    squares shared (the derivative's last bits may differ from the scalar's: it only steers Newton)."""
+    half = 0.5 * t
+    sh, ch = np.sin(half), np.cos(half)
     st = 2.0 * sh * ch
-    re_p = L.omp - 2.0 * sh * sh
-    den_p = re_p * re_p + st * st
+    sh2, st2 = sh * sh, st * st
+    re_p = L.omp - 2.0 * sh2
+    den_p = re_p * re_p + st2
     psi = L.slope * t - np.arctan2(re_p, st)
-    dphi = L.slope + (L.omp + 2.0 * L.p * sh * sh) / den_p
+    dphi = L.slope + (L.omp + 2.0 * L.p * sh2) / den_p
     ch2 = 2.0 * ch * ch
     if beta == 0.0:
         for q, omq in L.zeros:
             re_q = ch2 - omq
             psi -= np.arctan2(st, re_q)
-            dphi -= (omq + 2.0 * q * ch * ch) / (re_q * re_q + st * st)
+            dphi -= (omq + q * ch2) / (re_q * re_q + st2)
         return psi, dphi
     dlr = L.p * st / den_p
     mag = np.sqrt(den_p) / L.lead
     for q, omq in L.zeros:
         re_q = ch2 - omq
-        den_q = re_q * re_q + st * st
+        den_q = re_q * re_q + st2
         psi -= np.arctan2(st, re_q)
-        dphi -= (omq + 2.0 * q * ch * ch) / den_q
+        dphi -= (omq + q * ch2) / den_q
         dlr += q * st / den_q
         mag /= np.sqrt(den_q)
     g = beta * ch / mag
     cap = g >= 1.0
     if cap.any():
         gc = np.where(cap, 0.0, g)
-        dg = gc * (-0.5 * np.tan(0.5 * t) - dlr)
+        dg = gc * (-0.5 * np.tan(half) - dlr)
         return (np.where(cap, psi - _HALF_PI, psi - np.arcsin(gc)),
                 np.where(cap, dphi, dphi - dg / np.sqrt((1.0 - gc) * (1.0 + gc))))
-    dg = g * (-0.5 * np.tan(0.5 * t) - dlr)
+    dg = g * (-0.5 * np.tan(half) - dlr)
     return psi - np.arcsin(g), dphi - dg / np.sqrt((1.0 - g) * (1.0 + g))
 
 
@@ -82,6 +84,14 @@ def _prod(ar, ai, br, bi):
 def _quot(ar, ai, br, bi):
     """CPython's complex quotient (_Py_c_quot, Smith's method with its two branches), term by term."""
     first = np.abs(br) >= np.abs(bi)
+    if first.all():                                   # one branch for every element (the usual case): no masks
+        r = bi / br
+        den = br + bi * r
+        return (ar + ai * r) / den, (ai - ar * r) / den
+    if not first.any():
+        r = br / bi
+        den = br * r + bi
+        return (ar * r + ai) / den, (ai * r - ar) / den
     r1 = bi / np.where(first, br, 1.0)
     d1 = br + bi * r1
     r2 = br / np.where(first, 1.0, bi)
@@ -111,6 +121,8 @@ def h_array(plant: RigidZOH, beta: float, t: np.ndarray) -> tuple[np.ndarray, np
     ur, ui = _prod(zr, st, zr + omp, st)               # (z − 1)(z − 1 + 1 − p)
     ur, ui = _prod(ur, ui, np.cos(dt), np.sin(dt))
     ur, ui = _quot(ur, ui, nr, ni)
+    if beta == 0.0:   # − 0·(…) changes no bit of a nonzero value
+        return -ur, -ui
     return -ur - 2.0 * beta * sh * sh, -ui - beta * st
 
 
