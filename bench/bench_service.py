@@ -151,12 +151,14 @@ def loops_over_http(port: int, repeats: int) -> list[LoopRow]:
     """The full exact analysis (K = K_cr/2 and B given) over HTTP, beside python-control on the same loop."""
     from bench.bench_core import _control_default, _control_system
     from models.device import Device
+    from optim.stability.analysis import analyse_stability
     from optim.stability.margins import critical_stiffness
 
     rows = []
-    conn = http.client.HTTPConnection("127.0.0.1", port, timeout=60)
-    try:
-        for label, dev_kw, b in LOOPS:
+    for label, dev_kw, b in LOOPS:
+        # a connection per loop: the in-process timings below outlast uvicorn's keep-alive (5 s) on a loaded machine
+        conn = http.client.HTTPConnection("127.0.0.1", port, timeout=60)
+        try:
             dev = Device(sample_time=1e-3, **dev_kw)
             k = 0.5 * critical_stiffness(dev, b).critical_stiffness
             body = json.dumps({"device": {**dev_kw, "sample_time": 1e-3},
@@ -168,30 +170,28 @@ def loops_over_http(port: int, repeats: int) -> list[LoopRow]:
                 dt, res = _post(conn, body)
                 walls.append(dt * 1e3)
                 elapsed.append(res["elapsed_ms"])
-            from optim.stability.analysis import analyse_stability
-
-            hot = []
-            for _ in range(repeats):
-                t0 = time.perf_counter()
-                analyse_stability(dev, k, b)
-                hot.append((time.perf_counter() - t0) * 1e3)
-            # as the server runs it: the process slept (on its socket) before each call, so the numerics start with
-            # cold caches; elapsed_ms, the server's own measure
-            slept = []
-            for _ in range(repeats):
-                time.sleep(SLEEP_S)
-                slept.append(analyse_stability(dev, k, b).elapsed_ms)
-            sys_ = _control_system(dev, b)
+        finally:
+            conn.close()
+        hot = []
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            analyse_stability(dev, k, b)
+            hot.append((time.perf_counter() - t0) * 1e3)
+        # as the server runs it: the process slept (on its socket) before each call, so the numerics start with
+        # cold caches; elapsed_ms, the server's own measure
+        slept = []
+        for _ in range(repeats):
+            time.sleep(SLEEP_S)
+            slept.append(analyse_stability(dev, k, b).elapsed_ms)
+        sys_ = _control_system(dev, b)
+        _control_default(sys_)
+        ctrl = []
+        for _ in range(max(3, repeats // 10)):
+            t0 = time.perf_counter()
             _control_default(sys_)
-            ctrl = []
-            for _ in range(max(3, repeats // 10)):
-                t0 = time.perf_counter()
-                _control_default(sys_)
-                ctrl.append((time.perf_counter() - t0) * 1e3)
-            rows.append(LoopRow(label, statistics.median(elapsed), statistics.median(walls), statistics.median(ctrl),
-                                statistics.median(hot), statistics.median(slept)))
-    finally:
-        conn.close()
+            ctrl.append((time.perf_counter() - t0) * 1e3)
+        rows.append(LoopRow(label, statistics.median(elapsed), statistics.median(walls), statistics.median(ctrl),
+                            statistics.median(hot), statistics.median(slept)))
     return rows
 
 
