@@ -84,6 +84,10 @@ class StabilityAnalysis:
     rigid_critical_stiffness: float | None
     method: Method
     elapsed_ms: float
+    """Wall time [ms] of the analysis itself, in the calling thread: from after the input checks (method,
+    grid_points, stiffness, damping) to the answer (the rung's K_cr and every crossover, margin, stability,
+    passivity, the cable's rigid K_cr, B_max, the linear estimate and its error); this record's construction and
+    anything the caller does (HTTP parsing, validation, serialisation) excluded."""
     error_estimate: float
     """Relative error bound or estimate of critical_stiffness."""
     error_source: str

@@ -39,7 +39,7 @@ from functools import lru_cache
 
 from models.discretize import RigidZOH
 
-__all__ = ["RigidLoop", "FastRigid", "rigid_loop", "fast_rigid", "fast_beta_max", "rigid_crossovers", "re_h",
+__all__ = ["RigidLoop", "FastRigid", "rigid_loop", "fast_rigid", "fast_beta_max", "re_h", "k_equation",
            "bracketed_newton",
            "MIN_ZERO_GAP"]
 
@@ -176,6 +176,10 @@ def _k_eq(L: RigidLoop, beta: float, t: float) -> tuple[float, float]:
     return psi - math.asin(g), dphi - dg / math.sqrt((1.0 - g) * (1.0 + g))
 
 
+#: F̃ − π/2 and its derivative at one θ (the levels of optim.stability.rigid_levels are read against it)
+k_equation = _k_eq
+
+
 def bracketed_newton(fun, level: float, lo: float, hi: float, x: float, step_rtol: float = 2.0 * _EPS,
                      bracket_rtol: float = 4.0 * _EPS) -> float:
     """The root of the non-decreasing fun(θ) = level in [lo, hi] (fun(lo) < level ≤ fun(hi); fun returns the value
@@ -241,11 +245,12 @@ def _h(plant: RigidZOH, beta: float, t: float) -> complex:
     st = math.sin(t)
     z = complex(math.cos(t), st)
     zm1 = complex(-2.0 * sh * sh, st)                 # z − 1 without cancellation
-    omp, phi12, g0p, g0v, g1p, g1v, _ = plant.coefficients()
     if plant.f == 0.0:
+        omp = plant.coefficients()[0]
         a, c = plant.f0_numerator()
         num = a * (z + 1.0) + c
     else:
+        omp, phi12, g0p, g0v, g1p, g1v, _ = plant.coefficients()
         zinv = 1.0 / z
         num = (g0p + g1p * zinv) * (zm1 + omp) + phi12 * (g0v + g1v * zinv)
     dt = plant.d * t
@@ -281,8 +286,10 @@ def _damper_start(L: RigidLoop, hi: float) -> float:
     return min(x, 0.5 * hi)
 
 
+@lru_cache(maxsize=4096)
 def _damper_root(L: RigidLoop) -> tuple[float, float] | None:
-    """(θ_b, β_max): the damper-only loop's first crossover, or None when it is past θ_rb."""
+    """(θ_b, β_max): the damper-only loop's first crossover, or None when it is past θ_rb.  A property of the
+    device's loop alone, cached as rigid_loop is (a design or a study asks K_cr(B) of one device at many B)."""
     tr = L.theta_rb
     # at θ = π exactly: ψ(π) = (half_pis_at_pi − 1)·π/2, so ψ + θ/2 = half_pis_at_pi·π/2
     fb = L.half_pis_at_pi * _HALF_PI if tr == math.pi else _damper_eq(L, tr)[0]
@@ -329,41 +336,7 @@ def fast_rigid(plant: RigidZOH, beta: float, beta_max: float | None = None,
         fk, _ = _k_eq(L, beta, hi)
     if not fk > 0.0:
         return None                           # no K crossover below θ_r (or β_max rounded the other way)
-    t = bracketed_newton(lambda x: _k_eq(L, beta, x), 0.0, 0.0, hi, _start(L, L.omp + beta, _HALF_PI, hi))
+    fun = (lambda x: _psi(L, x)) if beta == 0.0 else (lambda x: _k_eq(L, beta, x))   # _k_eq's own branch, one call less
+    t = bracketed_newton(fun, 0.0, 0.0, hi, _start(L, L.omp + beta, _HALF_PI, hi))
     t, h_t = polish_h(plant, beta, t)
     return FastRigid(h_t.real, t, bmax)
-
-
-def rigid_crossovers(plant: RigidZOH, beta: float, first: tuple[float, float], tail,
-                     loop: RigidLoop | None = None) -> list[tuple[float, float]] | None:
-    """Every K > 0 crossover (θ, α), by frequency, for β below β_max; ``first`` is fast_rigid's (θ, α).
-
-    On [0, θ_r] F̃ rises, so the crossovers are its roots at the levels π/2 + 2πk, k = 0, 1, …, one each,
-    found in turn by the same bracketed Newton (k = 0 is ``first``); past θ_r, where nothing is monotone,
-    ``tail(θ_r)`` (the scan restricted to [θ_r, π], Nyquist included) lists them.  None where the fast path
-    has no θ_r (the caller scans everything)."""
-    L = loop if loop is not None else rigid_loop(plant)
-    if L is None:
-        return None
-    tr = L.theta_r
-    t0, a0 = first
-    out = [(t0, a0)]
-    if t0 < tr:
-        top = (L.half_pis_at_pi - 1) * _HALF_PI if tr == math.pi else _k_eq(L, beta, tr)[0]
-        lo, step = t0, 2.0 * math.pi / (L.slope + 0.5)
-        fun = (lambda x: _psi(L, x)) if beta == 0.0 else (lambda x: _k_eq(L, beta, x))
-        k = 1
-        while 2.0 * math.pi * k < top:
-            level = 2.0 * math.pi * k
-            # from the second level on, the last spacing of the roots (F̃ is nearly linear there): Newton then
-            # starts a few digits from the root
-            start = lo + step if k == 1 else min(lo + (lo - out[-2][0]), 0.5 * (lo + tr))
-            t = bracketed_newton(fun, level, lo, tr, min(start, 0.5 * (lo + tr)))
-            t, h_t = polish_h(plant, beta, t)
-            out.append((t, h_t.real))
-            lo, k = t, k + 1
-    for t, a in tail(tr):
-        if all(abs(t - u) > 1e-12 * t for u, _ in out):
-            out.append((t, a))
-    out.sort()
-    return [c for c in out if c[1] > 0.0]

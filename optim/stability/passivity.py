@@ -110,8 +110,22 @@ def _p_slopes(theta: np.ndarray, d: int, hk: float, damping: float) -> tuple[np.
 
 
 def _p_slopes_at(t: float, d: int, hk: float, damping: float) -> tuple[float, float]:
-    """``_p_slopes`` at one θ: the same sums, in plain floats up to 32 terms (array calls cost more there)."""
+    """``_p_slopes`` at one θ: the same sums in plain floats up to 32 terms (array calls cost more there); beyond,
+    where (d + ½)θ ≥ 1, the derivatives of the closed form s_d = sin(Nθ)/sin(θ/2), N = d + ½ (from
+    s_d·sin(θ/2) = sin(Nθ): s' = (N cos Nθ − ½ s cos(θ/2))/sin(θ/2), s'' = (−N² sin Nθ − s' cos(θ/2) + ¼ s sin(θ/2))
+    /sin(θ/2)), whose rounding error ≈ ε·N/sin(θ/2) stays ≈ ε relative to s' there (|s'| ≳ N³θ in the main lobe,
+    ≈ N²/sin(θ/2) past it); below, the sums (the closed form's 0/0 at θ = 0)."""
     if d > 32:
+        big_n = d + 0.5
+        u = big_n * t
+        if u >= 1.0:
+            sv, cv = math.sin(0.5 * t), math.cos(0.5 * t)
+            su = math.sin(u)
+            s = su / sv
+            ds = (big_n * math.cos(u) - 0.5 * s * cv) / sv
+            dds = (-big_n * big_n * su - ds * cv + 0.25 * s * sv) / sv
+            e = d + 1.0
+            return hk * ds + damping * e * math.sin(e * t), hk * dds + damping * e * e * math.cos(e * t)
         fa, fpa = _p_slopes(np.array([t]), d, hk, damping)
         return float(fa[0]), float(fpa[0])
     ds = dds = 0.0
@@ -170,11 +184,16 @@ def _passivity_prefix(d: int, n: int, hk: float, damping: float) -> tuple[np.nda
         theta = np.arange(lo, hi) * step
         if hi == n:
             theta[-1] = math.pi                              # as linspace sets its end point
-        s, c = kernel(theta, d)
-        return theta, hk * s - damping * c
+        # kernel's operations elementwise, its θ = 0 limit set apart (no masks, no errstate: a third of the cost)
+        s = np.empty_like(theta)
+        pos = theta[1:] if lo == 0 else theta
+        np.divide(np.sin((d + 0.5) * pos), np.sin(pos / 2), out=s[1:] if lo == 0 else s)
+        if lo == 0:
+            s[0] = 2 * d + 1.0
+        return theta, hk * s - damping * np.cos((d + 1) * theta)
 
-    s_pi, c_pi = kernel(np.array([math.pi]), d)
-    v_pi = float(hk * s_pi[0] - damping * c_pi[0])
+    # P(π) by kernel's own operations in plain floats (math's sin/cos are numpy's, bit for bit)
+    v_pi = hk * (math.sin((d + 0.5) * math.pi) / math.sin(math.pi / 2)) - damping * math.cos((d + 1) * math.pi)
     first = min(n, 3 * 64 + 3)
     grid, vals = samples(0, first)
     v_low, c = max(float(vals.max()), v_pi), hk + damping
