@@ -120,16 +120,30 @@ def encode_block(start: int, values: np.ndarray, results: Sequence[dict | None],
         if any(r and not p for r, p in zip(results, present)):
             arrays.append(pa.array(present, pa.bool_()))
             fields.append(pa.field(f"m:{key}", pa.bool_()))
-    batch = pa.RecordBatch.from_arrays(arrays, schema=pa.schema(fields))
-    sink = pa.BufferOutputStream()
-    with pa.ipc.new_stream(sink, batch.schema) as writer:
-        writer.write_batch(batch)
+    data = _stream(pa.RecordBatch.from_arrays(arrays, schema=pa.schema(fields)))
     failed = sum(e is not None for e in errors)
-    return Block(int(start), n, failed, digest or block_hash(start, values), sink.getvalue().to_pybytes())
+    return Block(int(start), n, failed, digest or block_hash(start, values), data)
+
+
+#: Arrow IPC buffer compression of new blocks.  LZ4 frames halve a rigid study's blocks (critical_stiffness 16,384
+#: points: 991 → 535 kB, stability 1,652 → 670 kB) for ~0.4 ms per block written and ~0.3 ms read, against ~47 ms
+#: of evaluation; zstd saves another 8 % for 2-4 × the time.  A reader needs nothing: the IPC stream says how each
+#: buffer is compressed, and blocks stored uncompressed (before this) read as they are.
+COMPRESSION = "lz4"
+
+
+def _stream(batch) -> bytes:
+    """One record batch as an Arrow IPC stream (buffers compressed with COMPRESSION)."""
+    import pyarrow as pa
+
+    sink = pa.BufferOutputStream()
+    with pa.ipc.new_stream(sink, batch.schema, options=pa.ipc.IpcWriteOptions(compression=COMPRESSION)) as writer:
+        writer.write_batch(batch)
+    return sink.getvalue().to_pybytes()
 
 
 def read_table(data: bytes):
-    """The block's Arrow table (zero copy over ``data``)."""
+    """The block's Arrow table (zero copy over ``data`` when its buffers are not compressed)."""
     import pyarrow as pa
 
     return pa.ipc.open_stream(pa.py_buffer(data)).read_all()
@@ -212,12 +226,9 @@ def encode_columns(start: int, values: np.ndarray, has_result: np.ndarray, colum
             meta = {b"kinds": b"bool" if vals.dtype == bool else b"float"}
         arrays.append(arr)
         fields.append(pa.field(f"r:{key}", arr.type, metadata=meta))
-    batch = pa.RecordBatch.from_arrays(arrays, schema=pa.schema(fields))
-    sink = pa.BufferOutputStream()
-    with pa.ipc.new_stream(sink, batch.schema) as writer:
-        writer.write_batch(batch)
+    data = _stream(pa.RecordBatch.from_arrays(arrays, schema=pa.schema(fields)))
     failed = sum(e is not None for e in errors)
-    return Block(int(start), len(has), failed, digest or block_hash(start, values), sink.getvalue().to_pybytes())
+    return Block(int(start), len(has), failed, digest or block_hash(start, values), data)
 
 
 def evaluate_block(problem: str, device: dict[str, Any], requirements: dict[str, Any],

@@ -176,8 +176,23 @@ def test_adaptive_chunk_size():
     assert runner.adaptive_size(64, None, 1000, 4) == 1          # unknown pace: one point
     assert runner.adaptive_size(64, 0.1, 1000, 4) == 5           # 0.5 s of 0.1 s points
     assert runner.adaptive_size(64, 1e-5, 1000, 4) == 64         # fast points: the configured chunk
-    assert runner.adaptive_size(64, 1e-5, 12, 4) == 3            # the last points spread over the workers
+    assert runner.adaptive_size(64, 0.01, 12, 4) == 3            # the last slow points spread over the workers
+    assert runner.adaptive_size(64, 1e-5, 12, 4) >= 12           # ... but 0.1 ms of work stays one chunk
+    assert runner.adaptive_size(64, 1e-5, 200, 4) == 64          # (MIN_CHUNK_SECONDS: 2,000 points of 10 µs)
+    assert runner.adaptive_size(10**6, 1e-5, 10**5, 4) == 25000  # an even share while it is worth a task
     assert runner.adaptive_size(64, 10.0, 1000, 4) == 1
+
+
+def test_pace_trusts_larger_chunks_and_halves_on_equal_ones():
+    pace = {"per_point": None}
+    StudyRunner.update_pace(pace, 0.004, 1)          # a 1-point chunk: its fixed cost reads as a slow point
+    assert pace == {"per_point": 0.004, "n": 1}
+    StudyRunner.update_pace(pace, 0.005, 1000)       # measured on more points: taken as it is
+    assert pace == {"per_point": 5e-6, "n": 1000}
+    StudyRunner.update_pace(pace, 0.001, 1000)       # faster on as many points: at most halves
+    assert pace["per_point"] == 2.5e-6
+    StudyRunner.update_pace(pace, 0.1, 10)           # slower: at once, whatever the chunk
+    assert pace == {"per_point": 0.01, "n": 10}
 
 
 def test_a_resume_computes_only_the_gaps_and_a_stale_chunk_again(tmp_path):
