@@ -73,3 +73,41 @@ def test_chunks_the_columns_do_not_take():
     assert evaluate_columns("stability", {"preset": "lhifam"}, {}, [("device.delay", "float")], v, None) is None
     assert evaluate_columns("stability", RIGID, {}, [("device.human.mass", "float")], v, None) is None
     assert evaluate_columns("stiffness", RIGID, {}, [("device.delay", "float")], v, None) is None
+
+
+def test_blocks_are_compressed_and_uncompressed_blocks_still_read(monkeypatch, tmp_path):
+    """New blocks are LZ4-compressed Arrow IPC; a block stored before (uncompressed) decodes, and exports, to the
+    same rows and the same Parquet file: a store written by the previous version keeps reading."""
+    import io
+
+    import pyarrow.parquet as pq
+
+    from service.studies import blocks
+    from service.studies.export import block_columns, parquet_block_chunks
+    from service.studies.store import StudyStore
+
+    values = _points(5, 400)[:, [0, 3]]
+    axes = [AXES[0], AXES[3]]
+    new = evaluate_block("stability", RIGID, {"stiffness": 1500.0}, axes, 0, values, "h")
+    monkeypatch.setattr(blocks, "COMPRESSION", None)
+    old = evaluate_block("stability", RIGID, {"stiffness": 1500.0}, axes, 400, values, "h")
+    monkeypatch.undo()
+
+    assert len(new.data) < 0.7 * len(old.data)                   # the floats of a grid compress about 2×
+    rows_new, rows_old = _decoded(new), _decoded(old)             # the same points, at indices 0… and 400…
+    assert [r[r.index("'params'"):] for r in rows_new] == [r[r.index("'params'"):] for r in rows_old]
+    # both kinds side by side in one store: results and Parquet read across them
+    store = StudyStore(f"sqlite:///{tmp_path}/s.db")
+    store.migrate()
+    store.create("s", "stability", {}, 800)
+    assert store.write_chunk("s", new) == 400 and store.write_chunk("s", old._replace(digest="o")) == 400
+    got = store.results("s", 390, 20)
+    assert [r["idx"] for r in got] == list(range(390, 410))
+    assert repr(got[10:]) == repr(list(decode_rows(400, old.data, 0, 10)))
+    paths = ["device.mass", "device.delay"]
+    cols, kinds = block_columns(paths, [blocks.read_schema(d) for _, d in store.iter_blocks("s")])
+    pq_bytes = b"".join(parquet_block_chunks(cols, kinds, paths, store.iter_blocks("s")))
+    table = pq.read_table(io.BytesIO(pq_bytes))
+    assert table.num_rows == 800
+    assert table.slice(0, 400).drop(["index"]).equals(table.slice(400, 400).drop(["index"]))
+    store.dispose()
