@@ -38,7 +38,10 @@ def local_dask_cluster(workers: int = 2, timeout: float = 60.0) -> Iterator[str]
     dask = str(Path(sys.executable).parent / "dask")
     port = free_port()
     address = f"tcp://127.0.0.1:{port}"
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))}
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])),
+           # the workers' statistical profiler samples the task thread's stack every 10 ms (for the dashboard, which
+           # is off): ~5 % of a worker's CPU on a study's vectorised chunks (4.25 → 4.06 CPU-s per 1M points)
+           "DASK_DISTRIBUTED__WORKER__PROFILE__ENABLED": "False"}
     log = tempfile.TemporaryFile()
     scratch = tempfile.TemporaryDirectory(prefix="zwidth-dask-")
     procs: list[subprocess.Popen] = []
