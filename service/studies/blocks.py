@@ -258,16 +258,14 @@ def _evaluate(problem, device, requirements, axes, start, values, digest) -> Blo
         handled, columns, errors = got
         left = np.flatnonzero(~handled).tolist()
         if left:
-            out = evaluate_chunk(problem, device, requirements, axes,
-                                 [(start + i, None, values[i].tolist()) for i in left])
-            if all(o[3] is None for o in out):      # refused points fail with the per-point path's words
+            out = evaluate_chunk(problem, device, requirements, axes, [(start + i, values[i].tolist()) for i in left])
+            if all(o[2] is None for o in out):      # refused points fail with the per-point path's words
                 for i, o in zip(left, out):
-                    errors[i] = o[4]
+                    errors[i] = o[3]
             else:
                 got = None   # a rule here stricter than the model's: the whole chunk takes the per-point path
         if got is not None:
             has = handled & np.array([e is None for e in errors], bool)
             return encode_columns(start, values, has, columns, errors, digest)
-    rows = [(start + k, None, v) for k, v in enumerate(values.tolist())]
-    out = evaluate_chunk(problem, device, requirements, axes, rows)
-    return encode_block(start, values, [o[3] for o in out], [o[4] for o in out], digest)
+    out = evaluate_chunk(problem, device, requirements, axes, list(enumerate(values.tolist(), start)))
+    return encode_block(start, values, [o[2] for o in out], [o[3] for o in out], digest)

@@ -30,8 +30,8 @@ def _points(seed: int, n: int) -> np.ndarray:
 
 
 def _rows_path(problem, device, req, axes, start, values):
-    out = evaluate_chunk(problem, device, req, axes, [(start + k, None, v) for k, v in enumerate(values.tolist())])
-    return encode_block(start, values, [o[3] for o in out], [o[4] for o in out])
+    out = evaluate_chunk(problem, device, req, axes, list(enumerate(values.tolist(), start)))
+    return encode_block(start, values, [o[2] for o in out], [o[3] for o in out])
 
 
 def _decoded(block) -> list[str]:

@@ -218,3 +218,25 @@ def test_a_resume_computes_only_the_gaps_and_a_stale_chunk_again(tmp_path):
     fresh, fsid = _store_with(tmp_path / "fresh", study)
     StudyRunner(fresh, lambda: LocalExecutor(1), chunk_size=3).run_until_idle(timeout=60)
     assert repr(store.results(sid, 0, 100)) == repr(fresh.results(fsid, 0, 100))
+
+
+def test_block_hash_names_places_and_exact_values():
+    """The one hash of the studies (service.studies.blocks.block_hash, what a resume checks stored chunks by): equal
+    points at two places are two points; the same request planned again (base keys in another order) gives the same
+    hashes; one ulp, the sign of a zero, or another split of the same points gives another."""
+    import numpy as np
+
+    from optim.studies.problems import plan_study
+    from service.studies.blocks import block_hash
+
+    rigid = {"mass": 5.4, "damping": 3.5, "sample_time": 0.001}
+    sweep = {"requirements.damping": [0.0, 1.0, 0.0], "device.delay": [0.0, 0.001]}
+    plan = plan_study("stability", rigid, {}, sweep)
+    v = plan.values(0, plan.total)
+    assert np.array_equal(v[0], v[4]) and block_hash(0, v[0:1]) != block_hash(4, v[4:5])   # a value listed twice
+    again = plan_study("stability", dict(reversed(list(rigid.items()))), {}, sweep)
+    assert block_hash(1, again.values(1, 5)) == block_hash(1, v[1:5])
+    assert block_hash(1, np.nextafter(v[1:5], 1.0)) != block_hash(1, v[1:5])
+    assert block_hash(0, -v[0:1]) != block_hash(0, v[0:1])                                  # -0.0 is not 0.0
+    assert block_hash(0, v[0:4]) != block_hash(0, v[0:4].reshape(2, 4))                    # other points
+    assert block_hash(0, v[0:2]) != block_hash(0, v[0:3])
