@@ -28,7 +28,7 @@ from typing import Any, Iterator, NamedTuple, Sequence
 import numpy as np
 
 __all__ = ["Block", "block_hash", "encode_block", "encode_columns", "decode_rows", "read_table", "read_schema",
-           "schema_kinds", "result_columns", "evaluate_block"]
+           "schema_kinds", "result_columns", "evaluate_block", "evaluate_planned"]
 
 _INT64 = (-(2**63), 2**63 - 1)
 
@@ -232,7 +232,7 @@ def encode_columns(start: int, values: np.ndarray, has_result: np.ndarray, colum
 
 
 def evaluate_block(problem: str, device: dict[str, Any], requirements: dict[str, Any],
-                   axes: Sequence[tuple[str, str]], start: int, values: np.ndarray, digest: str) -> Block:
+                   axes: Sequence[tuple[str, str]], start: int, values: np.ndarray, digest: str | None) -> Block:
     """Evaluate points start … start + n − 1 (their swept ``values``) and return their block.
 
     Runs in a worker (local process or Dask): computes, never writes; a task run twice returns the same block.
@@ -241,6 +241,15 @@ def evaluate_block(problem: str, device: dict[str, Any], requirements: dict[str,
     t0 = time.perf_counter()
     block = _evaluate(problem, device, requirements, axes, start, np.asarray(values, dtype=float), digest)
     return block._replace(seconds=time.perf_counter() - t0)
+
+
+def evaluate_planned(plan, start: int, n: int) -> Block:
+    """evaluate_block of the plan's points start … start + n − 1, their swept values made here from the plan (a
+    grid's are its axes' values by index); the block's content hash is this worker's, so the coordinator's check of
+    it (runner) holds the worker to the points the coordinator planned."""
+    values = plan.values(start, start + n)
+    return evaluate_block(plan.problem, dict(plan.device), dict(plan.requirements),
+                          [(a.path, a.kind) for a in plan.axes], start, values, None)
 
 
 def _evaluate(problem, device, requirements, axes, start, values, digest) -> Block:

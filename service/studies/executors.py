@@ -26,6 +26,7 @@ class Executor(Protocol):
     @property
     def slots(self) -> int: ...
     def submit(self, fn: Callable, *args: Any) -> Any: ...
+    def share(self, obj: Any) -> Any: ...
     def wait(self, futures: set, timeout: float) -> tuple[set, set]: ...
     def cancel(self, futures: set) -> None: ...
     def reset(self) -> None: ...
@@ -54,6 +55,10 @@ class LocalExecutor:
                                                 mp_context=multiprocessing.get_context("spawn"),
                                                 initializer=batch_worker_init, initargs=(os.getpid(),))
         return self._pool
+
+    def share(self, obj: Any) -> None:
+        """None: a chunk's swept values go to a local worker with its task (a pipe; the plan would cost more)."""
+        return None
 
     def submit(self, fn: Callable, *args: Any) -> cf.Future:
         try:
@@ -104,6 +109,12 @@ class DaskExecutor:
     @property
     def slots(self) -> int:
         return max(1, sum(self.client.nthreads().values()))
+
+    def share(self, obj: Any) -> Any:
+        """``obj`` on every worker once (a future a task takes as an argument): a study's plan, from which a task
+        makes its chunk's swept values itself instead of carrying them (1 MB a task, client → scheduler → worker,
+        each hop a pickle on a core the workers need)."""
+        return self.client.scatter(obj, broadcast=True, hash=False)
 
     def submit(self, fn: Callable, *args: Any) -> Any:
         # pure=False: the same chunk submitted again after a restart is a new task, not a cached key.

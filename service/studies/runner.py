@@ -32,7 +32,7 @@ import numpy as np
 
 from optim.studies.problems import StudyInputError, StudyPlan, get_problem, plan_study
 
-from .blocks import block_hash, evaluate_block
+from .blocks import block_hash, evaluate_block, evaluate_planned
 from .config import StudySettings
 from .executors import Executor
 from .store import StudyStore
@@ -243,6 +243,15 @@ class StudyRunner:
                 return
             stored = self.store.stored_chunks(study_id)
         todo = self._blocks(plan, stored, pace, limit, getattr(executor, "task_scale", 1))
+        # a grid's plan is small (its axes): where the executor keeps it on its workers (Dask), a task carries its
+        # chunk's place, not its values; a retry carries the values (a scattered plan dies with all the workers)
+        shared = executor.share(plan) if plan.design == "grid" and hasattr(executor, "share") else None
+
+        def submit(chunk: tuple, attempt: int) -> Any:
+            if shared is not None and attempt == 1:
+                return executor.submit(evaluate_planned, shared, chunk[0], len(chunk[1]))
+            return executor.submit(evaluate_block, *args, *chunk)
+
         # where the run's time goes (logged when it ends): the workers' compute, the coordinator's waits and writes
         t_run, busy, waited, wrote, n_chunks = time.monotonic(), 0.0, 0.0, 0.0, 0
         pending: dict[Any, tuple[tuple, int]] = {}
@@ -260,7 +269,7 @@ class StudyRunner:
                 if chunk is None:
                     exhausted = True
                     break
-                fut = executor.submit(evaluate_block, *args, *chunk)
+                fut = submit(chunk, 1)
                 pending[fut], started[fut] = (chunk, 1), time.monotonic()
             if not pending:
                 break
@@ -283,7 +292,7 @@ class StudyRunner:
                                           owner=self.owner)
                         return
                     log.warning("study %s: chunk failed (%s: %s), resubmitting", study_id, type(exc).__name__, exc)
-                    retry = executor.submit(evaluate_block, *args, *chunk)
+                    retry = submit(chunk, attempt + 1)
                     pending[retry], started[retry] = (chunk, attempt + 1), time.monotonic()
                     continue
                 if t0 is not None:

@@ -111,3 +111,20 @@ def test_blocks_are_compressed_and_uncompressed_blocks_still_read(monkeypatch, t
     assert table.num_rows == 800
     assert table.slice(0, 400).drop(["index"]).equals(table.slice(400, 400).drop(["index"]))
     store.dispose()
+
+
+def test_a_task_planning_its_own_values_makes_the_coordinators_block():
+    """evaluate_planned (a Dask task given the scattered plan and a place) makes the block evaluate_block makes from
+    the values the coordinator planned: the same bytes, and the content hash the runner checks it by."""
+    from optim.studies.problems import plan_study
+    from service.studies.blocks import block_hash, evaluate_planned
+
+    plan = plan_study("critical_stiffness", RIGID, {"stiffness": 1500.0},
+                      {"device.mass": {"start": 0.5, "stop": 10.0, "num": 37}, "device.delay": [0.0, 0.001, 0.02]})
+    axes = [(a.path, a.kind) for a in plan.axes]
+    for start, n in ((0, 1), (5, 40), (100, 11)):
+        values = plan.values(start, start + n)
+        mine = evaluate_planned(plan, start, n)
+        theirs = evaluate_block(plan.problem, plan.device, plan.requirements, axes, start, values,
+                                block_hash(start, values))
+        assert (mine.start, mine.n, mine.failed, mine.digest, mine.data) == theirs[:5]
