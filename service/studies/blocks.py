@@ -252,9 +252,47 @@ def evaluate_planned(plan, start: int, n: int) -> Block:
                           [(a.path, a.kind) for a in plan.axes], start, values, None)
 
 
+#: The column path evaluates a chunk in parts of at most this many points and joins their columns: a Dask task's
+#: chunk (2-4 × the local one) then costs what the local chunks cost per point (a rigid critical_stiffness chunk
+#: of 65,536 points evaluated whole: 3.15 µs a point, in parts of 32,768: 2.78).  Rows are independent, so the
+#: parts change no bit of any row (tests/service/test_studies_blocks.py).
+COLUMN_PART = 32_768
+
+
+def _shape(columns) -> list:
+    """What parts must share to be joined: each column's key and kind (a list, or an array's dtype)."""
+    return [(key, "list" if isinstance(v, list) else np.asarray(v).dtype.str) for key, (v, _) in columns.items()]
+
+
+def _columns_in_parts(problem, device, requirements, axes, values, make_devices):
+    """evaluate_columns of the chunk, in parts of COLUMN_PART points joined; the whole chunk at once when a part
+    is refused or the parts' columns differ in their keys (as evaluate_columns alone would decide)."""
+    from optim.studies.columns import evaluate_columns
+
+    n = len(values)
+    if n <= COLUMN_PART:
+        return evaluate_columns(problem, device, requirements, axes, values, make_devices)
+    parts = []
+    for lo in range(0, n, COLUMN_PART):
+        got = evaluate_columns(problem, device, requirements, axes, values[lo:lo + COLUMN_PART],
+                               lambda rows, lo=lo: make_devices([lo + int(i) for i in rows]))
+        if got is None or (parts and _shape(got[1]) != _shape(parts[0][1])):
+            return evaluate_columns(problem, device, requirements, axes, values, make_devices)
+        parts.append(got)
+    handled = np.concatenate([p[0] for p in parts])
+    columns = {}
+    for key in parts[0][1]:
+        vals = [p[1][key][0] for p in parts]
+        valid = [p[1][key][1] for p in parts]
+        joined = [v for part in vals for v in part] if isinstance(vals[0], list) else np.concatenate(vals)
+        ok = None if all(v is None for v in valid) else np.concatenate(
+            [np.ones(len(p[0]), bool) if v is None else np.asarray(v, bool) for p, v in zip(parts, valid)])
+        columns[key] = (joined, ok)
+    return handled, columns, [e for p in parts for e in p[2]]
+
+
 def _evaluate(problem, device, requirements, axes, start, values, digest) -> Block:
     from models.device import Device
-    from optim.studies.columns import evaluate_columns
     from optim.studies.problems import evaluate_chunk, point_builder
 
     build = point_builder(device, requirements, axes)
@@ -262,7 +300,7 @@ def _evaluate(problem, device, requirements, axes, start, values, digest) -> Blo
     def make_devices(rows):
         return [Device.model_validate(build(values[i].tolist())[0]) for i in rows]
 
-    got = evaluate_columns(problem, device, requirements, axes, values, make_devices)
+    got = _columns_in_parts(problem, device, requirements, axes, values, make_devices)
     if got is not None:
         handled, columns, errors = got
         left = np.flatnonzero(~handled).tolist()

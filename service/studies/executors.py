@@ -92,12 +92,10 @@ class DaskExecutor:
     """Chunks become Dask tasks on the cluster at ``address`` (tasks compute and return, never write)."""
 
     kind = "dask"
-    #: 2 × the local chunk (32,768 rigid points, ~0.1 s of work): a Dask task costs a few ms of scheduler, worker
-    #: and client CPU whatever its size, on the cores the points need (1M-point critical_stiffness study on 2 cores,
-    #: 4 × the chunk: 5.82 → 5.25 CPU-s of all processes; the local pool's 4.3 did not change with the chunk).  Not
-    #: 4 ×: a rigid critical_stiffness chunk of 65,536 points costs 13 % more per point than one of 16,384 or 32,768
-    #: (its arrays leave the cache: 3.15 against 2.79 µs), while stability's keeps improving (4.99, 4.17, 3.95 µs).
-    task_scale = 2
+    #: 4 × the local chunk (65,536 rigid points, ~0.2 s of work): a Dask task costs a few ms of scheduler, worker
+    #: and client CPU whatever its size, on the cores the points need.  The worker evaluates it in parts of
+    #: blocks.COLUMN_PART points (a whole 65,536-point rigid critical_stiffness chunk cost 13 % more per point).
+    task_scale = 4
 
     def __init__(self, address: str, timeout: float = 30.0, direct: bool = True):
         from distributed import Client

@@ -128,3 +128,18 @@ def test_a_task_planning_its_own_values_makes_the_coordinators_block():
         theirs = evaluate_block(plan.problem, plan.device, plan.requirements, axes, start, values,
                                 block_hash(start, values))
         assert (mine.start, mine.n, mine.failed, mine.digest, mine.data) == theirs[:5]
+
+
+@pytest.mark.parametrize("problem", ["critical_stiffness", "stability"])
+def test_a_chunk_evaluated_in_parts_is_the_chunk_evaluated_whole(problem, monkeypatch):
+    """A Dask task's chunk is evaluated in parts of COLUMN_PART points (blocks._columns_in_parts): the same block,
+    bit for bit, as the chunk evaluated whole, with failed points and points left to the per-point path in parts."""
+    from service.studies import blocks
+
+    values = _points(7, 300)
+    whole = evaluate_block(problem, RIGID, {}, AXES, 11, values, "h")
+    monkeypatch.setattr(blocks, "COLUMN_PART", 37)
+    parts = evaluate_block(problem, RIGID, {}, AXES, 11, values, "h")
+    assert whole.failed == parts.failed > 0
+    assert _decoded(parts) == _decoded(whole)
+    assert parts.data == whole.data
