@@ -1,8 +1,8 @@
 """Where a study's chunks run: a local process pool (default) or a Dask distributed cluster.
 
 Both take a plain function and plain arguments (``service.studies.blocks.evaluate_block``,
-``evaluate_planned``) and hand back futures; the coordinator waits on them and is the only one that writes.  Workers build their own
-CasADi solvers: nothing symbolic crosses a process boundary (casadi #2949).
+``evaluate_planned``) and hand back futures; the coordinator waits on them and is the only one that
+writes.  Workers build their own CasADi solvers: nothing symbolic crosses a process boundary (casadi #2949).
 """
 
 from __future__ import annotations
