@@ -308,7 +308,9 @@ def http_study(problem: str, points: int, dask_address: str | None = None, timeo
         raise RuntimeError(f"{problem} study ended {st['status']}: {st['error']}")
     label = "Dask, 2 workers × 1 thread (loopback)" if dask_address else "local pool, 2 workers"
     return HttpRow(problem, label, st["total"], st["finished_at"] - st["started_at"], st["failed"], hwm / 1024,
-                   None if dask_address else peak / 1024, StudySettings().chunk_size * VECTOR_CHUNK_FACTOR, cpu)
+                   None if dask_address else peak / 1024,
+                   StudySettings().chunk_size * VECTOR_CHUNK_FACTOR * (DaskExecutor.task_scale if dask_address else 1),
+                   cpu)
 
 
 def measure_http(points: int, dask: bool = True) -> list[HttpRow]:

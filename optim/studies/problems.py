@@ -8,9 +8,10 @@ or a range ``{start, stop, num, scale}``.  ``sampling`` chooses the Cartesian gr
 a Latin hypercube (scipy.stats.qmc) of ``samples`` points with a ``seed``.
 
 Points are plain numbers so that they pickle to any worker (Dask may run a task twice:
-evaluation is a pure function and never writes).  The service identifies a chunk of points by a
-content hash of their places and swept values (service.studies.blocks.block_hash), so that a
-restarted study skips what is stored; ``point_hash`` names one point the same way.
+evaluation is a pure function and never writes).  A point is named by its place in the plan (``index``)
+and its swept values; the service names a chunk of consecutive points by the content hash of their places
+and swept values (service.studies.blocks.block_hash, the one hash of the studies), so that a restarted
+study skips what is stored.  Nothing here hashes: the base is fixed by the study's stored request.
 """
 
 from __future__ import annotations
@@ -18,9 +19,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import functools
-import hashlib
 import importlib
-import json
 import math
 import types
 import typing
@@ -36,7 +35,7 @@ from optim.solver_info import plain
 
 __all__ = ["MAX_STUDY_POINTS", "PROBLEMS", "StudyInputError", "ProblemUnavailable", "Axis", "StudyPlan",
            "Problem", "get_problem", "plan_study", "device_paths", "evaluate_point", "evaluate_chunk",
-           "point_hash", "point_hashes", "point_builder"]
+           "point_builder"]
 
 #: Cost limit: the largest number of points one study may have (grid product or LHS samples).
 MAX_STUDY_POINTS = 1_000_000
@@ -381,12 +380,6 @@ class StudyPlan:
         """(device dict, requirements dict) of one point."""
         return point_builder(self.device, self.requirements, [(a.path, a.kind) for a in self.axes])(values)
 
-    def digest(self) -> bytes:
-        """Hash prefix of everything a point shares: problem and base."""
-        text = json.dumps({"problem": self.problem, "device": self.device, "requirements": self.requirements},
-                          sort_keys=True, separators=(",", ":"))
-        return hashlib.blake2b(text.encode(), digest_size=16).digest()
-
 
 _LHS_CACHE: dict[tuple, np.ndarray] = {}
 
@@ -419,33 +412,6 @@ def point_builder(device: Mapping[str, Any], requirements: Mapping[str, Any], ax
         return tree["device"], tree["requirements"]
 
     return build
-
-
-def point_hash(prefix: bytes, index: int, paths: Sequence[str], values: Sequence[float]) -> str:
-    """Content hash of one point: the shared prefix, its place in the plan and its swept values.
-
-    The place keeps two equal points of one study (a value listed twice, a Latin hypercube over
-    short lists) apart, so that every point is stored exactly once; ``repr`` is exact for floats.
-    """
-    text = f"{index}|" + ";".join(f"{p}={float(v)!r}" for p, v in zip(paths, values))
-    return hashlib.blake2b(prefix + text.encode(), digest_size=16).hexdigest()
-
-
-def point_hashes(prefix: bytes, start: int, paths: Sequence[str], values: Sequence[Sequence[float]]) -> list[str]:
-    """``point_hash`` of points start, start+1, … (the same strings), with each axis's ``p=repr(v)`` text
-    made once per distinct value: a grid repeats few values many times."""
-    texts: list[dict[float, str]] = [{} for _ in paths]
-    blake = hashlib.blake2b
-    out = []
-    for k, row in enumerate(values):
-        parts = []
-        for cache, p, v in zip(texts, paths, row):
-            t = cache.get(v)
-            if t is None:
-                t = cache[v] = f"{p}={float(v)!r}"
-            parts.append(t)
-        out.append(blake(prefix + f"{start + k}|{';'.join(parts)}".encode(), digest_size=16).hexdigest())
-    return out
 
 
 def plan_study(problem: str, device: Mapping[str, Any], requirements: Mapping[str, Any] | None,
@@ -555,8 +521,8 @@ def evaluate_point(problem: str, device: Mapping[str, Any], requirements: Mappin
 
 
 def evaluate_chunk(problem: str, device: Mapping[str, Any], requirements: Mapping[str, Any],
-                   axes: Sequence[tuple[str, str]], rows: Sequence[tuple[int, str, Sequence[float]]]) -> list[tuple]:
-    """Evaluate points (index, hash, values) of one study; returns (index, hash, values, results, error).
+                   axes: Sequence[tuple[str, str]], rows: Sequence[tuple[int, Sequence[float]]]) -> list[tuple]:
+    """Evaluate points (index, swept values) of one study; returns (index, values, results, error) per point.
 
     Runs in a worker (local process or Dask): plain data in, plain data out, no writes, so a task
     that runs twice is harmless.  ``axes`` is ((path, kind), …) of the swept values.
@@ -569,10 +535,10 @@ def evaluate_chunk(problem: str, device: Mapping[str, Any], requirements: Mappin
         return _evaluate_chunk_batch(prob, device, requirements, axes, rows)
     out = []
     build = point_builder(device, requirements, axes)
-    for index, digest, values in rows:
+    for index, values in rows:
         dev, req = build(values)
         result, error = evaluate_point(problem, dev, req)
-        out.append((index, digest, list(map(float, values)), result, error))
+        out.append((index, list(map(float, values)), result, error))
     return out
 
 
@@ -580,7 +546,7 @@ _UNCHECKED = object()
 
 
 def _evaluate_chunk_batch(prob: Problem, device: Mapping[str, Any], requirements: Mapping[str, Any],
-                          axes: Sequence[tuple[str, str]], rows: Sequence[tuple[int, str, Sequence[float]]]) -> list[tuple]:
+                          axes: Sequence[tuple[str, str]], rows: Sequence[tuple[int, Sequence[float]]]) -> list[tuple]:
     """evaluate_chunk of a vectorised problem: each point validated alone, the valid ones evaluated together."""
     errors: list[str | None] = []
     devices: list[Device] = []
@@ -591,7 +557,7 @@ def _evaluate_chunk_batch(prob: Problem, device: Mapping[str, Any], requirements
     checked: dict[tuple, str | None] = {}
     req_axes = [j for j, (path, _) in enumerate(axes) if path.startswith("requirements.")]
     validate = Device.model_validate
-    for _, _, values in rows:
+    for _, values in rows:
         dev_in, req = build(values)
         try:
             dev = validate(dev_in)
@@ -615,9 +581,9 @@ def _evaluate_chunk_batch(prob: Problem, device: Mapping[str, Any], requirements
         reqs.append(req)
     results = iter(prob.evaluate_batch(devices, reqs))
     out = []
-    for (index, digest, values), error in zip(rows, errors):
+    for (index, values), error in zip(rows, errors):
         result = None
         if error is None:
             result, error = next(results)
-        out.append((index, digest, list(map(float, values)), result, error))
+        out.append((index, list(map(float, values)), result, error))
     return out

@@ -25,6 +25,7 @@ from ..studies.blocks import read_schema
 from ..studies.export import (
     block_columns,
     columns,
+    csv_block_chunks,
     csv_chunks,
     flat_row,
     parquet_block_chunks,
@@ -183,7 +184,8 @@ def study_results(study_id: str, request: Request, format: Literal["json", "csv"
     cols, kinds = scanned or scan_columns(paths, rows())
     headers = {"Content-Disposition": f'attachment; filename="study-{study_id}.{format}"'}
     if format == "csv":
-        return StreamingResponse(csv_chunks(cols, rows()), media_type="text/csv", headers=headers)
+        body = csv_block_chunks(cols, paths, runner.store.iter_blocks(study_id)) if scanned else csv_chunks(cols, rows())
+        return StreamingResponse(body, media_type="text/csv", headers=headers)
     body = (parquet_block_chunks(cols, kinds, paths, runner.store.iter_blocks(study_id)) if scanned
             else parquet_chunks(cols, kinds, rows()))
     return StreamingResponse(body, media_type="application/vnd.apache.parquet", headers=headers)

@@ -21,3 +21,6 @@ class StudySettings(BaseSettings):
                             description="points per task: large enough to amortise a task's overhead, small enough "
                                         "for progress and a prompt cancel (vectorised problems take up to their "
                                         "chunk_factor times this, optim.studies.problems)")
+    dask_direct: bool = Field(default=True,
+                              description="gather a Dask task's results from its worker directly (False: through the "
+                                          "scheduler, for workers the service cannot reach)")

@@ -15,7 +15,7 @@ from itertools import islice
 from typing import Any, Callable, Iterable, Iterator, Sequence
 
 __all__ = ["flat_row", "columns", "scan_columns", "csv_chunks", "parquet_chunks", "parquet_bytes", "block_columns",
-           "parquet_block_chunks"]
+           "parquet_block_chunks", "csv_block_chunks"]
 
 Rows = Callable[[], Iterable[dict[str, Any]]]
 
@@ -232,3 +232,70 @@ def parquet_block_chunks(cols: Sequence[str], kinds: dict[str, set[str]], paths:
             writer.write_table(pa.concat_tables(parts), row_group_size=rows)
     if chunk := sink.take():
         yield chunk
+
+
+_SPECIAL = (",", '"', "\n", "\r")
+
+
+def _csv_field(text: str) -> str:
+    """``text`` as csv.writer writes it in a row of several fields (its own quoting rules, whatever the Python)."""
+    if not any(c in text for c in _SPECIAL):
+        return text
+    buf = io.StringIO()
+    csv.writer(buf, lineterminator="\n").writerow(["", text])
+    return buf.getvalue()[1:-1]
+
+
+def _text_cells(values: list, kinds: set[str]) -> list[str]:
+    """The CSV cells of one column's values (None: empty), exactly as csv_chunks writes them from rows."""
+    if kinds == {"float"}:
+        r = float.__repr__
+        return ["" if v is None else r(v) for v in values]
+    if kinds == {"bool"}:
+        return ["" if v is None else ("true" if v else "false") for v in values]
+    if kinds == {"int"}:
+        return ["" if v is None else str(v) for v in values]
+    return ["" if v is None else _csv_field(_cell(v)) for v in values]
+
+
+def _block_csv(start: int, data: bytes, cols: Sequence[str], paths: Sequence[str]) -> str:
+    """One block's rows of csv_chunks, built column by column (the same text, without a dict per row)."""
+    import pyarrow.compute as pc
+
+    from .blocks import read_table, result_columns
+
+    table = read_table(data)
+    n = table.num_rows
+    if n == 0:
+        return ""
+    names = set(table.column_names)
+    stored = {key: (kinds, is_json) for key, kinds, is_json in result_columns(table.schema)}
+    has = table.column("has_result").combine_chunks()
+    cells = [list(map(str, range(start, start + n)))]
+    cells += [_text_cells(table.column(f"p{j}").to_pylist(), {"float"}) for j in range(len(paths))]
+    for c in cols[1 + len(paths):-1]:
+        if c not in stored:
+            cells.append([""] * n)
+            continue
+        kinds, is_json = stored[c]
+        arr = table.column(f"r:{c}").combine_chunks()
+        keep = has if f"m:{c}" not in names else pc.and_(has, table.column(f"m:{c}").combine_chunks())
+        vals = pc.if_else(keep, arr, None).to_pylist() if arr.null_count < n else [None] * n
+        if is_json:
+            vals = [None if v is None else json.loads(v) for v in vals]
+            kinds = {_kind(v) if not isinstance(v, (list, dict)) else "json" for v in vals if v is not None}
+        cells.append(_text_cells(vals, kinds if len(kinds) == 1 else {"mixed"}))
+    cells.append(["" if e is None else _csv_field(e) for e in table.column("error").to_pylist()])
+    return "\n".join(map(",".join, zip(*cells))) + "\n"
+
+
+def csv_block_chunks(cols: Sequence[str], paths: Sequence[str], blocks: Iterable[tuple[int, bytes]]) -> Iterator[str]:
+    """csv_chunks of a study stored in blocks, one block at a time and column by column: the same text (header,
+    ``repr`` floats, inf and nan as Python writes them, true/false, empty cells, csv quoting), a block's memory at a
+    time.  ``cols`` from block_columns (None there: the row export)."""
+    buf = io.StringIO()
+    csv.writer(buf, lineterminator="\n").writerow(cols)
+    yield buf.getvalue()
+    for start, data in blocks:
+        if text := _block_csv(start, data, cols, paths):
+            yield text

@@ -44,7 +44,8 @@ async def study_lifespan(app: FastAPI) -> AsyncIterator[None]:
         store = StudyStore(url)
         await run_in_threadpool(store.migrate)
         log.info("study store: %s", describe_store(url))
-        runner = StudyRunner(store, lambda: make_executor(scheduler, cfg.workers), chunk_size=cfg.chunk_size)
+        runner = StudyRunner(store, lambda: make_executor(scheduler, cfg.workers, cfg.dask_direct),
+                             chunk_size=cfg.chunk_size)
         runner.start()
         app.state.study_runner = runner
         app.state.study_error = None

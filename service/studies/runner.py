@@ -32,7 +32,7 @@ import numpy as np
 
 from optim.studies.problems import StudyInputError, StudyPlan, get_problem, plan_study
 
-from .blocks import block_hash, evaluate_block
+from .blocks import block_hash, evaluate_block, evaluate_planned
 from .config import StudySettings
 from .executors import Executor
 from .store import StudyStore
@@ -46,6 +46,9 @@ _RENEW_EVERY = 5.0  # [s] lease renewal (the lease is store.LEASE_SECONDS)
 #: A chunk is sized to take about this long (from the measured time per point), so that `done` moves at least
 #: this often: a study of slow points advances point by point instead of sitting at 0 for a whole chunk.
 CHUNK_SECONDS = 0.5
+#: The smallest chunk worth a task at the end of a study [s of work]: below it a task's round trip (a few ms, more
+#: through a Dask scheduler) outweighs the imbalance between the workers it would even out.
+MIN_CHUNK_SECONDS = 0.02
 
 
 def plan_from_request(request: dict[str, Any]) -> StudyPlan:
@@ -156,19 +159,37 @@ class StudyRunner:
     def adaptive_size(self, largest: int, seconds_per_point: float | None, remaining: int, parallel: int) -> int:
         """Points in the next chunk: one while the time per point is unknown, then what takes CHUNK_SECONDS
         (at most ``largest``, the configured chunk), and no more than an even share of what is left among the
-        chunks that run in parallel (so the last points spread over the workers and progress keeps moving)."""
+        chunks that run in parallel (so the last points spread over the workers and progress keeps moving) —
+        but never a share under MIN_CHUNK_SECONDS of work: the last 1 % of a fast study in chunks of 1 … 16 points
+        (each a round trip to a worker, tens of them) cost more than the imbalance they avoid."""
         if seconds_per_point is None:
             return 1
         size = largest if seconds_per_point <= 0 else int(CHUNK_SECONDS / seconds_per_point)
         share = -(-remaining // max(1, parallel))
-        return max(1, min(largest, size, share))
+        floor = largest if seconds_per_point <= 0 else int(MIN_CHUNK_SECONDS / seconds_per_point)
+        return max(1, min(largest, size, max(share, floor)))
+
+    @staticmethod
+    def update_pace(pace: dict[str, Any], seconds: float, n: int) -> None:
+        """Fold a chunk's worker time into ``pace`` ({"per_point": s or None, "n": points it was measured on}).
+
+        A slower chunk counts at once (a slow region shrinks the chunks); a faster one at most halves the estimate,
+        unless it was measured on more points than the estimate was: a chunk's fixed cost (a few ms) made a 1-point
+        chunk read as a slow point, and halving from there took ~9 round trips to reach the full chunk."""
+        per = seconds / max(1, n)
+        prev = pace.get("per_point")
+        if prev is None or per >= prev or n > pace.get("n", 0):
+            pace["per_point"], pace["n"] = per, n
+        else:
+            pace["per_point"] = max(per, 0.5 * prev)
 
     def _blocks(self, plan: StudyPlan, stored: list[tuple[int, int, str]], pace: dict[str, Any] | None = None,
-                parallel: int = 1) -> Iterator[tuple[int, np.ndarray, str]]:
+                parallel: int = 1, scale: int = 1) -> Iterator[tuple[int, np.ndarray, str]]:
         """Chunks (start, swept values, content hash) of the points to do; with ``pace`` ({"per_point": seconds or
         None}, updated by the caller as chunks come back) each chunk is sized by adaptive_size, else every chunk
-        has the configured size.  Values are planned a chunk at a time: memory is one chunk's."""
-        largest = self.chunk_size_for(plan.problem)
+        has the configured size; ``scale`` multiplies the largest chunk (the executor's task_scale).  Values are
+        planned a chunk at a time: memory is one chunk's."""
+        largest = self.chunk_size_for(plan.problem) * max(1, scale)
         remaining = plan.total - sum(n for _, n, _ in stored)
         for lo, hi in self.gaps(plan.total, stored):
             at = lo
@@ -221,7 +242,18 @@ class StudyRunner:
             if self.store.drop_chunks(study_id, stale, self.owner) is None:
                 return
             stored = self.store.stored_chunks(study_id)
-        todo = self._blocks(plan, stored, pace, limit)
+        todo = self._blocks(plan, stored, pace, limit, getattr(executor, "task_scale", 1))
+        # a grid's plan is small (its axes): where the executor keeps it on its workers (Dask), a task carries its
+        # chunk's place, not its values; a retry carries the values (a scattered plan dies with all the workers)
+        shared = executor.share(plan) if plan.design == "grid" and hasattr(executor, "share") else None
+
+        def submit(chunk: tuple, attempt: int) -> Any:
+            if shared is not None and attempt == 1:
+                return executor.submit(evaluate_planned, shared, chunk[0], len(chunk[1]))
+            return executor.submit(evaluate_block, *args, *chunk)
+
+        # where the run's time goes (logged when it ends): the workers' compute, the coordinator's waits and writes
+        t_run, busy, waited, wrote, n_chunks = time.monotonic(), 0.0, 0.0, 0.0, 0
         pending: dict[Any, tuple[tuple, int]] = {}
         started: dict[Any, float] = {}
         exhausted = False
@@ -237,11 +269,13 @@ class StudyRunner:
                 if chunk is None:
                     exhausted = True
                     break
-                fut = executor.submit(evaluate_block, *args, *chunk)
+                fut = submit(chunk, 1)
                 pending[fut], started[fut] = (chunk, 1), time.monotonic()
             if not pending:
                 break
+            t_wait = time.monotonic()
             done, _ = executor.wait(set(pending), timeout=self.poll)
+            waited += time.monotonic() - t_wait
             for fut in done:
                 chunk, attempt = pending.pop(fut)
                 t0 = started.pop(fut, None)
@@ -258,7 +292,7 @@ class StudyRunner:
                                           owner=self.owner)
                         return
                     log.warning("study %s: chunk failed (%s: %s), resubmitting", study_id, type(exc).__name__, exc)
-                    retry = executor.submit(evaluate_block, *args, *chunk)
+                    retry = submit(chunk, attempt + 1)
                     pending[retry], started[retry] = (chunk, attempt + 1), time.monotonic()
                     continue
                 if t0 is not None:
@@ -266,12 +300,16 @@ class StudyRunner:
                     # chunk queued behind large ones read that wait as compute time and shrank every following
                     # chunk, a stability study fell to 1-point chunks); a slow region shrinks chunks at once
                     seconds = out.seconds if out.seconds > 0 else time.monotonic() - t0   # untimed: the wall time
-                    per = seconds / max(1, len(chunk[1]))
-                    pace["per_point"] = per if pace["per_point"] is None else max(per, 0.5 * pace["per_point"])
+                    self.update_pace(pace, seconds, len(chunk[1]))
+                    busy += seconds
                 if (out.start, out.n, out.digest) != (chunk[0], len(chunk[1]), chunk[2]):
                     raise RuntimeError(f"a worker returned the block of other points ({out.start}, {out.n}) "
                                        f"for the chunk at {chunk[0]} of {len(chunk[1])}")
-                if self.store.write_chunk(study_id, out, self.owner) is None:
+                t_write = time.monotonic()
+                written = self.store.write_chunk(study_id, out, self.owner)
+                wrote += time.monotonic() - t_write
+                n_chunks += 1
+                if written is None:
                     self._cancelled.add(study_id)   # cancelled (through any server) or taken over: stop now
                     break
             # A cancel through another process (no chunk came back to find it); keep the lease.
@@ -282,3 +320,5 @@ class StudyRunner:
                 if not self.store.renew(study_id, self.owner):
                     self._cancelled.add(study_id)
         self.store.finish(study_id, "done", owner=self.owner)
+        log.info("study %s done on %s: %d chunks in %.3f s; workers computed %.3f s, the coordinator waited %.3f s "
+                 "and wrote %.3f s", study_id, executor.kind, n_chunks, time.monotonic() - t_run, busy, waited, wrote)

@@ -30,8 +30,8 @@ def _points(seed: int, n: int) -> np.ndarray:
 
 
 def _rows_path(problem, device, req, axes, start, values):
-    out = evaluate_chunk(problem, device, req, axes, [(start + k, None, v) for k, v in enumerate(values.tolist())])
-    return encode_block(start, values, [o[3] for o in out], [o[4] for o in out])
+    out = evaluate_chunk(problem, device, req, axes, list(enumerate(values.tolist(), start)))
+    return encode_block(start, values, [o[2] for o in out], [o[3] for o in out])
 
 
 def _decoded(block) -> list[str]:
@@ -73,3 +73,73 @@ def test_chunks_the_columns_do_not_take():
     assert evaluate_columns("stability", {"preset": "lhifam"}, {}, [("device.delay", "float")], v, None) is None
     assert evaluate_columns("stability", RIGID, {}, [("device.human.mass", "float")], v, None) is None
     assert evaluate_columns("stiffness", RIGID, {}, [("device.delay", "float")], v, None) is None
+
+
+def test_blocks_are_compressed_and_uncompressed_blocks_still_read(monkeypatch, tmp_path):
+    """New blocks are LZ4-compressed Arrow IPC; a block stored before (uncompressed) decodes, and exports, to the
+    same rows and the same Parquet file: a store written by the previous version keeps reading."""
+    import io
+
+    import pyarrow.parquet as pq
+
+    from service.studies import blocks
+    from service.studies.export import block_columns, parquet_block_chunks
+    from service.studies.store import StudyStore
+
+    values = _points(5, 400)[:, [0, 3]]
+    axes = [AXES[0], AXES[3]]
+    new = evaluate_block("stability", RIGID, {"stiffness": 1500.0}, axes, 0, values, "h")
+    monkeypatch.setattr(blocks, "COMPRESSION", None)
+    old = evaluate_block("stability", RIGID, {"stiffness": 1500.0}, axes, 400, values, "h")
+    monkeypatch.undo()
+
+    assert len(new.data) < 0.7 * len(old.data)                   # the floats of a grid compress about 2×
+    rows_new, rows_old = _decoded(new), _decoded(old)             # the same points, at indices 0… and 400…
+    assert [r[r.index("'params'"):] for r in rows_new] == [r[r.index("'params'"):] for r in rows_old]
+    # both kinds side by side in one store: results and Parquet read across them
+    store = StudyStore(f"sqlite:///{tmp_path}/s.db")
+    store.migrate()
+    store.create("s", "stability", {}, 800)
+    assert store.write_chunk("s", new) == 400 and store.write_chunk("s", old._replace(digest="o")) == 400
+    got = store.results("s", 390, 20)
+    assert [r["idx"] for r in got] == list(range(390, 410))
+    assert repr(got[10:]) == repr(list(decode_rows(400, old.data, 0, 10)))
+    paths = ["device.mass", "device.delay"]
+    cols, kinds = block_columns(paths, [blocks.read_schema(d) for _, d in store.iter_blocks("s")])
+    pq_bytes = b"".join(parquet_block_chunks(cols, kinds, paths, store.iter_blocks("s")))
+    table = pq.read_table(io.BytesIO(pq_bytes))
+    assert table.num_rows == 800
+    assert table.slice(0, 400).drop(["index"]).equals(table.slice(400, 400).drop(["index"]))
+    store.dispose()
+
+
+def test_a_task_planning_its_own_values_makes_the_coordinators_block():
+    """evaluate_planned (a Dask task given the scattered plan and a place) makes the block evaluate_block makes from
+    the values the coordinator planned: the same bytes, and the content hash the runner checks it by."""
+    from optim.studies.problems import plan_study
+    from service.studies.blocks import block_hash, evaluate_planned
+
+    plan = plan_study("critical_stiffness", RIGID, {"stiffness": 1500.0},
+                      {"device.mass": {"start": 0.5, "stop": 10.0, "num": 37}, "device.delay": [0.0, 0.001, 0.02]})
+    axes = [(a.path, a.kind) for a in plan.axes]
+    for start, n in ((0, 1), (5, 40), (100, 11)):
+        values = plan.values(start, start + n)
+        mine = evaluate_planned(plan, start, n)
+        theirs = evaluate_block(plan.problem, plan.device, plan.requirements, axes, start, values,
+                                block_hash(start, values))
+        assert (mine.start, mine.n, mine.failed, mine.digest, mine.data) == theirs[:5]
+
+
+@pytest.mark.parametrize("problem", ["critical_stiffness", "stability"])
+def test_a_chunk_evaluated_in_parts_is_the_chunk_evaluated_whole(problem, monkeypatch):
+    """A Dask task's chunk is evaluated in parts of COLUMN_PART points (blocks._columns_in_parts): the same block,
+    bit for bit, as the chunk evaluated whole, with failed points and points left to the per-point path in parts."""
+    from service.studies import blocks
+
+    values = _points(7, 300)
+    whole = evaluate_block(problem, RIGID, {}, AXES, 11, values, "h")
+    monkeypatch.setattr(blocks, "COLUMN_PART", 37)
+    parts = evaluate_block(problem, RIGID, {}, AXES, 11, values, "h")
+    assert whole.failed == parts.failed > 0
+    assert _decoded(parts) == _decoded(whole)
+    assert parts.data == whole.data

@@ -5,7 +5,11 @@ from __future__ import annotations
 
 import io
 
+import numpy as np
 import pyarrow.parquet as pq
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from service.studies.blocks import decode_rows, encode_block
 from service.studies.export import csv_chunks, parquet_bytes, parquet_chunks, scan_columns
@@ -94,3 +98,58 @@ def test_parquet_from_blocks_equals_parquet_from_rows():
     want = pq.read_table(io.BytesIO(parquet_bytes(cols, kinds, rows)))
     got = pq.read_table(io.BytesIO(b"".join(parquet_block_chunks(cols, kinds, paths, stored, batch=2))))
     assert got.equals(want) and got.to_pylist() == want.to_pylist()
+
+
+def _csv_both(paths, blocks):
+    """(row export, block export) CSV text of the same stored blocks."""
+    from service.studies.blocks import read_schema
+    from service.studies.export import block_columns, csv_block_chunks, flat_row
+
+    stored = [(b.start, b.data) for b in blocks]
+    rows = [flat_row(paths, r) for start, data in stored for r in decode_rows(start, data)]
+    cols, _ = scan_columns(paths, rows)
+    assert block_columns(paths, [read_schema(d) for _, d in stored])[0] == cols
+    return "".join(csv_chunks(cols, iter(rows), batch=3)), "".join(csv_block_chunks(cols, paths, stored))
+
+
+def test_csv_from_blocks_is_the_csv_from_rows_byte_for_byte():
+    """The column-wise CSV of blocks writes the row export's text exactly: header, repr floats (nan, inf, -inf, -0.0,
+    subnormal, 1e+16), true/false, empty cells for None, a missing key and a failed point, big ints, a key whose values
+    mix kinds (JSON-stored: 1 and 1.5, a list), strings that need csv quoting, keys first seen in a later block."""
+    nan, inf = float("nan"), float("inf")
+    blocks = [encode_block(0, [[1.0, -0.0], [2.5, 5e-324]],
+                           [{"k": nan, "mix": 1, "s": 'a,b "q"', "b": True}, None], [None, "bad, \"point\"\nline 2"]),
+              encode_block(2, [[1e16, 0.1], [3.0, -inf], [4.0, 1e-300]],
+                           [{"k": -inf, "mix": 2.5, "late": False, "big": 2**70}, {"k": None, "none": None, "s": ""},
+                            {"s": "x\ry", "mix": [1, "two"], "k": inf, "b": False, "int": -3}],
+                           [None, None, None]),
+              encode_block(9, [[6.0, 7.0]], [{"mix": 7, "s": "é ü", "k": 0.30000000000000004}], [None])]
+    old, new = _csv_both(["device.delay", "device.mass"], blocks)
+    assert new == old
+    assert "nan" in old and ",-inf," in old and "1e+16" in old and "-0.0" in old and "5e-324" in old   # not vacuous
+    assert old.splitlines()[0] == "index,device.delay,device.mass,k,mix,s,b,late,big,none,int,error"
+
+
+@pytest.mark.parametrize("problem", ["stability", "critical_stiffness"])
+def test_csv_from_blocks_of_a_real_study(problem):
+    """A rigid grid through the column path, with failed points (delays beyond 10,000 samples at T = 1 µs)."""
+    from service.studies.blocks import evaluate_block
+
+    rng = np.random.default_rng(4)
+    values = np.column_stack([rng.uniform(0.01, 20, 90), rng.choice([0.0, 0.001, 0.05], 90),
+                              rng.choice([1e-3, 1e-6], 90)])
+    axes = [("device.mass", "float"), ("device.delay", "float"), ("device.sample_time", "float")]
+    blocks = [evaluate_block(problem, {"mass": 5.4, "damping": 3.5}, {"stiffness": 1500.0}, axes, a, values[a:b], "h")
+              for a, b in ((0, 40), (40, 41), (41, 90))]
+    assert sum(b.failed for b in blocks) > 0
+    old, new = _csv_both([p for p, _ in axes], blocks)
+    assert new == old and old.count("\n") == 91
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.one_of(st.none(), st.text(max_size=6, alphabet=st.sampled_from(list('ab ,"\r\n\t;é\x00')))),
+                min_size=1, max_size=8))
+def test_csv_quoting_of_any_string_is_the_csv_modules(texts):
+    old, new = _csv_both(["x"], [encode_block(0, [[float(i)] for i in range(len(texts))],
+                                              [{"s": t} for t in texts], texts)])
+    assert new == old

@@ -176,8 +176,23 @@ def test_adaptive_chunk_size():
     assert runner.adaptive_size(64, None, 1000, 4) == 1          # unknown pace: one point
     assert runner.adaptive_size(64, 0.1, 1000, 4) == 5           # 0.5 s of 0.1 s points
     assert runner.adaptive_size(64, 1e-5, 1000, 4) == 64         # fast points: the configured chunk
-    assert runner.adaptive_size(64, 1e-5, 12, 4) == 3            # the last points spread over the workers
+    assert runner.adaptive_size(64, 0.01, 12, 4) == 3            # the last slow points spread over the workers
+    assert runner.adaptive_size(64, 1e-5, 12, 4) >= 12           # ... but 0.1 ms of work stays one chunk
+    assert runner.adaptive_size(64, 1e-5, 200, 4) == 64          # (MIN_CHUNK_SECONDS: 2,000 points of 10 µs)
+    assert runner.adaptive_size(10**6, 1e-5, 10**5, 4) == 25000  # an even share while it is worth a task
     assert runner.adaptive_size(64, 10.0, 1000, 4) == 1
+
+
+def test_pace_trusts_larger_chunks_and_halves_on_equal_ones():
+    pace = {"per_point": None}
+    StudyRunner.update_pace(pace, 0.004, 1)          # a 1-point chunk: its fixed cost reads as a slow point
+    assert pace == {"per_point": 0.004, "n": 1}
+    StudyRunner.update_pace(pace, 0.005, 1000)       # measured on more points: taken as it is
+    assert pace == {"per_point": 5e-6, "n": 1000}
+    StudyRunner.update_pace(pace, 0.001, 1000)       # faster on as many points: at most halves
+    assert pace["per_point"] == 2.5e-6
+    StudyRunner.update_pace(pace, 0.1, 10)           # slower: at once, whatever the chunk
+    assert pace == {"per_point": 0.01, "n": 10}
 
 
 def test_a_resume_computes_only_the_gaps_and_a_stale_chunk_again(tmp_path):
@@ -203,3 +218,25 @@ def test_a_resume_computes_only_the_gaps_and_a_stale_chunk_again(tmp_path):
     fresh, fsid = _store_with(tmp_path / "fresh", study)
     StudyRunner(fresh, lambda: LocalExecutor(1), chunk_size=3).run_until_idle(timeout=60)
     assert repr(store.results(sid, 0, 100)) == repr(fresh.results(fsid, 0, 100))
+
+
+def test_block_hash_names_places_and_exact_values():
+    """The one hash of the studies (service.studies.blocks.block_hash, what a resume checks stored chunks by): equal
+    points at two places are two points; the same request planned again (base keys in another order) gives the same
+    hashes; one ulp, the sign of a zero, or another split of the same points gives another."""
+    import numpy as np
+
+    from optim.studies.problems import plan_study
+    from service.studies.blocks import block_hash
+
+    rigid = {"mass": 5.4, "damping": 3.5, "sample_time": 0.001}
+    sweep = {"requirements.damping": [0.0, 1.0, 0.0], "device.delay": [0.0, 0.001]}
+    plan = plan_study("stability", rigid, {}, sweep)
+    v = plan.values(0, plan.total)
+    assert np.array_equal(v[0], v[4]) and block_hash(0, v[0:1]) != block_hash(4, v[4:5])   # a value listed twice
+    again = plan_study("stability", dict(reversed(list(rigid.items()))), {}, sweep)
+    assert block_hash(1, again.values(1, 5)) == block_hash(1, v[1:5])
+    assert block_hash(1, np.nextafter(v[1:5], 1.0)) != block_hash(1, v[1:5])
+    assert block_hash(0, -v[0:1]) != block_hash(0, v[0:1])                                  # -0.0 is not 0.0
+    assert block_hash(0, v[0:4]) != block_hash(0, v[0:4].reshape(2, 4))                    # other points
+    assert block_hash(0, v[0:2]) != block_hash(0, v[0:3])

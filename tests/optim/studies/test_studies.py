@@ -24,7 +24,6 @@ from optim.studies.problems import (
     flatten_result,
     get_problem,
     plan_study,
-    point_hash,
 )
 from tests.reference_values import CASES
 
@@ -32,8 +31,7 @@ RIGID = {"mass": 5.4, "damping": 3.5, "sample_time": 0.001}
 
 
 def _rows(plan):
-    prefix = plan.digest()
-    return [(i, point_hash(prefix, i, plan.paths, v), v) for i, v in enumerate(plan.values(0, plan.total).tolist())]
+    return list(enumerate(plan.values(0, plan.total).tolist()))
 
 
 def test_grid_is_the_cartesian_product_in_row_major_order():
@@ -66,29 +64,19 @@ def test_latin_hypercube_has_one_sample_per_stratum(samples, seed, lo, decades):
                                            {"design": "latin_hypercube", "samples": samples, "seed": seed}).values(0, samples))
 
 
-def test_hashes_identify_points():
-    plan = plan_study("stability", RIGID, {}, {"requirements.damping": [0.0, 1.0, 0.0]})
-    hashes = [h for _, h, _ in _rows(plan)]
-    assert len(set(hashes)) == 3  # a value listed twice is two points, each stored once
-    again = plan_study("stability", dict(reversed(list(RIGID.items()))), {}, {"requirements.damping": [0.0, 1.0, 0.0]})
-    assert [h for _, h, _ in _rows(again)] == hashes  # key order of the base does not matter
-    other = plan_study("stability", {**RIGID, "mass": 5.5}, {}, {"requirements.damping": [0.0, 1.0, 0.0]})
-    assert not set(h for _, h, _ in _rows(other)) & set(hashes)
-
-
 def test_stability_points_are_the_exact_analysis():
     plan = plan_study("stability", RIGID, {"stiffness": 2000.0},
                       {"device.delay": [0.0, 0.0005, 0.002], "requirements.damping": [0.0, 3.0]})
     out = evaluate_chunk(plan.problem, plan.device, plan.requirements, [(a.path, a.kind) for a in plan.axes], _rows(plan))
-    assert [o[0] for o in out] == list(range(6)) and all(o[4] is None for o in out)
-    for index, _, (delay, b), result, _ in out:
+    assert [o[0] for o in out] == list(range(6)) and all(o[3] is None for o in out)
+    for index, (delay, b), result, _ in out:
         direct = analyse_stability(Device(**RIGID, delay=delay), 2000.0, b)
         # the study's vectorised path (optim.studies.stability_study) against the one-point analysis: the exact rung's 1e-12
         assert result["critical_stiffness"] == pytest.approx(direct.critical_stiffness, rel=1e-12, abs=0.0)
         assert result["gain_margin_db"] == pytest.approx(direct.gain_margin_db, rel=0.0, abs=1e-10)
         assert result["stable"] == direct.stable and result["passive"] == direct.passive
         assert "elapsed_ms" not in result  # a stored point holds no wall-clock time
-    k = {(d, b): r["critical_stiffness"] for _, _, (d, b), r, _ in out}
+    k = {(d, b): r["critical_stiffness"] for _, (d, b), r, _ in out}
     assert k[0.0, 0.0] > k[0.0005, 0.0] > k[0.002, 0.0]  # delay only lowers K_cr
     case = CASES["table3-lhifam-rigid"]  # chapter Table 3, 76.9 dB
     assert 20 * math.log10(k[0.0, 0.0]) == pytest.approx(case["printed"], abs=case["tolerance_db"])
@@ -159,7 +147,7 @@ def test_design_problems_register_lazily(monkeypatch):
     monkeypatch.setattr(studies, "_CACHE", {})
     plan = plan_study("inertia", RIGID, {}, {"requirements.filter_order": [1, 2], "requirements.min_gain_margin_db": [0.0]})
     out = evaluate_chunk(plan.problem, plan.device, plan.requirements, [(a.path, a.kind) for a in plan.axes], _rows(plan))
-    assert [o[3] for o in out] == [{"status": "optimal", "force_gain": 5.4}, {"status": "optimal", "force_gain": 10.8}]
+    assert [o[2] for o in out] == [{"status": "optimal", "force_gain": 5.4}, {"status": "optimal", "force_gain": 10.8}]
     with pytest.raises(StudyInputError) as exc:
         plan_study("inertia", RIGID, {}, {"requirements.filter_order": [1.5]})
     assert exc.value.field == "sweep.requirements.filter_order"
@@ -169,19 +157,16 @@ def test_design_problems_register_lazily(monkeypatch):
         get_problem("inertia")
 
 
-def test_bulk_hashes_and_point_builder_equal_the_one_point_forms():
-    """The runner's bulk forms (issue 20) give exactly the one-point hashes and inputs, and points never share
-    a mutable branch (a cable sweep copies the cable dict per point, the base stays untouched)."""
-    from optim.studies.problems import point_builder, point_hash, point_hashes
+def test_point_builder_equals_the_one_point_form():
+    """The runner's bulk builder (issue 20) gives exactly the one-point inputs, and points never share a mutable
+    branch (a cable sweep copies the cable dict per point, the base stays untouched)."""
+    from optim.studies.problems import point_builder
 
     base = {"preset": "lhifam", "cable": {"stiffness": 5e4}}
     plan = plan_study("stability", base, {"stiffness": 1000.0},
                       {"device.cable.stiffness": [3e4, 8e4, 3e4], "requirements.damping": [0.0, 2.5],
                        "device.delay": {"start": 0.0, "stop": 0.002, "num": 3}})
     values = plan.values(0, plan.total).tolist()
-    prefix = plan.digest()
-    assert point_hashes(prefix, 5, plan.paths, values) == [point_hash(prefix, 5 + k, plan.paths, v)
-                                                           for k, v in enumerate(values)]
     build = point_builder(plan.device, plan.requirements, [(a.path, a.kind) for a in plan.axes])
     built = [build(v) for v in values]
     for (dev, req), v in zip(built, values):
