@@ -149,7 +149,7 @@ def newton_levels(L: RigidLoop, beta: float, levels: np.ndarray, lo: float, hi: 
         f, df = k_eq_array(L, beta, x)
         rising = df > 0.0
         step = (f - levels) / np.where(rising, df, np.inf)   # a level where F̃' ≤ 0 stays put, never settled
-        x = np.clip(x - step, lo, hi)
+        x = np.minimum(np.maximum(x - step, lo), hi)   # np.clip's bits, without its wrapper (≈ 1 µs a pass)
         small = np.abs(step) <= _SETTLED * x
         if small.all():
             break
