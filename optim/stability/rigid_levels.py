@@ -307,12 +307,17 @@ def _undamped_whole(plant: RigidZOH, L: RigidLoop, n: int, t0: float, tr: float)
     (q, omq), = L.zeros
     two_q, sin, cos, atan2, sqrt = 2.0 * q, math.sin, math.cos, math.atan2, math.sqrt
     eps2, eps4, q_eps, lead, inf = 2.0 * _EPS, 4.0 * _EPS, 0.25 * _EPS, L.lead, math.inf
-    half_slope = 0.5 * slope
-    out = [(t0, 0.0)]
+    half_slope, step1, nan = 0.5 * slope, 2.0 * math.pi / (slope + 0.5), math.nan
+    out = []
+    r1 = r2 = r3 = t0                                     # the last three roots (levels k − 1, k − 2, k − 3)
     for k in range(1, n + 1):
-        level, lo, hi = _TWO_PI * k, out[-1][0], tr
-        x = _next_start(L, k, out, tr)
-        t = dphi = math.nan
+        level, lo, hi = _TWO_PI * k, r1, tr
+        # _next_start's start, on the last roots kept in locals
+        x = lo + step1 if k == 1 else lo + (lo - r2) if k == 2 else 3.0 * (lo - r2) + r3
+        mid = 0.5 * (lo + tr)
+        if x > mid:
+            x = mid
+        t = dphi = nan
         prev = inf
         for _ in range(200):                              # fast_rigid.bracketed_newton, quadratic_slope
             if not (lo < x < hi):
@@ -337,7 +342,7 @@ def _undamped_whole(plant: RigidZOH, L: RigidLoop, n: int, t0: float, tr: float)
             if hi - lo <= eps4 * hi:
                 t = x
                 break
-            step = (fx - level) / dphi if dphi > 0.0 else math.inf
+            step = (fx - level) / dphi if dphi > 0.0 else inf
             xn = x - step
             a = abs(step)                                 # the ulp rule, or fast_rigid.newton_done's written out
             if lo <= xn <= hi and (a <= eps2 * x or dphi >= half_slope and a <= 1e-10 * xn
@@ -360,7 +365,8 @@ def _undamped_whole(plant: RigidZOH, L: RigidLoop, n: int, t0: float, tr: float)
             out.append((t, 2.0 * sh * (sqrt(den_p) / lead) / sqrt(den_q)))
         else:
             out.append(_polish(h, 0.0, t))
-    return out[1:]
+        r1, r2, r3 = out[-1][0], r1, r2
+    return out
 
 
 def _one_by_one(plant: RigidZOH, L: RigidLoop, beta: float, n: int, t0: float, tr: float) -> list[tuple[float, float]]:
