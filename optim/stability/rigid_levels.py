@@ -147,8 +147,12 @@ def newton_levels(L: RigidLoop, beta: float, levels: np.ndarray, lo: float, hi: 
     on [lo, hi] ⊂ [0, θ_r], so a root there is the level's only one)."""
     for _ in range(_PASSES):
         f, df = k_eq_array(L, beta, x)
-        rising = df > 0.0
-        step = (f - levels) / np.where(rising, df, np.inf)   # a level where F̃' ≤ 0 stays put, never settled
+        if df.min() > 0.0:                                   # the usual case: one reduction, no mask
+            rising = True
+            step = (f - levels) / df
+        else:
+            rising = df > 0.0
+            step = (f - levels) / np.where(rising, df, np.inf)   # a level where F̃' ≤ 0 stays put, never settled
         x = np.minimum(np.maximum(x - step, lo), hi)   # np.clip's bits, without its wrapper (≈ 1 µs a pass)
         small = np.abs(step) <= _SETTLED * x
         if small.all():
