@@ -8,8 +8,9 @@ array of levels from the chord of F̃ on [θ₀, θ_r] (F̃ is (d + m + ½)θ pl
 fast_rigid.polish_h's secant step on Im H elementwise.  A level counts as solved when its last Newton step was
 below 1e-8 (relative; quadratic convergence leaves the next iterate within rounding of the root) inside (θ₀, θ_r)
 with F̃' > 0, AND the polish's secant step lands within 8 ulp (Im H confirms the crossover there); any other level
-(typically the last one, where the zero near −1 bends F̃ just below θ_r) is solved alone exactly as before
-(fast_rigid.bracketed_newton in [θ_{k−1}, θ_r], polished).  The count of roots is the monotonicity argument's, as
+(typically the first, where the chord start is poorest, and the last, where the zero near −1 bends F̃ just below
+θ_r) is solved alone (fast_rigid.bracketed_newton in [θ_{k−1}, θ_r], stopping early where quadratic convergence
+shows the root within a quarter ulp and F̃' ≥ slope/2, polished).  The count of roots is the monotonicity argument's, as
 before; no root is accepted without its bracket (θ₀, θ_r) and its confirmation.
 
 H is evaluated with CPython's own complex arithmetic written out in real arrays (products and Smith's quotient
