@@ -41,7 +41,7 @@ from models.discretize import RigidZOH
 
 __all__ = ["RigidLoop", "FastRigid", "rigid_loop", "fast_rigid", "fast_beta_max", "re_h", "k_equation",
            "bracketed_newton",
-           "MIN_ZERO_GAP"]
+           "newton_done", "MIN_ZERO_GAP"]
 
 _EPS = 2.220446049250313e-16
 _HALF_PI = 0.5 * math.pi
@@ -181,14 +181,21 @@ k_equation = _k_eq
 
 
 def bracketed_newton(fun, level: float, lo: float, hi: float, x: float, step_rtol: float = 2.0 * _EPS,
-                     bracket_rtol: float = 4.0 * _EPS) -> float:
+                     bracket_rtol: float = 4.0 * _EPS, quadratic_slope: float = math.inf) -> float:
     """The root of the non-decreasing fun(θ) = level in [lo, hi] (fun(lo) < level ≤ fun(hi); fun returns the value
     and its derivative): Newton steps, kept in the bracket (bisection, geometric while the bracket spans decades),
     to a relative step of ``step_rtol`` or a bracket of ``bracket_rtol`` (by default 2 and 4 ulp).  Shared by the
-    rigid fast path and the cable brackets (optim.stability.cable_brackets)."""
+    rigid fast path and the cable brackets (optim.stability.cable_brackets).
+
+    ``quadratic_slope``: where fun' is at least this, also stop at the Newton iterate once the steps show quadratic
+    convergence has put it within a quarter ulp of the root (``newton_done``), one evaluation before the step itself
+    falls to an ulp.  Where fun' is smaller the root is ill-conditioned (fun's rounding, ε·|level|, moves it by
+    ε·|level|/fun', many ulps), and the ulp rule's path is kept: its last bits are what the caller's polish sees."""
+    prev = math.inf
     for _ in range(200):
         if not (lo < x < hi):
             x = math.sqrt(lo * hi) if lo > 0.0 and hi > 8.0 * lo else 0.5 * (lo + hi)
+            prev = math.inf
         fx, dfx = fun(x)
         if fx == level:
             return x
@@ -200,11 +207,19 @@ def bracketed_newton(fun, level: float, lo: float, hi: float, x: float, step_rto
             return x
         step = (fx - level) / dfx if dfx > 0.0 else math.inf
         xn = x - step
-        if abs(step) <= step_rtol * x and lo <= xn <= hi:   # converged (from one side, hi stays far)
-            return xn
+        if lo <= xn <= hi and (abs(step) <= step_rtol * x or dfx >= quadratic_slope and newton_done(step, prev, xn)):
+            return xn   # converged (from one side, hi stays far)
+        prev = step
         x = xn
     return x
 
+
+def newton_done(step: float, prev: float, x: float) -> bool:
+    """Whether the Newton iterate x (after ``step``, the one before it ``prev``) is within a quarter ulp of the root:
+    the step is below 1e-10 (relative: deep in quadratic convergence) and the error it leaves, |step|·c with the
+    observed contraction c = |step|/prev², is ≤ ε/4 relative."""
+    a = abs(step)
+    return a <= 1e-10 * x and a * a * a <= 0.25 * _EPS * x * prev * prev
 
 
 def polish(plant: RigidZOH, beta: float, t: float) -> float:

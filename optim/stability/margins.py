@@ -344,22 +344,24 @@ def _fast(device: Device, plant: RigidZOH, damping: float, b_max: float | None) 
             if near is None or abs(found[near][0] / res.theta - 1) > 1e-9:
                 raise RuntimeError(f"fast path and scan disagree on {device!r}, B = {damping!r}")
             found[near] = (res.theta, res.alpha)
-        return _crossover_tuple([(th / t, a * scale) for th, a in found])
+        return _crossover_tuple(found, t, scale)
 
     return CriticalStiffness(k, w, every, damping, bm, path="fast")
 
 
-def _crossover_tuple(pairs: list[tuple[float, float]]) -> tuple[Crossover, ...]:
-    """Crossover(frequency, stiffness) of each pair, built without the frozen dataclass's __init__ (one
+def _crossover_tuple(pairs: list[tuple[float, float]], sample_time: float = 1.0,
+                     scale: float = 1.0) -> tuple[Crossover, ...]:
+    """Crossover(θ/T, α·scale) of each dimensionless pair (θ, α), built without the frozen dataclass's __init__ (one
     object.__setattr__ per field, ≈ 0.9 µs a crossover: a long delay's list holds hundreds): equal instances."""
     new = object.__new__
     out = []
-    for w, k in pairs:
+    append = out.append
+    for th, a in pairs:
         c = new(Crossover)
         fields = c.__dict__
-        fields["frequency"] = w
-        fields["stiffness"] = k
-        out.append(c)
+        fields["frequency"] = th / sample_time
+        fields["stiffness"] = a * scale
+        append(c)
     return tuple(out)
 
 

@@ -35,6 +35,8 @@ __all__ = ["PassivityCheck", "PassiveStiffness", "passivity_samples", "kernel", 
            "batch_required_damping"]
 
 _EPS = float(np.finfo(float).eps)
+#: _p_slopes_at takes the closed form's derivatives above this many delay samples (where (d + ½)θ ≥ 1)
+_SUM_TERMS_MIN = 4
 _GOLDEN_STEPS = 80         # a bracket of 2 grid steps shrinks by 0.618⁸⁰ ≈ 2e-17: θ to the last bit
 
 
@@ -110,12 +112,13 @@ def _p_slopes(theta: np.ndarray, d: int, hk: float, damping: float) -> tuple[np.
 
 
 def _p_slopes_at(t: float, d: int, hk: float, damping: float) -> tuple[float, float]:
-    """``_p_slopes`` at one θ: the same sums in plain floats up to 32 terms (array calls cost more there); beyond,
-    where (d + ½)θ ≥ 1, the derivatives of the closed form s_d = sin(Nθ)/sin(θ/2), N = d + ½ (from
+    """``_p_slopes`` at one θ: where d > 4 and (d + ½)θ ≥ 1 (the sums' 5+ terms cost more: 2 sines a term), the derivatives of the closed form s_d = sin(Nθ)/sin(θ/2), N = d + ½ (from
     s_d·sin(θ/2) = sin(Nθ): s' = (N cos Nθ − ½ s cos(θ/2))/sin(θ/2), s'' = (−N² sin Nθ − s' cos(θ/2) + ¼ s sin(θ/2))
     /sin(θ/2)), whose rounding error ≈ ε·N/sin(θ/2) stays ≈ ε relative to s' there (|s'| ≳ N³θ in the main lobe,
-    ≈ N²/sin(θ/2) past it); below, the sums (the closed form's 0/0 at θ = 0)."""
-    if d > 32:
+    ≈ N²/sin(θ/2) past it); below, the sums (the closed form's 0/0 at θ = 0), in plain floats up to 32 terms (array
+    calls cost more there), in numpy beyond.  The slopes only steer ``_polish_max``'s Newton to P's maximum, where
+    P is flat: its value, the answer, keeps its bits (old vs new on 2,000 random devices, issue 20)."""
+    if d > _SUM_TERMS_MIN:
         big_n = d + 0.5
         u = big_n * t
         if u >= 1.0:
@@ -126,8 +129,9 @@ def _p_slopes_at(t: float, d: int, hk: float, damping: float) -> tuple[float, fl
             dds = (-big_n * big_n * su - ds * cv + 0.25 * s * sv) / sv
             e = d + 1.0
             return hk * ds + damping * e * math.sin(e * t), hk * dds + damping * e * e * math.cos(e * t)
-        fa, fpa = _p_slopes(np.array([t]), d, hk, damping)
-        return float(fa[0]), float(fpa[0])
+        if d > 32:
+            fa, fpa = _p_slopes(np.array([t]), d, hk, damping)
+            return float(fa[0]), float(fpa[0])
     ds = dds = 0.0
     for k in range(1, d + 1):
         ds += k * math.sin(k * t)

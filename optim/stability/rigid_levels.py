@@ -8,8 +8,9 @@ array of levels from the chord of F̃ on [θ₀, θ_r] (F̃ is (d + m + ½)θ pl
 fast_rigid.polish_h's secant step on Im H elementwise.  A level counts as solved when its last Newton step was
 below 1e-8 (relative; quadratic convergence leaves the next iterate within rounding of the root) inside (θ₀, θ_r)
 with F̃' > 0, AND the polish's secant step lands within 8 ulp (Im H confirms the crossover there); any other level
-(typically the last one, where the zero near −1 bends F̃ just below θ_r) is solved alone exactly as before
-(fast_rigid.bracketed_newton in [θ_{k−1}, θ_r], polished).  The count of roots is the monotonicity argument's, as
+(typically the first, where the chord start is poorest, and the last, where the zero near −1 bends F̃ just below
+θ_r) is solved alone (fast_rigid.bracketed_newton in [θ_{k−1}, θ_r], stopping early where quadratic convergence
+shows the root within a quarter ulp and F̃' ≥ slope/2, polished).  The count of roots is the monotonicity argument's, as
 before; no root is accepted without its bracket (θ₀, θ_r) and its confirmation.
 
 H is evaluated with CPython's own complex arithmetic written out in real arrays (products and Smith's quotient
@@ -147,9 +148,13 @@ def newton_levels(L: RigidLoop, beta: float, levels: np.ndarray, lo: float, hi: 
     on [lo, hi] ⊂ [0, θ_r], so a root there is the level's only one)."""
     for _ in range(_PASSES):
         f, df = k_eq_array(L, beta, x)
-        rising = df > 0.0
-        step = (f - levels) / np.where(rising, df, np.inf)   # a level where F̃' ≤ 0 stays put, never settled
-        x = np.clip(x - step, lo, hi)
+        if df.min() > 0.0:                                   # the usual case: one reduction, no mask
+            rising = True
+            step = (f - levels) / df
+        else:
+            rising = df > 0.0
+            step = (f - levels) / np.where(rising, df, np.inf)   # a level where F̃' ≤ 0 stays put, never settled
+        x = np.minimum(np.maximum(x - step, lo), hi)   # np.clip's bits, without its wrapper (≈ 1 µs a pass)
         small = np.abs(step) <= _SETTLED * x
         if small.all():
             break
@@ -186,9 +191,12 @@ def _together(plant: RigidZOH, L: RigidLoop, beta: float, n: int, t0: float, tr:
     theta, alpha, confirmed = polish_array(plant, beta, x)
     pairs = list(zip(theta.tolist(), alpha.tolist()))
     for i in np.flatnonzero(~(settled & confirmed)).tolist():
-        # alone, as _one_by_one solves it: bracketed Newton in [θ_{k−1}, θ_r] (F̃ = 2π(k − 1) < 2πk < F̃(θ_r)) from
-        # the last spacing, polished
-        pairs[i] = _level(plant, L, beta, i + 1, [(t0, 0.0), *pairs[:i]], tr)
+        # alone, as _one_by_one solves it: bracketed Newton in [θ_{k−1}, θ_r] (F̃ = 2π(k − 1) < 2πk < F̃(θ_r)),
+        # polished; in the lower half (the first levels, where the chord start was poorest: the damping pole bends F̃
+        # there) from the passes' last iterate, a few digits from the root (2 evaluations instead of 5); near θ_r
+        # (the zero near −1: an ill-conditioned root, its last bits set by the path) from the spacing, as before
+        pairs[i] = _level(plant, L, beta, i + 1, [(t0, 0.0), *pairs[:i]], tr,
+                          start=float(x[i]) if 2 * i < n else None)
     return pairs
 
 
@@ -264,15 +272,31 @@ def _polish(h, beta: float, t: float) -> tuple[float, float]:
     return t, v0.real
 
 
+def _next_start(L: RigidLoop, k: int, below, tr: float) -> float:
+    """Newton's start for the root at level 2πk from the roots ``below`` it (levels 0…k − 1): the first spacing
+    from the slope, then the roots carried on linearly (k = 2) or by their second difference (F̃ nearly linear, its
+    slope slowly changing: ~1e-6 from the root at mid levels against ~1e-5 linearly), kept below the middle of
+    [θ_{k−1}, θ_r]."""
+    lo = below[-1][0]
+    if k == 1:
+        start = lo + 2.0 * math.pi / (L.slope + 0.5)
+    elif k == 2:
+        start = lo + (lo - below[-2][0])
+    else:
+        start = 3.0 * (lo - below[-2][0]) + below[-3][0]
+    return min(start, 0.5 * (lo + tr))
+
+
 def _level(plant: RigidZOH, L: RigidLoop, beta: float, k: int, below: list[tuple[float, float]],
-           tr: float, fun=None, h=None) -> tuple[float, float]:
+           tr: float, fun=None, h=None, start: float | None = None) -> tuple[float, float]:
     """The root at level 2πk alone, ``below`` the roots at the levels 0…k − 1: fast_rigid's bracketed Newton in
     [θ_{k−1}, θ_r], started from the last spacing of the roots (F̃ is nearly linear there: Newton then starts a few
     digits from the root), then polished.  ``fun``, ``h``: _scalar_k_eq and _scalar_h of this loop, when the caller
-    has them."""
+    has them; ``start``: a better start than the spacing's (the vectorised passes' last iterate)."""
     lo = below[-1][0]
-    start = lo + 2.0 * math.pi / (L.slope + 0.5) if k == 1 else min(lo + (lo - below[-2][0]), 0.5 * (lo + tr))
-    t = bracketed_newton(fun or _scalar_k_eq(L, beta), _TWO_PI * k, lo, tr, min(start, 0.5 * (lo + tr)))
+    if start is None:
+        start = _next_start(L, k, below, tr)
+    t = bracketed_newton(fun or _scalar_k_eq(L, beta), _TWO_PI * k, lo, tr, start, quadratic_slope=0.5 * L.slope)
     return _polish(h or _scalar_h(plant), beta, t)
 
 
@@ -287,16 +311,23 @@ def _undamped_whole(plant: RigidZOH, L: RigidLoop, n: int, t0: float, tr: float)
     omp, slope, p, two_p = L.omp, L.slope, L.p, 2.0 * L.p
     (q, omq), = L.zeros
     two_q, sin, cos, atan2, sqrt = 2.0 * q, math.sin, math.cos, math.atan2, math.sqrt
-    eps2, eps4, step1, lead = 2.0 * _EPS, 4.0 * _EPS, 2.0 * math.pi / (L.slope + 0.5), L.lead
-    out = [(t0, 0.0)]
+    eps2, eps4, q_eps, lead, inf = 2.0 * _EPS, 4.0 * _EPS, 0.25 * _EPS, L.lead, math.inf
+    half_slope, step1, nan = 0.5 * slope, 2.0 * math.pi / (slope + 0.5), math.nan
+    out = []
+    r1 = r2 = r3 = t0                                     # the last three roots (levels k − 1, k − 2, k − 3)
     for k in range(1, n + 1):
-        level, lo, hi = _TWO_PI * k, out[-1][0], tr
-        start = lo + step1 if k == 1 else min(lo + (lo - out[-2][0]), 0.5 * (lo + tr))
-        x = min(start, 0.5 * (lo + tr))
-        t = dphi = math.nan
-        for _ in range(200):                              # fast_rigid.bracketed_newton, default tolerances
+        level, lo, hi = _TWO_PI * k, r1, tr
+        # _next_start's start, on the last roots kept in locals
+        x = lo + step1 if k == 1 else lo + (lo - r2) if k == 2 else 3.0 * (lo - r2) + r3
+        mid = 0.5 * (lo + tr)
+        if x > mid:
+            x = mid
+        t = dphi = nan
+        prev = inf
+        for _ in range(200):                              # fast_rigid.bracketed_newton, quadratic_slope
             if not (lo < x < hi):
                 x = sqrt(lo * hi) if lo > 0.0 and hi > 8.0 * lo else 0.5 * (lo + hi)
+                prev = inf
             sh, ch = sin(0.5 * x), cos(0.5 * x)           # fast_rigid._psi
             st = 2.0 * sh * ch
             re_p = omp - 2.0 * sh * sh
@@ -316,11 +347,14 @@ def _undamped_whole(plant: RigidZOH, L: RigidLoop, n: int, t0: float, tr: float)
             if hi - lo <= eps4 * hi:
                 t = x
                 break
-            step = (fx - level) / dphi if dphi > 0.0 else math.inf
+            step = (fx - level) / dphi if dphi > 0.0 else inf
             xn = x - step
-            if abs(step) <= eps2 * x and lo <= xn <= hi:
+            a = abs(step)                                 # the ulp rule, or fast_rigid.newton_done's written out
+            if lo <= xn <= hi and (a <= eps2 * x or dphi >= half_slope and a <= 1e-10 * xn
+                                   and a * a * a <= q_eps * xn * prev * prev):
                 t = xn
                 break
+            prev = step
             x = xn
         else:
             t = x
@@ -336,7 +370,8 @@ def _undamped_whole(plant: RigidZOH, L: RigidLoop, n: int, t0: float, tr: float)
             out.append((t, 2.0 * sh * (sqrt(den_p) / lead) / sqrt(den_q)))
         else:
             out.append(_polish(h, 0.0, t))
-    return out[1:]
+        r1, r2, r3 = out[-1][0], r1, r2
+    return out
 
 
 def _one_by_one(plant: RigidZOH, L: RigidLoop, beta: float, n: int, t0: float, tr: float) -> list[tuple[float, float]]:
