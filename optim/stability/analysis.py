@@ -328,6 +328,12 @@ def _exact_rung(device: Device, damping: float) -> RungAnswer:
               "crossover refined)" if res.path == "bounded-scan" else
               "every crossover bracketed and refined to 4 ulp in ω") + \
         "; agrees with the 40-digit reference to 1e-12 on the test suite"
+    if res.unconfirmed is not None:
+        # a near-lossless cable whose answer the closed loop can neither confirm nor contradict: no bound is claimed
+        return RungAnswer(res.critical_stiffness, res.crossover_frequency, tuple(res.crossovers), math.inf,
+                          source + f"; NOT confirmed by the closed loop ({res.unconfirmed}): the cable mode lies within "
+                          "1e-12 of the unit circle, where double precision cannot vouch for it (method 'reference' "
+                          "can)", res.reason, res.max_stable_damping)
     return RungAnswer(res.critical_stiffness, res.crossover_frequency, tuple(res.crossovers), EXACT_REL_ERROR, source,
                       res.reason, res.max_stable_damping)
 

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import lru_cache
 from typing import Literal
 
@@ -87,6 +87,9 @@ class CriticalStiffness:
     undamped cable, a zero on the unit circle, pieces unresolved): the scan's grid and brackets, only the
     brackets a bound on |H| cannot exclude solved (optim.stability.fast_cable); "scan": every crossover of a
     frequency scan (optim.stability.crossovers), the fallback wherever the other paths' bounds do not close."""
+    unconfirmed: str | None = None
+    """Why the closed loop could not confirm this answer (a cable mode within NEAR_LOSSLESS_GAP of the unit circle,
+    optim.stability.undamped_cable); the exact rung then claims no error bound.  None: no such doubt."""
 
     def __getstate__(self) -> dict:
         # results travel pickled between processes (service.jobs): send the list, never the closure
@@ -203,7 +206,9 @@ def critical_stiffness(device: Device, damping: float = 0.0, *, b_max: float | N
     elif isinstance(plant, StateSpaceZOH) and plant.modal_form() is not None:
         res = _bounded(device, plant, damping, b_max)
         if mode_gap(plant) < NEAR_LOSSLESS_GAP:
-            confirm_near_lossless(device, damping, res.critical_stiffness)
+            why = confirm_near_lossless(device, damping, res.critical_stiffness)
+            if why is not None:
+                res = replace(res, unconfirmed=why)
         return res
     return scan_critical_stiffness(device, damping, b_max=b_max)
 
