@@ -36,6 +36,7 @@ from optim.stability.closed_loop import (
 __all__ = [
     "DEFAULT_EPSILON",
     "claimed_epsilon",
+    "not_checkable",
     "EIG_MAX_STATES",
     "PASSIVITY_RTOL",
     "PassivityVerification",
@@ -134,7 +135,9 @@ def claimed_epsilon(method: str, error_estimate: float | None, linear_factor: fl
     return max(float(error_estimate) * (linear_factor if method == "linear" else 1.0), DEFAULT_EPSILON)
 
 
-def _not_checkable(t0: float, reason: str, eps: float | None = None, **kw) -> Verification:
+def not_checkable(t0: float, reason: str, eps: float | None = None, **kw) -> Verification:
+    """A ``not_checkable`` record with its reason, timed from ``t0`` (perf_counter); ``kw``: method, gain_below,
+    gain_above and any other Verification field."""
     return Verification("not_checkable", kw.pop("method", None), eps, kw.pop("gain_below", None),
                         kw.pop("gain_above", None), None, None, None, None, (time.perf_counter() - t0) * 1e3, reason, **kw)
 
@@ -176,10 +179,10 @@ def verify_critical_stiffness(device: Device, damping: float, critical: float | 
         if p.stable is False:
             return Verification("contradicted", p.method, None, None, probe, None, p.radius, None, p.count,
                                 (time.perf_counter() - t0) * 1e3, "every K was said stable, but this K is not")
-        return _not_checkable(t0, "no finite set of gains proves that every K > 0 is stable", method=p.method,
+        return not_checkable(t0, "no finite set of gains proves that every K > 0 is stable", method=p.method,
                               gain_above=probe)
     if not (math.isfinite(critical) and critical > 0 and math.isfinite(epsilon) and epsilon > 0):
-        return _not_checkable(t0, "no finite positive answer or step to check")
+        return not_checkable(t0, "no finite positive answer or step to check")
     cap = math.inf
     if next_crossing is not None and math.isfinite(next_crossing) and next_crossing > critical:
         cap = 0.5 * (next_crossing / critical - 1.0)
@@ -337,7 +340,7 @@ def verify_stiffness_design(device: Device, stiffness: float, damping: float, ga
     t0 = time.perf_counter()
     kc = stiffness * 10.0 ** (gain_margin_db / 20.0) if gain_margin_db is not None else critical
     if epsilon is None:
-        v = _not_checkable(t0, "the design's rung states no error bound on its K_cr: its margin claims nothing to check")
+        v = not_checkable(t0, "the design's rung states no error bound on its K_cr: its margin claims nothing to check")
     else:
         v = verify_critical_stiffness(device, damping, kc, epsilon)
     return _with_labels(v, device, stiffness, damping, True, passive, t0)
@@ -353,7 +356,7 @@ def verify_analysis(device: Device, analysis) -> Verification:
     # the linear rung documents its estimate as within 2× of the true error (optim.stability.analysis): check that claim
     eps = claimed_epsilon(analysis.method, analysis.error_estimate, linear_factor=2.0)
     if eps is None:
-        return _not_checkable(t0, f"the {analysis.method} rung states no error bound (its estimate is unbounded): "
+        return not_checkable(t0, f"the {analysis.method} rung states no error bound (its estimate is unbounded): "
                                   "there is no claim to check")
     kcr = analysis.critical_stiffness
     above = [c.stiffness for c in analysis.crossovers
@@ -402,10 +405,10 @@ def verify_critical_force_gain(device: Device, human, critical: float | None, or
         if p.stable is False:
             return Verification("contradicted", p.method, None, None, probe, None, p.radius, None, p.count,
                                 (time.perf_counter() - t0) * 1e3, "every K_f was said stable, but this K_f is not")
-        return _not_checkable(t0, "no finite set of gains proves that every K_f > 0 is stable", method=p.method,
+        return not_checkable(t0, "no finite set of gains proves that every K_f > 0 is stable", method=p.method,
                               gain_above=probe)
     if epsilon is None:
-        return _not_checkable(t0, "the rung states no error bound on K_f,cr: there is no claim to check")
+        return not_checkable(t0, "the rung states no error bound on K_f,cr: there is no claim to check")
     eps = epsilon
     if next_crossing is not None and math.isfinite(next_crossing) and next_crossing > critical:
         eps = min(eps, 0.5 * (next_crossing / critical - 1.0))
@@ -436,7 +439,7 @@ def verify_force_feedforward(device: Device, analysis, order: int | None, cutoff
     t0 = time.perf_counter()
     eps = claimed_epsilon(analysis.method, analysis.error_estimate)
     if eps is None:
-        return _not_checkable(t0, f"the {analysis.method} rung states no error bound: there is no claim to check")
+        return not_checkable(t0, f"the {analysis.method} rung states no error bound: there is no claim to check")
     kcr = analysis.critical_force_gain
     above = [c.force_gain for c in analysis.crossovers if math.isfinite(kcr) and c.force_gain > kcr * (1 + 1e-9)]
     return verify_critical_force_gain(device, analysis.human, kcr, order, cutoff_hz, eps,

@@ -17,6 +17,7 @@ from optim.hardware.hardware_targets import device_with
 from optim.transparency.feedforward import resolve_human
 from optim.verification import (
     Verification,
+    not_checkable,
     verify_critical_force_gain,
     verify_stiffness_design,
 )
@@ -29,10 +30,8 @@ def verify_hardware_design(device: Device, free: str, value: float | None, contr
     no value (the target holds over the whole scanned range: unbounded) or no controller."""
     t0 = time.perf_counter()
     if value is None or not controller:
-        return Verification("not_checkable", None, None, None, None, None, None, None, None,
-                            (time.perf_counter() - t0) * 1e3,
-                            "the design states no value of the free parameter (the target holds over the whole "
-                            "scanned range: unbounded)" if value is None else "the design states no controller")
+        return not_checkable(t0, "the design states no value of the free parameter (the target holds over the whole "
+                                 "scanned range: unbounded)" if value is None else "the design states no controller")
     dev = device_with(device, free, value)
     parts: list[tuple[str, Verification]] = []
     k, b, gm = controller.get("stiffness"), controller.get("damping"), controller.get("gain_margin_db")
@@ -45,8 +44,7 @@ def verify_hardware_design(device: Device, free: str, value: float | None, contr
                                                                controller.get("filter_order"), cutoff,
                                                                design_gain=kf)))
     if not parts:
-        return Verification("not_checkable", None, None, None, None, None, None, None, None,
-                            (time.perf_counter() - t0) * 1e3, "the design states no finite margin to check")
+        return not_checkable(t0, "the design states no finite margin to check")
     verdicts = [v.verdict for _, v in parts]
     verdict = ("contradicted" if "contradicted" in verdicts else
                "not_checkable" if "not_checkable" in verdicts else "confirmed")
