@@ -55,6 +55,8 @@ from typing import Annotated, Any, Callable, TypeVar
 
 from fastapi import Depends, Request
 
+from optim.stability.rigid_kernel import compile_kernels
+
 from .compute_worker import Worker as _Worker
 from .compute_worker import warm_worker as _warm_worker
 
@@ -357,7 +359,9 @@ class BoundedExecutor:
 
     # -- life cycle -------------------------------------------------------------------------------
     def warm_up(self, timeout: float = STARTUP_TIMEOUT) -> bool:
-        """Start every worker now and warm it (blocking); True when all are ready (then :attr:`warm`)."""
+        """Start every worker now and warm it (blocking); True when all are ready (then :attr:`warm`).  This process's
+        compiled kernels too: its inline calls (the exact rigid analysis) use them."""
+        compile_kernels()
         try:
             self._ensure_dispatchers(prestart=True)
         except ComputeUnavailable:   # shut down while warming up (an app stopped at once)

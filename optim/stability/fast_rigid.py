@@ -34,10 +34,13 @@ the caller falls back to the scan; ``fast_rigid`` returns None then, never a gue
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import lru_cache
 
+import numpy as np
+
 from models.discretize import RigidZOH
+from optim.stability.rigid_kernel import binding_root, loop_numbers
 
 __all__ = ["RigidLoop", "FastRigid", "rigid_loop", "fast_rigid", "fast_beta_max", "re_h", "k_equation",
            "bracketed_newton",
@@ -61,6 +64,7 @@ class RigidLoop:
     theta_r: float                    # φ rises on [0, θ_r]
     half_pis_at_pi: int               # φ(π) = this·π/2 exactly (used when θ_r = π)
     theta_rb: float                   # φ + θ/2 rises on [0, θ_rb] (θ_rb ≥ θ_r)
+    numbers: np.ndarray = field(compare=False, repr=False, default=None)   # optim.stability.rigid_kernel's
 
 
 @lru_cache(maxsize=4096)
@@ -99,7 +103,8 @@ def rigid_loop(plant: RigidZOH) -> RigidLoop | None:
     if theta_r is None or theta_rb is None:
         return None
     # at θ = π exactly every arg is 0 or π: φ(π) = (d + m + ½ + 1 − n_in)π, in halves of π
-    return RigidLoop(omp, p, lead, zeros, slope, theta_r, 2 * (plant.d + m + 1 - n_in) + 1, theta_rb)
+    return RigidLoop(omp, p, lead, zeros, slope, theta_r, 2 * (plant.d + m + 1 - n_in) + 1, theta_rb,
+                     loop_numbers(plant, omp, p, lead, slope, zeros))
 
 
 def _rising_end(bound: float, inside, zeros) -> float | None:
@@ -351,7 +356,6 @@ def fast_rigid(plant: RigidZOH, beta: float, beta_max: float | None = None,
         fk, _ = _k_eq(L, beta, hi)
     if not fk > 0.0:
         return None                           # no K crossover below θ_r (or β_max rounded the other way)
-    fun = (lambda x: _psi(L, x)) if beta == 0.0 else (lambda x: _k_eq(L, beta, x))   # _k_eq's own branch, one call less
-    t = bracketed_newton(fun, 0.0, 0.0, hi, _start(L, L.omp + beta, _HALF_PI, hi))
-    t, h_t = polish_h(plant, beta, t)
-    return FastRigid(h_t.real, t, bmax)
+    # bracketed_newton on _k_eq (β = 0: _psi) from the closed-form start, then polish_h: compiled, the same bits
+    t, alpha = binding_root(L.numbers, beta, hi, _start(L, L.omp + beta, _HALF_PI, hi))
+    return FastRigid(alpha, t, bmax)

@@ -1,6 +1,7 @@
-"""The crossover levels solved together (optim.stability.rigid_levels) against the same levels solved one by one
-(fast_rigid's bracketed Newton and secant polish, the exact rung's list before issue 20's vectorisation), the scan,
-and the scalar evaluators it mirrors bit for bit.
+"""The crossover levels of optim.stability.rigid_levels (the compiled loop over the levels, each started from the
+spacing of the roots below) against the same levels solved one by one from the middle of their bracket (fast_rigid's
+bracketed Newton and secant polish, the exact rung's list before issue 20), and against the scan.  The compiled loop
+is held to its Python twin bit for bit in test_rigid_kernel.py.
 
 Random rigid devices with ≥ 40 levels (whole and fractional delays 60-250 samples, δ from 1e-9 to 3), B = 0,
 B uniform below B_max and within 1e-3 of it.  Tolerances: θ to 4 ulp (both solve F̃ = 2πk to 2 ulp and
@@ -14,9 +15,9 @@ import numpy as np
 import pytest
 
 from models.device import Device
-from optim.stability.fast_rigid import bracketed_newton, fast_rigid, k_equation, polish_h, re_h, rigid_loop
+from optim.stability.fast_rigid import bracketed_newton, fast_rigid, k_equation, polish_h, rigid_loop
 from optim.stability.margins import critical_stiffness, loop_plant, max_stable_damping, scan_critical_stiffness
-from optim.stability.rigid_levels import h_array, polish_array, rigid_crossovers
+from optim.stability.rigid_levels import rigid_crossovers
 
 _EPS = np.finfo(float).eps
 
@@ -31,7 +32,7 @@ def _case(rng, i):
 
 
 def _both(dev, b):
-    """(the list with the levels together, the list with every level alone) of the same device."""
+    """(the list of rigid_crossovers, the list with every level alone from its bracket's middle) of one device."""
     plant, beta = loop_plant(dev), b / dev.damping_scale
     res = fast_rigid(plant, beta)
     assert res is not None and res.theta is not None
@@ -51,7 +52,7 @@ def _both(dev, b):
     return got, sorted(c for c in alone if c[1] > 0.0), k - 1
 
 
-def test_levels_together_equal_levels_alone_on_random_long_delays():
+def test_levels_equal_levels_alone_on_random_long_delays():
     rng = np.random.default_rng(20)
     levels = []
     for i in range(240):
@@ -62,10 +63,10 @@ def test_levels_together_equal_levels_alone_on_random_long_delays():
         for (t1, a1), (t2, a2) in zip(got, alone):
             assert abs(t1 - t2) <= 4 * _EPS * t2, (dev, b, t1, t2)
             assert a1 == pytest.approx(a2, rel=1e-12), (dev, b, t1)
-    assert sum(n >= 48 for n in levels) >= 120   # most took the numpy passes (fewer levels: the loop)
+    assert sum(n >= 48 for n in levels) >= 120   # long lists: most devices have ≥ 48 levels
 
 
-def test_levels_together_equal_the_scan():
+def test_levels_equal_the_scan():
     rng = np.random.default_rng(21)
     for i in range(12):
         dev, b = _case(rng, i)
@@ -77,24 +78,3 @@ def test_levels_together_equal_the_scan():
         for a, c in zip(got, ref):
             assert a.frequency == pytest.approx(c.frequency, rel=1e-9)
             assert a.stiffness == pytest.approx(c.stiffness, rel=tol)
-
-
-@pytest.mark.parametrize("delay", [0.05, 0.0374])
-def test_array_evaluators_are_the_scalar_ones_bit_for_bit(delay):
-    """h_array and polish_array (CPython's complex arithmetic written out on arrays) against fast_rigid.polish_h at
-    random θ, whole (one zero) and fractional (two zeros) delays, B = 0 and B > 0: the same bits."""
-    rng = np.random.default_rng(3)
-    for _ in range(20):
-        m = 10 ** rng.uniform(-3, 1)
-        dev = Device(mass=m, damping=10 ** rng.uniform(-9, 0.5) * m / 1e-3, sample_time=1e-3, delay=delay)
-        plant = loop_plant(dev)
-        for beta in (0.0, float(rng.uniform(0, 1e-3))):
-            t = np.sort(rng.uniform(1e-4, math.pi, 50))
-            theta, alpha, _ = polish_array(plant, beta, t)
-            re, im = h_array(plant, beta, t)
-            for i, ti in enumerate(t.tolist()):
-                tp, hp = polish_h(plant, beta, ti)
-                assert (theta[i], alpha[i]) == (tp, hp.real)
-                assert re[i] == re_h(plant, beta, ti)
-                if tp == ti:   # polish_h kept θ: its H is H(θ)
-                    assert im[i] == hp.imag

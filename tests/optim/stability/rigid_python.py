@@ -1,0 +1,205 @@
+"""The rigid fast path's levels in pure Python: the twin that optim.stability.rigid_kernel's compiled loop is held
+to bit for bit (tests/optim/stability/test_rigid_kernel.py).
+
+This is the exact rung's crossover list as it ran in Python before the kernel (issue 20): fast_rigid's bracketed
+Newton on F̃ = 2πk from the spacing of the roots below, polished by one secant step on Im H; at β = 0 with a
+whole-sample delay K = 2·sin(θ/2)·R(θ) where K is not steep in θ.  Every operation is fast_rigid's scalar
+evaluators' (``_psi``, ``_k_eq``, ``_h``) with the loop's numbers bound once.
+"""
+
+from __future__ import annotations
+
+import math
+
+from models.discretize import RigidZOH
+from optim.stability.fast_rigid import RigidLoop, bracketed_newton, k_equation
+
+_EPS = 2.220446049250313e-16
+_TWO_PI = 2.0 * math.pi
+#: d ln K / d ln θ above which a β = 0 level's K comes from the polish's H (optim.stability.rigid_kernel._STEEP)
+_STEEP = 6.0
+
+
+def _scalar_h(plant: RigidZOH):
+    """fast_rigid's ``_h`` (H at one θ) with the plant's coefficients bound once: the same operations, so the same
+    bits (the per-call unpacking of the coefficients was a sixth of a level's cost)."""
+    omp, phi12, g0p, g0v, g1p, g1v, _ = plant.coefficients()
+    d, sin, cos = plant.d, math.sin, math.cos
+    if plant.f == 0.0:
+        a, c = plant.f0_numerator()
+
+        def h(beta: float, t: float) -> complex:
+            sh = sin(0.5 * t)
+            st = sin(t)
+            z = complex(cos(t), st)
+            zm1 = complex(-2.0 * sh * sh, st)
+            num = a * (z + 1.0) + c
+            dt = d * t
+            inv = zm1 * (zm1 + omp) * complex(cos(dt), sin(dt)) / num
+            return complex(-inv.real - 2.0 * beta * sh * sh, -inv.imag - beta * st)
+        return h
+
+    def h_frac(beta: float, t: float) -> complex:
+        sh = sin(0.5 * t)
+        st = sin(t)
+        z = complex(cos(t), st)
+        zm1 = complex(-2.0 * sh * sh, st)
+        zinv = 1.0 / z
+        num = (g0p + g1p * zinv) * (zm1 + omp) + phi12 * (g0v + g1v * zinv)
+        dt = d * t
+        inv = zm1 * (zm1 + omp) * complex(cos(dt), sin(dt)) / num
+        return complex(-inv.real - 2.0 * beta * sh * sh, -inv.imag - beta * st)
+    return h_frac
+
+
+def _scalar_k_eq(L: RigidLoop, beta: float):
+    """fast_rigid's F̃ (``k_equation``) at one θ; at β = 0 with one zero (a whole-sample delay) its ``_psi`` with the
+    loop's numbers bound once, the same operations (so the same bits)."""
+    if beta != 0.0 or len(L.zeros) != 1:
+        return lambda t: k_equation(L, beta, t)
+    omp, slope, two_p = L.omp, L.slope, 2.0 * L.p
+    (q, omq), = L.zeros
+    two_q, sin, cos, atan2 = 2.0 * q, math.sin, math.cos, math.atan2
+
+    def psi(t: float) -> tuple[float, float]:
+        sh, ch = sin(0.5 * t), cos(0.5 * t)
+        st = 2.0 * sh * ch
+        re_p = omp - 2.0 * sh * sh
+        den_p = re_p * re_p + st * st
+        phi = slope * t - atan2(re_p, st)
+        dphi = slope + (omp + two_p * sh * sh) / den_p
+        re_q = 2.0 * ch * ch - omq
+        phi -= atan2(st, re_q)
+        dphi -= (omq + two_q * ch * ch) / (re_q * re_q + st * st)
+        return phi, dphi
+    return psi
+
+
+def _polish(h, beta: float, t: float) -> tuple[float, float]:
+    """fast_rigid.polish_h with the bound H of ``_scalar_h``: (θ, Re H(θ))."""
+    dh = 64.0 * _EPS * t
+    v0 = h(beta, t)
+    f0, f1 = v0.imag, h(beta, t + dh).imag
+    if f1 == f0 or f0 == 0.0:
+        return t, v0.real
+    t1 = t - f0 * dh / (f1 - f0)
+    if t1 == t:
+        return t, v0.real
+    if abs(t1 - t) <= 8.0 * _EPS * t and t1 < math.pi:
+        v1 = h(beta, t1)
+        if abs(v1.imag) < abs(f0):
+            return t1, v1.real
+    return t, v0.real
+
+
+def _next_start(L: RigidLoop, k: int, below, tr: float) -> float:
+    """Newton's start for the root at level 2πk from the roots ``below`` it (levels 0…k − 1): the first spacing
+    from the slope, then the roots carried on linearly (k = 2) or by their second difference (F̃ nearly linear, its
+    slope slowly changing: ~1e-6 from the root at mid levels against ~1e-5 linearly), kept below the middle of
+    [θ_{k−1}, θ_r]."""
+    lo = below[-1][0]
+    if k == 1:
+        start = lo + 2.0 * math.pi / (L.slope + 0.5)
+    elif k == 2:
+        start = lo + (lo - below[-2][0])
+    else:
+        start = 3.0 * (lo - below[-2][0]) + below[-3][0]
+    return min(start, 0.5 * (lo + tr))
+
+
+def _level(plant: RigidZOH, L: RigidLoop, beta: float, k: int, below: list[tuple[float, float]],
+           tr: float, fun=None, h=None, start: float | None = None) -> tuple[float, float]:
+    """The root at level 2πk alone, ``below`` the roots at the levels 0…k − 1: fast_rigid's bracketed Newton in
+    [θ_{k−1}, θ_r], started from the last spacing of the roots (F̃ is nearly linear there: Newton then starts a few
+    digits from the root), then polished.  ``fun``, ``h``: _scalar_k_eq and _scalar_h of this loop, when the caller
+    has them; ``start``: a better start than the spacing's (the vectorised passes' last iterate)."""
+    lo = below[-1][0]
+    if start is None:
+        start = _next_start(L, k, below, tr)
+    t = bracketed_newton(fun or _scalar_k_eq(L, beta), _TWO_PI * k, lo, tr, start, quadratic_slope=0.5 * L.slope)
+    return _polish(h or _scalar_h(plant), beta, t)
+
+
+def _undamped_whole(plant: RigidZOH, L: RigidLoop, n: int, t0: float, tr: float) -> list[tuple[float, float]]:
+    """_one_by_one at β = 0 with one zero (a whole-sample delay), the commonest loop: fast_rigid's bracketed Newton
+    and ``_psi`` written out in one loop (the same operations, so the same roots).  At β = 0, H = 2·sin(θ/2)·R·e^{jψ}
+    exactly, so at the root K = 2·sin(θ/2)·R(θ), a product of positive terms: taken so where K is not steep in θ
+    (_STEEP), else polish_h as before (Im H pins θ where an ulp of θ is many ulps of K).  Against the 30-digit
+    reference on 473 crossovers of 40 random devices: the same median (1 ulp) and largest (4.8e-15) error as the
+    polished list."""
+    h = _scalar_h(plant)
+    omp, slope, p, two_p = L.omp, L.slope, L.p, 2.0 * L.p
+    (q, omq), = L.zeros
+    two_q, sin, cos, atan2, sqrt = 2.0 * q, math.sin, math.cos, math.atan2, math.sqrt
+    eps2, eps4, q_eps, lead, inf = 2.0 * _EPS, 4.0 * _EPS, 0.25 * _EPS, L.lead, math.inf
+    half_slope, step1, nan = 0.5 * slope, 2.0 * math.pi / (slope + 0.5), math.nan
+    out = []
+    r1 = r2 = r3 = t0                                     # the last three roots (levels k − 1, k − 2, k − 3)
+    for k in range(1, n + 1):
+        level, lo, hi = _TWO_PI * k, r1, tr
+        # _next_start's start, on the last roots kept in locals
+        x = lo + step1 if k == 1 else lo + (lo - r2) if k == 2 else 3.0 * (lo - r2) + r3
+        mid = 0.5 * (lo + tr)
+        if x > mid:
+            x = mid
+        t = dphi = nan
+        prev = inf
+        for _ in range(200):                              # fast_rigid.bracketed_newton, quadratic_slope
+            if not (lo < x < hi):
+                x = sqrt(lo * hi) if lo > 0.0 and hi > 8.0 * lo else 0.5 * (lo + hi)
+                prev = inf
+            sh, ch = sin(0.5 * x), cos(0.5 * x)           # fast_rigid._psi
+            st = 2.0 * sh * ch
+            re_p = omp - 2.0 * sh * sh
+            den_p = re_p * re_p + st * st
+            fx = slope * x - atan2(re_p, st)
+            dphi = slope + (omp + two_p * sh * sh) / den_p
+            re_q = 2.0 * ch * ch - omq
+            fx -= atan2(st, re_q)
+            dphi -= (omq + two_q * ch * ch) / (re_q * re_q + st * st)
+            if fx == level:
+                t = x
+                break
+            if fx < level:
+                lo = x
+            else:
+                hi = x
+            if hi - lo <= eps4 * hi:
+                t = x
+                break
+            step = (fx - level) / dphi if dphi > 0.0 else inf
+            xn = x - step
+            a = abs(step)                                 # the ulp rule, or fast_rigid.newton_done's written out
+            if lo <= xn <= hi and (a <= eps2 * x or dphi >= half_slope and a <= 1e-10 * xn
+                                   and a * a * a <= q_eps * xn * prev * prev):
+                t = xn
+                break
+            prev = step
+            x = xn
+        else:
+            t = x
+        # K = H(θ) = 2·sin(θ/2)·R(θ) at a β = 0 crossover (H = 2sR·e^{jψ}, ψ ≡ 0): positive terms, no cancellation,
+        # where K is not steep in θ (d ln K/d ln θ = θ·(½cot(θ/2) + R'/R) ≤ _STEEP: an ulp of θ moves K by ≤ 6 ulp);
+        # steeper (the last levels, where the zero near −1 lifts R), polish_h's secant on Im H pins θ as before
+        sh, ch = sin(0.5 * t), cos(0.5 * t)
+        st = 2.0 * sh * ch
+        re_p = omp - 2.0 * sh * sh
+        re_q = 2.0 * ch * ch - omq
+        den_p, den_q = re_p * re_p + st * st, re_q * re_q + st * st
+        if t * (0.5 * ch / sh + p * st / den_p + q * st / den_q) <= _STEEP:
+            out.append((t, 2.0 * sh * (sqrt(den_p) / lead) / sqrt(den_q)))
+        else:
+            out.append(_polish(h, 0.0, t))
+        r1, r2, r3 = out[-1][0], r1, r2
+    return out
+
+
+def level_roots(plant: RigidZOH, L: RigidLoop, beta: float, n: int, t0: float, tr: float) -> list[tuple[float, float]]:
+    """The roots at the levels 2πk, k = 1…n, in turn: (θ, α) pairs."""
+    if beta == 0.0 and len(L.zeros) == 1:
+        return _undamped_whole(plant, L, n, t0, tr)
+    out = [(t0, 0.0)]
+    fun, h = _scalar_k_eq(L, beta), _scalar_h(plant)
+    for k in range(1, n + 1):
+        out.append(_level(plant, L, beta, k, out, tr, fun, h))
+    return out[1:]

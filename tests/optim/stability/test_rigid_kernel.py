@@ -1,0 +1,116 @@
+"""optim.stability.rigid_kernel (numba) against its Python twins, bit for bit: fast_rigid's scalar evaluators
+(``_k_eq``/``_psi``, ``_h``), its binding crossover (bracketed_newton from the closed-form start, polish_h) and the
+levels' loop (tests/optim/stability/rigid_python.py, the exact rung's list as it ran in Python).
+
+Random rigid devices over the documented domain: δ from 1e-30 to 1e3 (a twentieth of them δ = 0 with B > 0),
+whole and fractional delays of 0-400 samples, B = 0, B uniform below B_max and within 1e-6…1e-3 of it; T of
+0.1-2 ms and masses 1e-4-100 kg (the dimensionless loop is what the kernel sees).
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from models.device import Device
+from optim.stability import fast_rigid as fr
+from optim.stability import rigid_kernel as rk
+from optim.stability.margins import loop_plant, max_stable_damping
+
+from .rigid_python import level_roots as python_level_roots
+
+_HALF_PI = 0.5 * math.pi
+_TWO_PI = 2.0 * math.pi
+
+
+def _device(rng, i):
+    m, t = 10 ** rng.uniform(-4, 2), float(rng.choice([1e-4, 5e-4, 1e-3, 2e-3]))
+    delta = 0.0 if i % 20 == 7 else 10 ** rng.uniform(-30, 3)
+    ds = float(rng.integers(0, 401)) if i % 2 else float(rng.uniform(0, 400))
+    return Device(mass=m, damping=delta * m / t, sample_time=t, delay=ds * t)
+
+
+def _beta(rng, i, dev):
+    kind = i % 3 if dev.damping > 0 else 1 + i % 2
+    if kind == 0:
+        return 0.0
+    try:
+        b_max = max_stable_damping(dev)
+    except ValueError:
+        return None
+    if not (math.isfinite(b_max) and b_max > 0):
+        return None
+    frac = rng.uniform(0, 1) if kind == 1 else 1 - 10 ** rng.uniform(-6, -3)
+    return b_max * frac / dev.damping_scale
+
+
+def _levels(L, beta, t0):
+    """The level count of rigid_levels.rigid_crossovers."""
+    tr = L.theta_r
+    top = (L.half_pis_at_pi - 1) * _HALF_PI if tr == math.pi else fr.k_equation(L, beta, tr)[0]
+    n = max(int(top // _TWO_PI), 0)
+    while _TWO_PI * (n + 1) < top:
+        n += 1
+    while n > 0 and not _TWO_PI * n < top:
+        n -= 1
+    return n if t0 < tr else 0
+
+
+def _python_binding(plant, L, beta, hi):
+    """fast_rigid's binding crossover as it ran in Python."""
+    fun = (lambda x: fr._psi(L, x)) if beta == 0.0 else (lambda x: fr._k_eq(L, beta, x))
+    t = fr.bracketed_newton(fun, 0.0, 0.0, hi, fr._start(L, L.omp + beta, _HALF_PI, hi))
+    t, h = fr.polish_h(plant, beta, t)
+    return t, h.real
+
+
+def _same(a, b) -> bool:
+    return a == b or (isinstance(a, float) and math.isnan(a) and math.isnan(b))
+
+
+def test_kernel_equals_its_python_twins_bit_for_bit():
+    rng = np.random.default_rng(2024)
+    devices = levels = bindings = evaluations = 0
+    for i in range(1500):
+        dev = _device(rng, i)
+        plant = loop_plant(dev)
+        L = fr.rigid_loop(plant)
+        if L is None:
+            continue
+        beta = _beta(rng, i, dev)
+        if beta is None:
+            continue
+        v = L.numbers
+        for t in np.concatenate([rng.uniform(1e-7, math.pi, 3), 10 ** rng.uniform(-12, 0, 2)]).tolist():
+            for b in (beta, 0.0):
+                assert all(map(_same, rk._k_eq(v, b, t), fr._k_eq(L, b, t))), (dev, b, t)
+                assert rk._h(v, b, t) == fr._h(plant, b, t), (dev, b, t)
+                evaluations += 2
+        res = fr.fast_rigid(plant, beta)
+        if res is None or res.theta is None:
+            continue
+        hi = L.theta_r if beta == 0.0 else min(fr._damper_root(L)[0], L.theta_r)
+        if not (hi == math.pi and L.half_pis_at_pi == 1):   # else the Nyquist point, no solve
+            assert (res.theta, res.alpha) == _python_binding(plant, L, beta, hi), (dev, beta)
+            bindings += 1
+        n = _levels(L, beta, res.theta)
+        if n == 0:
+            continue
+        theta, alpha = rk.level_roots(v, beta, n, res.theta, L.theta_r)
+        assert list(zip(theta.tolist(), alpha.tolist())) == python_level_roots(
+            plant, L, beta, n, res.theta, L.theta_r), (dev, beta, n)
+        devices += 1
+        levels += n
+    # the domain was covered: long lists, both delay kinds, B = 0 and B > 0
+    assert devices >= 900 and levels >= 50_000 and bindings >= 1200 and evaluations >= 20_000
+
+
+@pytest.mark.parametrize("delay_samples", [0, 3, 2.5, 50, 199.25])
+def test_compile_kernels_leaves_answers_alone(delay_samples):
+    """compile_kernels runs the kernels on a made-up loop: the next answer on a real one is unchanged."""
+    dev = Device(mass=1.05e-3, damping=0.0085, sample_time=1e-3, delay=delay_samples * 1e-3)
+    plant, L = loop_plant(dev), fr.rigid_loop(loop_plant(dev))
+    before = fr.fast_rigid(plant, 1e-3)
+    rk.compile_kernels()
+    assert fr.fast_rigid(plant, 1e-3) == before
+    assert L.numbers[-1] == (0.0 if float(delay_samples).is_integer() else 1.0)
