@@ -38,6 +38,8 @@ __all__ = [
     "fold_angle",
 ]
 
+_EPS = float(np.finfo(float).eps)
+
 _SERIES_TERMS = 30
 
 
@@ -104,7 +106,7 @@ def split_delay(delay_samples: float) -> tuple[int, float]:
     if delay_samples < 0 or not math.isfinite(delay_samples):
         raise ValueError("delay must be finite and non-negative")
     nearest = round(delay_samples)
-    if abs(delay_samples - nearest) <= 64 * np.finfo(float).eps * max(1.0, delay_samples):
+    if abs(delay_samples - nearest) <= 64 * _EPS * max(1.0, delay_samples):
         return int(nearest), 0.0
     whole = math.floor(delay_samples)
     return int(whole), float(delay_samples - whole)

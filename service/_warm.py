@@ -1,6 +1,6 @@
 """Imported by the compute workers' forkserver (then :func:`touch` in each worker): fills per-process caches once.
 
-The rigid fast path's kernels are compiled by numba (optim.stability.rigid_kernel) on first use.  The exact rigid discretisation builds its series coefficients on first use
+The numerics' kernels are compiled by numba (optim.stability.kernels) on first use.  The exact rigid discretisation builds its series coefficients on first use
 (models.discretize, cached per process) and scipy imports submodules lazily;
 doing both here, before the forkserver forks any worker, makes every worker —
 including one that replaces a killed worker — answer its first call at full speed.  The stiffness designs
@@ -12,10 +12,10 @@ design.
 from models.device import PRESETS, Device
 from optim.stability.analysis import analyse_stability
 from optim.stability.boundary import stability_boundary
-from optim.stability.rigid_kernel import compile_kernels
+from optim.stability.kernels import compile_kernels
 from optim.stiffness import design_stiffness
 
-compile_kernels()   # the rigid fast path's compiled loops (numba): compiled, or loaded from its cache, once
+compile_kernels()   # the compiled loops (numba): compiled, or loaded from its cache, once
 
 for _name in sorted(PRESETS):
     _device = Device(preset=_name)

@@ -55,7 +55,7 @@ from typing import Annotated, Any, Callable, TypeVar
 
 from fastapi import Depends, Request
 
-from optim.stability.rigid_kernel import compile_kernels
+from optim.stability.kernels import compile_kernels
 
 from .compute_worker import Worker as _Worker
 from .compute_worker import warm_worker as _warm_worker

@@ -29,6 +29,7 @@ from models.device import Device
 from models.discretize import split_delay
 from optim.errors import InputError
 from optim.golden import golden_minimum
+from optim.stability.passivity_kernel import needs_python, polish_max, prefix_samples
 
 __all__ = ["PassivityCheck", "PassiveStiffness", "passivity_samples", "kernel", "passivity_margin",
            "is_passive", "max_passive_stiffness", "largest_passive_stiffness", "passive_alpha_on_grid",
@@ -178,49 +179,14 @@ def _polish_max(d: int, hk: float, damping: float, a: float, b: float, t: float)
 _FLAT_WORST_ANGLE = float(_grid(0)[np.argpartition(np.zeros(_grid(0).size), 2)[0]])
 
 
-def _passivity_prefix(d: int, n: int, hk: float, damping: float) -> tuple[np.ndarray, np.ndarray, float]:
-    """(θ, P(θ)) on the part of ``_grid(d)`` (n samples) where P may reach its maximum, and P(π).
-
-    s_d = sin((d+1)θ)·cot(θ/2) − cos((d+1)θ), so P = hk·cot(θ/2)·sin u − (hk + B)·cos u with u = (d+1)θ, and
-    P(θ) ≤ E(θ) = √(hk²·cot²(θ/2) + (hk + B)²), which falls with θ.  With V the largest of P(π) and the first
-    samples (the first lobes), every sample past θ_c = 2·atan(hk/√(V² − (hk + B)²)) lies below V: it can neither
-    be the maximum nor refine to it.  The kept samples are the grid's own (linspace's arange·step), two past θ_c
-    so that each kept maximum has both grid neighbours."""
-    step = math.pi / (n - 1)
-
-    def samples(lo: int, hi: int) -> tuple[np.ndarray, np.ndarray]:
-        theta = np.arange(lo, hi) * step
-        if hi == n:
-            theta[-1] = math.pi                              # as linspace sets its end point
-        # kernel's operations elementwise, its θ = 0 limit set apart (no masks, no errstate: a third of the cost)
-        s = np.empty_like(theta)
-        pos = theta[1:] if lo == 0 else theta
-        np.divide(np.sin((d + 0.5) * pos), np.sin(pos / 2), out=s[1:] if lo == 0 else s)
-        if lo == 0:
-            s[0] = 2 * d + 1.0
-        return theta, hk * s - damping * np.cos((d + 1) * theta)
-
-    # P(π) by kernel's own operations in plain floats (math's sin/cos are numpy's, bit for bit)
-    v_pi = hk * (math.sin((d + 0.5) * math.pi) / math.sin(math.pi / 2)) - damping * math.cos((d + 1) * math.pi)
-    first = min(n, 3 * 64 + 3)
-    grid, vals = samples(0, first)
-    v_low, c = max(float(vals.max()), v_pi), hk + damping
-    keep = n
-    if v_low > c:
-        keep = min(n, int(2.0 * math.atan(hk / math.sqrt((v_low - c) * (v_low + c))) / step) + 3)
-    if keep > first:
-        more_t, more_v = samples(first, keep)
-        grid, vals = np.concatenate([grid, more_t]), np.concatenate([vals, more_v])
-    return grid, vals, v_pi
-
-
 def passivity_margin(device: Device, stiffness: float, damping: float) -> PassivityCheck:
     """sup over θ ∈ (0, π] of P(θ), compared with the physical damping b.
 
     The grid's three largest samples, each refined by Newton on P'(θ) = 0 inside its two grid steps (the
     global maximum may sit between samples).  It replaced three bounded Brent searches (``minimize_scalar``,
     ≈ 0.3-1 ms) with the same answer: tests/optim/stability/test_passivity_fast.py holds the two to 1e-12.
-    Only the samples the envelope of ``_passivity_prefix`` cannot rule out are computed, and B = 0 (sup at
+    Only the samples the envelope of optim.stability.passivity_kernel.prefix_samples cannot rule out are computed
+    (compiled, as is the polish: the same bits as the Python they replaced), and B = 0 (sup at
     θ = 0) and d = 0 (eq. 3) are answered in closed form, each as the grid would: 2-50 µs instead of
     60-440 µs on the issue-20 loops."""
     d, conservative = passivity_samples(device)
@@ -238,7 +204,7 @@ def passivity_margin(device: Device, stiffness: float, damping: float) -> Passiv
         # P = hk on every sample: the general path's answer is hk at the angle its partition happens to list first
         return PassivityCheck(device.damping > hk, hk, d, conservative, _FLAT_WORST_ANGLE)
     n = 64 * (d + 1) + 257
-    grid, vals, v_pi = _passivity_prefix(d, n, hk, damping)
+    grid, vals, v_pi = prefix_samples(d, n, float(hk), float(damping))   # compiled: passivity_kernel
     top = (np.argpartition(-vals, 2)[:3] if vals.size > 3 else np.arange(vals.size)).tolist()
     last = grid.size - 1
     cand_t = [float(grid[i]) for i in top]
@@ -256,7 +222,8 @@ def passivity_margin(device: Device, stiffness: float, damping: float) -> Passiv
         curv = v0 - 2 * v1 + v2
         vertex = cand_t[row] + 0.5 * (hi - lo) / 2 * (v0 - v2) / curv if curv < 0 else math.nan
         inside = i_lo < i < i_hi and curv < 0 and lo < vertex < hi
-        t = _polish_max(d, hk, damping, lo, hi, vertex if inside else 0.5 * (lo + hi))
+        polish = _polish_max if needs_python(d, lo) else polish_max   # compiled unless numpy's sums are needed
+        t = polish(d, float(hk), float(damping), lo, hi, vertex if inside else 0.5 * (lo + hi))
         if math.isnan(t):
             continue
         half = math.sin(t / 2)
