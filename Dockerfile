@@ -21,6 +21,7 @@ COPY --from=build /opt/zwidth /opt/zwidth
 ENV PATH=/opt/zwidth/bin:$PATH \
     PYTHONUNBUFFERED=1 \
     MPLCONFIGDIR=/tmp/matplotlib \
+    NUMBA_CACHE_DIR=/home/zwidth/.cache/numba \
     ZWIDTH_DATABASE_URL=sqlite:////home/zwidth/zwidth.db
 USER zwidth
 WORKDIR /home/zwidth

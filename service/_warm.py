@@ -9,6 +9,8 @@ optim.stiffness.problem; the forked worker's main thread inherits them), ≈ 10-
 design.
 """
 
+import gc
+
 from models.device import PRESETS, Device
 from optim.stability.analysis import analyse_stability
 from optim.stability.boundary import stability_boundary
@@ -25,6 +27,10 @@ stability_boundary(Device(mass=1.0, damping=1.0), None, 3)
 for _name in ("lhifam", "phantom-1.0"):
     design_stiffness(Device(preset=_name))
     design_stiffness(Device(preset=_name).rigid())
+
+# everything so far lives as long as the forkserver and its forks: out of the collector's full passes (≈ 0.1 s over
+# it otherwise, in whichever call triggers one), and its pages unwritten by them in the forked workers
+gc.freeze()
 
 
 def touch() -> None:

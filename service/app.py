@@ -9,6 +9,7 @@ stay open.
 
 from __future__ import annotations
 
+import gc
 import importlib
 import pkgutil
 import threading
@@ -17,6 +18,8 @@ from typing import AsyncIterator
 
 from fastapi import Depends, FastAPI
 from fastapi.middleware.cors import CORSMiddleware
+
+from optim.stability.kernels import compile_kernels
 
 from . import routes
 from .auth import UNAUTHORIZED, bearer_auth
@@ -72,6 +75,16 @@ def _document_not_found(router) -> None:
             route.responses.setdefault(404, NOT_FOUND)
 
 
+def _warm_up(executor: BoundedExecutor) -> None:
+    """Readiness: this process's compiled kernels (its inline calls, the exact rigid analysis, use them), then the
+    compute workers.  In between, everything imported and compiled so far is frozen out of the garbage collector
+    (it lives as long as the process): a full collection over it took ≈ 0.1 s (≈ 270k objects), a pause in
+    whichever request triggered it; frozen, ≈ 0."""
+    compile_kernels()
+    gc.freeze()
+    executor.warm_up()
+
+
 def create_app(settings: Settings | None = None) -> FastAPI:
     settings = settings or Settings()
     configure_logging(settings.log_level)
@@ -83,7 +96,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         executor.open()
         if settings.prestart_workers:
             # In the background: the server answers /healthz while the workers start.
-            threading.Thread(target=executor.warm_up, name="zwidth-warm-up", daemon=True).start()
+            threading.Thread(target=_warm_up, args=(executor,), name="zwidth-warm-up", daemon=True).start()
         yield
         executor.shutdown()
 

@@ -55,8 +55,6 @@ from typing import Annotated, Any, Callable, TypeVar
 
 from fastapi import Depends, Request
 
-from optim.stability.kernels import compile_kernels
-
 from .compute_worker import Worker as _Worker
 from .compute_worker import warm_worker as _warm_worker
 
@@ -359,9 +357,7 @@ class BoundedExecutor:
 
     # -- life cycle -------------------------------------------------------------------------------
     def warm_up(self, timeout: float = STARTUP_TIMEOUT) -> bool:
-        """Start every worker now and warm it (blocking); True when all are ready (then :attr:`warm`).  This process's
-        compiled kernels too: its inline calls (the exact rigid analysis) use them."""
-        compile_kernels()
+        """Start every worker now and warm it (blocking); True when all are ready (then :attr:`warm`)."""
         try:
             self._ensure_dispatchers(prestart=True)
         except ComputeUnavailable:   # shut down while warming up (an app stopped at once)

@@ -114,3 +114,29 @@ def test_compile_kernels_leaves_answers_alone(delay_samples):
     rk.compile_kernels()
     assert fr.fast_rigid(plant, 1e-3) == before
     assert L.numbers[-1] == (0.0 if float(delay_samples).is_integer() else 1.0)
+
+
+def test_kernel_equals_its_python_twin_up_to_the_delay_limit():
+    """Delays of 2,000 to MAX_DELAY_SAMPLES (10,000): lists of thousands of levels, bit for bit."""
+    from models.device import MAX_DELAY_SAMPLES
+
+    rng = np.random.default_rng(4048)
+    longest = 0
+    for i in range(24):
+        ds = float(rng.uniform(2000, MAX_DELAY_SAMPLES)) if i % 2 else float(MAX_DELAY_SAMPLES - rng.integers(0, 8000))
+        m, t = 10 ** rng.uniform(-3, 1), 1e-3
+        dev = Device(mass=m, damping=10 ** rng.uniform(-12, 1) * m / t, sample_time=t, delay=ds * t)
+        plant = loop_plant(dev)
+        L = fr.rigid_loop(plant)
+        beta = _beta(rng, i, dev)
+        if L is None or beta is None:
+            continue
+        res = fr.fast_rigid(plant, beta)
+        if res is None or res.theta is None:
+            continue
+        n = _levels(L, beta, res.theta)
+        theta, alpha = rk.level_roots(L.numbers, beta, n, res.theta, L.theta_r)
+        assert list(zip(theta.tolist(), alpha.tolist())) == python_level_roots(
+            plant, L, beta, n, res.theta, L.theta_r), (dev, beta, n)
+        longest = max(longest, n)
+    assert longest >= 2000
