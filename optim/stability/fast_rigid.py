@@ -64,7 +64,7 @@ class RigidLoop:
     theta_r: float                    # φ rises on [0, θ_r]
     half_pis_at_pi: int               # φ(π) = this·π/2 exactly (used when θ_r = π)
     theta_rb: float                   # φ + θ/2 rises on [0, θ_rb] (θ_rb ≥ θ_r)
-    numbers: np.ndarray = field(compare=False, repr=False, default=None)   # optim.stability.rigid_kernel's
+    numbers: np.ndarray = field(compare=False, repr=False)   # the loop as optim.stability.rigid_kernel reads it
 
 
 @lru_cache(maxsize=4096)
