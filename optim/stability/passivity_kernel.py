@@ -16,7 +16,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+
+from optim.stability.compiled import kernel
 
 __all__ = ["prefix_samples", "polish_max", "needs_python", "compile_kernels"]
 
@@ -32,7 +33,7 @@ def needs_python(d: int, a: float) -> bool:
     return d > _NUMPY_SUM_MIN and (d + 0.5) * a < 1.0
 
 
-@njit(cache=True)
+@kernel
 def _fill(theta, vals, lo, hi, n, step, d, hk, damping):
     """passivity._passivity_prefix's ``samples(lo, hi)`` into theta[lo:hi], vals[lo:hi]."""
     big_n, e = d + 0.5, float(d + 1)
@@ -45,7 +46,7 @@ def _fill(theta, vals, lo, hi, n, step, d, hk, damping):
         vals[i] = hk * s - damping * math.cos(e * t)
 
 
-@njit(cache=True)
+@kernel
 def prefix_samples(d, n, hk, damping):
     """passivity._passivity_prefix: (θ, P(θ)) on the part of the n-sample grid where P may reach its maximum, and
     P(π)."""
@@ -66,7 +67,7 @@ def prefix_samples(d, n, hk, damping):
     return theta[:keep], vals[:keep], v_pi
 
 
-@njit(cache=True)
+@kernel
 def _slopes(t, d, hk, damping):
     """passivity._p_slopes_at without its numpy branch (the caller keeps away from it: ``needs_python``)."""
     if d > _SUM_TERMS_MIN:
@@ -88,7 +89,7 @@ def _slopes(t, d, hk, damping):
     return hk * (-2.0 * ds) + damping * e * math.sin(e * t), hk * (-2.0 * dds) + damping * e * e * math.cos(e * t)
 
 
-@njit(cache=True)
+@kernel
 def polish_max(d, hk, damping, a, b, t):
     """passivity._polish_max: the local maximum of P inside [a, b] from ``t`` (nan when the bracket holds none)."""
     fa, ca = _slopes(a, d, hk, damping)

@@ -20,8 +20,9 @@ The loop's numbers travel as a flat float array (``loop_numbers``): omp, p, lead
 then the plant's a, c (N = a(z + 1) + c, whole-sample delay) or Φ₁₂, Γ0p, Γ0v, Γ1p, Γ1v (fractional delay), the
 whole delay d, and the count of zeros and whether the delay is fractional.
 
-The first call of a process compiles, or loads the compiled code from numba's cache (``cache=True``: beside this
-file, else under NUMBA_CACHE_DIR); service._warm makes that call before the server says it is ready.
+The first call of a process compiles, or loads the compiled code from numba's disk cache (optim.stability.compiled:
+beside this file, else NUMBA_CACHE_DIR or the user's cache; none writable: compiled per process); the server's warm-up
+makes that call before it says it is ready.
 """
 
 from __future__ import annotations
@@ -29,9 +30,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from models.discretize import RigidZOH
+from optim.stability.compiled import kernel
 
 __all__ = ["loop_numbers", "binding_root", "level_roots"]
 
@@ -57,7 +58,7 @@ def loop_numbers(plant: RigidZOH, omp: float, p: float, lead: float, slope: floa
                      float(plant.d), float(len(zeros)), 1.0 if plant.f != 0.0 else 0.0])
 
 
-@njit(cache=True)
+@kernel
 def _k_eq(v, beta, t):
     """fast_rigid._k_eq (β > 0) or _psi (β = 0): (F̃ − π/2, its slope)."""
     omp, p, slope = v[_OMP], v[_P], v[_SLOPE]
@@ -93,7 +94,7 @@ def _k_eq(v, beta, t):
     return phi - math.asin(g), dphi - dg / math.sqrt((1.0 - g) * (1.0 + g))
 
 
-@njit(cache=True)
+@kernel
 def _h(v, beta, t):
     """fast_rigid._h: H(θ) = −1/G_n + β(e^{−jθ} − 1), CPython's complex operations in its order."""
     sh = math.sin(0.5 * t)
@@ -111,7 +112,7 @@ def _h(v, beta, t):
     return complex(-inv.real - 2.0 * beta * sh * sh, -inv.imag - beta * st)
 
 
-@njit(cache=True)
+@kernel
 def _polish(v, beta, t):
     """fast_rigid.polish_h: (θ, Re H(θ)) after one secant step on Im H, kept where it lowers |Im H|."""
     dh = 64.0 * _EPS * t
@@ -129,7 +130,7 @@ def _polish(v, beta, t):
     return t, v0.real
 
 
-@njit(cache=True)
+@kernel
 def _newton(v, beta, level, lo, hi, x, quadratic_slope):
     """fast_rigid.bracketed_newton on F̃ = level (2 ulp step, 4 ulp bracket, newton_done above quadratic_slope)."""
     step_rtol, bracket_rtol = 2.0 * _EPS, 4.0 * _EPS
@@ -159,14 +160,14 @@ def _newton(v, beta, level, lo, hi, x, quadratic_slope):
     return x
 
 
-@njit(cache=True)
+@kernel
 def binding_root(v, beta, hi, start):
     """fast_rigid's binding crossover: the root of F̃ = π/2 in [0, hi] from ``start``, polished: (θ, α = Re H)."""
     t = _newton(v, beta, 0.0, 0.0, hi, start, math.inf)
     return _polish(v, beta, t)
 
 
-@njit(cache=True)
+@kernel
 def level_roots(v, beta, n, t0, tr):
     """The roots at the levels 2πk, k = 1…n, in turn (rigid_levels' loop): arrays (θ, α)."""
     theta = np.empty(n)
