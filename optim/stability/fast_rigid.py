@@ -40,7 +40,7 @@ from functools import lru_cache
 import numpy as np
 
 from models.discretize import RigidZOH
-from optim.stability.rigid_kernel import binding_root, loop_numbers
+from optim.stability.rigid_kernel import binding_root, k_eq, loop_numbers
 
 __all__ = ["RigidLoop", "FastRigid", "rigid_loop", "fast_rigid", "fast_beta_max", "re_h", "k_equation",
            "bracketed_newton",
@@ -353,7 +353,7 @@ def fast_rigid(plant: RigidZOH, beta: float, beta_max: float | None = None,
             return FastRigid(re_h(plant, beta, math.pi), math.pi, bmax)
         fk = (L.half_pis_at_pi - 1) * _HALF_PI
     else:
-        fk, _ = _k_eq(L, beta, hi)
+        fk, _ = k_eq(L.numbers, beta, hi)   # compiled _k_eq: the same bits
     if not fk > 0.0:
         return None                           # no K crossover below θ_r (or β_max rounded the other way)
     # bracketed_newton on _k_eq (β = 0: _psi) from the closed-form start, then polish_h: compiled, the same bits

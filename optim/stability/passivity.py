@@ -29,7 +29,7 @@ from models.device import Device
 from models.discretize import split_delay
 from optim.errors import InputError
 from optim.golden import golden_minimum
-from optim.stability.passivity_kernel import needs_python, polish_max, prefix_samples
+from optim.stability.passivity_kernel import best_of_rows, needs_python, polish_max, prefix_samples
 
 __all__ = ["PassivityCheck", "PassiveStiffness", "passivity_samples", "kernel", "passivity_margin",
            "is_passive", "max_passive_stiffness", "largest_passive_stiffness", "passive_alpha_on_grid",
@@ -179,33 +179,10 @@ def _polish_max(d: int, hk: float, damping: float, a: float, b: float, t: float)
 _FLAT_WORST_ANGLE = float(_grid(0)[np.argpartition(np.zeros(_grid(0).size), 2)[0]])
 
 
-def passivity_margin(device: Device, stiffness: float, damping: float) -> PassivityCheck:
-    """sup over θ ∈ (0, π] of P(θ), compared with the physical damping b.
-
-    The grid's three largest samples, each refined by Newton on P'(θ) = 0 inside its two grid steps (the
-    global maximum may sit between samples).  It replaced three bounded Brent searches (``minimize_scalar``,
-    ≈ 0.3-1 ms) with the same answer: tests/optim/stability/test_passivity_fast.py holds the two to 1e-12.
-    Only the samples the envelope of optim.stability.passivity_kernel.prefix_samples cannot rule out are computed
-    (compiled, as is the polish: the same bits as the Python they replaced), and B = 0 (sup at
-    θ = 0) and d = 0 (eq. 3) are answered in closed form, each as the grid would: 2-50 µs instead of
-    60-440 µs on the issue-20 loops."""
-    d, conservative = passivity_samples(device)
-    hk = stiffness * device.sample_time / 2
-    if d == 0 and damping > 0.0:
-        # eq. 3: s_0 = 1 exactly (the grid's samples too), so P = hk + B·(−cos θ) peaks at θ = π, the grid's
-        # last sample, which no refinement exceeds: the general path's answer, bit for bit
-        return PassivityCheck(device.damping > hk + damping, hk + damping, d, conservative, math.pi)
-    if damping == 0.0 and d > 0:
-        # |s_d| < 2d + 1 = s_d(0) away from θ = 0: the sup is the grid's first sample, which no refinement exceeds
-        # (the general path's answer, bit for bit)
-        v = hk * (2 * d + 1.0) - 0.0
-        return PassivityCheck(device.damping > v, v, d, conservative, 0.0)
-    if d == 0 and damping == 0.0:
-        # P = hk on every sample: the general path's answer is hk at the angle its partition happens to list first
-        return PassivityCheck(device.damping > hk, hk, d, conservative, _FLAT_WORST_ANGLE)
-    n = 64 * (d + 1) + 257
-    grid, vals, v_pi = prefix_samples(d, n, float(hk), float(damping))   # compiled: passivity_kernel
-    top = (np.argpartition(-vals, 2)[:3] if vals.size > 3 else np.arange(vals.size)).tolist()
+def _best_of_rows(d: int, hk: float, damping: float, grid: np.ndarray, vals: np.ndarray, top: list[int],
+                  v_pi: float) -> tuple[float, float]:
+    """passivity_kernel.best_of_rows in Python, for rows whose bracket needs _p_slopes_at's numpy sums (d > 32 and
+    (d + ½)θ < 1): (sup P, its θ)."""
     last = grid.size - 1
     cand_t = [float(grid[i]) for i in top]
     cand_v = [float(vals[i]) for i in top]
@@ -234,7 +211,39 @@ def passivity_margin(device: Device, stiffness: float, damping: float) -> Passiv
     cand_t += [*refined_t, math.pi]
     cand_v += [*refined_v, v_pi]
     j = max(range(len(cand_v)), key=cand_v.__getitem__)   # the first of equal maxima, as np.argmax
-    v_best, t_best = cand_v[j], cand_t[j]
+    return cand_v[j], cand_t[j]
+
+
+def passivity_margin(device: Device, stiffness: float, damping: float) -> PassivityCheck:
+    """sup over θ ∈ (0, π] of P(θ), compared with the physical damping b.
+
+    The grid's three largest samples, each refined by Newton on P'(θ) = 0 inside its two grid steps (the
+    global maximum may sit between samples).  It replaced three bounded Brent searches (``minimize_scalar``,
+    ≈ 0.3-1 ms) with the same answer: tests/optim/stability/test_passivity_fast.py holds the two to 1e-12.
+    Only the samples the envelope of optim.stability.passivity_kernel.prefix_samples cannot rule out are computed
+    (compiled, as is the polish: the same bits as the Python they replaced), and B = 0 (sup at
+    θ = 0) and d = 0 (eq. 3) are answered in closed form, each as the grid would: 2-50 µs instead of
+    60-440 µs on the issue-20 loops."""
+    d, conservative = passivity_samples(device)
+    hk = stiffness * device.sample_time / 2
+    if d == 0 and damping > 0.0:
+        # eq. 3: s_0 = 1 exactly (the grid's samples too), so P = hk + B·(−cos θ) peaks at θ = π, the grid's
+        # last sample, which no refinement exceeds: the general path's answer, bit for bit
+        return PassivityCheck(device.damping > hk + damping, hk + damping, d, conservative, math.pi)
+    if damping == 0.0 and d > 0:
+        # |s_d| < 2d + 1 = s_d(0) away from θ = 0: the sup is the grid's first sample, which no refinement exceeds
+        # (the general path's answer, bit for bit)
+        v = hk * (2 * d + 1.0) - 0.0
+        return PassivityCheck(device.damping > v, v, d, conservative, 0.0)
+    if d == 0 and damping == 0.0:
+        # P = hk on every sample: the general path's answer is hk at the angle its partition happens to list first
+        return PassivityCheck(device.damping > hk, hk, d, conservative, _FLAT_WORST_ANGLE)
+    n = 64 * (d + 1) + 257
+    grid, vals, v_pi = prefix_samples(d, n, float(hk), float(damping))   # compiled: passivity_kernel
+    top = (-vals).argpartition(2)[:3] if vals.size > 3 else np.arange(vals.size)   # np.argpartition, unwrapped
+    v_best, t_best, decided = best_of_rows(d, float(hk), float(damping), grid, vals, top, v_pi)   # compiled
+    if not decided:   # a bracket needs _p_slopes_at's numpy sums: the rows in Python
+        v_best, t_best = _best_of_rows(d, hk, damping, grid, vals, top.tolist(), v_pi)
     return PassivityCheck(device.damping > v_best, v_best, d, conservative, t_best)
 
 

@@ -19,7 +19,7 @@ import numpy as np
 
 from optim.stability.compiled import kernel
 
-__all__ = ["prefix_samples", "polish_max", "needs_python", "compile_kernels"]
+__all__ = ["prefix_samples", "polish_max", "best_of_rows", "needs_python", "compile_kernels"]
 
 _EPS = 2.220446049250313e-16
 #: _p_slopes_at takes the closed form's derivatives above this many delay samples (passivity._SUM_TERMS_MIN)
@@ -118,7 +118,56 @@ def polish_max(d, hk, damping, a, b, t):
     return t
 
 
+@kernel
+def best_of_rows(d, hk, damping, grid, vals, top, v_pi):
+    """passivity_margin's rows: each of the ``top`` samples polished to the local maximum inside its two grid
+    steps (skipped when a maximum already found lies in that bracket; started at the vertex of the parabola through
+    the three samples, the bracket's middle at an end), then the largest of the top samples, the maxima and P(π),
+    the first of equal ones.  Returns (sup P, its θ, True), or (nan, nan, False) without deciding anything when a
+    bracket reaches _p_slopes_at's numpy branch (``needs_python``: the caller runs the rows in Python)."""
+    last = grid.size - 1
+    n_top = top.size
+    cand_t = np.empty(2 * n_top + 1)
+    cand_v = np.empty(2 * n_top + 1)
+    for row in range(n_top):
+        cand_t[row] = grid[top[row]]
+        cand_v[row] = vals[top[row]]
+    n = n_top
+    for row in range(n_top):
+        i = top[row]
+        i_lo, i_hi = max(i - 1, 0), min(i + 1, last)
+        lo, hi = grid[i_lo], grid[i_hi]
+        seen = False
+        for r in range(n_top, n):
+            if lo < cand_t[r] < hi:
+                seen = True
+        if seen:
+            continue
+        v0, v1, v2 = vals[i_lo], vals[i], vals[i_hi]
+        curv = v0 - 2 * v1 + v2
+        vertex = cand_t[row] + 0.5 * (hi - lo) / 2 * (v0 - v2) / curv if curv < 0 else math.nan
+        inside = i_lo < i < i_hi and curv < 0 and lo < vertex < hi
+        if d > _NUMPY_SUM_MIN and (d + 0.5) * lo < 1.0:
+            return math.nan, math.nan, False
+        t = polish_max(d, hk, damping, lo, hi, vertex if inside else 0.5 * (lo + hi))
+        if math.isnan(t):
+            continue
+        half = math.sin(t / 2)
+        s_t = math.sin((d + 0.5) * t) / half if half != 0.0 else 2 * d + 1.0
+        cand_t[n] = t
+        cand_v[n] = hk * s_t - damping * math.cos((d + 1) * t)
+        n += 1
+    cand_t[n] = math.pi
+    cand_v[n] = v_pi
+    j = 0
+    for c in range(1, n + 1):
+        if cand_v[c] > cand_v[j]:
+            j = c
+    return cand_v[j], cand_t[j], True
+
+
 def compile_kernels() -> None:
-    """Compile both kernels now (or load them from numba's cache): see optim.stability.rigid_kernel."""
-    prefix_samples(3, 64 * 4 + 257, 0.5, 0.1)
+    """Compile the kernels now (or load them from numba's cache): see optim.stability.rigid_kernel."""
+    grid, vals, v_pi = prefix_samples(3, 64 * 4 + 257, 0.5, 0.1)
     polish_max(3, 0.5, 0.1, 0.1, 0.2, 0.15)
+    best_of_rows(3, 0.5, 0.1, grid, vals, np.argpartition(-vals, 2)[:3], v_pi)

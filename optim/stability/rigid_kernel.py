@@ -34,7 +34,7 @@ import numpy as np
 from models.discretize import RigidZOH
 from optim.stability.compiled import kernel
 
-__all__ = ["loop_numbers", "binding_root", "level_roots"]
+__all__ = ["loop_numbers", "k_eq", "binding_root", "level_roots"]
 
 _EPS = 2.220446049250313e-16
 _HALF_PI = 0.5 * math.pi
@@ -59,7 +59,7 @@ def loop_numbers(plant: RigidZOH, omp: float, p: float, lead: float, slope: floa
 
 
 @kernel
-def _k_eq(v, beta, t):
+def k_eq(v, beta, t):
     """fast_rigid._k_eq (β > 0) or _psi (β = 0): (F̃ − π/2, its slope)."""
     omp, p, slope = v[_OMP], v[_P], v[_SLOPE]
     nz = int(v[_NZ])
@@ -139,7 +139,7 @@ def _newton(v, beta, level, lo, hi, x, quadratic_slope):
         if not (lo < x < hi):
             x = math.sqrt(lo * hi) if lo > 0.0 and hi > 8.0 * lo else 0.5 * (lo + hi)
             prev = math.inf
-        fx, dfx = _k_eq(v, beta, x)
+        fx, dfx = k_eq(v, beta, x)
         if fx == level:
             return x
         if fx < level:

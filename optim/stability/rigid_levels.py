@@ -23,8 +23,8 @@ from __future__ import annotations
 import math
 
 from models.discretize import RigidZOH
-from optim.stability.fast_rigid import RigidLoop, k_equation, rigid_loop
-from optim.stability.rigid_kernel import level_roots
+from optim.stability.fast_rigid import RigidLoop, rigid_loop
+from optim.stability.rigid_kernel import k_eq, level_roots
 
 __all__ = ["rigid_crossovers"]
 
@@ -47,7 +47,7 @@ def rigid_crossovers(plant: RigidZOH, beta: float, first: tuple[float, float], t
     t0, a0 = first
     out = [(t0, a0)]
     if t0 < tr:
-        top = (L.half_pis_at_pi - 1) * _HALF_PI if tr == math.pi else k_equation(L, beta, tr)[0]
+        top = (L.half_pis_at_pi - 1) * _HALF_PI if tr == math.pi else k_eq(L.numbers, beta, tr)[0]   # k_equation
         n = max(int(top // _TWO_PI), 0)                 # the levels 2πk < top, k ≥ 1, as the scalar loop counts
         while _TWO_PI * (n + 1) < top:
             n += 1

@@ -58,11 +58,26 @@ def test_prefix_and_polish_equal_their_python_twins_bit_for_bit():
 
 
 def test_passivity_margin_equals_the_python_path(monkeypatch):
+    """passivity_margin whole (compiled samples, rows and polish; the rows in Python where a bracket needs numpy's
+    sums) against the same function with every kernel replaced by its Python twin."""
     rng = np.random.default_rng(78)
     walls = [_wall(rng, i) for i in range(400)]
+    undecided = []
+    compiled_rows = passivity.best_of_rows
+
+    def spy(*args):
+        out = compiled_rows(*args)
+        undecided.append(not out[2])
+        return out
+
+    monkeypatch.setattr(passivity, "best_of_rows", spy)
     got = [passivity.passivity_margin(dev, k, b) for dev, k, b in walls]
     monkeypatch.setattr(passivity, "prefix_samples", _passivity_prefix)
     monkeypatch.setattr(passivity, "polish_max", passivity._polish_max)
+    monkeypatch.setattr(passivity, "best_of_rows", lambda d, hk, b, grid, vals, top, v_pi: (
+        *passivity._best_of_rows(d, hk, b, grid, vals, top.tolist(), v_pi), True))
     want = [passivity.passivity_margin(dev, k, b) for dev, k, b in walls]
     assert got == want
     assert sum(c.passive for c in got) >= 40 and sum(not c.passive for c in got) >= 40
+    # both kinds of wall were met: rows decided compiled, and rows handed back to Python
+    assert sum(undecided) >= 10 and len(undecided) - sum(undecided) >= 200
