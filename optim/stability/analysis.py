@@ -394,6 +394,8 @@ def _judge_cable(device: Device, damping: float, method: str, kcr: float | None)
 def check_rung(method: str, grid_points: int = DEFAULT_GRID_POINTS) -> None:
     """InputError naming ``method`` or ``grid_points`` when outside the ladder: the HTTP request's rule and message
     (its fields are Method and GridPoints), for callers that did not come through it."""
+    if method in METHODS and type(grid_points) is int and MIN_GRID_POINTS <= grid_points <= MAX_GRID_POINTS:
+        return   # the rules' own verdict, without their validators (≈ 3 µs of a 40 µs analysis)
     for name, rule in _RUNG_RULES:
         try:
             rule.validate_python(method if name == "method" else grid_points)

@@ -144,3 +144,28 @@ def test_boundary_is_the_exact_curve_and_its_optimum_is_a_maximum():
     assert b.max_stable_damping == pytest.approx(max_stable_damping(dev), rel=1e-15)
     # the optimum lies in the curved part (Fig. 9): eq. 10 is far off there
     assert b.optimum.linear_estimate > 1.5 * k_opt
+
+
+@pytest.mark.parametrize("method", ["linear", "grid", "exact", "reference", "Exact", "", None, 3])
+@pytest.mark.parametrize("grid_points", [10, 1000, 1_000_000, 9, 1_000_001, 1000.0, 1000.5, "1000", True, None, -5])
+def test_check_rung_fast_path_keeps_the_rules_verdict(method, grid_points):
+    """check_rung's shortcut for plain valid values answers exactly as its two validators do, everywhere."""
+    from pydantic import ValidationError
+
+    from optim.errors import InputError
+    from optim.stability.analysis import _RUNG_RULES, check_rung
+
+    def by_rules() -> str | None:
+        for name, rule in _RUNG_RULES:
+            try:
+                rule.validate_python(method if name == "method" else grid_points)
+            except ValidationError:
+                return name
+        return None
+
+    try:
+        check_rung(method, grid_points)
+        got = None
+    except InputError as exc:
+        got = exc.field
+    assert got == by_rules()
