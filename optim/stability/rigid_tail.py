@@ -26,6 +26,9 @@ A bounding the asin term's derivative g·(½ tan(θ/2) + R'/R)/√(1 − g²) �
 
 Where nothing closes (a crossover really lies in the tail, or the bounds stay loose) the answer is None and the
 caller scans, as before.  Held against the scan on random devices by tests/optim/stability/test_rigid_tail.py.
+
+The exact rung runs the compiled twin of this proof, optim.stability.rigid_kernel.tail_is_clear (step for step:
+test_rigid_kernel.py holds their verdicts equal on random devices); this module is the readable reference.
 """
 
 from __future__ import annotations

@@ -140,3 +140,26 @@ def test_kernel_equals_its_python_twin_up_to_the_delay_limit():
             plant, L, beta, n, res.theta, L.theta_r), (dev, beta, n)
         longest = max(longest, n)
     assert longest >= 2000
+
+
+def test_compiled_tail_proof_gives_rigid_tails_verdicts():
+    """rigid_kernel.tail_is_clear against optim.stability.rigid_tail.tail_is_clear (the readable proof it compiles),
+    on random devices with the rising range ending before π (zeros near −1, whole and fractional delays)."""
+    from optim.stability.rigid_tail import tail_is_clear as python_tail_is_clear
+
+    rng = np.random.default_rng(909)
+    verdicts = {True: 0, False: 0}
+    for i in range(3000):
+        dev = _device(rng, i)
+        if i % 4 == 0:   # short delays: the tail check's own ground (θ_r < π more often)
+            dev = Device(mass=dev.mass, damping=dev.damping, sample_time=dev.sample_time,
+                         delay=float(rng.uniform(0, 30)) * dev.sample_time)
+        L = fr.rigid_loop(loop_plant(dev))
+        beta = _beta(rng, i, dev)
+        if L is None or beta is None:
+            continue
+        want = python_tail_is_clear(L, beta)
+        assert rk.tail_is_clear(L.numbers, beta, L.theta_r, L.half_pis_at_pi) == want, (dev, beta)
+        if L.theta_r < math.pi:
+            verdicts[want] += 1
+    assert verdicts[True] >= 300 and verdicts[False] >= 10, verdicts
