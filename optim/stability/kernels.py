@@ -1,7 +1,8 @@
 """Every compiled (numba) kernel of the numerics, compiled at once: optim.stability.rigid_kernel (the rigid fast
-path's crossovers) and optim.stability.passivity_kernel (the delayed passivity bound)."""
+path's crossovers), optim.stability.rigid_tail (its proof that the tail holds none) and
+optim.stability.passivity_kernel (the delayed passivity bound)."""
 
-from optim.stability import passivity_kernel, rigid_kernel
+from optim.stability import passivity_kernel, rigid_kernel, rigid_tail
 
 __all__ = ["compile_kernels"]
 
@@ -10,4 +11,5 @@ def compile_kernels() -> None:
     """Compile every kernel now, or load it from numba's cache (≈ 0.2 s cached, ≈ 3 s compiling): a process that
     calls this before it serves answers its first analysis at full speed."""
     rigid_kernel.compile_kernels()
+    rigid_tail.compile_kernels()
     passivity_kernel.compile_kernels()

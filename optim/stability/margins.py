@@ -29,8 +29,8 @@ from optim.stability.cable_brackets import cable_loop, cable_min_crossing
 from optim.stability.crossovers import Crossing, positive_real_crossings, scan_grid, theta_min
 from optim.stability.fast_cable import bounded_min_crossing
 from optim.stability.fast_rigid import fast_beta_max, fast_rigid, rigid_loop
-from optim.stability.rigid_kernel import tail_is_clear
 from optim.stability.rigid_levels import rigid_crossovers
+from optim.stability.rigid_tail import tail_is_clear
 from optim.stability.undamped_cable import (
     NEAR_LOSSLESS_GAP,
     confirm_near_lossless,
@@ -384,8 +384,7 @@ def _tail_crossings(device: Device, plant: RigidZOH, beta: float, lo: float) -> 
     def h(theta: np.ndarray) -> np.ndarray:
         return -plant.inverse_response(theta) + beta * np.expm1(-1j * theta)
 
-    L = rigid_loop(plant)
-    if lo >= math.pi or tail_is_clear(L.numbers, beta, L.theta_r, L.half_pis_at_pi):   # rigid_tail's, compiled
+    if lo >= math.pi or tail_is_clear(rigid_loop(plant), beta):
         # nothing in [lo, π) (optim.stability.rigid_tail proves it): only the Nyquist point, as the scan finds it
         # (Re h(π) from the plant's own samples at π, bit for bit: −Re(1/G_n) + β·Re(e^{−jπ} − 1))
         inv_re, em_re = _nyquist_parts(plant)

@@ -34,16 +34,13 @@ import numpy as np
 from models.discretize import RigidZOH
 from optim.stability.compiled import kernel
 
-__all__ = ["loop_numbers", "k_eq", "binding_root", "level_roots"]
+__all__ = ["loop_numbers", "k_eq", "binding_root", "level_roots", "compile_kernels"]
 
 _EPS = 2.220446049250313e-16
 _HALF_PI = 0.5 * math.pi
 _TWO_PI = 2.0 * math.pi
 #: d ln K / d ln θ above which a β = 0 level's K comes from the polish's H (rigid_levels._STEEP)
 _STEEP = 6.0
-#: rigid_tail's budgets: interval evaluations, halvings of π − θ_r for the end interval
-_MAX_INTERVALS = 64
-_MAX_END_HALVINGS = 60
 
 # indices into the loop's numbers
 _OMP, _P, _LEAD, _SLOPE, _Q1, _OMQ1, _Q2, _OMQ2, _A, _C, _PHI12, _G0P, _G0V, _G1P, _G1V, _D, _NZ, _FRAC = range(18)
@@ -206,156 +203,18 @@ def level_roots(v, beta, n, t0, tr):
     return theta, alpha
 
 
-def compile_kernels() -> None:
-    """Compile every kernel now (or load it from numba's cache), on a made-up loop (a whole-sample delay, whose
-    numbers need no plant): a process that calls this before it serves answers its first rigid analysis at full
-    speed, where the first call would otherwise pay ≈ 0.1 s (cached) to 3 s (compiling)."""
+def _example_loop() -> np.ndarray:
+    """A made-up loop's numbers (a whole-sample delay, whose numbers need no plant), to compile the kernels on."""
     v = np.zeros(18)
     v[[_OMP, _P, _LEAD, _SLOPE, _Q1, _OMQ1, _A, _C, _D, _NZ]] = [0.01, 0.99, 0.5, 2.5, 0.9, 0.1, 0.5, -0.05, 2.0, 1.0]
+    return v
+
+
+def compile_kernels() -> None:
+    """Compile every kernel now (or load it from numba's cache), on a made-up loop: a process that calls this
+    before it serves answers its first rigid analysis at full speed, where the first call would otherwise pay
+    ≈ 0.1 s (cached) to 3 s (compiling)."""
+    v = _example_loop()
     for beta in (0.0, 1e-3):
         binding_root(v, beta, 1.0, 0.1)
         level_roots(v, beta, 1, 0.1, 1.0)
-
-
-# -- the tail [θ_r, π): optim.stability.rigid_tail's proof, compiled (a point is (I(θ), arg(z + q₁), arg(z + q₂))) --
-
-@kernel
-def _tail_point(v, beta, t):
-    """rigid_tail._point: (I(θ), arg(z + q₁), arg(z + q₂) or 0) at θ = t < π."""
-    sh, ch = math.sin(0.5 * t), math.cos(0.5 * t)
-    st = 2.0 * sh * ch
-    re_p = v[_OMP] - 2.0 * sh * sh
-    den_p = re_p * re_p + st * st
-    mag = math.sqrt(den_p) / v[_LEAD]
-    args = [0.0, 0.0]
-    for i in range(int(v[_NZ])):
-        re_q = 2.0 * ch * ch - v[_OMQ1 + 2 * i]
-        args[i] = math.atan2(st, re_q)
-        mag /= math.sqrt(re_q * re_q + st * st)
-    g = beta * ch / mag if beta > 0.0 else 0.0
-    inc = v[_SLOPE] * t - math.atan2(re_p, st) - (math.asin(g) if g < 1.0 else 0.5 * math.pi)
-    return inc, args[0], args[1]
-
-
-@kernel
-def _interval_clear(v, a, b, inc_a, xa1, xa2, inc_b, xb1, xb2):
-    """rigid_tail._interval_clear and _clear: no multiple of 2π between the bounds of F̃ on [a, b]."""
-    lo, hi = inc_a, inc_b
-    for i in range(int(v[_NZ])):
-        q = v[_Q1 + 2 * i]
-        xa, xb = (xa1, xb1) if i == 0 else (xa2, xb2)
-        if q < 1.0:
-            lo -= xb
-            hi -= xa
-        else:
-            tm = math.acos(-1.0 / q)
-            top = math.asin(1.0 / q) if a <= tm <= b else max(xa, xb)
-            lo -= top
-            hi -= min(xa, xb)
-    pad = 1e-11 * (1.0 + abs(lo) + abs(hi))
-    lo, hi = lo - pad, hi + pad
-    return math.floor(hi / _TWO_PI) * _TWO_PI < lo
-
-
-@kernel
-def _slope_sign_on_end(v, beta, c):
-    """rigid_tail._slope_sign_on_end: +1 / −1 when F̃' > 0 / < 0 on all of [c, π], else 0."""
-    sh, ch = math.sin(0.5 * c), math.cos(0.5 * c)
-    st = 2.0 * sh * ch
-    omp, p = v[_OMP], v[_P]
-    re_p = omp - 2.0 * sh * sh
-    den_p = re_p * re_p + st * st
-    up = v[_SLOPE] + (omp + 2.0 * p * sh * sh) / den_p
-    low = v[_SLOPE] + 1.0 / (1.0 + p)
-    mag = math.sqrt(den_p) / v[_LEAD]
-    dlr = p
-    for i in range(int(v[_NZ])):
-        q, omq = v[_Q1 + 2 * i], v[_OMQ1 + 2 * i]
-        re_q = 2.0 * ch * ch - omq
-        den_q = re_q * re_q + st * st
-        rq = (omq + 2.0 * q * ch * ch) / den_q
-        mag /= math.sqrt(den_q)
-        if q < 1.0:
-            up -= rq
-            low -= 1.0 / omq
-        else:
-            up += 1.0 / (q - 1.0)
-            low -= rq
-        dlr += math.sqrt(q) / (2.0 * abs(omq))
-    if beta > 0.0:
-        g = beta * ch / mag
-        if not g < 1.0:
-            return 0
-        up += (0.5 * beta / mag + g * dlr) / math.sqrt((1.0 - g) * (1.0 + g))
-    if up < 0.0:
-        return -1
-    if low > 0.0:
-        return 1
-    return 0
-
-
-@kernel
-def tail_is_clear(v, beta, theta_r, half_pis_at_pi):
-    """optim.stability.rigid_tail.tail_is_clear (its proof, step for step): True when provably no K > 0 crossover
-    lies in [θ_r, π)."""
-    a = theta_r
-    nz = int(v[_NZ])
-    has_pole = v[_OMQ1] == 0.0 or (nz == 2 and v[_OMQ2] == 0.0)
-    if not (math.pi / 2 <= a < math.pi) or has_pole:
-        return a >= math.pi
-    # rigid_tail._at_pi: arg(z + q) = π inside the unit circle, 0 outside
-    e1 = math.pi if v[_Q1] < 1.0 else 0.0
-    e2 = (math.pi if v[_Q2] < 1.0 else 0.0) if nz == 2 else 0.0
-    end_inc = (half_pis_at_pi - 1) * 0.5 * math.pi + (0.0 + e1 + e2 if nz == 2 else 0.0 + e1)
-    b = math.pi
-    if ((half_pis_at_pi - 1) // 2) % 2 == 0:
-        level = end_inc - (0.0 + e1 + e2 if nz == 2 else 0.0 + e1)
-        eps = math.pi - a
-        sign = 0
-        c = math.pi
-        for _ in range(_MAX_END_HALVINGS):
-            c = math.pi - eps
-            sign = _slope_sign_on_end(v, beta, c)
-            if sign:
-                break
-            eps *= 0.5
-        if not sign:
-            return False
-        pc_inc, pc1, pc2 = _tail_point(v, beta, c)
-        fc = pc_inc - (0.0 + pc1 + pc2 if nz == 2 else 0.0 + pc1)
-        if not (level < fc < level + _TWO_PI if sign < 0 else level - _TWO_PI < fc < level):
-            return False
-        if abs(fc - level) <= 1e-11 * (1.0 + abs(level)):
-            return False
-        if c <= a:
-            return True
-        b, end_inc, e1, e2 = c, pc_inc, pc1, pc2
-    size = 2 * _MAX_INTERVALS + 2
-    st_lo, st_hi = np.empty(size), np.empty(size)
-    st_pl, st_ph = np.empty((size, 3)), np.empty((size, 3))
-    p_inc, p1, p2 = _tail_point(v, beta, a)
-    st_lo[0], st_hi[0] = a, b
-    st_pl[0, 0], st_pl[0, 1], st_pl[0, 2] = p_inc, p1, p2
-    st_ph[0, 0], st_ph[0, 1], st_ph[0, 2] = end_inc, e1, e2
-    top = 1
-    budget = _MAX_INTERVALS
-    while top > 0:
-        top -= 1
-        lo, hi = st_lo[top], st_hi[top]
-        l0, l1, l2 = st_pl[top, 0], st_pl[top, 1], st_pl[top, 2]
-        h0, h1, h2 = st_ph[top, 0], st_ph[top, 1], st_ph[top, 2]
-        if _interval_clear(v, lo, hi, l0, l1, l2, h0, h1, h2):
-            continue
-        budget -= 1
-        if budget <= 0 or hi - lo <= 1e-12 * hi:
-            return False
-        mid = 0.5 * (lo + hi)
-        m0, m1, m2 = _tail_point(v, beta, mid)
-        st_lo[top], st_hi[top] = mid, hi                 # (mid, hi) pushed first, (lo, mid) popped next
-        st_pl[top, 0], st_pl[top, 1], st_pl[top, 2] = m0, m1, m2
-        st_ph[top, 0], st_ph[top, 1], st_ph[top, 2] = h0, h1, h2
-        st_lo[top + 1], st_hi[top + 1] = lo, mid
-        st_pl[top + 1, 0], st_pl[top + 1, 1], st_pl[top + 1, 2] = l0, l1, l2
-        st_ph[top + 1, 0], st_ph[top + 1, 1], st_ph[top + 1, 2] = m0, m1, m2
-        top += 2
-    return True

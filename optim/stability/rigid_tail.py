@@ -27,15 +27,20 @@ A bounding the asin term's derivative g·(½ tan(θ/2) + R'/R)/√(1 − g²) �
 Where nothing closes (a crossover really lies in the tail, or the bounds stay loose) the answer is None and the
 caller scans, as before.  Held against the scan on random devices by tests/optim/stability/test_rigid_tail.py.
 
-The exact rung runs the compiled twin of this proof, optim.stability.rigid_kernel.tail_is_clear (step for step:
-test_rigid_kernel.py holds their verdicts equal on random devices); this module is the readable reference.
+Compiled (numba, optim.stability.compiled) on the loop's numbers of optim.stability.rigid_kernel; a point is
+(I(θ), arg(z + q₁), arg(z + q₂)).  Its Python form, the exact rung's before issue 20's kernels, is the twin in
+tests/optim/stability/rigid_python.py, whose verdicts test_rigid_kernel.py holds equal on random devices.
 """
 
 from __future__ import annotations
 
 import math
 
+import numpy as np
+
+from optim.stability.compiled import kernel
 from optim.stability.fast_rigid import RigidLoop
+from optim.stability.rigid_kernel import _LEAD, _NZ, _OMP, _OMQ1, _OMQ2, _P, _Q1, _Q2, _SLOPE
 
 __all__ = ["tail_is_clear"]
 
@@ -46,67 +51,69 @@ _MAX_INTERVALS = 64
 _MAX_END_HALVINGS = 60
 
 
-def _point(L: RigidLoop, beta: float, t: float) -> tuple[float, tuple[float, ...], float]:
-    """(I(θ), (arg(z + q_i)…), g(θ)) at θ = t < π, with the formulas of fast_rigid._parts."""
+def tail_is_clear(L: RigidLoop, beta: float) -> bool:
+    """True when provably no K > 0 crossover lies in [θ_r, π) (the Nyquist point itself is the caller's)."""
+    return _tail_is_clear(L.numbers, beta, L.theta_r, L.half_pis_at_pi)
+
+
+@kernel
+def _tail_point(v, beta, t):
+    """rigid_tail._point: (I(θ), arg(z + q₁), arg(z + q₂) or 0) at θ = t < π."""
     sh, ch = math.sin(0.5 * t), math.cos(0.5 * t)
     st = 2.0 * sh * ch
-    re_p = L.omp - 2.0 * sh * sh
+    re_p = v[_OMP] - 2.0 * sh * sh
     den_p = re_p * re_p + st * st
-    mag = math.sqrt(den_p) / L.lead
-    args = []
-    for q, omq in L.zeros:
-        re_q = 2.0 * ch * ch - omq
-        args.append(math.atan2(st, re_q))
+    mag = math.sqrt(den_p) / v[_LEAD]
+    re_q = 2.0 * ch * ch - v[_OMQ1]
+    arg1 = math.atan2(st, re_q)
+    mag /= math.sqrt(re_q * re_q + st * st)
+    arg2 = 0.0
+    if v[_NZ] == 2.0:
+        re_q = 2.0 * ch * ch - v[_OMQ2]
+        arg2 = math.atan2(st, re_q)
         mag /= math.sqrt(re_q * re_q + st * st)
     g = beta * ch / mag if beta > 0.0 else 0.0
-    inc = L.slope * t - math.atan2(re_p, st) - (math.asin(g) if g < 1.0 else 0.5 * math.pi)
-    return inc, tuple(args), g
+    inc = v[_SLOPE] * t - math.atan2(re_p, st) - (math.asin(g) if g < 1.0 else 0.5 * math.pi)
+    return inc, arg1, arg2
 
 
-def _at_pi(L: RigidLoop) -> tuple[float, tuple[float, ...], float]:
-    """The same at θ = π, exactly: arg(z + q) = π inside the unit circle, 0 outside; g(π) = 0."""
-    args = tuple(math.pi if q < 1.0 else 0.0 for q, _ in L.zeros)
-    return (L.half_pis_at_pi - 1) * 0.5 * math.pi + sum(args), args, 0.0
-
-
-def _clear(lo: float, hi: float) -> bool:
-    """No multiple of 2π in [lo, hi], with a rounding margin."""
+@kernel
+def _interval_clear(v, a, b, inc_a, xa1, xa2, inc_b, xb1, xb2):
+    """rigid_tail._interval_clear and _clear: no multiple of 2π between the bounds of F̃ on [a, b]."""
+    lo, hi = inc_a, inc_b
+    for i in range(int(v[_NZ])):
+        q = v[_Q1 + 2 * i]
+        xa, xb = (xa1, xb1) if i == 0 else (xa2, xb2)
+        if q < 1.0:
+            lo -= xb
+            hi -= xa
+        else:
+            tm = math.acos(-1.0 / q)
+            top = math.asin(1.0 / q) if a <= tm <= b else max(xa, xb)
+            lo -= top
+            hi -= min(xa, xb)
     pad = 1e-11 * (1.0 + abs(lo) + abs(hi))
     lo, hi = lo - pad, hi + pad
     return math.floor(hi / _TWO_PI) * _TWO_PI < lo
 
 
-def _interval_clear(L: RigidLoop, a: float, b: float, pa, pb) -> bool:
-    inc_a, args_a, _ = pa
-    inc_b, args_b, _ = pb
-    lo, hi = inc_a, inc_b
-    for (q, _), xa, xb in zip(L.zeros, args_a, args_b):
-        if q < 1.0:
-            lo -= xb
-            hi -= xa
-        else:   # arg(z + q) peaks at acos(−1/q) at asin(1/q)
-            tm = math.acos(-1.0 / q)
-            top = math.asin(1.0 / q) if a <= tm <= b else max(xa, xb)
-            lo -= top
-            hi -= min(xa, xb)
-    return _clear(lo, hi)
-
-
-def _slope_sign_on_end(L: RigidLoop, beta: float, c: float) -> int:
-    """+1 / −1 when F̃' > 0 / < 0 on all of [c, π] (c ≥ π/2) by the bounds of the module docstring, else 0."""
+@kernel
+def _slope_sign_on_end(v, beta, c):
+    """rigid_tail._slope_sign_on_end: +1 / −1 when F̃' > 0 / < 0 on all of [c, π], else 0."""
     sh, ch = math.sin(0.5 * c), math.cos(0.5 * c)
     st = 2.0 * sh * ch
-    re_p = L.omp - 2.0 * sh * sh
+    omp, p = v[_OMP], v[_P]
+    re_p = omp - 2.0 * sh * sh
     den_p = re_p * re_p + st * st
-    p = L.p
-    up = L.slope + (L.omp + 2.0 * p * sh * sh) / den_p     # Re z/(z − p) at c (falls on [c, π])
-    low = L.slope + 1.0 / (1.0 + p)
-    mag = math.sqrt(den_p) / L.lead
+    up = v[_SLOPE] + (omp + 2.0 * p * sh * sh) / den_p
+    low = v[_SLOPE] + 1.0 / (1.0 + p)
+    mag = math.sqrt(den_p) / v[_LEAD]
     dlr = p
-    for q, omq in L.zeros:
+    for i in range(int(v[_NZ])):
+        q, omq = v[_Q1 + 2 * i], v[_OMQ1 + 2 * i]
         re_q = 2.0 * ch * ch - omq
         den_q = re_q * re_q + st * st
-        rq = (omq + 2.0 * q * ch * ch) / den_q                # Re z/(z + q) at c
+        rq = (omq + 2.0 * q * ch * ch) / den_q
         mag /= math.sqrt(den_q)
         if q < 1.0:
             up -= rq
@@ -127,46 +134,75 @@ def _slope_sign_on_end(L: RigidLoop, beta: float, c: float) -> int:
     return 0
 
 
-def tail_is_clear(L: RigidLoop, beta: float) -> bool:
-    """True when provably no K > 0 crossover lies in [θ_r, π) (the Nyquist point itself is the caller's)."""
-    a = L.theta_r
-    if not (math.pi / 2 <= a < math.pi) or any(omq == 0.0 for _, omq in L.zeros):
+@kernel
+def _tail_is_clear(v, beta, theta_r, half_pis_at_pi):
+    """``tail_is_clear`` on the loop's numbers."""
+    a = theta_r
+    nz = int(v[_NZ])
+    has_pole = v[_OMQ1] == 0.0 or (nz == 2 and v[_OMQ2] == 0.0)
+    if not (math.pi / 2 <= a < math.pi) or has_pole:
         return a >= math.pi
-    end = _at_pi(L)
+    # rigid_tail._at_pi: arg(z + q) = π inside the unit circle, 0 outside
+    e1 = math.pi if v[_Q1] < 1.0 else 0.0
+    e2 = (math.pi if v[_Q2] < 1.0 else 0.0) if nz == 2 else 0.0
+    end_inc = (half_pis_at_pi - 1) * 0.5 * math.pi + (0.0 + e1 + e2 if nz == 2 else 0.0 + e1)
     b = math.pi
-    if ((L.half_pis_at_pi - 1) // 2) % 2 == 0:
-        # F̃(π) = (half_pis_at_pi − 1)·π/2 sits on a level: find c with F̃ monotone on [c, π], then F̃(c) must lie
-        # within 2π of the level on its side (F̃ runs from F̃(c) to the level without meeting another)
-        level = end[0] - sum(end[1])
+    if ((half_pis_at_pi - 1) // 2) % 2 == 0:
+        level = end_inc - (0.0 + e1 + e2 if nz == 2 else 0.0 + e1)
         eps = math.pi - a
+        sign = 0
+        c = math.pi
         for _ in range(_MAX_END_HALVINGS):
             c = math.pi - eps
-            sign = _slope_sign_on_end(L, beta, c)
+            sign = _slope_sign_on_end(v, beta, c)
             if sign:
                 break
             eps *= 0.5
-        else:
+        if not sign:
             return False
-        pc = _point(L, beta, c)
-        fc = pc[0] - sum(pc[1])
+        pc_inc, pc1, pc2 = _tail_point(v, beta, c)
+        fc = pc_inc - (0.0 + pc1 + pc2 if nz == 2 else 0.0 + pc1)
         if not (level < fc < level + _TWO_PI if sign < 0 else level - _TWO_PI < fc < level):
             return False
         if abs(fc - level) <= 1e-11 * (1.0 + abs(level)):
             return False
         if c <= a:
             return True
-        b, end = c, pc
-    stack = [(a, b, _point(L, beta, a), end)]
+        b, end_inc, e1, e2 = c, pc_inc, pc1, pc2
+    size = 2 * _MAX_INTERVALS + 2
+    st_lo, st_hi = np.empty(size), np.empty(size)
+    st_pl, st_ph = np.empty((size, 3)), np.empty((size, 3))
+    p_inc, p1, p2 = _tail_point(v, beta, a)
+    st_lo[0], st_hi[0] = a, b
+    st_pl[0, 0], st_pl[0, 1], st_pl[0, 2] = p_inc, p1, p2
+    st_ph[0, 0], st_ph[0, 1], st_ph[0, 2] = end_inc, e1, e2
+    top = 1
     budget = _MAX_INTERVALS
-    while stack:
-        lo, hi, plo, phi = stack.pop()
-        if _interval_clear(L, lo, hi, plo, phi):
+    while top > 0:
+        top -= 1
+        lo, hi = st_lo[top], st_hi[top]
+        l0, l1, l2 = st_pl[top, 0], st_pl[top, 1], st_pl[top, 2]
+        h0, h1, h2 = st_ph[top, 0], st_ph[top, 1], st_ph[top, 2]
+        if _interval_clear(v, lo, hi, l0, l1, l2, h0, h1, h2):
             continue
         budget -= 1
         if budget <= 0 or hi - lo <= 1e-12 * hi:
             return False
         mid = 0.5 * (lo + hi)
-        pm = _point(L, beta, mid)
-        stack.append((mid, hi, pm, phi))
-        stack.append((lo, mid, plo, pm))
+        m0, m1, m2 = _tail_point(v, beta, mid)
+        st_lo[top], st_hi[top] = mid, hi                 # (mid, hi) pushed first, (lo, mid) popped next
+        st_pl[top, 0], st_pl[top, 1], st_pl[top, 2] = m0, m1, m2
+        st_ph[top, 0], st_ph[top, 1], st_ph[top, 2] = h0, h1, h2
+        st_lo[top + 1], st_hi[top + 1] = lo, mid
+        st_pl[top + 1, 0], st_pl[top + 1, 1], st_pl[top + 1, 2] = l0, l1, l2
+        st_ph[top + 1, 0], st_ph[top + 1, 1], st_ph[top + 1, 2] = m0, m1, m2
+        top += 2
     return True
+
+
+def compile_kernels() -> None:
+    """Compile the tail proof now (or load it from numba's cache): see optim.stability.rigid_kernel."""
+    from optim.stability.rigid_kernel import _example_loop
+
+    for beta in (0.0, 1e-3):
+        _tail_is_clear(_example_loop(), beta, 2.0, 3)

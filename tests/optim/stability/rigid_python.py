@@ -1,5 +1,6 @@
-"""The rigid fast path's levels in pure Python: the twin that optim.stability.rigid_kernel's compiled loop is held
-to bit for bit (tests/optim/stability/test_rigid_kernel.py).
+"""The rigid fast path's levels and its tail proof in pure Python: the twins that optim.stability.rigid_kernel's
+compiled loop and optim.stability.rigid_tail's compiled proof are held to, bit for bit and verdict for verdict
+(tests/optim/stability/test_rigid_kernel.py).
 
 This is the exact rung's crossover list as it ran in Python before the kernel (issue 20): fast_rigid's bracketed
 Newton on F̃ = 2πk from the spacing of the roots below, polished by one secant step on Im H; at β = 0 with a
@@ -13,6 +14,7 @@ import math
 
 from models.discretize import RigidZOH
 from optim.stability.fast_rigid import RigidLoop, bracketed_newton, k_equation
+from optim.stability.rigid_tail import _MAX_END_HALVINGS, _MAX_INTERVALS
 
 _EPS = 2.220446049250313e-16
 _TWO_PI = 2.0 * math.pi
@@ -203,3 +205,131 @@ def level_roots(plant: RigidZOH, L: RigidLoop, beta: float, n: int, t0: float, t
     for k in range(1, n + 1):
         out.append(_level(plant, L, beta, k, out, tr, fun, h))
     return out[1:]
+
+
+# -- optim.stability.rigid_tail's proof in Python (its twin, held to the same verdicts) -------------------------------
+
+def _point(L: RigidLoop, beta: float, t: float) -> tuple[float, tuple[float, ...], float]:
+    """(I(θ), (arg(z + q_i)…), g(θ)) at θ = t < π, with the formulas of fast_rigid._parts."""
+    sh, ch = math.sin(0.5 * t), math.cos(0.5 * t)
+    st = 2.0 * sh * ch
+    re_p = L.omp - 2.0 * sh * sh
+    den_p = re_p * re_p + st * st
+    mag = math.sqrt(den_p) / L.lead
+    args = []
+    for q, omq in L.zeros:
+        re_q = 2.0 * ch * ch - omq
+        args.append(math.atan2(st, re_q))
+        mag /= math.sqrt(re_q * re_q + st * st)
+    g = beta * ch / mag if beta > 0.0 else 0.0
+    inc = L.slope * t - math.atan2(re_p, st) - (math.asin(g) if g < 1.0 else 0.5 * math.pi)
+    return inc, tuple(args), g
+
+
+def _at_pi(L: RigidLoop) -> tuple[float, tuple[float, ...], float]:
+    """The same at θ = π, exactly: arg(z + q) = π inside the unit circle, 0 outside; g(π) = 0."""
+    args = tuple(math.pi if q < 1.0 else 0.0 for q, _ in L.zeros)
+    return (L.half_pis_at_pi - 1) * 0.5 * math.pi + sum(args), args, 0.0
+
+
+def _clear(lo: float, hi: float) -> bool:
+    """No multiple of 2π in [lo, hi], with a rounding margin."""
+    pad = 1e-11 * (1.0 + abs(lo) + abs(hi))
+    lo, hi = lo - pad, hi + pad
+    return math.floor(hi / _TWO_PI) * _TWO_PI < lo
+
+
+def _interval_clear(L: RigidLoop, a: float, b: float, pa, pb) -> bool:
+    inc_a, args_a, _ = pa
+    inc_b, args_b, _ = pb
+    lo, hi = inc_a, inc_b
+    for (q, _), xa, xb in zip(L.zeros, args_a, args_b):
+        if q < 1.0:
+            lo -= xb
+            hi -= xa
+        else:   # arg(z + q) peaks at acos(−1/q) at asin(1/q)
+            tm = math.acos(-1.0 / q)
+            top = math.asin(1.0 / q) if a <= tm <= b else max(xa, xb)
+            lo -= top
+            hi -= min(xa, xb)
+    return _clear(lo, hi)
+
+
+def _slope_sign_on_end(L: RigidLoop, beta: float, c: float) -> int:
+    """+1 / −1 when F̃' > 0 / < 0 on all of [c, π] (c ≥ π/2) by the bounds of the module docstring, else 0."""
+    sh, ch = math.sin(0.5 * c), math.cos(0.5 * c)
+    st = 2.0 * sh * ch
+    re_p = L.omp - 2.0 * sh * sh
+    den_p = re_p * re_p + st * st
+    p = L.p
+    up = L.slope + (L.omp + 2.0 * p * sh * sh) / den_p     # Re z/(z − p) at c (falls on [c, π])
+    low = L.slope + 1.0 / (1.0 + p)
+    mag = math.sqrt(den_p) / L.lead
+    dlr = p
+    for q, omq in L.zeros:
+        re_q = 2.0 * ch * ch - omq
+        den_q = re_q * re_q + st * st
+        rq = (omq + 2.0 * q * ch * ch) / den_q                # Re z/(z + q) at c
+        mag /= math.sqrt(den_q)
+        if q < 1.0:
+            up -= rq
+            low -= 1.0 / omq
+        else:
+            up += 1.0 / (q - 1.0)
+            low -= rq
+        dlr += math.sqrt(q) / (2.0 * abs(omq))
+    if beta > 0.0:
+        g = beta * ch / mag
+        if not g < 1.0:
+            return 0
+        up += (0.5 * beta / mag + g * dlr) / math.sqrt((1.0 - g) * (1.0 + g))
+    if up < 0.0:
+        return -1
+    if low > 0.0:
+        return 1
+    return 0
+
+
+def tail_is_clear(L: RigidLoop, beta: float) -> bool:
+    """True when provably no K > 0 crossover lies in [θ_r, π) (the Nyquist point itself is the caller's)."""
+    a = L.theta_r
+    if not (math.pi / 2 <= a < math.pi) or any(omq == 0.0 for _, omq in L.zeros):
+        return a >= math.pi
+    end = _at_pi(L)
+    b = math.pi
+    if ((L.half_pis_at_pi - 1) // 2) % 2 == 0:
+        # F̃(π) = (half_pis_at_pi − 1)·π/2 sits on a level: find c with F̃ monotone on [c, π], then F̃(c) must lie
+        # within 2π of the level on its side (F̃ runs from F̃(c) to the level without meeting another)
+        level = end[0] - sum(end[1])
+        eps = math.pi - a
+        for _ in range(_MAX_END_HALVINGS):
+            c = math.pi - eps
+            sign = _slope_sign_on_end(L, beta, c)
+            if sign:
+                break
+            eps *= 0.5
+        else:
+            return False
+        pc = _point(L, beta, c)
+        fc = pc[0] - sum(pc[1])
+        if not (level < fc < level + _TWO_PI if sign < 0 else level - _TWO_PI < fc < level):
+            return False
+        if abs(fc - level) <= 1e-11 * (1.0 + abs(level)):
+            return False
+        if c <= a:
+            return True
+        b, end = c, pc
+    stack = [(a, b, _point(L, beta, a), end)]
+    budget = _MAX_INTERVALS
+    while stack:
+        lo, hi, plo, phi = stack.pop()
+        if _interval_clear(L, lo, hi, plo, phi):
+            continue
+        budget -= 1
+        if budget <= 0 or hi - lo <= 1e-12 * hi:
+            return False
+        mid = 0.5 * (lo + hi)
+        pm = _point(L, beta, mid)
+        stack.append((mid, hi, pm, phi))
+        stack.append((lo, mid, plo, pm))
+    return True

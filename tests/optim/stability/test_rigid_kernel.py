@@ -143,9 +143,11 @@ def test_kernel_equals_its_python_twin_up_to_the_delay_limit():
 
 
 def test_compiled_tail_proof_gives_rigid_tails_verdicts():
-    """rigid_kernel.tail_is_clear against optim.stability.rigid_tail.tail_is_clear (the readable proof it compiles),
-    on random devices with the rising range ending before π (zeros near −1, whole and fractional delays)."""
-    from optim.stability.rigid_tail import tail_is_clear as python_tail_is_clear
+    """optim.stability.rigid_tail.tail_is_clear (compiled) against its Python twin, on random devices with the rising
+    range ending before π (zeros near −1, whole and fractional delays)."""
+    from optim.stability.rigid_tail import tail_is_clear
+
+    from .rigid_python import tail_is_clear as python_tail_is_clear
 
     rng = np.random.default_rng(909)
     verdicts = {True: 0, False: 0}
@@ -159,7 +161,7 @@ def test_compiled_tail_proof_gives_rigid_tails_verdicts():
         if L is None or beta is None:
             continue
         want = python_tail_is_clear(L, beta)
-        assert rk.tail_is_clear(L.numbers, beta, L.theta_r, L.half_pis_at_pi) == want, (dev, beta)
+        assert tail_is_clear(L, beta) == want, (dev, beta)
         if L.theta_r < math.pi:
             verdicts[want] += 1
     assert verdicts[True] >= 300 and verdicts[False] >= 10, verdicts
