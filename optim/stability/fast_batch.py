@@ -245,5 +245,5 @@ def fast_rigid_batch(delta: np.ndarray, delay_samples: np.ndarray, betas: np.nda
                     & (np.abs(h(t1).imag) < np.abs(f0)) & (t < math.pi))
         t = np.where(take, t1, t)
         theta[i] = t
-        alpha[i] = h(t).real       # K = Re H at the root (optim.stability.fast_rigid.re_h says why)
+        alpha[i] = h(t).real       # K = Re H at the root (optim.stability.rigid_kernel.re_h says why)
     return FastBatch(ok, alpha, theta, bmax)

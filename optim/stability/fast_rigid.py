@@ -40,11 +40,9 @@ from functools import lru_cache
 import numpy as np
 
 from models.discretize import RigidZOH
-from optim.stability.rigid_kernel import binding_root, k_eq, loop_numbers
+from optim.stability.rigid_kernel import binding_root, k_eq, loop_numbers, re_h
 
-__all__ = ["RigidLoop", "FastRigid", "rigid_loop", "fast_rigid", "fast_beta_max", "re_h", "k_equation",
-           "bracketed_newton",
-           "newton_done", "MIN_ZERO_GAP"]
+__all__ = ["RigidLoop", "FastRigid", "rigid_loop", "fast_rigid", "fast_beta_max", "bracketed_newton", "MIN_ZERO_GAP"]
 
 _EPS = 2.220446049250313e-16
 _HALF_PI = 0.5 * math.pi
@@ -148,59 +146,22 @@ def _parts(L: RigidLoop, t: float) -> tuple[float, float, float, float]:
     return phi, dphi, mag, dlr
 
 
-def _psi(L: RigidLoop, t: float) -> tuple[float, float]:
-    """(ψ, φ') of ``_parts`` alone, by the same expressions (the K equation at β = 0 needs neither R nor R'/R)."""
-    sh, ch = math.sin(0.5 * t), math.cos(0.5 * t)
-    st = 2.0 * sh * ch
-    re_p = L.omp - 2.0 * sh * sh
-    den_p = re_p * re_p + st * st
-    phi = L.slope * t - math.atan2(re_p, st)
-    dphi = L.slope + (L.omp + 2.0 * L.p * sh * sh) / den_p
-    for q, omq in L.zeros:
-        re_q = 2.0 * ch * ch - omq
-        phi -= math.atan2(st, re_q)
-        dphi -= (omq + 2.0 * q * ch * ch) / (re_q * re_q + st * st)
-    return phi, dphi
-
-
 def _damper_eq(L: RigidLoop, t: float) -> tuple[float, float]:
     """ψ + θ/2 (= π/2 at a damper-loop crossover) and its derivative."""
     psi, dphi, _, _ = _parts(L, t)
     return psi + 0.5 * t, dphi + 0.5
 
 
-def _k_eq(L: RigidLoop, beta: float, t: float) -> tuple[float, float]:
-    """F̃ − π/2 = ψ − asin(min(g, 1)) (0 at the K crossover) and its derivative (non-decreasing on [0, θ_r])."""
-    if beta == 0.0:
-        return _psi(L, t)
-    psi, dphi, r, dlr = _parts(L, t)
-    g = beta * math.cos(0.5 * t) / r
-    if g >= 1.0:
-        return psi - _HALF_PI, dphi
-    dg = g * (-0.5 * math.tan(0.5 * t) - dlr)
-    return psi - math.asin(g), dphi - dg / math.sqrt((1.0 - g) * (1.0 + g))
-
-
-#: F̃ − π/2 and its derivative at one θ (the levels of optim.stability.rigid_levels are read against it)
-k_equation = _k_eq
-
-
 def bracketed_newton(fun, level: float, lo: float, hi: float, x: float, step_rtol: float = 2.0 * _EPS,
-                     bracket_rtol: float = 4.0 * _EPS, quadratic_slope: float = math.inf) -> float:
+                     bracket_rtol: float = 4.0 * _EPS) -> float:
     """The root of the non-decreasing fun(θ) = level in [lo, hi] (fun(lo) < level ≤ fun(hi); fun returns the value
     and its derivative): Newton steps, kept in the bracket (bisection, geometric while the bracket spans decades),
-    to a relative step of ``step_rtol`` or a bracket of ``bracket_rtol`` (by default 2 and 4 ulp).  Shared by the
-    rigid fast path and the cable brackets (optim.stability.cable_brackets).
-
-    ``quadratic_slope``: where fun' is at least this, also stop at the Newton iterate once the steps show quadratic
-    convergence has put it within a quarter ulp of the root (``newton_done``), one evaluation before the step itself
-    falls to an ulp.  Where fun' is smaller the root is ill-conditioned (fun's rounding, ε·|level|, moves it by
-    ε·|level|/fun', many ulps), and the ulp rule's path is kept: its last bits are what the caller's polish sees."""
-    prev = math.inf
+    to a relative step of ``step_rtol`` or a bracket of ``bracket_rtol`` (by default 2 and 4 ulp).  The damper
+    loop's root here and the cable brackets (optim.stability.cable_brackets); the rigid K crossovers take its compiled
+    form (optim.stability.rigid_kernel), with its early stop under quadratic convergence."""
     for _ in range(200):
         if not (lo < x < hi):
             x = math.sqrt(lo * hi) if lo > 0.0 and hi > 8.0 * lo else 0.5 * (lo + hi)
-            prev = math.inf
         fx, dfx = fun(x)
         if fx == level:
             return x
@@ -212,70 +173,10 @@ def bracketed_newton(fun, level: float, lo: float, hi: float, x: float, step_rto
             return x
         step = (fx - level) / dfx if dfx > 0.0 else math.inf
         xn = x - step
-        if lo <= xn <= hi and (abs(step) <= step_rtol * x or dfx >= quadratic_slope and newton_done(step, prev, xn)):
+        if lo <= xn <= hi and abs(step) <= step_rtol * x:
             return xn   # converged (from one side, hi stays far)
-        prev = step
         x = xn
     return x
-
-
-def newton_done(step: float, prev: float, x: float) -> bool:
-    """Whether the Newton iterate x (after ``step``, the one before it ``prev``) is within a quarter ulp of the root:
-    the step is below 1e-10 (relative: deep in quadratic convergence) and the error it leaves, |step|·c with the
-    observed contraction c = |step|/prev², is ≤ ε/4 relative."""
-    a = abs(step)
-    return a <= 1e-10 * x and a * a * a <= 0.25 * _EPS * x * prev * prev
-
-
-def polish(plant: RigidZOH, beta: float, t: float) -> float:
-    """One secant step on Im H (the scan's own function) from the root t of F̃: near β_max, K moves by
-    ~1e-12 per ulp of θ, and Im H pins θ a few ulp closer than F̃'s sum of arguments does."""
-    return polish_h(plant, beta, t)[0]
-
-
-def polish_h(plant: RigidZOH, beta: float, t: float) -> tuple[float, complex]:
-    """``polish`` and H at the θ it returns (its K is Re H: ``re_h`` without evaluating H again)."""
-    h = 64.0 * _EPS * t
-    v0 = _h(plant, beta, t)
-    f0, f1 = v0.imag, _h(plant, beta, t + h).imag
-    if f1 == f0 or f0 == 0.0:
-        return t, v0
-    t1 = t - f0 * h / (f1 - f0)
-    if t1 == t:   # the step rounds away: H(t1) would be v0 again
-        return t, v0
-    if abs(t1 - t) <= 8.0 * _EPS * t and t1 < math.pi:
-        v1 = _h(plant, beta, t1)
-        if abs(v1.imag) < abs(f0):
-            return t1, v1
-    return t, v0
-
-
-def re_h(plant: RigidZOH, beta: float, t: float) -> float:
-    """K (dimensionless) of the crossover at θ = t: Re H(θ) by the scan's own formula (RigidZOH.inverse_response).
-
-    Not k(θ) of the docstring (equal at a root), nor 2s(R cos ψ − βs): near β_max K is a small difference
-    of O(β) terms, and this form keeps the scan's accuracy there (~4e-14 against the 40-digit reference at
-    0.9997·B_max, where the factored form lost ~1.6e-12)."""
-    return _h(plant, beta, t).real
-
-
-def _h(plant: RigidZOH, beta: float, t: float) -> complex:
-    """H(θ) = −1/G_n + β(e^{−jθ} − 1), as RigidZOH.inverse_response and the scan compute it."""
-    sh = math.sin(0.5 * t)
-    st = math.sin(t)
-    z = complex(math.cos(t), st)
-    zm1 = complex(-2.0 * sh * sh, st)                 # z − 1 without cancellation
-    if plant.f == 0.0:
-        omp = plant.coefficients()[0]
-        a, c = plant.f0_numerator()
-        num = a * (z + 1.0) + c
-    else:
-        omp, phi12, g0p, g0v, g1p, g1v, _ = plant.coefficients()
-        zinv = 1.0 / z
-        num = (g0p + g1p * zinv) * (zm1 + omp) + phi12 * (g0v + g1v * zinv)
-    dt = plant.d * t
-    inv = zm1 * (zm1 + omp) * complex(math.cos(dt), math.sin(dt)) / num
-    return complex(-inv.real - 2.0 * beta * sh * sh, -inv.imag - beta * st)
 
 
 @dataclass(frozen=True)
@@ -350,7 +251,7 @@ def fast_rigid(plant: RigidZOH, beta: float, beta_max: float | None = None,
         bmax, hi = None, L.theta_r
     if hi == math.pi:
         if L.half_pis_at_pi == 1:             # F(π) = π/2 exactly: the binding crossover is Nyquist's
-            return FastRigid(re_h(plant, beta, math.pi), math.pi, bmax)
+            return FastRigid(re_h(L.numbers, beta, math.pi), math.pi, bmax)
         fk = (L.half_pis_at_pi - 1) * _HALF_PI
     else:
         fk, _ = k_eq(L.numbers, beta, hi)   # compiled _k_eq: the same bits

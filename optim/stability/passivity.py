@@ -200,7 +200,7 @@ def _best_of_rows(d: int, hk: float, damping: float, grid: np.ndarray, vals: np.
         vertex = cand_t[row] + 0.5 * (hi - lo) / 2 * (v0 - v2) / curv if curv < 0 else math.nan
         inside = i_lo < i < i_hi and curv < 0 and lo < vertex < hi
         polish = _polish_max if needs_python(d, lo) else polish_max   # compiled unless numpy's sums are needed
-        t = polish(d, float(hk), float(damping), lo, hi, vertex if inside else 0.5 * (lo + hi))
+        t = polish(d, hk, damping, lo, hi, vertex if inside else 0.5 * (lo + hi))
         if math.isnan(t):
             continue
         half = math.sin(t / 2)
@@ -239,9 +239,10 @@ def passivity_margin(device: Device, stiffness: float, damping: float) -> Passiv
         # P = hk on every sample: the general path's answer is hk at the angle its partition happens to list first
         return PassivityCheck(device.damping > hk, hk, d, conservative, _FLAT_WORST_ANGLE)
     n = 64 * (d + 1) + 257
-    grid, vals, v_pi = prefix_samples(d, n, float(hk), float(damping))   # compiled: passivity_kernel
+    hk, damping = float(hk), float(damping)   # one compiled signature, whatever number types came in
+    grid, vals, v_pi = prefix_samples(d, n, hk, damping)   # compiled: passivity_kernel
     top = (-vals).argpartition(2)[:3] if vals.size > 3 else np.arange(vals.size)   # np.argpartition, unwrapped
-    v_best, t_best, decided = best_of_rows(d, float(hk), float(damping), grid, vals, top, v_pi)   # compiled
+    v_best, t_best, decided = best_of_rows(d, hk, damping, grid, vals, top, v_pi)   # compiled
     if not decided:   # a bracket needs _p_slopes_at's numpy sums: the rows in Python
         v_best, t_best = _best_of_rows(d, hk, damping, grid, vals, top.tolist(), v_pi)
     return PassivityCheck(device.damping > v_best, v_best, d, conservative, t_best)

@@ -28,7 +28,8 @@ _SUM_TERMS_MIN = 4
 _NUMPY_SUM_MIN = 32
 
 
-def needs_python(d: int, a: float) -> bool:
+@kernel
+def needs_python(d, a):
     """Whether polishing a bracket starting at θ = ``a`` reaches _p_slopes_at's numpy branch."""
     return d > _NUMPY_SUM_MIN and (d + 0.5) * a < 1.0
 
@@ -147,7 +148,7 @@ def best_of_rows(d, hk, damping, grid, vals, top, v_pi):
         curv = v0 - 2 * v1 + v2
         vertex = cand_t[row] + 0.5 * (hi - lo) / 2 * (v0 - v2) / curv if curv < 0 else math.nan
         inside = i_lo < i < i_hi and curv < 0 and lo < vertex < hi
-        if d > _NUMPY_SUM_MIN and (d + 0.5) * lo < 1.0:
+        if needs_python(d, lo):
             return math.nan, math.nan, False
         t = polish_max(d, hk, damping, lo, hi, vertex if inside else 0.5 * (lo + hi))
         if math.isnan(t):

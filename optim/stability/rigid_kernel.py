@@ -1,9 +1,10 @@
 """The rigid fast path's scalar solves compiled (numba): the binding crossover and every level below θ_r (issue 20).
 
-The same operations, in the same order, as the Python evaluators they replace, so the same bits:
-``fast_rigid._k_eq``/``_psi`` (F̃ − π/2 and its slope), ``fast_rigid._h`` (H = −1/G_n + β(e^{−jθ} − 1), with
+The same operations, in the same order, as the Python evaluators they replaced (fast_rigid's until issue 20's
+kernels; now the twins in tests/optim/stability/rigid_python.py), so the same bits:
+``_k_eq``/``_psi`` (F̃ − π/2 and its slope), ``_h`` (H = −1/G_n + β(e^{−jθ} − 1), with
 CPython's complex arithmetic, which numba's complex product and quotient reproduce: Smith's quotient with
-CPython's branches), ``fast_rigid.bracketed_newton`` and ``polish_h``, and ``rigid_levels``' loop over the levels
+CPython's branches), ``bracketed_newton`` with its early stop and ``polish_h``, and ``rigid_levels``' loop over the levels
 (its starts, and at β = 0 with a whole-sample delay K = 2·sin(θ/2)·R(θ) where K is not steep).  No ``fastmath``:
 LLVM neither reassociates nor fuses a product into an addition here.  tests/optim/stability/test_rigid_kernel.py
 holds each compiled function to its Python twin bit for bit on random devices, whole and fractional delays,
@@ -34,7 +35,7 @@ import numpy as np
 from models.discretize import RigidZOH
 from optim.stability.compiled import kernel
 
-__all__ = ["loop_numbers", "k_eq", "binding_root", "level_roots", "compile_kernels"]
+__all__ = ["loop_numbers", "k_eq", "re_h", "binding_root", "level_roots", "compile_kernels"]
 
 _EPS = 2.220446049250313e-16
 _HALF_PI = 0.5 * math.pi
@@ -43,7 +44,8 @@ _TWO_PI = 2.0 * math.pi
 _STEEP = 6.0
 
 # indices into the loop's numbers
-_OMP, _P, _LEAD, _SLOPE, _Q1, _OMQ1, _Q2, _OMQ2, _A, _C, _PHI12, _G0P, _G0V, _G1P, _G1V, _D, _NZ, _FRAC = range(18)
+(AT_OMP, AT_P, AT_LEAD, AT_SLOPE, AT_Q1, AT_OMQ1, AT_Q2, AT_OMQ2, AT_A, AT_C, AT_PHI12, AT_G0P, AT_G0V, AT_G1P, AT_G1V,
+ AT_D, AT_NZ, AT_FRAC) = range(18)
 
 
 def loop_numbers(plant: RigidZOH, omp: float, p: float, lead: float, slope: float,
@@ -60,9 +62,9 @@ def loop_numbers(plant: RigidZOH, omp: float, p: float, lead: float, slope: floa
 
 @kernel
 def k_eq(v, beta, t):
-    """fast_rigid._k_eq (β > 0) or _psi (β = 0): (F̃ − π/2, its slope)."""
-    omp, p, slope = v[_OMP], v[_P], v[_SLOPE]
-    nz = int(v[_NZ])
+    """F̃ − π/2 and its slope at θ = t (β > 0; at β = 0 ψ and φ', the twins' ``_k_eq`` and ``_psi``)."""
+    omp, p, slope = v[AT_OMP], v[AT_P], v[AT_SLOPE]
+    nz = int(v[AT_NZ])
     sh, ch = math.sin(0.5 * t), math.cos(0.5 * t)
     st = 2.0 * sh * ch
     re_p = omp - 2.0 * sh * sh
@@ -71,16 +73,16 @@ def k_eq(v, beta, t):
     if beta == 0.0:
         dphi = slope + (omp + 2.0 * p * sh * sh) / den_p
         for i in range(nz):
-            q, omq = v[_Q1 + 2 * i], v[_OMQ1 + 2 * i]
+            q, omq = v[AT_Q1 + 2 * i], v[AT_OMQ1 + 2 * i]
             re_q = 2.0 * ch * ch - omq
             phi -= math.atan2(st, re_q)
             dphi -= (omq + 2.0 * q * ch * ch) / (re_q * re_q + st * st)
         return phi, dphi
     dphi = slope + (omp + 2.0 * p * sh * sh) / den_p
     dlr = p * st / den_p
-    mag = math.sqrt(den_p) / v[_LEAD]
+    mag = math.sqrt(den_p) / v[AT_LEAD]
     for i in range(nz):
-        q, omq = v[_Q1 + 2 * i], v[_OMQ1 + 2 * i]
+        q, omq = v[AT_Q1 + 2 * i], v[AT_OMQ1 + 2 * i]
         re_q = 2.0 * ch * ch - omq
         den_q = re_q * re_q + st * st
         phi -= math.atan2(st, re_q)
@@ -96,25 +98,37 @@ def k_eq(v, beta, t):
 
 @kernel
 def _h(v, beta, t):
-    """fast_rigid._h: H(θ) = −1/G_n + β(e^{−jθ} − 1), CPython's complex operations in its order."""
+    """H(θ) = −1/G_n + β(e^{−jθ} − 1), as RigidZOH.inverse_response and the scan compute it, CPython's complex
+    operations in their order."""
     sh = math.sin(0.5 * t)
     st = math.sin(t)
     z = complex(math.cos(t), st)
     zm1 = complex(-2.0 * sh * sh, st)
-    omp = v[_OMP]
-    if v[_FRAC] == 0.0:
-        num = v[_A] * (z + 1.0) + v[_C]
+    omp = v[AT_OMP]
+    if v[AT_FRAC] == 0.0:
+        num = v[AT_A] * (z + 1.0) + v[AT_C]
     else:
         zinv = 1.0 / z
-        num = (v[_G0P] + v[_G1P] * zinv) * (zm1 + omp) + v[_PHI12] * (v[_G0V] + v[_G1V] * zinv)
-    dt = v[_D] * t
+        num = (v[AT_G0P] + v[AT_G1P] * zinv) * (zm1 + omp) + v[AT_PHI12] * (v[AT_G0V] + v[AT_G1V] * zinv)
+    dt = v[AT_D] * t
     inv = zm1 * (zm1 + omp) * complex(math.cos(dt), math.sin(dt)) / num
     return complex(-inv.real - 2.0 * beta * sh * sh, -inv.imag - beta * st)
 
 
 @kernel
+def re_h(v, beta, t):
+    """K (dimensionless) of a crossover at θ = t: Re H(θ) by the scan's own formula (RigidZOH.inverse_response).
+
+    Not k(θ) of fast_rigid's docstring (equal at a root), nor 2s(R cos ψ − βs): near β_max K is a small difference
+    of O(β) terms, and this form keeps the scan's accuracy there (~4e-14 against the 40-digit reference at
+    0.9997·B_max, where the factored form lost ~1.6e-12)."""
+    return _h(v, beta, t).real
+
+
+@kernel
 def _polish(v, beta, t):
-    """fast_rigid.polish_h: (θ, Re H(θ)) after one secant step on Im H, kept where it lowers |Im H|."""
+    """(θ, Re H(θ)) after one secant step on Im H from the root t of F̃, kept where it lowers |Im H|: near β_max K
+    moves by ~1e-12 per ulp of θ, and Im H pins θ a few ulp closer than F̃'s sum of arguments does."""
     dh = 64.0 * _EPS * t
     v0 = _h(v, beta, t)
     f0, f1 = v0.imag, _h(v, beta, t + dh).imag
@@ -132,7 +146,9 @@ def _polish(v, beta, t):
 
 @kernel
 def _newton(v, beta, level, lo, hi, x, quadratic_slope):
-    """fast_rigid.bracketed_newton on F̃ = level (2 ulp step, 4 ulp bracket, newton_done above quadratic_slope)."""
+    """fast_rigid.bracketed_newton on F̃ = level (2 ulp step, 4 ulp bracket), and where F̃' ≥ quadratic_slope also
+    stopping at the Newton iterate once the steps show quadratic convergence put it within a quarter ulp of the root
+    (the step ≤ 1e-10 relative and |step|³/prev² ≤ ε/4 relative), one evaluation before the step falls to an ulp."""
     step_rtol, bracket_rtol = 2.0 * _EPS, 4.0 * _EPS
     prev = math.inf
     for _ in range(200):
@@ -172,10 +188,10 @@ def level_roots(v, beta, n, t0, tr):
     """The roots at the levels 2πk, k = 1…n, in turn (rigid_levels' loop): arrays (θ, α)."""
     theta = np.empty(n)
     alpha = np.empty(n)
-    slope = v[_SLOPE]
+    slope = v[AT_SLOPE]
     half_slope, step1 = 0.5 * slope, 2.0 * math.pi / (slope + 0.5)
-    whole_undamped = beta == 0.0 and v[_NZ] == 1.0
-    omp, p, lead, q, omq = v[_OMP], v[_P], v[_LEAD], v[_Q1], v[_OMQ1]
+    whole_undamped = beta == 0.0 and v[AT_NZ] == 1.0
+    omp, p, lead, q, omq = v[AT_OMP], v[AT_P], v[AT_LEAD], v[AT_Q1], v[AT_OMQ1]
     r1 = r2 = r3 = t0                                     # the last three roots (levels k − 1, k − 2, k − 3)
     for k in range(1, n + 1):
         lo = r1
@@ -203,10 +219,11 @@ def level_roots(v, beta, n, t0, tr):
     return theta, alpha
 
 
-def _example_loop() -> np.ndarray:
+def example_loop() -> np.ndarray:
     """A made-up loop's numbers (a whole-sample delay, whose numbers need no plant), to compile the kernels on."""
     v = np.zeros(18)
-    v[[_OMP, _P, _LEAD, _SLOPE, _Q1, _OMQ1, _A, _C, _D, _NZ]] = [0.01, 0.99, 0.5, 2.5, 0.9, 0.1, 0.5, -0.05, 2.0, 1.0]
+    v[[AT_OMP, AT_P, AT_LEAD, AT_SLOPE, AT_Q1, AT_OMQ1, AT_A, AT_C, AT_D, AT_NZ]] = [
+        0.01, 0.99, 0.5, 2.5, 0.9, 0.1, 0.5, -0.05, 2.0, 1.0]
     return v
 
 
@@ -214,7 +231,8 @@ def compile_kernels() -> None:
     """Compile every kernel now (or load it from numba's cache), on a made-up loop: a process that calls this
     before it serves answers its first rigid analysis at full speed, where the first call would otherwise pay
     ≈ 0.1 s (cached) to 3 s (compiling)."""
-    v = _example_loop()
+    v = example_loop()
     for beta in (0.0, 1e-3):
+        re_h(v, beta, math.pi)
         binding_root(v, beta, 1.0, 0.1)
         level_roots(v, beta, 1, 0.1, 1.0)

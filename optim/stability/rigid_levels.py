@@ -6,7 +6,7 @@ in [θ_{k−1}, θ_r] (θ₀ the binding crossover of fast_rigid, level 0): F̃(
 Each level is fast_rigid's bracketed Newton in that bracket, started from the spacing of the roots below it (F̃
 is (d + m + ½)θ plus bounded arguments: nearly linear, so Newton starts a few digits from the root), stopping
 early where quadratic convergence shows the root within a quarter ulp and F̃' ≥ slope/2, then polished by one
-secant step on Im H (fast_rigid.polish_h).  At β = 0 with a whole-sample delay, H = 2·sin(θ/2)·R·e^{jψ} exactly,
+secant step on Im H.  At β = 0 with a whole-sample delay, H = 2·sin(θ/2)·R·e^{jψ} exactly,
 so at the root K = 2·sin(θ/2)·R(θ), a product of positive terms: taken so where K is not steep in θ (d ln K/d ln θ
 ≤ 6: an ulp of θ moves K by ≤ 6 ulp), else the polish (Im H pins θ where an ulp of θ is many ulps of K); against
 the 30-digit reference on 473 crossovers of 40 random devices: the same median (1 ulp) and largest (4.8e-15)
@@ -26,10 +26,22 @@ from models.discretize import RigidZOH
 from optim.stability.fast_rigid import RigidLoop, rigid_loop
 from optim.stability.rigid_kernel import k_eq, level_roots
 
-__all__ = ["rigid_crossovers"]
+__all__ = ["rigid_crossovers", "level_count"]
 
 _HALF_PI = 0.5 * math.pi
 _TWO_PI = 2.0 * math.pi
+
+
+def level_count(L: RigidLoop, beta: float) -> int:
+    """How many levels 2πk, k ≥ 1, F̃ passes below θ_r: the K > 0 crossovers above the binding one on [0, θ_r]."""
+    tr = L.theta_r
+    top = (L.half_pis_at_pi - 1) * _HALF_PI if tr == math.pi else k_eq(L.numbers, beta, tr)[0]
+    n = max(int(top // _TWO_PI), 0)                 # the levels 2πk < top, as the scalar loop counted them
+    while _TWO_PI * (n + 1) < top:
+        n += 1
+    while n > 0 and not _TWO_PI * n < top:
+        n -= 1
+    return n
 
 
 def rigid_crossovers(plant: RigidZOH, beta: float, first: tuple[float, float], tail,
@@ -47,12 +59,7 @@ def rigid_crossovers(plant: RigidZOH, beta: float, first: tuple[float, float], t
     t0, a0 = first
     out = [(t0, a0)]
     if t0 < tr:
-        top = (L.half_pis_at_pi - 1) * _HALF_PI if tr == math.pi else k_eq(L.numbers, beta, tr)[0]   # k_equation
-        n = max(int(top // _TWO_PI), 0)                 # the levels 2πk < top, k ≥ 1, as the scalar loop counts
-        while _TWO_PI * (n + 1) < top:
-            n += 1
-        while n > 0 and not _TWO_PI * n < top:
-            n -= 1
+        n = level_count(L, beta)
         if n > 0:
             theta, alpha = level_roots(L.numbers, beta, n, t0, tr)
             out += zip(theta.tolist(), alpha.tolist())

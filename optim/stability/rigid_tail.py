@@ -40,7 +40,7 @@ import numpy as np
 
 from optim.stability.compiled import kernel
 from optim.stability.fast_rigid import RigidLoop
-from optim.stability.rigid_kernel import _LEAD, _NZ, _OMP, _OMQ1, _OMQ2, _P, _Q1, _Q2, _SLOPE
+from optim.stability.rigid_kernel import AT_LEAD, AT_NZ, AT_OMP, AT_OMQ1, AT_OMQ2, AT_P, AT_Q1, AT_Q2, AT_SLOPE
 
 __all__ = ["tail_is_clear"]
 
@@ -61,19 +61,19 @@ def _tail_point(v, beta, t):
     """rigid_tail._point: (I(θ), arg(z + q₁), arg(z + q₂) or 0) at θ = t < π."""
     sh, ch = math.sin(0.5 * t), math.cos(0.5 * t)
     st = 2.0 * sh * ch
-    re_p = v[_OMP] - 2.0 * sh * sh
+    re_p = v[AT_OMP] - 2.0 * sh * sh
     den_p = re_p * re_p + st * st
-    mag = math.sqrt(den_p) / v[_LEAD]
-    re_q = 2.0 * ch * ch - v[_OMQ1]
+    mag = math.sqrt(den_p) / v[AT_LEAD]
+    re_q = 2.0 * ch * ch - v[AT_OMQ1]
     arg1 = math.atan2(st, re_q)
     mag /= math.sqrt(re_q * re_q + st * st)
     arg2 = 0.0
-    if v[_NZ] == 2.0:
-        re_q = 2.0 * ch * ch - v[_OMQ2]
+    if v[AT_NZ] == 2.0:
+        re_q = 2.0 * ch * ch - v[AT_OMQ2]
         arg2 = math.atan2(st, re_q)
         mag /= math.sqrt(re_q * re_q + st * st)
     g = beta * ch / mag if beta > 0.0 else 0.0
-    inc = v[_SLOPE] * t - math.atan2(re_p, st) - (math.asin(g) if g < 1.0 else 0.5 * math.pi)
+    inc = v[AT_SLOPE] * t - math.atan2(re_p, st) - (math.asin(g) if g < 1.0 else 0.5 * math.pi)
     return inc, arg1, arg2
 
 
@@ -81,8 +81,8 @@ def _tail_point(v, beta, t):
 def _interval_clear(v, a, b, inc_a, xa1, xa2, inc_b, xb1, xb2):
     """rigid_tail._interval_clear and _clear: no multiple of 2π between the bounds of F̃ on [a, b]."""
     lo, hi = inc_a, inc_b
-    for i in range(int(v[_NZ])):
-        q = v[_Q1 + 2 * i]
+    for i in range(int(v[AT_NZ])):
+        q = v[AT_Q1 + 2 * i]
         xa, xb = (xa1, xb1) if i == 0 else (xa2, xb2)
         if q < 1.0:
             lo -= xb
@@ -102,15 +102,15 @@ def _slope_sign_on_end(v, beta, c):
     """rigid_tail._slope_sign_on_end: +1 / −1 when F̃' > 0 / < 0 on all of [c, π], else 0."""
     sh, ch = math.sin(0.5 * c), math.cos(0.5 * c)
     st = 2.0 * sh * ch
-    omp, p = v[_OMP], v[_P]
+    omp, p = v[AT_OMP], v[AT_P]
     re_p = omp - 2.0 * sh * sh
     den_p = re_p * re_p + st * st
-    up = v[_SLOPE] + (omp + 2.0 * p * sh * sh) / den_p
-    low = v[_SLOPE] + 1.0 / (1.0 + p)
-    mag = math.sqrt(den_p) / v[_LEAD]
+    up = v[AT_SLOPE] + (omp + 2.0 * p * sh * sh) / den_p
+    low = v[AT_SLOPE] + 1.0 / (1.0 + p)
+    mag = math.sqrt(den_p) / v[AT_LEAD]
     dlr = p
-    for i in range(int(v[_NZ])):
-        q, omq = v[_Q1 + 2 * i], v[_OMQ1 + 2 * i]
+    for i in range(int(v[AT_NZ])):
+        q, omq = v[AT_Q1 + 2 * i], v[AT_OMQ1 + 2 * i]
         re_q = 2.0 * ch * ch - omq
         den_q = re_q * re_q + st * st
         rq = (omq + 2.0 * q * ch * ch) / den_q
@@ -138,13 +138,13 @@ def _slope_sign_on_end(v, beta, c):
 def _tail_is_clear(v, beta, theta_r, half_pis_at_pi):
     """``tail_is_clear`` on the loop's numbers."""
     a = theta_r
-    nz = int(v[_NZ])
-    has_pole = v[_OMQ1] == 0.0 or (nz == 2 and v[_OMQ2] == 0.0)
+    nz = int(v[AT_NZ])
+    has_pole = v[AT_OMQ1] == 0.0 or (nz == 2 and v[AT_OMQ2] == 0.0)
     if not (math.pi / 2 <= a < math.pi) or has_pole:
         return a >= math.pi
     # rigid_tail._at_pi: arg(z + q) = π inside the unit circle, 0 outside
-    e1 = math.pi if v[_Q1] < 1.0 else 0.0
-    e2 = (math.pi if v[_Q2] < 1.0 else 0.0) if nz == 2 else 0.0
+    e1 = math.pi if v[AT_Q1] < 1.0 else 0.0
+    e2 = (math.pi if v[AT_Q2] < 1.0 else 0.0) if nz == 2 else 0.0
     end_inc = (half_pis_at_pi - 1) * 0.5 * math.pi + (0.0 + e1 + e2 if nz == 2 else 0.0 + e1)
     b = math.pi
     if ((half_pis_at_pi - 1) // 2) % 2 == 0:
@@ -202,7 +202,7 @@ def _tail_is_clear(v, beta, theta_r, half_pis_at_pi):
 
 def compile_kernels() -> None:
     """Compile the tail proof now (or load it from numba's cache): see optim.stability.rigid_kernel."""
-    from optim.stability.rigid_kernel import _example_loop
+    from optim.stability.rigid_kernel import example_loop
 
     for beta in (0.0, 1e-3):
-        _tail_is_clear(_example_loop(), beta, 2.0, 3)
+        _tail_is_clear(example_loop(), beta, 2.0, 3)

@@ -1,6 +1,6 @@
-"""optim.stability.rigid_kernel (numba) against its Python twins, bit for bit: fast_rigid's scalar evaluators
-(``_k_eq``/``_psi``, ``_h``), its binding crossover (bracketed_newton from the closed-form start, polish_h) and the
-levels' loop (tests/optim/stability/rigid_python.py, the exact rung's list as it ran in Python).
+"""optim.stability.rigid_kernel (numba) against its Python twins (tests/optim/stability/rigid_python.py: the exact
+rung as it ran in Python), bit for bit: the scalar evaluators (``_k_eq``/``_psi``, ``_h``, Re H), the binding
+crossover (bracketed_newton from fast_rigid's closed-form start, polish_h) and the levels' loop.
 
 Random rigid devices over the documented domain: δ from 1e-30 to 1e3 (a twentieth of them δ = 0 with B > 0),
 whole and fractional delays of 0-400 samples, B = 0, B uniform below B_max and within 1e-6…1e-3 of it; T of
@@ -16,7 +16,9 @@ from models.device import Device
 from optim.stability import fast_rigid as fr
 from optim.stability import rigid_kernel as rk
 from optim.stability.margins import loop_plant, max_stable_damping
+from optim.stability.rigid_levels import level_count
 
+from . import rigid_python as rp
 from .rigid_python import level_roots as python_level_roots
 
 _HALF_PI = 0.5 * math.pi
@@ -45,22 +47,15 @@ def _beta(rng, i, dev):
 
 
 def _levels(L, beta, t0):
-    """The level count of rigid_levels.rigid_crossovers."""
-    tr = L.theta_r
-    top = (L.half_pis_at_pi - 1) * _HALF_PI if tr == math.pi else fr.k_equation(L, beta, tr)[0]
-    n = max(int(top // _TWO_PI), 0)
-    while _TWO_PI * (n + 1) < top:
-        n += 1
-    while n > 0 and not _TWO_PI * n < top:
-        n -= 1
-    return n if t0 < tr else 0
+    """The level count of rigid_levels.rigid_crossovers (none when the binding crossover is not below θ_r)."""
+    return level_count(L, beta) if t0 < L.theta_r else 0
 
 
 def _python_binding(plant, L, beta, hi):
     """fast_rigid's binding crossover as it ran in Python."""
-    fun = (lambda x: fr._psi(L, x)) if beta == 0.0 else (lambda x: fr._k_eq(L, beta, x))
-    t = fr.bracketed_newton(fun, 0.0, 0.0, hi, fr._start(L, L.omp + beta, _HALF_PI, hi))
-    t, h = fr.polish_h(plant, beta, t)
+    fun = (lambda x: rp._psi(L, x)) if beta == 0.0 else (lambda x: rp._k_eq(L, beta, x))
+    t = rp.bracketed_newton(fun, 0.0, 0.0, hi, fr._start(L, L.omp + beta, _HALF_PI, hi))
+    t, h = rp.polish_h(plant, beta, t)
     return t, h.real
 
 
@@ -81,10 +76,11 @@ def test_kernel_equals_its_python_twins_bit_for_bit():
         if beta is None:
             continue
         v = L.numbers
-        for t in np.concatenate([rng.uniform(1e-7, math.pi, 3), 10 ** rng.uniform(-12, 0, 2)]).tolist():
+        for t in [*np.concatenate([rng.uniform(1e-7, math.pi, 3), 10 ** rng.uniform(-12, 0, 2)]).tolist(), math.pi]:
             for b in (beta, 0.0):
-                assert all(map(_same, rk.k_eq(v, b, t), fr._k_eq(L, b, t))), (dev, b, t)
-                assert rk._h(v, b, t) == fr._h(plant, b, t), (dev, b, t)
+                assert all(map(_same, rk.k_eq(v, b, t), rp._k_eq(L, b, t))), (dev, b, t)
+                assert rk._h(v, b, t) == rp._h(plant, b, t), (dev, b, t)
+                assert _same(rk.re_h(v, b, t), rp.re_h(plant, b, t)), (dev, b, t)
                 evaluations += 2
         res = fr.fast_rigid(plant, beta)
         if res is None or res.theta is None:

@@ -15,9 +15,11 @@ import numpy as np
 import pytest
 
 from models.device import Device
-from optim.stability.fast_rigid import bracketed_newton, fast_rigid, k_equation, polish_h, rigid_loop
+from optim.stability.fast_rigid import bracketed_newton, fast_rigid, rigid_loop
 from optim.stability.margins import critical_stiffness, loop_plant, max_stable_damping, scan_critical_stiffness
 from optim.stability.rigid_levels import rigid_crossovers
+
+from .rigid_python import k_equation, polish_h
 
 _EPS = np.finfo(float).eps
 
