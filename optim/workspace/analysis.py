@@ -1,0 +1,55 @@
+"""POST /v1/analysis/workspace's numerics from plain arguments (picklable: it runs in a compute worker)."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, replace
+from typing import Literal, Sequence
+
+from models.errors import InputError
+from models.kinematics import KINEMATIC_PRESETS, load_kinematics
+
+from .workspace import WorkspaceMap, explicit_poses, grid_poses, lhs_poses, workspace_map
+
+__all__ = ["PoseSpec", "analyse_workspace"]
+
+
+@dataclass(frozen=True)
+class PoseSpec:
+    """Exactly one of: explicit poses [rad or m], ``grid_num`` values per joint, or ``lhs_samples`` with a seed."""
+
+    explicit: tuple[tuple[float, ...], ...] | None = None
+    grid_num: int | None = None
+    lhs_samples: int | None = None
+    lhs_seed: int = 0
+
+
+def analyse_workspace(urdf: str | None, preset: str | None, end_effector: str | None,
+                      armature: Sequence[float] | None, joint_damping: Sequence[float] | None, poses: PoseSpec,
+                      normals: Sequence[Sequence[float]] | Literal["worst"], sample_time: float, delay: float,
+                      damping: float = 0.0) -> tuple[WorkspaceMap, float]:
+    """The workspace map and its elapsed time [ms]; InputError fields are relative to the request body."""
+    start = time.perf_counter()
+    if preset is not None:
+        if preset not in KINEMATIC_PRESETS:
+            raise InputError("device.kinematics.preset", f"unknown kinematic preset {preset!r}; known: "
+                                                         f"{', '.join(KINEMATIC_PRESETS)}")
+        base = KINEMATIC_PRESETS[preset]
+        urdf = base["urdf"] if urdf is None else urdf
+        end_effector = base["end_effector"] if end_effector is None else end_effector
+    if urdf is None or end_effector is None:
+        raise InputError("device.kinematics", "needs `urdf` and `end_effector`, or a `preset`")
+    try:
+        model = load_kinematics(urdf, end_effector, None if armature is None else list(armature),
+                                None if joint_damping is None else list(joint_damping))
+    except InputError as exc:
+        raise exc.under("device.kinematics.") from None
+    if poses.explicit is not None:
+        qs = explicit_poses(model, poses.explicit)
+    elif poses.grid_num is not None:
+        qs = grid_poses(model, poses.grid_num)
+    else:
+        qs = lhs_poses(model, int(poses.lhs_samples or 0), poses.lhs_seed)
+    result = workspace_map(model, qs, normals if normals == "worst" else [list(n) for n in normals], sample_time,
+                           delay, damping, explicit=poses.explicit is not None)
+    return replace(result), (time.perf_counter() - start) * 1e3

@@ -1,0 +1,128 @@
+"""The wall's SISO plant of a multi-DOF device at one pose and normal, and its exact critical stiffness.
+
+G_n(s) = nᵀ J (M s² + D s)⁻¹ Jᵀ n.  With the generalised eigenvectors of (D, M) (VᵀMV = I, VᵀDV = Λ) this is a sum
+of rigid modes, G_n(s) = Σ c_i / (s (s + λ_i)) with c_i = (nᵀ J v_i)² [1/kg] and λ_i ≥ 0 [1/s]: every pole is real
+(the arm has no stiffness once gravity is compensated).  Each mode is the chapter's rigid plant 1/(m_i s² + b_i s)
+with m_i = 1/c_i, b_i = λ_i/c_i, so its exact ZOH with any delay is models.discretize.RigidZOH, and by linearity the
+sampled G_n(z) is their sum: exact, no Padé.  K_cr is the smallest K > 0 of every crossover of
+K(θ) = −1/G_n(e^{jθ}) − B(1 − e^{−jθ})/T, found by the same adaptive scan as the 1-DOF cable loop
+(optim.stability.crossovers.positive_real_crossings).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+
+from models.discretize import RigidZOH, split_delay
+from optim.stability.crossovers import positive_real_crossings, scan_grid, theta_min
+from optim.stability.margins import NO_DAMPING_REASON
+
+__all__ = ["WallModes", "wall_modes", "WallCritical", "wall_critical_stiffness", "one_dof_equivalent"]
+
+#: A mode whose weight c_i is below this fraction of Σ c_i is not seen along n (rounding of the projection).
+_UNSEEN = 1e-14
+
+
+@dataclass(frozen=True)
+class WallModes:
+    """The modes of G_n: weights ``c`` [1/kg] and decay rates ``lam`` [1/s] (the modes seen along n only)."""
+
+    c: tuple[float, ...]
+    lam: tuple[float, ...]
+
+    @property
+    def effective_mass(self) -> float:
+        """1/(nᵀ J M⁻¹ Jᵀ n) [kg]: the mass the wall feels at high frequency."""
+        return 1.0 / math.fsum(self.c)
+
+    @property
+    def effective_damping(self) -> float:
+        """m_e²·Σ c_i λ_i = m_e²·nᵀ J M⁻¹ D M⁻¹ Jᵀ n [N·s/m]: the damping of the 1-DOF plant 1/(m_e s² + b_e s)
+        that matches G_n's expansion in 1/s to second order (the 1-DOF approximation)."""
+        m = self.effective_mass
+        return m * m * math.fsum(ci * li for ci, li in zip(self.c, self.lam))
+
+
+def wall_modes(mass: np.ndarray, jac: np.ndarray, damping: np.ndarray, normal: np.ndarray) -> WallModes:
+    """The modes of nᵀ J (M s² + D s)⁻¹ Jᵀ n (M symmetric positive definite, D diagonal ≥ 0)."""
+    lam, vec = scipy.linalg.eigh(np.diag(damping), mass)     # DV = MVΛ, VᵀMV = I
+    proj = (normal @ jac) @ vec
+    c = proj * proj
+    total = float(np.sum(c))
+    keep = c > _UNSEEN * total
+    return WallModes(tuple(float(x) for x in c[keep]), tuple(max(float(x), 0.0) for x in lam[keep]))
+
+
+@dataclass(frozen=True)
+class WallCritical:
+    """K_cr [N/m] of the wall along n, its crossover frequency [rad/s] (None when none binds), every crossover
+    (frequency [rad/s], K [N/m]) and why when K_cr is 0 or infinite."""
+
+    critical_stiffness: float
+    frequency: float | None
+    crossovers: tuple[tuple[float, float], ...]
+    reason: str | None = None
+
+
+def _grid(modes: WallModes, sample_time: float, delay_samples: float, beta: float) -> np.ndarray:
+    m = modes.effective_mass
+    deltas = [li * sample_time for li in modes.lam]
+    # the lowest damping any piece of the loop can have, normalised by m_e: every mode's own δ_i, and the
+    # low-frequency damping 1/Σ(c_i/λ_i) (zero when an undamped mode is seen)
+    low = 0.0 if any(li == 0.0 for li in modes.lam) else \
+        sample_time / (m * math.fsum(ci / li for ci, li in zip(modes.c, modes.lam)))
+    damp = min([low] + deltas) + beta
+    return scan_grid(theta_min(float(damp), float(delay_samples)), delay_samples, (),
+                     width_hint=max(min(deltas), 1e-6))
+
+
+def _max_stable_damping(plants, modes: WallModes, sample_time: float, d_samples: float) -> float:
+    """B_max [N·s/m]: the smallest positive crossover gain of the damper-only loop B(1 − z⁻¹)/T·G_n."""
+    def h(theta: np.ndarray) -> np.ndarray:
+        g = sum(w * p.response(theta) for w, p in plants)
+        return (-1.0 / g) / (-np.expm1(-1j * theta))
+
+    found = positive_real_crossings(h, _grid(modes, sample_time, d_samples, 0.0))
+    if not found:
+        return math.inf
+    return min(c.value for c in found) * modes.effective_mass / sample_time
+
+
+def wall_critical_stiffness(modes: WallModes, sample_time: float, delay: float, damping: float = 0.0
+                            ) -> WallCritical:
+    """The exact K_cr of the sampled wall loop on G_n with ZOH and ``delay`` [s], virtual damping B [N·s/m]."""
+    if damping == 0.0 and all(li == 0.0 for li in modes.lam):
+        return WallCritical(0.0, None, (), NO_DAMPING_REASON)
+    d_samples = delay / sample_time
+    d, f = split_delay(d_samples)
+    m = modes.effective_mass
+    plants = [(ci * m, RigidZOH(li * sample_time, d, f)) for ci, li in zip(modes.c, modes.lam)]
+    beta = damping * sample_time / m
+
+    def h(theta: np.ndarray) -> np.ndarray:
+        g = sum(w * p.response(theta) for w, p in plants)
+        return -1.0 / g + beta * np.expm1(-1j * theta)
+
+    if damping > 0.0:
+        b_max = _max_stable_damping(plants, modes, sample_time, d_samples)
+        if damping >= b_max:
+            return WallCritical(0.0, None, (), f"virtual damping B = {damping:.6g} N·s/m is at or above B_max = "
+                                               f"{b_max:.6g} N·s/m (the damper-only loop's critical gain): no "
+                                               "positive stiffness is stable")
+    found = positive_real_crossings(h, _grid(modes, sample_time, d_samples, beta))
+    scale = m / sample_time ** 2
+    crossovers = tuple((c.angle / sample_time, c.value * scale) for c in found)
+    if not crossovers:
+        return WallCritical(math.inf, None, (), "no phase crossover: every positive stiffness is stable")
+    best = min(crossovers, key=lambda c: c[1])
+    return WallCritical(best[1], best[0], crossovers)
+
+
+def one_dof_equivalent(modes: WallModes) -> WallModes:
+    """The 1-DOF approximation 1/(m_e s² + b_e s) as a one-mode WallModes."""
+    m, b = modes.effective_mass, modes.effective_damping
+    return WallModes((1.0 / m,), (b / m,))

@@ -1,0 +1,222 @@
+"""The workspace map: K_cr of the wall at every pose and normal of a multi-DOF device, and the worst of them.
+
+At each pose the plant along a normal n is optim.workspace.wall_plant's exact G_n (every mode, exact ZOH and delay);
+beside it the 1-DOF approximation (the effective mass and damping as one rigid plant) with its own exact K_cr.
+``normals="worst"`` searches the unit sphere for the normal of lowest K_cr: only normals in the range of J(q) can
+be worst (a component outside it scales every mode's weight by cos²φ and raises K_cr by 1/cos²φ), so the search
+runs over that range — a point, a half circle or a half sphere (n and −n give the same loop) — by a dense sampling
+and a bounded local polish of the best samples.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal, Sequence
+
+import numpy as np
+import scipy.optimize
+from scipy.stats import qmc
+
+from models.errors import InputError
+from models.kinematics import KinematicModel
+
+from .wall_plant import WallModes, one_dof_equivalent, wall_critical_stiffness, wall_modes
+
+__all__ = ["WorkspacePoint", "WorkspaceMap", "workspace_map", "explicit_poses", "grid_poses", "lhs_poses",
+           "MAX_EVALUATIONS", "GRAVITY_NOTE"]
+
+#: At most this many (pose, normal) pairs in one request (a study takes more).
+MAX_EVALUATIONS = 100_000
+#: Samples of the worst-normal search: on the half circle, and on the half sphere (before the polish).
+_CIRCLE_SAMPLES = 24
+_SPHERE_SAMPLES = 64
+#: A pose is singular when J's smallest singular value (of those the device has generically) is below this
+#: fraction of the largest.
+_SINGULAR = 1e-9
+
+GRAVITY_NOTE = ("gravity is taken as compensated and the velocity-product (Coriolis/centrifugal) terms as negligible "
+                "at the wall: the plant is the linearisation M(q)·q̈ + D·q̇ = J(q)ᵀ·f at each pose")
+
+
+@dataclass(frozen=True)
+class WorkspacePoint:
+    """One pose and normal: K_cr of the full G_n [N/m], the effective mass [kg] and damping [N·s/m] along n, and the
+    exact K_cr of that 1-DOF approximation [N/m] with its relative error against the full plant."""
+
+    pose: tuple[float, ...]
+    normal: tuple[float, float, float]
+    critical_stiffness: float
+    critical_frequency: float | None
+    effective_mass: float
+    effective_damping: float
+    one_dof_critical_stiffness: float
+    one_dof_relative_error: float | None
+    modes: int
+    reason: str | None = None
+
+
+@dataclass(frozen=True)
+class WorkspaceMap:
+    """Every point, the worst one (lowest K_cr) and its K_cr [N/m]."""
+
+    points: tuple[WorkspacePoint, ...]
+    worst: WorkspacePoint
+    minimum_critical_stiffness: float
+    normals: Literal["given", "worst"]
+    note: str = GRAVITY_NOTE
+
+
+def _generic_rank(model: KinematicModel) -> int:
+    rng = np.random.default_rng(0)
+    lo = np.where(np.isfinite(model.lower), model.lower, -math.pi)
+    hi = np.where(np.isfinite(model.upper), model.upper, math.pi)
+    best = 0
+    for _ in range(5):
+        _, jac = model.at(rng.uniform(lo, hi))
+        s = np.linalg.svd(jac, compute_uv=False)
+        best = max(best, int(np.sum(s > 1e-9 * max(s[0], 1e-300))))
+    return best
+
+
+def _check_pose(model: KinematicModel, q: Sequence[float], where: str) -> np.ndarray:
+    arr = np.asarray(q, dtype=float)
+    if arr.shape != (model.dof,):
+        raise InputError(where, f"a pose has one value per joint ({model.dof}: {', '.join(model.joint_names)}), "
+                                f"got {len(q)}")
+    if not np.all(np.isfinite(arr)):
+        raise InputError(where, "every joint value must be finite")
+    out = (arr < model.lower - 1e-12) | (arr > model.upper + 1e-12)
+    if np.any(out):
+        j = int(np.argmax(out))
+        raise InputError(where, f"joint {model.joint_names[j]!r} = {arr[j]:g} is outside its limits "
+                                f"[{model.lower[j]:g}, {model.upper[j]:g}]")
+    return arr
+
+
+def explicit_poses(model: KinematicModel, poses: Sequence[Sequence[float]]) -> list[np.ndarray]:
+    return [_check_pose(model, q, f"poses.explicit.{i}") for i, q in enumerate(poses)]
+
+
+def _finite_limits(model: KinematicModel, where: str) -> tuple[np.ndarray, np.ndarray]:
+    if not (np.all(np.isfinite(model.lower)) and np.all(np.isfinite(model.upper))):
+        raise InputError(where, "needs finite joint limits in the URDF (give explicit poses otherwise)")
+    return model.lower, model.upper
+
+
+def grid_poses(model: KinematicModel, num: int) -> list[np.ndarray]:
+    """``num`` values per joint, evenly spaced over its limits (num^dof poses)."""
+    lo, hi = _finite_limits(model, "poses.grid")
+    if num ** model.dof > MAX_EVALUATIONS:
+        raise InputError("poses.grid.num", f"num^{model.dof} poses exceed {MAX_EVALUATIONS}")
+    axes = [np.linspace(a, b, num) for a, b in zip(lo, hi)]
+    mesh = np.meshgrid(*axes, indexing="ij")
+    return [np.array(p) for p in np.stack([m.ravel() for m in mesh], axis=1)]
+
+
+def lhs_poses(model: KinematicModel, samples: int, seed: int) -> list[np.ndarray]:
+    """A Latin hypercube of ``samples`` poses over the joint limits (scipy.stats.qmc, seeded)."""
+    lo, hi = _finite_limits(model, "poses.latin_hypercube")
+    unit = qmc.LatinHypercube(d=model.dof, seed=seed).random(samples)
+    return [np.array(p) for p in qmc.scale(unit, lo, hi)]
+
+
+def _point(q: np.ndarray, n: np.ndarray, modes: WallModes, sample_time: float, delay: float, damping: float
+           ) -> WorkspacePoint:
+    full = wall_critical_stiffness(modes, sample_time, delay, damping)
+    one = wall_critical_stiffness(one_dof_equivalent(modes), sample_time, delay, damping)
+    k, k1 = full.critical_stiffness, one.critical_stiffness
+    err = (k1 / k - 1.0) if (math.isfinite(k) and k > 0 and math.isfinite(k1)) else None
+    return WorkspacePoint(tuple(float(x) for x in q), (float(n[0]), float(n[1]), float(n[2])), k, full.frequency,
+                          modes.effective_mass, modes.effective_damping, k1, err, len(modes.c), full.reason)
+
+
+def _worst_normal(mass: np.ndarray, jac: np.ndarray, damping_q: np.ndarray, rank: int, sample_time: float,
+                  delay: float, damping: float) -> np.ndarray:
+    u, _, _ = np.linalg.svd(jac)
+    basis = u[:, :rank]
+
+    def normal(angles: np.ndarray) -> np.ndarray:
+        if rank == 1:
+            return basis[:, 0]
+        if rank == 2:
+            return basis @ np.array([math.cos(angles[0]), math.sin(angles[0])])
+        t, p = angles
+        return basis @ np.array([math.sin(t) * math.cos(p), math.sin(t) * math.sin(p), math.cos(t)])
+
+    def kcr(angles: np.ndarray) -> float:
+        n = normal(np.asarray(angles, dtype=float))
+        return wall_critical_stiffness(wall_modes(mass, jac, damping_q, n), sample_time, delay,
+                                       damping).critical_stiffness
+
+    if rank == 1:
+        return normal(np.zeros(0))
+    if rank == 2:
+        phis = np.linspace(0.0, math.pi, _CIRCLE_SAMPLES, endpoint=False)
+        vals = [kcr(np.array([p])) for p in phis]
+        i = int(np.argmin(vals))
+        step = math.pi / _CIRCLE_SAMPLES
+        res = scipy.optimize.minimize_scalar(lambda p: kcr(np.array([p])), bounds=(phis[i] - step, phis[i] + step),
+                                             method="bounded", options={"xatol": 1e-10})
+        best = res.x if res.fun <= vals[i] else phis[i]
+        return normal(np.array([best]))
+    # half sphere: a Fibonacci lattice over z ≥ 0, then Nelder-Mead from the two best samples
+    k = np.arange(_SPHERE_SAMPLES) + 0.5
+    t = np.arccos(1.0 - k / _SPHERE_SAMPLES)
+    p = math.pi * (1.0 + 5.0 ** 0.5) * k
+    starts = np.stack([t, p % (2 * math.pi)], axis=1)
+    vals = np.array([kcr(s) for s in starts])
+    best_x, best_v = starts[int(np.argmin(vals))], float(np.min(vals))
+    for i in np.argsort(vals)[:2]:
+        res = scipy.optimize.minimize(kcr, starts[i], method="Nelder-Mead",
+                                      options={"xatol": 1e-9, "fatol": 1e-12 * max(best_v, 1e-300), "maxiter": 400})
+        if res.fun < best_v:
+            best_x, best_v = res.x, float(res.fun)
+    return normal(best_x)
+
+
+def workspace_map(model: KinematicModel, poses: list[np.ndarray], normals: list[Sequence[float]] | Literal["worst"],
+                  sample_time: float, delay: float, damping: float = 0.0, *, explicit: bool = False
+                  ) -> WorkspaceMap:
+    """K_cr at every pose × normal (or each pose's worst normal) and the minimum over them.
+
+    ``explicit`` poses are the user's own: a singular one is refused, naming it; sampled poses skip singular ones.
+    """
+    given: list[np.ndarray] = []
+    if normals != "worst":
+        for i, n in enumerate(normals):
+            v = np.asarray(n, dtype=float)
+            norm = float(np.linalg.norm(v)) if v.shape == (3,) and np.all(np.isfinite(v)) else 0.0
+            if norm == 0.0:
+                raise InputError(f"normals.{i}", "a normal is three finite numbers, not all zero")
+            given.append(v / norm)
+    count = len(poses) * (1 if normals == "worst" else len(given))
+    if count > MAX_EVALUATIONS:
+        raise InputError("poses", f"{count} pose × normal pairs exceed {MAX_EVALUATIONS} in one request "
+                                  "(a study takes more)")
+    if not poses:
+        raise InputError("poses", "no pose to analyse")
+    rank = _generic_rank(model)
+    points: list[WorkspacePoint] = []
+    for j, q in enumerate(poses):
+        mass, jac = model.at(q)
+        s = np.linalg.svd(jac, compute_uv=False)
+        if rank and s[rank - 1] <= _SINGULAR * max(s[0], 1e-300):
+            if explicit:
+                raise InputError(f"poses.explicit.{j}", "is a singular pose (the end effector cannot move in "
+                                                        "every direction it generically can)")
+            continue
+        if normals == "worst":
+            pose_normals = [_worst_normal(mass, jac, model.joint_damping, rank, sample_time, delay, damping)]
+        else:
+            pose_normals = given
+        for i, n in enumerate(pose_normals):
+            modes = wall_modes(mass, jac, model.joint_damping, n)
+            if not modes.c:
+                raise InputError(f"normals.{i}", f"the device cannot move along this normal at pose {j} "
+                                                 "(Jᵀn = 0): no wall can be rendered there")
+            points.append(_point(q, n, modes, sample_time, delay, damping))
+    if not points:
+        raise InputError("poses", "every sampled pose is singular")
+    worst = min(points, key=lambda p: p.critical_stiffness)
+    return WorkspaceMap(tuple(points), worst, worst.critical_stiffness, "worst" if normals == "worst" else "given")

@@ -1,0 +1,79 @@
+"""POST /v1/analysis/workspace through HTTP: the contract's one-link arm, the planar preset against the numerics,
+and 422s that name the field."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from models.kinematics import KINEMATIC_PRESETS, load_kinematics
+from optim.workspace.wall_plant import wall_critical_stiffness, wall_modes
+
+ONE_LINK = ('<?xml version="1.0"?><robot name="onelink"><link name="base"/><link name="arm"><inertial>'
+            '<origin xyz="0.1 0 0"/><mass value="0.5"/><inertia ixx="1e-6" iyy="1e-6" izz="0.001" ixy="0" ixz="0" '
+            'iyz="0"/></inertial></link><link name="tool"/><joint name="j" type="revolute"><parent link="base"/>'
+            '<child link="arm"/><axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="5" velocity="5"/>'
+            '<dynamics damping="0.01"/></joint><joint name="t" type="fixed"><parent link="arm"/><child link="tool"/>'
+            '<origin xyz="0.2 0 0"/></joint></robot>')
+
+
+def test_one_link_effective_mass_is_inertia_over_length_squared(client):
+    r = client.post("/v1/analysis/workspace", json={
+        "device": {"sample_time": 0.001, "kinematics": {"urdf": ONE_LINK, "end_effector": "tool"}},
+        "poses": {"explicit": [[0.0]]}, "normals": [[0.0, 1.0, 0.0]]})
+    assert r.status_code == 200, r.text
+    p = r.json()["points"][0]
+    want = (0.5 * 0.1 ** 2 + 0.001) / 0.2 ** 2           # I_joint / l²
+    assert p["effective_mass"] == pytest.approx(want, rel=1e-12)
+    assert p["effective_damping"] == pytest.approx(0.01 / 0.2 ** 2, rel=1e-12)
+    # one mode: the full plant is the 1-DOF plant, and K_cr is the rigid device's (b T/m = δ)
+    assert p["modes"] == 1 and p["one_dof_relative_error"] == pytest.approx(0.0, abs=1e-12)
+
+
+def test_planar_preset_matches_the_numerics(client):
+    q, n = [0.3, 1.0], [0.0, 1.0, 0.0]
+    r = client.post("/v1/analysis/workspace", json={
+        "device": {"sample_time": 0.001, "delay": 0.0015, "kinematics": {"preset": "planar-2link"}},
+        "controller": {"stiffness": 100.0, "damping": 0.2}, "poses": {"explicit": [q]}, "normals": [n]})
+    assert r.status_code == 200, r.text
+    body = r.json()
+    model = load_kinematics(**KINEMATIC_PRESETS["planar-2link"])
+    mass, jac = model.at(np.array(q))
+    want = wall_critical_stiffness(wall_modes(mass, jac, model.joint_damping, np.array(n)), 0.001, 0.0015, 0.2)
+    assert body["minimum_critical_stiffness"] == want.critical_stiffness
+    assert body["worst"]["pose"] == q and "gravity" in body["note"]
+
+
+@pytest.mark.parametrize(("body", "field"), [
+    ({"device": {"kinematics": {"urdf": "<robot", "end_effector": "x"}}, "poses": {"explicit": [[0.0]]},
+      "normals": [[0, 1, 0]]}, ["body", "device", "kinematics", "urdf"]),
+    ({"device": {"kinematics": {"urdf": ONE_LINK, "end_effector": "nope"}}, "poses": {"explicit": [[0.0]]},
+      "normals": [[0, 1, 0]]}, ["body", "device", "kinematics", "end_effector"]),
+    ({"device": {"kinematics": {"preset": "planar-2link"}}, "poses": {"explicit": [[0.3, 1.0], [0.2, 3.05]]},
+      "normals": [[0, 1, 0]]}, ["body", "poses", "explicit", 1]),                          # outside the limits
+    ({"device": {"kinematics": {"urdf": ONE_LINK.replace('<joint name="t"', '<joint name="t2" type="fixed">'
+                                                         '<parent link="tool"/><child link="tip"/><origin '
+                                                         'xyz="0 0 0"/></joint><link name="tip"/><joint name="t"'),
+                                "end_effector": "tool"}},
+      "poses": {"explicit": [[0.0]]}, "normals": [[0, 0, 1]]}, ["body", "normals", 0]),  # Jᵀn = 0
+    ({"device": {"kinematics": {"preset": "planar-2link"}}, "poses": {"grid": {"num": 400}}, "normals": "worst"},
+     ["body", "poses", "grid", "num"]),                                                    # > 10⁵ poses
+    ({"device": {"kinematics": {"preset": "planar-2link"}}, "poses": {"explicit": [[0.3, 1.0]]},
+      "normals": [[0, 0, 0]]}, ["body", "normals", 0]),
+    ({"device": {"kinematics": {"urdf": '<?xml version="1.0"?><!DOCTYPE r [<!ENTITY x SYSTEM "file:///etc/passwd">'
+                                        ']><robot name="&x;"/>', "end_effector": "x"}},
+      "poses": {"explicit": [[0.0]]}, "normals": [[0, 1, 0]]}, ["body", "device", "kinematics", "urdf"]),
+])
+def test_bad_input_names_its_field(client, body, field):
+    r = client.post("/v1/analysis/workspace", json=body)
+    assert r.status_code == 422, r.text
+    assert any(e["loc"][:len(field)] == field for e in r.json()["detail"]), r.text
+
+
+def test_singular_explicit_pose_is_named(client):
+    urdf = KINEMATIC_PRESETS["planar-2link"]["urdf"].replace('lower="0.1" upper="3.0"', 'lower="-3.0" upper="3.0"')
+    r = client.post("/v1/analysis/workspace", json={
+        "device": {"kinematics": {"urdf": urdf, "end_effector": "tip"}},
+        "poses": {"explicit": [[0.3, 1.0], [0.3, 0.0]]}, "normals": [[0, 1, 0]]})
+    assert r.status_code == 422 and r.json()["detail"][0]["loc"] == ["body", "poses", "explicit", 1]
+    assert "singular" in r.json()["detail"][0]["msg"]
