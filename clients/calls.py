@@ -36,6 +36,7 @@ from .schemas import (
     StudyList,
     StudyResults,
     StudyStatus,
+    WorkspaceResponse,
 )
 
 __all__ = ["Call", "Kind", "Plot", "health", "presets", "stability", "boundary", "force_feedforward",
@@ -158,6 +159,18 @@ def stability(device: DeviceLike, controller: PartLike | None = None, *,
     return Call("POST", "/v1/analysis/stability", "analysis", _model(StabilityResponse),
                 json=_body(device=device, controller=controller, method=method, grid_points=grid_points,
                            verify=verify or None))
+
+
+def workspace(device: Mapping[str, Any], poses: Mapping[str, Any], normals: list[list[float]] | str = "worst",
+              controller: PartLike | None = None) -> Call[WorkspaceResponse]:
+    """``POST /v1/analysis/workspace``: K_cr [N/m] of the wall at every pose and normal of a multi-DOF device.
+
+    ``device`` is ``{"sample_time", "delay", "kinematics": {"urdf", "end_effector"} | {"preset"}}``;
+    ``poses`` one of ``{"explicit": [[q…]]}``, ``{"grid": {"num": n}}``, ``{"latin_hypercube": {"samples": n,
+    "seed": s}}``; ``normals`` unit vectors in the base frame or ``"worst"`` (each pose's worst normal).
+    """
+    return Call("POST", "/v1/analysis/workspace", "analysis", _model(WorkspaceResponse),
+                json=_body(device=device, poses=poses, normals=normals, controller=controller))
 
 
 def boundary(device: DeviceLike, *, damping_max: float | None = None,

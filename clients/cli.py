@@ -194,6 +194,53 @@ def feedforward(preset: Preset = None, sets: Sets = None, device_file: DeviceFil
     c.exit_if_contradicted(r.verification)
 
 
+# ------------------------------------------------------------------------------------------------ workspace
+@app.command()
+@handle_errors
+def workspace(preset: Annotated[str, typer.Argument(help="kinematic preset (planar-2link), or a URDF file's path")],
+              end_effector: Annotated[str | None, typer.Option(help="end-effector frame (with a URDF file)")] = None,
+              poses: Annotated[int, typer.Option(help="Latin-hypercube poses over the joint limits")] = 100,
+              seed: Annotated[int, typer.Option(help="the poses' seed")] = 0,
+              normal: Annotated[str | None, typer.Option(help="a wall normal 'nx,ny,nz' (default: each pose's "
+                                                               "worst)")] = None,
+              sample_time: Annotated[float, typer.Option(help="T [s]")] = 0.001,
+              delay: Annotated[float, typer.Option(help="t_d [s]")] = 0.0,
+              damping: Annotated[float | None, typer.Option(help="B of the wall [N·s/m]")] = None,
+              local: Local = False, url: Url = DEFAULT_URL, token: Token = None, as_json: AsJson = False) -> None:
+    """K_cr of the wall over a multi-DOF device's workspace (POST /v1/analysis/workspace)."""
+    from pathlib import Path
+
+    path = Path(preset)
+    if path.is_file():
+        if end_effector is None:
+            raise c.usage_error("a URDF file needs --end-effector")
+        kin: dict = {"urdf": path.read_text(), "end_effector": end_effector}
+    else:
+        kin = {"preset": preset, **({"end_effector": end_effector} if end_effector else {})}
+    normals: list[list[float]] | str = "worst"
+    if normal is not None:
+        try:
+            normals = [[float(x) for x in normal.split(",")]]
+        except ValueError:
+            raise c.usage_error("--normal is three numbers 'nx,ny,nz'") from None
+    controller = {"stiffness": 1.0, "damping": damping} if damping is not None else None
+    device = {"sample_time": sample_time, "delay": delay, "kinematics": kin}
+    with c.client_with_status(Connection(local, url, token), "mapping the workspace…", as_json) as zw:
+        r = zw.workspace(device, {"latin_hypercube": {"samples": poses, "seed": seed}}, normals, controller)
+
+    def human() -> None:
+        w = r.worst
+        rows = [("minimum K_cr", r.minimum_critical_stiffness, "N/m"),
+                ("at pose", ", ".join(f"{x:.4g}" for x in w.pose), "rad"),
+                ("along normal", ", ".join(f"{x:.4g}" for x in w.normal), ""),
+                ("effective mass there", w.effective_mass, "kg"), ("effective damping there", w.effective_damping,
+                                                                   "N·s/m"),
+                ("1-DOF approximation's K_cr", w.one_dof_critical_stiffness, "N/m"),
+                ("points", len(r.points), ""), ("elapsed", r.elapsed_ms, "ms"), ("note", r.note, "")]
+        out.print(c.table(f"workspace of {preset}", rows))
+    emit(r, as_json, human)
+
+
 # ------------------------------------------------------------------------------------------------ simulate
 Experiment = Annotated[str | None, typer.Option(help="release | push | relay")]
 Duration = Annotated[float | None, typer.Option(help="simulated time [s]")]

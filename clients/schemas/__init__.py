@@ -31,15 +31,18 @@ from .health import ComputeQueue, Health, Readiness
 from .identify import IdentifyResponse
 from .simulate import SimulateResponse
 from .studies import StudyCreated, StudyList, StudyResults, StudyStatus
+from .workspace import WorkspacePointOut, WorkspaceResponse
 
 #: Every response model the client parses, by the name of its component in /openapi.json.
 RESPONSES = {m.__name__: m for m in (
     StabilityResponse, BoundaryResponse, ForceFeedforwardResponse, StiffnessDesignResponse, InertiaResponse,
     HardwareDesignResponse, SimulateResponse, IdentifyResponse, StudyCreated, StudyList, StudyResults,
-    StudyStatus, Health, Readiness, Device)}
+    StudyStatus, Health, Readiness, Device, WorkspaceResponse)}
 
 __all__ = [
     "RESPONSES",
+    "WorkspacePointOut",
+    "WorkspaceResponse",
     "BoundaryPointOut",
     "BoundaryResponse",
     "ForceCrossoverOut",

@@ -15,12 +15,12 @@ from dataclasses import dataclass
 from typing import Literal, Sequence
 
 import numpy as np
-import scipy.optimize
 from scipy.stats import qmc
 
 from models.errors import InputError
 from models.kinematics import KinematicModel
 
+from .normal_search import worst_normal
 from .wall_plant import WallModes, one_dof_equivalent, wall_critical_stiffness, wall_modes
 
 __all__ = ["WorkspacePoint", "WorkspaceMap", "workspace_map", "explicit_poses", "grid_poses", "lhs_poses",
@@ -28,9 +28,6 @@ __all__ = ["WorkspacePoint", "WorkspaceMap", "workspace_map", "explicit_poses", 
 
 #: At most this many (pose, normal) pairs in one request (a study takes more).
 MAX_EVALUATIONS = 100_000
-#: Samples of the worst-normal search: on the half circle, and on the half sphere (before the polish).
-_CIRCLE_SAMPLES = 24
-_SPHERE_SAMPLES = 64
 #: A pose is singular when J's smallest singular value (of those the device has generically) is below this
 #: fraction of the largest.
 _SINGULAR = 1e-9
@@ -131,50 +128,6 @@ def _point(q: np.ndarray, n: np.ndarray, modes: WallModes, sample_time: float, d
                           modes.effective_mass, modes.effective_damping, k1, err, len(modes.c), full.reason)
 
 
-def _worst_normal(mass: np.ndarray, jac: np.ndarray, damping_q: np.ndarray, rank: int, sample_time: float,
-                  delay: float, damping: float) -> np.ndarray:
-    u, _, _ = np.linalg.svd(jac)
-    basis = u[:, :rank]
-
-    def normal(angles: np.ndarray) -> np.ndarray:
-        if rank == 1:
-            return basis[:, 0]
-        if rank == 2:
-            return basis @ np.array([math.cos(angles[0]), math.sin(angles[0])])
-        t, p = angles
-        return basis @ np.array([math.sin(t) * math.cos(p), math.sin(t) * math.sin(p), math.cos(t)])
-
-    def kcr(angles: np.ndarray) -> float:
-        n = normal(np.asarray(angles, dtype=float))
-        return wall_critical_stiffness(wall_modes(mass, jac, damping_q, n), sample_time, delay,
-                                       damping).critical_stiffness
-
-    if rank == 1:
-        return normal(np.zeros(0))
-    if rank == 2:
-        phis = np.linspace(0.0, math.pi, _CIRCLE_SAMPLES, endpoint=False)
-        vals = [kcr(np.array([p])) for p in phis]
-        i = int(np.argmin(vals))
-        step = math.pi / _CIRCLE_SAMPLES
-        res = scipy.optimize.minimize_scalar(lambda p: kcr(np.array([p])), bounds=(phis[i] - step, phis[i] + step),
-                                             method="bounded", options={"xatol": 1e-10})
-        best = res.x if res.fun <= vals[i] else phis[i]
-        return normal(np.array([best]))
-    # half sphere: a Fibonacci lattice over z ≥ 0, then Nelder-Mead from the two best samples
-    k = np.arange(_SPHERE_SAMPLES) + 0.5
-    t = np.arccos(1.0 - k / _SPHERE_SAMPLES)
-    p = math.pi * (1.0 + 5.0 ** 0.5) * k
-    starts = np.stack([t, p % (2 * math.pi)], axis=1)
-    vals = np.array([kcr(s) for s in starts])
-    best_x, best_v = starts[int(np.argmin(vals))], float(np.min(vals))
-    for i in np.argsort(vals)[:2]:
-        res = scipy.optimize.minimize(kcr, starts[i], method="Nelder-Mead",
-                                      options={"xatol": 1e-9, "fatol": 1e-12 * max(best_v, 1e-300), "maxiter": 400})
-        if res.fun < best_v:
-            best_x, best_v = res.x, float(res.fun)
-    return normal(best_x)
-
-
 def workspace_map(model: KinematicModel, poses: list[np.ndarray], normals: list[Sequence[float]] | Literal["worst"],
                   sample_time: float, delay: float, damping: float = 0.0, *, explicit: bool = False
                   ) -> WorkspaceMap:
@@ -207,7 +160,7 @@ def workspace_map(model: KinematicModel, poses: list[np.ndarray], normals: list[
                                                         "every direction it generically can)")
             continue
         if normals == "worst":
-            pose_normals = [_worst_normal(mass, jac, model.joint_damping, rank, sample_time, delay, damping)]
+            pose_normals = [worst_normal(mass, jac, model.joint_damping, rank, sample_time, delay, damping)]
         else:
             pose_normals = given
         for i, n in enumerate(pose_normals):

@@ -1,0 +1,131 @@
+"""The worst wall normal at one pose: K_cr(n) of many normals at once, then a polish.
+
+At a pose every normal shares the modes (λ_i, v_i) of (D, M); only the weights c_i(n) = (n·w_i)², w_i = J v_i, move
+with n.  So each mode's sampled response R_i(θ) is computed once on the scan's initial grid and G_n = T² Σ c_i R_i
+is one matrix product for a whole set of normals.  The binding crossover of each normal is bracketed on that grid
+and solved by a few vectorised secant steps on Im K(θ) (with R_i evaluated exactly at the new θ): the search's
+value.  The answer's own K_cr is then the exact scan's (optim.workspace.wall_plant) at the normal found; the search
+is held to a dense sampling of the sphere by tests/optim/workspace/test_worst_normal.py.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import scipy.linalg
+import scipy.optimize
+
+from models.discretize import RigidZOH, split_delay
+from optim.stability.crossovers import scan_grid, theta_min
+
+__all__ = ["worst_normal"]
+
+_CIRCLE = 180
+_SPHERE = 1200
+_SECANT_STEPS = 8
+
+
+class _PoseLoop:
+    """K(θ) of the wall loop at one pose, for arrays of normals."""
+
+    def __init__(self, mass: np.ndarray, jac: np.ndarray, damping_q: np.ndarray, sample_time: float, delay: float,
+                 damping: float):
+        lam, vec = scipy.linalg.eigh(np.diag(damping_q), mass)
+        self.w = jac @ vec                                   # 3 × modes
+        self.t, self.b = sample_time, damping
+        d, f = split_delay(delay / sample_time)
+        self.plants = [RigidZOH(max(float(li), 0.0) * sample_time, d, f) for li in lam]
+        m_scale = float(np.max(np.sum(self.w * self.w, axis=0)))   # any normal's Σc_i ≤ this: a δ floor below
+        deltas = [p.delta for p in self.plants]
+        damp = min(deltas) * min(1.0, 1.0 / max(m_scale, 1e-300)) + damping * sample_time * 1e-3
+        self.grid = scan_grid(theta_min(float(max(damp, 0.0)), float(delay / sample_time)), delay / sample_time, (),
+                              width_hint=max(min(deltas), 1e-6))
+        self.r_grid = np.stack([p.response(self.grid) for p in self.plants])     # modes × G
+
+    def k_of(self, g_sum: np.ndarray, theta: np.ndarray) -> np.ndarray:
+        """K(θ) [N/m] from Σ c_i R_i(θ)."""
+        return -1.0 / (self.t ** 2 * g_sum) - self.b * (-np.expm1(-1j * theta)) / self.t
+
+    def _at(self, c_rows: np.ndarray, theta: np.ndarray) -> np.ndarray:
+        """K at one θ per row (weights c_rows, rows × modes)."""
+        r = np.stack([p.response(theta) for p in self.plants], axis=1)       # rows × modes
+        return self.k_of(np.sum(c_rows * r, axis=1), theta)
+
+    def critical(self, normals: np.ndarray, window: tuple[int, int] | None = None) -> np.ndarray:
+        """The smallest positive crossover K of each normal (inf where none), from the grid and secant steps;
+        ``window`` (grid indices) looks only there (the polish: the binding crossover moves little)."""
+        c = (normals @ self.w) ** 2                                           # N × modes
+        lo, hi = (0, len(self.grid)) if window is None else window
+        grid = self.grid[lo:hi]
+        k = self.k_of(c @ self.r_grid[:, lo:hi], grid)                        # N × G
+        im, re = k.imag, k.real
+        rows, cols = np.nonzero((np.sign(im[:, :-1]) * np.sign(im[:, 1:]) < 0) & ((re[:, :-1] > 0) | (re[:, 1:] > 0)))
+        best = np.full(len(normals), math.inf)
+        if rows.size:
+            a, b = grid[cols], grid[cols + 1]
+            fa, fb = im[rows, cols], im[rows, cols + 1]
+            cr = c[rows]
+            for _ in range(_SECANT_STEPS):
+                x = b - fb * (b - a) / (fb - fa)
+                x = np.clip(x, np.minimum(a, b), np.maximum(a, b))
+                fx = self._at(cr, x).imag
+                same = np.sign(fx) == np.sign(fa)
+                a, fa = np.where(same, x, a), np.where(same, fx, fa)
+                b, fb = np.where(same, b, x), np.where(same, fb, fx)
+            x = np.where(np.abs(fa) < np.abs(fb), a, b)
+            kx = self._at(cr, x).real
+            kx = np.where(kx > 0, kx, math.inf)
+            np.minimum.at(best, rows, kx)
+            if window is None and len(normals) > 1:
+                j = int(np.argmin(np.where(np.isfinite(kx), kx, np.inf)))
+                self.binding = int(cols[j])
+        if hi < len(self.grid):
+            return best
+        pi = re[:, -1]                                                        # θ = π is on the grid
+        return np.minimum(best, np.where(pi > 0, pi, math.inf))
+
+    def near_binding(self) -> tuple[int, int] | None:
+        """Grid indices around the sampled normals' binding crossover (None when it was θ = π)."""
+        j = getattr(self, "binding", None)
+        return None if j is None else (max(j - 3, 0), min(j + 5, len(self.grid)))
+
+
+def worst_normal(mass: np.ndarray, jac: np.ndarray, damping_q: np.ndarray, rank: int, sample_time: float,
+                 delay: float, damping: float) -> np.ndarray:
+    """The unit normal of lowest K_cr in the range of J (n and −n alike), by sampling and a bounded polish."""
+    u, _, _ = np.linalg.svd(jac)
+    basis = u[:, :rank]
+    if rank == 1:
+        return basis[:, 0]
+    loop = _PoseLoop(mass, jac, damping_q, sample_time, delay, damping)
+    if rank == 2:
+        phis = np.linspace(0.0, math.pi, _CIRCLE, endpoint=False)
+
+        def normals(ph: np.ndarray) -> np.ndarray:
+            return (basis @ np.stack([np.cos(ph), np.sin(ph)])).T
+
+        vals = loop.critical(normals(phis))
+        i = int(np.argmin(vals))
+        step = math.pi / _CIRCLE
+        win = loop.near_binding()
+        res = scipy.optimize.minimize_scalar(lambda p: float(loop.critical(normals(np.array([p])), win)[0]),
+                                             bounds=(phis[i] - step, phis[i] + step), method="bounded",
+                                             options={"xatol": 1e-11})
+        return normals(np.array([res.x if res.fun <= vals[i] else phis[i]]))[0]
+
+    def sphere(tp: np.ndarray) -> np.ndarray:
+        t, p = tp[..., 0], tp[..., 1]
+        return (basis @ np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)]).reshape(3, -1)).T
+
+    k = np.arange(_SPHERE) + 0.5
+    starts = np.stack([np.arccos(1.0 - k / _SPHERE), (math.pi * (1.0 + 5.0 ** 0.5) * k) % (2 * math.pi)], axis=1)
+    vals = loop.critical(sphere(starts))
+    best_x, best_v = starts[int(np.argmin(vals))], float(np.min(vals))
+    win = loop.near_binding()
+    for i in np.argsort(vals)[:3]:
+        res = scipy.optimize.minimize(lambda tp: float(loop.critical(sphere(np.asarray(tp)), win)[0]), starts[i],
+                                      method="Nelder-Mead", options={"xatol": 1e-10, "fatol": 0.0, "maxiter": 300})
+        if res.fun < best_v:
+            best_x, best_v = res.x, float(res.fun)
+    return sphere(np.asarray(best_x))[0]
