@@ -160,3 +160,14 @@ def test_identify_decodes_the_same_device_as_the_python_client(server, tmp_path)
           r.uncertainty["device.mass"].max]
     assert numbers(values) == pytest.approx(py, rel=1e-9)
     assert r.device["mass"] == pytest.approx(5.4, rel=1e-9)
+
+
+def test_workspace_decodes_the_same_numbers_as_the_python_client(server, tmp_path):
+    dev = {"sample_time": 1e-3, "delay": 1e-3, "kinematics": {"preset": "planar-2link"}}
+    p = octave("dev = struct('sample_time', 1e-3, 'delay', 1e-3, 'kinematics', struct('preset', 'planar-2link'));\n"
+               "r = zwidth_workspace(dev, struct('explicit', {{[0.3, 1.0]}}), {[0, 1, 0]});\n"
+               "printf('%.17g %.17g\\n', r.minimum_critical_stiffness, r.worst.effective_mass);", tmp_path,
+               url=server.url)
+    with ZwidthClient(server.url) as zw:
+        want = zw.workspace(dev, {"explicit": [[0.3, 1.0]]}, [[0, 1, 0]])
+    assert same_doubles(numbers(p.stdout), [want.minimum_critical_stiffness, want.worst.effective_mass])
