@@ -77,3 +77,14 @@ def test_singular_explicit_pose_is_named(client):
         "poses": {"explicit": [[0.3, 1.0], [0.3, 0.0]]}, "normals": [[0, 1, 0]]})
     assert r.status_code == 422 and r.json()["detail"][0]["loc"] == ["body", "poses", "explicit", 1]
     assert "singular" in r.json()["detail"][0]["msg"]
+
+
+@pytest.mark.slow
+def test_workspace_plot_renders(client, tmp_path):
+    r = client.post("/v1/plots/workspace?format=png", json={
+        "device": {"sample_time": 0.001, "delay": 0.001, "kinematics": {"preset": "planar-2link"}}, "points": 7})
+    assert r.status_code == 200 and r.headers["content-type"] == "image/png" and r.content[:4] == b"\x89PNG"
+    (tmp_path / "workspace.png").write_bytes(r.content)
+    bad = client.post("/v1/plots/workspace", json={
+        "device": {"kinematics": {"preset": "planar-2link"}}, "x_joint": 5})
+    assert bad.status_code == 422 and bad.json()["detail"][0]["loc"][-1] == "x_joint"
