@@ -124,7 +124,8 @@ def _calls() -> list[calls.Call]:
     return [calls.health(), calls.stability(dev), calls.boundary(dev), calls.force_feedforward(dev),
             calls.design_stiffness(dev), calls.design_inertia(dev), calls.design_hardware(dev, "delay"),
             calls.identify({}), calls.simulate(dev, {}), calls.submit_study({}), calls.study("s"),
-            calls.studies(), calls.study_results("s")]
+            calls.studies(), calls.study_results("s"),
+            calls.workspace({"kinematics": {"preset": "planar-2link"}}, {"explicit": [[0.3, 1.0]]})]
 
 
 def test_each_call_parses_the_model_its_route_answers(openapi):
