@@ -159,16 +159,17 @@ def workspace_map(model: KinematicModel, poses: list[np.ndarray], normals: list[
                 raise InputError(f"poses.explicit.{j}", "is a singular pose (the end effector cannot move in "
                                                         "every direction it generically can)")
             continue
+        pose_normals: list[np.ndarray]
         if normals == "worst":
             pose_normals = [worst_normal(mass, jac, model.joint_damping, rank, sample_time, delay, damping)]
         else:
             pose_normals = given
-        for i, n in enumerate(pose_normals):
-            modes = wall_modes(mass, jac, model.joint_damping, n)
+        for i, n_vec in enumerate(pose_normals):
+            modes = wall_modes(mass, jac, model.joint_damping, n_vec)
             if not modes.c:
                 raise InputError(f"normals.{i}", f"the device cannot move along this normal at pose {j} "
                                                  "(Jᵀn = 0): no wall can be rendered there")
-            points.append(_point(q, n, modes, sample_time, delay, damping))
+            points.append(_point(q, n_vec, modes, sample_time, delay, damping))
     if not points:
         raise InputError("poses", "every sampled pose is singular")
     worst = min(points, key=lambda p: p.critical_stiffness)
