@@ -179,10 +179,10 @@ def result_label(column: str, device: Device | Mapping[str, Any] | None = None) 
 
 
 #: study problem -> what it is in words
-_PROBLEMS = {"stability": "stability of a wall", "critical_stiffness": "critical stiffness $K_{cr}$",
+_PROBLEMS = {"stability": "wall-stability", "critical_stiffness": "critical-stiffness",
              "stiffness": "stiffest-wall design", "inertia": "lightest-feel design"}
 
 
 def problem_label(problem: str) -> str:
-    """'critical_stiffness' -> 'critical stiffness $K_{cr}$': a study's problem as a title says it."""
+    """'critical_stiffness' -> 'critical-stiffness': a study's problem as a title says it ('... study 1a2b3c4d')."""
     return _PROBLEMS.get(problem, problem.replace("_", " "))

@@ -81,6 +81,9 @@
     return [{ path: field ? String(field).split(".") : [], msg: `${msg}${err.status === 503 ? " (server busy)" : ""}` }];
   }
 
+  /** Errors in one line of words: "field: message; field: message" (the field the API named, when it did). */
+  const says = (items) => items.map((e) => (e.path.length ? `${e.path.join(".")}: ${e.msg}` : e.msg)).join("; ");
+
   // ------------------------------------------------------------------ formatting
   function num(v, digits = 6) {
     if (v === null || v === undefined) return "—";
@@ -341,7 +344,7 @@
       if (err.name === "AbortError") return;
       clearFieldErrors();
       const rest = showDeviceErrors(err);
-      if (rest.length) $("device-error").textContent = rest.map((e) => e.msg).join("; ");
+      if (rest.length) $("device-error").textContent = says(rest);
     } finally {
       if (boundaryAbort === ctl) $("analysis-facts").classList.remove("busy");
     }
@@ -723,7 +726,7 @@
       await api("/v1/studies", { method: "POST", body });
       await refreshStudies();
     } catch (err) {
-      $("study-error").textContent = errorsOf(err).map((e) => `${e.path.join(".")}: ${e.msg}`).join("; ");
+      $("study-error").textContent = says(errorsOf(err));
     } finally {
       $("sd-run").disabled = false;
     }
@@ -739,9 +742,12 @@
   }
 
   async function heatmap(study) {
-    const res = await api(`/v1/studies/${study.id}/results?limit=1`);
+    const res = await api(`/v1/studies/${study.id}/results?limit=50`);
     const ys = ["critical_stiffness", "gain_margin_db", "max_stable_damping"];
-    const y = ys.find((c) => res.columns.includes(c)) || res.columns.find((c) => !study.sweep.includes(c) && c !== "index");
+    const numeric = (c) => res.rows.some((r) => typeof r[c] === "number");
+    const y = ys.find((c) => res.columns.includes(c) && numeric(c))
+      || res.columns.find((c) => !study.sweep.includes(c) && c !== "index" && numeric(c))
+      || ys.find((c) => res.columns.includes(c));     // none has a number yet: the API says so, with the field
     const [x, x2] = study.sweep;
     const q = new URLSearchParams({ y, x, format: "svg", ...(x2 ? { x2 } : {}) });
     await showImage($("study-plot"), await api(`/v1/studies/${study.id}/plot?${q}`, { raw: true }));
@@ -761,7 +767,7 @@
       const b = document.createElement("button");
       b.type = "button"; b.className = "link"; b.textContent = label;
       b.addEventListener("click", () => fn().catch((err) => {
-        $("study-error").textContent = errorsOf(err).map((e) => e.msg).join("; ");
+        $("study-error").textContent = says(errorsOf(err));
       }));
       actions.append(b);
     };
@@ -784,7 +790,7 @@
         studyTimer = setTimeout(refreshStudies, 500);
       }
     } catch (err) {
-      $("study-error").textContent = errorsOf(err).map((e) => e.msg).join("; ");
+      $("study-error").textContent = says(errorsOf(err));
     }
   }
 
