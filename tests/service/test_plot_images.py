@@ -393,3 +393,21 @@ def test_simulation_plot_names_the_wall_and_the_blocks_left_out(client):
     relay = {"experiment": "relay", "duration": 0.5, "relay": {"amplitude": 2.0}, "initial": {"position": 1e-4}}
     r = client.post("/v1/plots/simulation", params={"format": "svg"}, json={"device": RIGID, "scene": relay})
     assert r.status_code == 200 and "relay h = 2 N: " in "\n".join(_texts(r.content))
+
+
+def test_study_line_plot_with_too_many_series_colours_points_by_the_other_path():
+    """A Latin hypercube has a new value of the other path at every point: coloured points and a colour bar
+    naming that path, not a legend of 40 entries."""
+    from service.studies.plot import MAX_SERIES
+
+    n = 3 * MAX_SERIES
+    rows = [{"device.mass": 1.0 + k / 7, "device.delay": 1e-4 * ((k * 7) % n), "critical_stiffness": 1000.0 + k}
+            for k in range(n)]
+    fig = study_figure(rows, "critical_stiffness", "device.mass", None, "t", device=RIGID,
+                       paths=["device.mass", "device.delay"])
+    ax, bar = fig.axes
+    assert ax.get_legend() is None and not ax.get_lines()
+    assert len(ax.collections[0].get_offsets()) == n
+    assert bar.get_ylabel() == "delay t_d [ms]"
+    assert max(ax.collections[0].get_array()) == pytest.approx(1e-4 * (n - 1) * 1e3)   # coloured in ms
+    _assert_inside(fig)
