@@ -51,10 +51,19 @@ def _panels(page, expect, tmp: Path) -> list[tuple[str, str, str]]:
                                      f"cutoff {page.inner_text('#inertia-cutoff')}, "
                                      f"apparent mass {page.inner_text('#inertia-mass')}")
 
-    page.check("#model-rigid")
+    # The default box follows the model: the cable device's body damping b_d (device.damping is refused there).
     page.click("#tab-robust")
     page.click("#rb-run")
-    expect(page.locator("#robust-status")).to_be_visible(timeout=120_000)
+    expect(page.locator("#robust-status")).to_be_visible(timeout=180_000)
+    shot("robust_cable", "Robust wall over the cable model's default box (LHifAM, delay 0.5–1.5 ms, b_d ± 1/7)",
+         f"box {' '.join(page.input_value('#rb-box').split())}; status {page.inner_text('#robust-status')}, "
+         f"K {page.inner_text('#robust-K')}")
+
+    cable_k = page.inner_text("#robust-K")
+    page.check("#model-rigid")
+    page.click("#rb-run")
+    expect(page.locator("#robust-K")).to_be_visible(timeout=120_000)
+    expect(page.locator("#robust-K")).not_to_have_text(cable_k, timeout=120_000)
     shot("robust", "Robust wall over a box (rigid LHifAM, delay 0.5–1.5 ms, b 3–4 N·s/m)",
          f"status {page.inner_text('#robust-status')}, K {page.inner_text('#robust-K')}")
 
@@ -65,13 +74,26 @@ def _panels(page, expect, tmp: Path) -> list[tuple[str, str, str]]:
     shot("hardware", "Delay budget for a 3 kN/m wall (rigid LHifAM)",
          f"status {page.inner_text('#hardware-status')}, loosest delay {page.inner_text('#hardware-value')}")
 
+    # The issue-29 case: the LHifAM (cable) at 1 ms of delay with K = 3 kN/m, its delay, cable and sensor
+    # filter simulated (the defaults), the hand left out and said so.
+    page.select_option("#preset", "")
+    page.select_option("#preset", "lhifam")     # the preset's cable model again
+    page.fill("#delay_ms", "1")
     page.click("#tab-simulate")
-    page.fill("#sim-stiffness", "5000")
+    page.fill("#sim-stiffness", "3000")
     page.click("#sim-run")
     expect(page.locator("#simulate-plot")).to_be_visible(timeout=120_000)
+    page.locator("#simulate-result").scroll_into_view_if_needed()
+    shot("simulate", "Release from 1 mm inside a 3 kN/m wall (LHifAM, cable, 1 ms delay; delay, cable and "
+                     "sensor filter simulated)",
+         f"verdict {page.inner_text('#simulate-verdict')}; the wall's analysis "
+         f"{' '.join(page.inner_text('#simulate-analysis').split())}; "
+         f"{' '.join(page.inner_text('#simulate-warning').split())}")
     page.locator("#simulate-plot").scroll_into_view_if_needed()
-    shot("simulate", "Release from 1 mm inside a 5 kN/m wall (rigid LHifAM)",
-         f"verdict {page.inner_text('#simulate-verdict')}")
+    shot("simulate_plot", "Its figure (the service's plot: K, B and what was not simulated in the title)",
+         "the same verdict, drawn by /v1/plots/simulation")
+    page.check("#model-rigid")
+    page.fill("#delay_ms", "0")
 
     page.click("#tab-studies")
     page.fill("#sd-mass-num", "4")
@@ -132,7 +154,17 @@ def main() -> None:
              "device from a measurement, and run studies with live progress.", "",
              "* The page is static (service/explorer/: HTML, CSS, JS, no library, no CDN) and works offline.",
              "* Every number comes from the /v1 API, the calls any client makes; the page validates nothing itself: "
-             "the API's 422 messages appear next to the field they name.",
+             "every 422 is shown as the field the API named and its message (beside the device field it names, "
+             "or in the panel for a requirement, a box or a scene).",
+             "* Simulate names the device's effects in the scene (/v1/simulate simulates only what a scene names): "
+             "the loop delay, the cable mode and the force-sensor filter are ticked by default, the hand holding "
+             "the handle when ticked (a release lets go of the handle, and the wall's analysis, K_cr, has no hand). "
+             "Whatever the device has and the scene leaves out is said above the answer and in the figure's title, "
+             "and the wall's own analysis (/v1/analysis/stability at the scene's K and B) is shown beside the "
+             "verdict, with the reason when the two differ.",
+             "* The Robust tab's default box follows the model: delay 0.5–1.5 ms and the damping ± 1/7 (rigid: "
+             "`device.damping`; cable: `device.cable.body_damping`, since a cable device's damping is its two "
+             "masses'). A box you edited is kept.",
              "* Curves that need hover (boundary, Pareto, hardware trade-off) are drawn in the page from the API's "
              "numbers; the simulation, identification and study figures are the service's own SVG plots, so a figure "
              "in the page and one fetched from /v1/plots are the same figure.",

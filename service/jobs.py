@@ -62,7 +62,8 @@ def robust_slice_job(device: Device, requirements: StiffnessRequirements, box: U
     xs, ys, margin = margin_slice(box, design.stiffness, design.damping, worst, x, y, points)
     wxy = (worst[paths.index(x)], worst[paths.index(y)])
     u = units(device)
-    title = (f"{device_title(device)}\nK = {design.stiffness:.5g} {u.stiffness}, B = {design.damping:.4g} "
+    ranges = {p: (float(lo), float(hi)) for p, lo, hi in zip(box.paths, box.lower, box.upper)}
+    title = (f"{device_title(device, ranges)}\nK = {design.stiffness:.5g} {u.stiffness}, B = {design.damping:.4g} "
              f"{u.damping}; worst margin {design.gain_margin_db:.4f} dB")
     return plot_robust_slice(xs, ys, margin, wxy, min_gain_margin_db, (x, y), fmt, title, u)
 
@@ -71,13 +72,13 @@ def hardware_plot_job(device: Device, target: HardwareTarget, free: str, points:
                       value_range: tuple[float, float] | None = None) -> bytes:
     """The hardware design and its trade-off figure, both in the worker (under the request time budget)."""
     design = design_hardware(device, target, free, points=points, value_range=value_range)
-    return plot_hardware(design, target, fmt, f"{device_title(device)}; {free} free", units(device))
+    return plot_hardware(design, target, fmt, device_title(device, free=f"device.{free}"), units(device))
 
 
 def simulation_plot_job(device: Device, scene: Scene, fmt: str) -> bytes:
     """The scene simulated and drawn in the worker: the per-sample trajectory never reaches the server."""
     result, _ = simulate_job(device, scene)
-    return plot_simulation(result, fmt, device=device)
+    return plot_simulation(result, fmt, device=device, scene=scene)
 
 
 def identify_plot_job(data, model: str, known, friction: bool, confidence: float, max_delay, fmt: str) -> bytes:

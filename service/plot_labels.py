@@ -11,7 +11,8 @@ from typing import Any, Mapping
 
 from models.device import PRESETS, Device
 
-__all__ = ["Units", "TRANSLATIONAL", "ROTARY", "units", "device_title", "base_device_title", "path_label", "path_scale", "result_label"]
+__all__ = ["Units", "TRANSLATIONAL", "ROTARY", "units", "device_title", "base_device_title", "path_label", "path_scale",
+           "path_value", "result_label", "problem_label"]
 
 
 @dataclass(frozen=True)
@@ -38,12 +39,40 @@ def _ms(seconds: float) -> str:
     return f"{seconds * 1e3:.4g} ms"
 
 
-def device_title(device: Device) -> str:
-    """'lhifam (cable), t_d = 0 ms, T = 1 ms' or 'm = 5.4 kg, b = 3.5 N·s/m (rigid), t_d = 2 ms, T = 1 ms'."""
+def _span(lo: float, hi: float, scale: float) -> str:
+    return f"{lo * scale:.4g}–{hi * scale:.4g}"
+
+
+def device_title(device: Device, box: Mapping[str, tuple[float, float]] | None = None, free: str | None = None) -> str:
+    """'lhifam (cable), t_d = 0 ms, T = 1 ms' or 'm = 5.4 kg, b = 3.5 N·s/m (rigid), t_d = 2 ms, T = 1 ms'.
+
+    ``box`` (dotted path -> (min, max), SI) is an uncertainty box over the device: a boxed parameter is said as
+    its range, never as its nominal value ('t_d = 0.5–1.5 ms'), and the other boxed paths follow after 'box:'.
+    ``free`` is a device path left free (a hardware design's axis): said 'free', never as its nominal value."""
     u = units(device)
-    what = device.preset or f"m = {device.mass:.4g} {u.mass}, b = {device.damping:.4g} {u.damping}"
+    box = dict(box or {})
+
+    def said(path: str, value: float, unit: str, scale: float = 1.0) -> str:
+        if path == free:
+            return "free"
+        if path in box:
+            return f"= {_span(*box.pop(path), scale)} {unit}"
+        return f"= {value * scale:.4g} {unit}"
+
+    what = device.preset or ", ".join(
+        f"{sym} {said(f'device.{key}', value, unit)}"
+        for key, sym, value, unit in (("mass", "m", device.mass, u.mass), ("damping", "b", device.damping, u.damping)))
     kind = "cable" if device.cable else "rigid"
-    return f"{what} ({kind}), t_d = {_ms(device.delay)}, T = {_ms(device.sample_time)}"
+    timing = ", ".join(f"{sym} {said(f'device.{key}', value, 'ms', 1e3)}"
+                       for key, sym, value in (("delay", "t_d", device.delay), ("sample_time", "T", device.sample_time)))
+    rest = [f"{_PATHS[p][1] if p in _PATHS else p} = {_span(lo, hi, path_scale(p))} {_path_unit(p, device)}".rstrip()
+            for p, (lo, hi) in box.items()]
+    if free is not None and not free.startswith(("device.delay", "device.sample_time")) and (
+            device.preset or free not in ("device.mass", "device.damping")):
+        rest_free = f"; {_PATHS[free][1] if free in _PATHS else free} free"
+    else:
+        rest_free = ""
+    return f"{what} ({kind}), {timing}" + (f"; box: {', '.join(rest)}" if rest else "") + rest_free
 
 
 def base_device_title(device: Mapping[str, Any], swept: list[str]) -> str:
@@ -99,15 +128,29 @@ def path_scale(path: str) -> float:
     return 1e3 if spec is not None and spec[2] == "ms" else 1.0
 
 
+def _path_unit(path: str, device: Device | Mapping[str, Any] | None = None) -> str:
+    """The shown unit of a path ('' for a path without an entry)."""
+    spec = _PATHS.get(path)
+    if spec is None:
+        return ""
+    u = units(device)
+    return {"mass": u.mass, "damping": u.damping, "stiffness": u.stiffness}.get(spec[2], spec[2])
+
+
 def path_label(path: str, device: Device | Mapping[str, Any] | None = None) -> str:
     """'device.mass' -> 'mass m [kg]'; a path without an entry keeps its name (with no invented unit)."""
     spec = _PATHS.get(path)
     if spec is None:
         return path
-    name, sym, kind = spec
-    u = units(device)
-    unit = {"mass": u.mass, "damping": u.damping, "stiffness": u.stiffness}.get(kind, kind)
-    return f"{name} {sym} [{unit}]"
+    return f"{spec[0]} {spec[1]} [{_path_unit(path, device)}]"
+
+
+def path_value(path: str, value: float, device: Device | Mapping[str, Any] | None = None) -> str:
+    """'device.mass', 2.0 -> 'm = 2 kg' (seconds in ms): a swept value as a legend says it."""
+    spec = _PATHS.get(path)
+    if spec is None:
+        return f"{path} = {value:.4g}"
+    return f"{spec[1]} = {value * path_scale(path):.4g} {_path_unit(path, device)}"
 
 
 #: study result column -> (name, unit kind)
@@ -125,10 +168,21 @@ _RESULTS: dict[str, tuple[str, str]] = {
 
 
 def result_label(column: str, device: Device | Mapping[str, Any] | None = None) -> str:
-    """'critical_stiffness' -> 'critical stiffness $K_{cr}$ [N/m]'; an unknown column keeps its name."""
+    """'critical_stiffness' -> 'critical stiffness $K_{cr}$ [N/m]'; an unknown column says its name in words
+    ('force_gain' -> 'force gain')."""
     spec = _RESULTS.get(column)
     if spec is None:
-        return column
+        return column.replace("_", " ")
     u = units(device)
     unit = {"damping": u.damping, "stiffness": u.stiffness}.get(spec[1], spec[1])
     return f"{spec[0]} [{unit}]"
+
+
+#: study problem -> what it is in words
+_PROBLEMS = {"stability": "wall-stability", "critical_stiffness": "critical-stiffness",
+             "stiffness": "stiffest-wall design", "inertia": "lightest-feel design"}
+
+
+def problem_label(problem: str) -> str:
+    """'critical_stiffness' -> 'critical-stiffness': a study's problem as a title says it ('... study 1a2b3c4d')."""
+    return _PROBLEMS.get(problem, problem.replace("_", " "))

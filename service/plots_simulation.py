@@ -11,24 +11,49 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from models.device import Device
+from models.simulation.scene import Scene
 from models.simulation.simulate import SimulationResult
 
-from .plot_labels import device_title
+from .plot_labels import device_title, units
 
-__all__ = ["plot_simulation", "simulation_figure", "MEDIA_TYPES"]
+__all__ = ["plot_simulation", "simulation_figure", "left_out", "scene_line", "MEDIA_TYPES"]
 
 MEDIA_TYPES = {"png": "image/png", "svg": "image/svg+xml"}
 
 
 def plot_simulation(res: SimulationResult, fmt: str = "png", title: str | None = None,
-                    device: Device | None = None) -> bytes:
+                    device: Device | None = None, scene: Scene | None = None) -> bytes:
     buf = io.BytesIO()
-    simulation_figure(res, title, device).savefig(buf, format=fmt)
+    simulation_figure(res, title, device, scene).savefig(buf, format=fmt)
     return buf.getvalue()
 
 
-def simulation_figure(res: SimulationResult, title: str | None = None, device: Device | None = None) -> Figure:
-    """Position, force and generated energy; the title names the device (when given) and the verdict.
+#: a device block the scene left out -> its name on the figure
+_LEFT_OUT = {"delay": "delay", "cable": "cable mode", "human": "hand", "force_sensor": "force-sensor filter"}
+
+
+def left_out(res: SimulationResult) -> list[str]:
+    """The device blocks the scene left out, in words ('delay', 'cable mode', 'hand', 'force-sensor filter')."""
+    names = [n.split(":", 1)[0] for n in res.not_simulated]
+    return [_LEFT_OUT.get(n, n) for n in names]
+
+
+def scene_line(scene: Scene | None, device: Device | None) -> str:
+    """'K = 3000 N/m, B = 0 N·s/m' (the wall), or 'relay h = 1 N' (the relay); '' without a scene."""
+    if scene is None:
+        return ""
+    u = units(device)
+    if scene.controller is not None:
+        return f"K = {scene.controller.stiffness:.5g} {u.stiffness}, B = {scene.controller.damping:.4g} {u.damping}"
+    if scene.relay is not None:
+        return f"relay h = {scene.relay.amplitude:.4g} {'N·m' if u.stiffness != 'N/m' else 'N'}"
+    return ""
+
+
+def simulation_figure(res: SimulationResult, title: str | None = None, device: Device | None = None,
+                      scene: Scene | None = None) -> Figure:
+    """Position, force and generated energy; the title names the device (when given), the wall (K and B) or the
+    relay of the scene (when given), the verdict, and the device blocks the scene left out (never silent).
     The position is the motor's x_r (for a rotary device an angle: shown in mrad)."""
     tr = res.trajectory
     rotary = device is not None and device.rotary
@@ -48,6 +73,10 @@ def simulation_figure(res: SimulationResult, title: str | None = None, device: D
     v = res.verdict
     freq = f", ω = {v.frequency:.4g} rad/s" if v.frequency else ""
     head = f"{device_title(device)}\n" if device is not None else ""
-    fig.suptitle(title or f"{head}{v.state} ({res.judgement.decided_by}){freq} — {res.method}", fontsize=10)
+    wall = scene_line(scene, device)
+    out = left_out(res)
+    said = f"not simulated: {', '.join(out)}" if out else "every block of the device simulated"
+    fig.suptitle(title or f"{head}{wall + ': ' if wall else ''}{v.state} ({res.judgement.decided_by}){freq} — "
+                 f"{res.method}\n{said}", fontsize=10)
     fig.tight_layout()
     return fig

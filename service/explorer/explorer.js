@@ -73,13 +73,16 @@
     const detail = err.payload && err.payload.detail;
     if (Array.isArray(detail)) {
       return detail.map((d) => ({ path: (d.loc || []).filter((p, i) => !(i === 0 && (p === "body" || p === "query"))),
-                                  msg: d.msg || JSON.stringify(d) }));
+                                  msg: typeof d.msg === "string" ? d.msg : JSON.stringify(d.msg ?? d) }));
     }
     const msg = typeof detail === "string" ? detail : (err.payload && (err.payload.message || err.payload.error))
       || `HTTP ${err.status}`;
     const field = err.payload && err.payload.field;
     return [{ path: field ? String(field).split(".") : [], msg: `${msg}${err.status === 503 ? " (server busy)" : ""}` }];
   }
+
+  /** Errors in one line of words: "field: message; field: message" (the field the API named, when it did). */
+  const says = (items) => items.map((e) => (e.path.length ? `${e.path.join(".")}: ${e.msg}` : e.msg)).join("; ");
 
   // ------------------------------------------------------------------ formatting
   function num(v, digits = 6) {
@@ -123,8 +126,8 @@
     return rows;
   }
 
-  function showError(container, err) {
-    const items = errorsOf(err);
+  /** The API's errors as the page says them: the field the API named (dotted), then its message. */
+  function showError(container, items) {
     container.innerHTML = `<p class="form-error" role="alert">${items.map((e) =>
       `${e.path.length ? `<code>${escapeText(e.path.join("."))}</code>: ` : ""}${escapeText(e.msg)}`).join("<br>")}</p>`;
   }
@@ -341,7 +344,7 @@
       if (err.name === "AbortError") return;
       clearFieldErrors();
       const rest = showDeviceErrors(err);
-      if (rest.length) $("device-error").textContent = rest.map((e) => e.msg).join("; ");
+      if (rest.length) $("device-error").textContent = says(rest);
     } finally {
       if (boundaryAbort === ctl) $("analysis-facts").classList.remove("busy");
     }
@@ -374,10 +377,15 @@
     try {
       await call();
     } catch (err) {
+      // Every error the API answered is shown with its field and message: those about a device field beside
+      // that field too, the others (a requirement, the box, the scene) here.
       clearFieldErrors();
+      const all = errorsOf(err);
       const rest = showDeviceErrors(err);
-      showError(output, rest.length ? { payload: {}, ...err } : err);
-      if (!rest.length) output.insertAdjacentHTML("beforeend", "<p>See the device form for the field the server named.</p>");
+      showError(output, rest.length ? rest : all);
+      if (rest.length < all.length) {
+        output.insertAdjacentHTML("beforeend", "<p>See the device form for the field the server named.</p>");
+      }
     } finally {
       button.disabled = false;
     }
@@ -448,6 +456,28 @@
     });
   }
 
+  // The Robust tab's default box follows the model: a rigid device's damping b, or a cable device's body
+  // damping b_d (the API refuses device.damping on a cable device), each ±1/7 around the form's value, and the
+  // loop delay 0.5–1.5 ms.  A box the user edited is left as it is.
+  let robustDefault = null;
+
+  function defaultBox() {
+    const dev = readDevice();
+    const span = (v) => ({ min: Number((v * 6 / 7).toPrecision(3)), max: Number((v * 8 / 7).toPrecision(3)) });
+    const box = { "device.delay": { min: 0.0005, max: 0.0015 } };
+    const b = isCable() ? dev.cable && dev.cable.body_damping : dev.damping;
+    if (typeof b === "number" && b > 0) box[isCable() ? "device.cable.body_damping" : "device.damping"] = span(b);
+    return box;
+  }
+
+  function syncRobustBox() {
+    const el = $("rb-box");
+    if (robustDefault !== null && el.value !== robustDefault) return;
+    robustDefault = `{${Object.entries(defaultBox()).map(([k, v]) => JSON.stringify(k) + ": " + JSON.stringify(v)
+      .replace(/,/g, ", ").replace(/:/g, ": ")).join(",\n ")}}`;
+    el.value = robustDefault;
+  }
+
   async function designRobust(ev) {
     ev.preventDefault();
     await runPanel($("rb-run"), $("robust-result"), async () => {
@@ -459,7 +489,8 @@
                                                              passivity: $("rb-passivity").checked, uncertainty: box } };
       if ($("rb-verify").checked) body.verify = true;
       const r = await api("/v1/design/stiffness", { method: "POST", body });
-      const worst = r.worst_case ? Object.entries(r.worst_case).filter(([, v]) => typeof v !== "object")
+      const wd = r.worst_case && (r.worst_case.device || r.worst_case);
+      const worst = wd ? Object.entries(wd).filter(([, v]) => typeof v !== "object")
         .map(([k, v]) => `${escapeText(k)} = ${num(v)}`).join(", ") : "—";
       $("robust-result").innerHTML = table([...stiffnessRows(r, "robust"), ["worst device", worst],
         ["nominal margin", withUnit(r.nominal_gain_margin_db, "dB", 4)]]);
@@ -506,30 +537,85 @@
     img.hidden = false;
   }
 
+  // The scene names the device's effects ticked in the Simulate tab (/v1/simulate simulates only what a scene
+  // names): the delay, the cable mode and the force-sensor filter by default, the hand when ticked (a release
+  // lets go of the handle, and the wall's analysis, K_cr, has no hand).  A box is disabled when the device has
+  // no such block; whatever the device has and the scene leaves out is said beside the answer and on the figure.
+  const EFFECT_WORDS = { delay: "the loop delay", cable: "the cable mode", human: "the hand", force_sensor: "the force-sensor filter" };
+  const effectBoxes = () => [...document.querySelectorAll("#sim-effects input[data-effect]")];
+  const deviceHas = (block, dev) => (block === "delay" ? typeof dev.delay === "number" && dev.delay > 0 : Boolean(dev[block]));
+
+  function syncEffects() {
+    const dev = readDevice();
+    const out = [];
+    for (const box of effectBoxes()) {
+      const has = deviceHas(box.dataset.block, dev);
+      box.disabled = !has;
+      box.closest("label").title = has ? "" : "the device in the form has none";
+      if (has && !box.checked) out.push(EFFECT_WORDS[box.dataset.block]);
+    }
+    $("sim-effects-note").textContent = out.length ? `Left out (unticked): ${out.join(", ")}.` : "";
+  }
+
+  function sceneEffects(dev) {
+    const effects = {};
+    for (const box of effectBoxes()) {
+      if (box.checked && deviceHas(box.dataset.block, dev)) effects[box.dataset.effect] = {};
+    }
+    return effects;
+  }
+
+  /** Why the scene's verdict and the wall's analysis (delay and cable, no hand) may differ, in words. */
+  function sceneVersusAnalysis(device, effects) {
+    const diff = [];
+    if (deviceHas("delay", device) && !effects.delay) diff.push("leaves out the delay");
+    if (device.cable && !effects.cable_mode) diff.push("leaves out the cable mode");
+    if (effects.human) diff.push("adds the hand holding the handle");
+    return diff;
+  }
+
   async function simulate(ev) {
     ev.preventDefault();
     await runPanel($("sim-run"), $("simulate-result"), async () => {
       const experiment = $("sim-experiment").value;
+      const device = readDevice();
       const scene = { experiment, duration: Number($("sim-duration").value),
-                      initial: { position: Number($("sim-position").value) * 1e-3 }, output_points: 800 };
+                      initial: { position: Number($("sim-position").value) * 1e-3 }, output_points: 800,
+                      effects: sceneEffects(device) };
       if (experiment === "release") {
         scene.controller = { stiffness: Number($("sim-stiffness").value), damping: Number($("sim-damping").value) };
       } else {
         scene.relay = { amplitude: 1.0 };
       }
-      const body = { device: readDevice(), scene };
-      const r = await api("/v1/simulate", { method: "POST", body });
+      const body = { device, scene };
+      const [r, wall] = await Promise.all([
+        api("/v1/simulate", { method: "POST", body }),
+        scene.controller ? api("/v1/analysis/stability", { method: "POST", body: { device, controller: scene.controller } })
+          .catch(() => null) : null,
+      ]);
       const v = r.verdict || {};
+      const leftOut = r.not_simulated || [];
       const rows = [
         ["verdict", statusBadge(v.state || "undetermined"), "simulate-verdict"],
         ["reason", escapeText(v.reason || "—")],
+        ["decided by", escapeText(v.decided_by || "—")],
         ["oscillation ω", withUnit(v.frequency, "rad/s")],
         ["amplitude at the end", withUnit(v.amplitude, "m")],
-        ["effects simulated", escapeText((r.effects_simulated || []).join(", ") || "none")],
-        ["not simulated", escapeText((r.not_simulated || []).join(", ") || "none")],
-        ["energy generated", withUnit(r.energy_generated, "J")],
-        ["elapsed", withUnit(r.elapsed_ms, "ms", 4)],
+        ["effects simulated", escapeText((r.effects_simulated || []).join(", ") || "none"), "simulate-effects"],
+        ["not simulated", escapeText(leftOut.join("; ") || "none (every block of the device)"), "simulate-left-out"],
       ];
+      if (wall) {
+        const state = wall.stable === true ? "stable" : wall.stable === false ? "unstable" : "undetermined";
+        const diff = sceneVersusAnalysis(device, scene.effects);
+        rows.push(["the wall's analysis (delay and cable, no hand)",
+                   `${statusBadge(state)} K<sub>cr</sub>(B) = ${escapeText(withUnit(wall.critical_stiffness, "N/m"))}, `
+                   + `gain margin ${escapeText(withUnit(wall.gain_margin_db, "dB", 4))}`
+                   + (diff.length && state !== v.state ? ` — differs from the simulation: the scene ${escapeText(diff.join(" and "))}` : ""),
+                   "simulate-analysis"]);
+      }
+      rows.push(
+        ["energy generated", withUnit(r.energy_generated, "J")],
+        ["elapsed", withUnit(r.elapsed_ms, "ms", 4)]);
       for (const [k, val] of Object.entries(v)) {
         if (val && typeof val === "object" && !Array.isArray(val)) {
           rows.push([escapeText(k), escapeText(Object.entries(val).filter(([, x]) => typeof x !== "object")
@@ -537,7 +623,10 @@
         }
       }
       if (r.relay && r.relay.cycles) rows.push(["relay cycles", String(r.relay.cycles.length)]);
-      $("simulate-result").innerHTML = table(rows);
+      const warn = leftOut.length ? `<p class="left-out" id="simulate-warning" role="note">Not simulated: ${
+        escapeText(leftOut.map((n) => n.split(":")[0]).map((b) => EFFECT_WORDS[b] || b).join(", "))
+      }. The verdict is for the device without ${leftOut.length > 1 ? "them" : "it"}.</p>` : "";
+      $("simulate-result").innerHTML = warn + table(rows);
       const plot = await api("/v1/plots/simulation?format=svg", { method: "POST", body, raw: true });
       await showImage($("simulate-plot"), plot);
     });
@@ -637,7 +726,7 @@
       await api("/v1/studies", { method: "POST", body });
       await refreshStudies();
     } catch (err) {
-      $("study-error").textContent = errorsOf(err).map((e) => `${e.path.join(".")}: ${e.msg}`).join("; ");
+      $("study-error").textContent = says(errorsOf(err));
     } finally {
       $("sd-run").disabled = false;
     }
@@ -653,9 +742,12 @@
   }
 
   async function heatmap(study) {
-    const res = await api(`/v1/studies/${study.id}/results?limit=1`);
+    const res = await api(`/v1/studies/${study.id}/results?limit=50`);
     const ys = ["critical_stiffness", "gain_margin_db", "max_stable_damping"];
-    const y = ys.find((c) => res.columns.includes(c)) || res.columns.find((c) => !study.sweep.includes(c) && c !== "index");
+    const numeric = (c) => res.rows.some((r) => typeof r[c] === "number");
+    const y = ys.find((c) => res.columns.includes(c) && numeric(c))
+      || res.columns.find((c) => !study.sweep.includes(c) && c !== "index" && numeric(c))
+      || ys.find((c) => res.columns.includes(c));     // none has a number yet: the API says so, with the field
     const [x, x2] = study.sweep;
     const q = new URLSearchParams({ y, x, format: "svg", ...(x2 ? { x2 } : {}) });
     await showImage($("study-plot"), await api(`/v1/studies/${study.id}/plot?${q}`, { raw: true }));
@@ -675,7 +767,7 @@
       const b = document.createElement("button");
       b.type = "button"; b.className = "link"; b.textContent = label;
       b.addEventListener("click", () => fn().catch((err) => {
-        $("study-error").textContent = errorsOf(err).map((e) => e.msg).join("; ");
+        $("study-error").textContent = says(errorsOf(err));
       }));
       actions.append(b);
     };
@@ -698,7 +790,7 @@
         studyTimer = setTimeout(refreshStudies, 500);
       }
     } catch (err) {
-      $("study-error").textContent = errorsOf(err).map((e) => e.msg).join("; ");
+      $("study-error").textContent = says(errorsOf(err));
     }
   }
 
@@ -734,13 +826,18 @@
     $("device-form").addEventListener("input", (ev) => {
       if (ev.target.id === "preset") return;
       if (ev.target.type === "radio" || ev.target.type === "checkbox") syncBlocks();
+      syncEffects();
+      syncRobustBox();
       scheduleBoundary();
     });
     $("preset").addEventListener("change", () => {
       const p = presets[$("preset").value];
       if (p) fillDevice(p);
+      syncEffects();
+      syncRobustBox();
       scheduleBoundary();
     });
+    $("sim-effects").addEventListener("change", syncEffects);
     $("stiffness-form").addEventListener("submit", designStiffness);
     $("inertia-form").addEventListener("submit", designInertia);
     $("robust-form").addEventListener("submit", designRobust);
@@ -762,6 +859,8 @@
     const first = presets.lhifam ? "lhifam" : Object.keys(presets)[0];
     $("preset").value = first;
     fillDevice(presets[first]);
+    syncEffects();
+    syncRobustBox();
     document.body.dataset.ready = "true";
     await refreshBoundary();
   }

@@ -18,7 +18,7 @@ from optim.studies.problems import StudyInputError
 
 from ..errors import StoreUnavailable
 from ..executor import Compute
-from ..plot_labels import base_device_title
+from ..plot_labels import base_device_title, problem_label, result_label
 from ..schemas.plots import FormatQuery, image_format
 from ..schemas.studies import StudyCreated, StudyList, StudyRequest, StudyResults, StudyStatus
 from ..studies.blocks import read_schema
@@ -212,7 +212,8 @@ async def study_plot(study_id: str, request: Request, compute: Compute, y: str, 
     log_paths = {p: spec.get("scale") == "log" for p, spec in sweep.items() if isinstance(spec, dict)}
     try:  # read and drawn in a compute worker, under the request time budget
         device = row["request"].get("base", {}).get("device") or {}
-        title = f"{row['problem']} study {study_id[:8]}: {y}\n{base_device_title(device, paths)}"
+        title = (f"{result_label(y, device)}: {problem_label(row['problem'])} study {study_id[:8]}\n"
+                 f"{base_device_title(device, paths)}")
         image = await compute.arun(plot_study, runner.store.url, study_id, paths, y, x, x2, format, title,
                                    log_paths, device, cost_ms=None)
     except InputError as exc:

@@ -210,3 +210,103 @@ def test_explorer_asks_for_the_token(tmp_path):
                 b.close()
     finally:
         server.stop()
+
+
+@pytest.mark.e2e
+@pytest.mark.slow
+def test_simulate_names_the_device_effects_and_every_robust_error_is_readable(tmp_path):
+    """Issue 29.  The Simulate tab sent no effects: the LHifAM at 1 ms of delay with K = 3000 N/m was drawn
+    "stable" while /v1/analysis/stability says unstable (K_cr = 2478.04 N/m, zwidth's exact analysis; the same
+    number is read here from the Boundary tab).  Now the scene names the device's delay, cable and sensor filter:
+    the closed-loop poles say unstable, as the analysis does, and whatever is left out is said.  The Robust tab
+    on the default (cable) preset showed a red "[object Object]": every preset now gives a design or the API's
+    field and message."""
+    sync_api = _require_browser()
+    expect = sync_api.expect
+    server = start_live_server({"ZWIDTH_PRESTART_WORKERS": "false",
+                                "ZWIDTH_DATABASE_URL": f"sqlite:///{tmp_path / 'studies.db'}"})
+    try:
+        with sync_api.sync_playwright() as p:
+            b = _Browser(p, server.url)
+            try:
+                page = b.page
+                page.goto(server.url + "/")
+                page.select_option("#preset", "lhifam")
+                page.fill("#delay_ms", "1")
+                expect(page.locator("#kcr")).to_have_text("2478.04 N/m", timeout=60_000)
+
+                page.click("#tab-simulate")
+                for box in ("#sim-eff-delay", "#sim-eff-cable", "#sim-eff-sensor"):    # the defaults
+                    assert page.is_checked(box) and page.is_enabled(box), box
+                assert not page.is_checked("#sim-eff-human")      # a release lets go of the handle
+                page.fill("#sim-stiffness", "3000")
+                page.fill("#sim-damping", "0")
+                page.click("#sim-run")
+                expect(page.locator("#simulate-verdict")).to_have_text("unstable", timeout=120_000)
+                expect(page.locator("#simulate-verdict .status")).to_have_attribute("data-status", "unstable")
+                expect(page.locator("#simulate-effects")).to_contain_text("delay, cable_mode, force_sensor_filter")
+                expect(page.locator("#simulate-analysis")).to_contain_text("unstable")
+                expect(page.locator("#simulate-analysis")).to_contain_text("2478.04 N/m")
+                expect(page.locator("#simulate-warning")).to_contain_text("the hand")
+                expect(page.locator("#simulate-plot")).to_be_visible(timeout=120_000)
+
+                # Unticked, the delay and cable are left out, and the page says so beside the answer.
+                page.uncheck("#sim-eff-delay")
+                page.uncheck("#sim-eff-cable")
+                expect(page.locator("#sim-effects-note")).to_contain_text("the loop delay, the cable mode")
+                page.click("#sim-run")
+                expect(page.locator("#simulate-warning")).to_contain_text(
+                    "the loop delay, the cable mode, the hand", timeout=120_000)
+                expect(page.locator("#simulate-left-out")).to_contain_text("delay: the device's 0.001 s of delay")
+                expect(page.locator("#simulate-analysis")).to_contain_text("differs from the simulation")
+                page.check("#sim-eff-delay")
+                page.check("#sim-eff-cable")
+
+                # A rigid device has no cable block: its box is disabled and nothing is said left out for it.
+                page.check("#model-rigid")
+                expect(page.locator("#sim-eff-cable")).to_be_disabled()
+
+                # The Robust tab: the default box follows the model, on every preset a design or a readable error.
+                page.click("#tab-robust")
+                presets = [o for o in page.eval_on_selector_all("#preset option", "os => os.map(o => o.value)") if o]
+                assert len(presets) >= 3, presets
+                for name in presets:
+                    page.select_option("#preset", name)
+                    box = page.input_value("#rb-box")
+                    assert ("device.cable.body_damping" in box or '"device.damping"' not in box), (name, box)
+                    page.click("#rb-run")
+                    result = page.locator("#robust-status, #robust-result .form-error")
+                    expect(result.first).to_be_visible(timeout=120_000)
+                    text = page.inner_text("#robust-result")
+                    assert "[object Object]" not in text, (name, text)
+                    assert page.locator("#robust-status").count() == 1, (name, text)   # the default box is valid
+                # The rigid model's box; the rigid box on a cable device: the API's field and message, in words.
+                page.select_option("#preset", "lhifam")
+                page.check("#model-rigid")
+                assert '"device.damping"' in page.input_value("#rb-box")
+                page.check("#model-cable")
+                page.fill("#rb-box", '{"device.delay": {"min": 0.0005, "max": 0.0015},'
+                                     ' "device.damping": {"min": 3.0, "max": 4.0}}')
+                page.click("#rb-run")
+                error = page.locator("#robust-result .form-error")
+                expect(error).to_contain_text("requirements.uncertainty.device.damping", timeout=60_000)
+                expect(error).to_contain_text("cable")
+                assert "[object Object]" not in page.inner_text("#robust-result")
+                # A requirement the API refuses: its field and rule, not an object.
+                page.fill("#rb-box", '{"device.delay": {"min": 0.0005, "max": 0.0015}}')
+                page.fill("#rb-margin", "-5")
+                page.click("#rb-run")
+                expect(page.locator("#robust-result .form-error")).to_contain_text(
+                    "requirements.min_gain_margin_db: Input should be greater than or equal to 0", timeout=60_000)
+                assert "[object Object]" not in page.inner_text("#robust-result")
+
+                assert not b.errors, b.errors
+                assert not b.blocked, b.blocked
+                paths = b.api_paths()
+                assert {"/v1/simulate", "/v1/plots/simulation", "/v1/analysis/stability", "/v1/design/stiffness"} <= paths
+                strays = {q for q in paths if q not in ALLOWED_PATHS and not q.startswith(("/v1/", "/explorer/"))}
+                assert not strays, strays
+            finally:
+                b.close()
+    finally:
+        server.stop()

@@ -29,7 +29,7 @@ from service.plot_labels import (
     path_label,
 )
 from service.plots import LOOP_MATH, bode_figure, boundary_figure
-from service.studies.plot import study_figure
+from service.studies.plot import check_y, study_figure
 
 from .conftest import make_client
 
@@ -65,12 +65,14 @@ ROUTES = {
     "simulation": ({"device": RIGID, "scene": {"experiment": "release", "duration": 0.3,
                                                "controller": {"stiffness": 3000}, "initial": {"position": 1e-3}}},
                    ["m = 5.4 kg, b = 3.5 N·s/m (rigid), t_d = 0 ms, T = 1 ms", "position [mm]", "force [N]",
-                    "time [s]"]),
+                    "time [s]", "K = 3000 N/m, B = 0 N·s/m: ", "every block of the device simulated"]),
+    # the box's delay is said as its range (issue 29: the title said "t_d = 0 ms" over a 0–2 ms axis)
     "robust": ({"device": {"preset": "lhifam", "cable": None}, "requirements": {"uncertainty": UNC}, "points": 7},
-               ["lhifam (rigid), t_d = 0 ms, T = 1 ms", "mass m [kg]", "delay t_d [ms]", "gain margin [dB]"]),
+               ["lhifam (rigid), t_d = 0–2 ms, T = 1 ms; box: m = 4–7 kg", "mass m [kg]", "delay t_d [ms]",
+                "gain margin [dB]"]),
     "hardware": ({"device": {"preset": "lhifam", "cable": None}, "target": {"stiffness": 2e5}, "free": "delay",
                   "points": 9},
-                 ["lhifam (rigid), t_d = 0 ms, T = 1 ms", "delay t_d [ms]", "$K^*$ [N/m]"]),
+                 ["lhifam (rigid), t_d free, T = 1 ms", "delay t_d [ms]", "$K^*$ [N/m]"]),
     "identify": ({"model": "rigid"}, ["(rigid)", "T = 1 ms", "position [mm]", "residual [µm]", "time [s]"]),
 }
 
@@ -244,8 +246,21 @@ def test_study_plot_route_draws_units_and_device(tmp_path):
         assert r.status_code == 200, r.text
         drawn = "\n".join(_texts(r.content))
         for text in ("delay t_d [ms]", "virtual damping B [N·s/m]", "critical stiffness $K_{cr}$ [N/m]",
-                     "m = 5.4 kg, b = 3.5 N·s/m (rigid), t_d swept, T = 1 ms"):
+                     "m = 5.4 kg, b = 3.5 N·s/m (rigid), t_d swept, T = 1 ms",
+                     f"critical stiffness $K_{{cr}}$ [N/m]: wall-stability study {sid[:8]}"):
             assert text in drawn, drawn
+        assert "critical_stiffness" not in drawn and not re.search(r"(^|\n)stability study", drawn)   # no raw names
+        # a line plot of a study with a second swept axis: one labelled series per virtual damping
+        r = c.get(f"/v1/studies/{sid}/plot", params={"y": "critical_stiffness", "x": "device.delay", "format": "svg"})
+        drawn = "\n".join(_texts(r.content))
+        assert "B = 0 N·s/m" in drawn and "B = 5 N·s/m" in drawn, drawn
+        # a result that is not a number answers 422 naming y (issue 29: 200 with an empty chart)
+        results = c.get(f"/v1/studies/{sid}/results", params={"limit": 1}).json()["columns"]
+        assert "reason" in results
+        bad = c.get(f"/v1/studies/{sid}/plot", params={"y": "reason", "x": "device.delay"})
+        assert bad.status_code == 422, bad.text
+        assert bad.json()["detail"][0]["loc"] == ["query", "y"] and "'reason'" in bad.json()["detail"][0]["msg"]
+        assert "numeric results: " in bad.json()["detail"][0]["msg"]
         assert c.get(f"/v1/studies/{sid}/plot", params={"y": "critical_stiffness", "x": "device.delay"}
                      ).headers["content-type"] == "image/png"
         bad = c.get(f"/v1/studies/{sid}/plot", params={"y": "critical_stiffness", "x": "device.delay",
@@ -295,3 +310,104 @@ def test_simulation_hardware_robust_identification_figures_inside_with_units():
     for fig in (sim, hw, rb, idf):
         _assert_inside(fig)
         _assert_units(fig)
+
+
+def test_device_title_says_a_boxed_or_free_parameter_as_its_range():
+    """Issue 29: the robust map's title said "t_d = 0 ms" (the nominal device) over a 0.5–1.5 ms delay axis."""
+    dev = Device(preset="lhifam", cable=None)
+    assert device_title(dev, {"device.delay": (0.0005, 0.0015), "device.damping": (3.0, 4.0)}) == \
+        "lhifam (rigid), t_d = 0.5–1.5 ms, T = 1 ms; box: b = 3–4 N·s/m"
+    assert device_title(Device(**RIGID), {"device.mass": (4.0, 7.0)}) == \
+        "m = 4–7 kg, b = 3.5 N·s/m (rigid), t_d = 0 ms, T = 1 ms"
+    assert device_title(dev, free="device.delay") == "lhifam (rigid), t_d free, T = 1 ms"
+    assert device_title(dev, free="device.cable.stiffness") == "lhifam (rigid), t_d = 0 ms, T = 1 ms; k_c free"
+    assert device_title(dev) == "lhifam (rigid), t_d = 0 ms, T = 1 ms"        # without a box: as before
+
+
+def _two_axis_rows():
+    """K_cr over mass × delay, made up so each delay's series is told by its values."""
+    return [{"index": i, "device.mass": m, "device.delay": d, "critical_stiffness": 1000.0 * (1 + k) + m,
+             "reason": None} for i, (m, (k, d)) in enumerate((m, kd) for m in (1.0, 4.0, 7.0)
+                                                              for kd in enumerate((0.0, 0.0015, 0.003)))]
+
+
+def test_study_line_plot_with_a_second_swept_axis_draws_one_labelled_series_each():
+    """Issue 29: three series were drawn as same-coloured dots with no legend."""
+    rows = _two_axis_rows()
+    fig = study_figure(rows, "critical_stiffness", "device.mass", None, "t", device=RIGID,
+                       paths=["device.mass", "device.delay"])
+    ax = fig.axes[0]
+    lines = ax.get_lines()
+    assert len(lines) == 3
+    assert len({ln.get_color() for ln in lines}) == 3 and len({ln.get_linestyle() for ln in lines}) == 3
+    assert all(ln.get_linestyle() != "None" for ln in lines)          # lines, not loose dots
+    legend = ax.get_legend()
+    assert [t.get_text() for t in legend.get_texts()] == ["t_d = 0 ms", "t_d = 1.5 ms", "t_d = 3 ms"]
+    for k, ln in enumerate(lines):                                     # each series holds its own delay's points
+        assert list(ln.get_xdata()) == [1.0, 4.0, 7.0]
+        assert list(ln.get_ydata()) == [1000.0 * (1 + k) + m for m in (1.0, 4.0, 7.0)]
+    _assert_inside(fig)
+    _assert_units(fig)
+    # one swept path: one line, no legend (as before)
+    one = study_figure([r for r in rows if r["device.delay"] == 0.0], "critical_stiffness", "device.mass", None,
+                       "t", paths=["device.mass", "device.delay"])
+    assert len(one.axes[0].get_lines()) == 1 and one.axes[0].get_legend() is None
+
+
+def test_study_plot_of_a_result_that_is_not_a_number_names_y():
+    from optim.errors import InputError
+
+    rows = _two_axis_rows()
+    results = ["critical_stiffness", "reason"]
+    check_y(rows, "critical_stiffness", results)                       # a number: drawn
+    for y, said in (("reason", "holds no number"), ("nonsense", "is not a result")):
+        with pytest.raises(InputError) as err:
+            check_y(rows, y, results)
+        assert err.value.field == "y" and said in err.value.rule, err.value.rule
+    text = [dict(r, reason="no crossover") for r in rows]
+    with pytest.raises(InputError, match="is text, not a number.*numeric results: critical_stiffness"):
+        check_y(text, "reason", results)
+    yes_no = [dict(r, stable=True) for r in rows]
+    with pytest.raises(InputError, match="is yes/no"):
+        check_y(yes_no, "stable", results + ["stable"])
+
+
+@pytest.mark.slow
+def test_simulation_plot_names_the_wall_and_the_blocks_left_out(client):
+    """Issue 29: the simulation plot's title lacked K and B, and said nothing of the device blocks the scene
+    left out (the LHifAM at 1 ms with K = 3000 N/m looked stable without its delay and cable)."""
+    device = {"preset": "lhifam", "delay": 0.001}
+    scene = {"experiment": "release", "duration": 0.5, "initial": {"position": 1e-3},
+             "controller": {"stiffness": 3000.0, "damping": 0.0}}
+    cases = (({}, "stable", "not simulated: delay, cable mode, hand, force-sensor filter"),
+             ({"delay": {}, "cable_mode": {}}, "unstable", "not simulated: hand, force-sensor filter"),
+             ({"delay": {}, "cable_mode": {}, "human": {}, "force_sensor_filter": {}}, "stable",
+              "every block of the device simulated"))
+    for effects, state, said in cases:
+        r = client.post("/v1/plots/simulation", params={"format": "svg"},
+                        json={"device": device, "scene": {**scene, "effects": effects}})
+        assert r.status_code == 200, r.text[:300]
+        drawn = "\n".join(_texts(r.content))
+        assert f"K = 3000 N/m, B = 0 N·s/m: {state} (closed-loop poles)" in drawn, drawn
+        assert said in drawn, drawn
+    relay = {"experiment": "relay", "duration": 0.5, "relay": {"amplitude": 2.0}, "initial": {"position": 1e-4}}
+    r = client.post("/v1/plots/simulation", params={"format": "svg"}, json={"device": RIGID, "scene": relay})
+    assert r.status_code == 200 and "relay h = 2 N: " in "\n".join(_texts(r.content))
+
+
+def test_study_line_plot_with_too_many_series_colours_points_by_the_other_path():
+    """A Latin hypercube has a new value of the other path at every point: coloured points and a colour bar
+    naming that path, not a legend of 40 entries."""
+    from service.studies.plot import MAX_SERIES
+
+    n = 3 * MAX_SERIES
+    rows = [{"device.mass": 1.0 + k / 7, "device.delay": 1e-4 * ((k * 7) % n), "critical_stiffness": 1000.0 + k}
+            for k in range(n)]
+    fig = study_figure(rows, "critical_stiffness", "device.mass", None, "t", device=RIGID,
+                       paths=["device.mass", "device.delay"])
+    ax, bar = fig.axes
+    assert ax.get_legend() is None and not ax.get_lines()
+    assert len(ax.collections[0].get_offsets()) == n
+    assert bar.get_ylabel() == "delay t_d [ms]"
+    assert max(ax.collections[0].get_array()) == pytest.approx(1e-4 * (n - 1) * 1e3)   # coloured in ms
+    _assert_inside(fig)
