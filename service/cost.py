@@ -60,6 +60,14 @@ def stability_cost_ms(device: Device, method: str, damping: float, grid_points: 
     return _exact_ms(device, damping) * 2.0  # the cable's analysis adds the rigid K_cr
 
 
+def nonlinear_cost_ms(device: Device, damping: float) -> float:
+    """Estimated cost [ms] of ``analyse_nonlinear`` (optim.stability.nonlinear): ~48 amplitudes of the harmonic
+    balance plus its roots, each up to five exact K_cr (measured ≈ 0.1-0.2 s rigid, ≈ 1-2 s for the LHifAM cable)."""
+    if not device.nonlinear:
+        return 0.0
+    return 300.0 * stability_cost_ms(device, "exact", damping, 0)
+
+
 def verify_cost_ms(device: Device) -> float:
     """Estimated cost [ms] of one ``verify`` (optim.verification): two or three closed loops, by eigenvalues up to
     160 states (≈ 1-10 ms), by the argument principle beyond (≈ 20 ms + 0.03 ms per sample of delay)."""

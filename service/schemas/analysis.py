@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-from pydantic import BaseModel, Field
+from typing import Any, Literal
+
+from pydantic import BaseModel, Field, SerializerFunctionWrapHandler, model_serializer
 
 from optim.stability.boundary import MAX_BOUNDARY_POINTS
 
@@ -22,6 +24,33 @@ class StabilityRequest(BaseModel):
     method: Method = Field(default="exact", description="rung of the accuracy ladder")
     grid_points: GridPoints = GridPointsField()
     verify: bool = VerifyField()
+
+
+class LimitCycleOut(FiniteModel):
+    exists: bool = Field(description="a stable (attracting) limit cycle is predicted")
+    amplitude: float | None = Field(description="[m] amplitude (half peak-to-peak) of x_r of the outermost stable cycle")
+    frequency_hz: float | None = Field(description="[Hz] its frequency")
+    threshold_amplitude: float | None = Field(
+        description="[m] an unstable cycle: motions larger than it grow (a linearly unstable wall held by friction "
+                    "or the quantiser's dead band for small motions); null when there is none")
+    method: str
+    error: str = Field(description="the method's known error (docs/quantisation.md)")
+
+
+class NonlinearOut(FiniteModel):
+    passive_stiffness_limit: float = Field(
+        description="[N/m] largest passive K with this encoder and friction: min(2b/T, 2f_c/q) (Abbott & Okamura "
+                    "2005) in the theorem's case")
+    sampling_term: float = Field(description="[N/m] 2b/T, or zwidth's delayed passivity limit at B when not covered")
+    quantization_term: float | None = Field(description="[N/m] 2f_c/q; null (infinite) without an encoder resolution")
+    binding: Literal["sampling", "quantization"] = Field(description="the term that sets the limit")
+    source: str = Field(description="equation and paper, or the extension used")
+    covered: bool = Field(description="true only where the published theorem covers this wall (B = 0, no delay, "
+                                      "rigid device); false: an extension without proof")
+    limit_cycle: LimitCycleOut
+    regime: Literal["passive", "stable_not_passive", "limit_cycle", "unstable"] | None = Field(
+        description="passive | stable_not_passive | limit_cycle | unstable; null when no stiffness was given")
+    reason: str
 
 
 class StabilityResponse(FiniteModel):
@@ -48,6 +77,16 @@ class StabilityResponse(FiniteModel):
     error_source: str
     reason: str | None
     verification: VerificationOut | None = Field(None, description="present when verify was true")
+    nonlinear: NonlinearOut | None = Field(
+        None, description="present when the device has encoder_resolution or coulomb_friction (issue 31)")
+
+    @model_serializer(mode="wrap")
+    def _without_absent_nonlinear(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:
+        # a device without encoder or friction answers exactly as before the block existed
+        out = handler(self)
+        if out.get("nonlinear", 0) is None:
+            del out["nonlinear"]
+        return out
 
 
 class BoundaryRequest(BaseModel):
