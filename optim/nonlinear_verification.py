@@ -8,12 +8,13 @@ recording the full state after every sample.  Two numbers, both exact functions 
     for a cable) the energy an ideal continuous wall would store.  The user's force is held over each
     sample, so Σ F_h·Δx_d is the user's exact work.  A passive display keeps E_net ≤ 0 (Abbott & Okamura's
     definition with this storage); a wall that grows (the sampling mode, K > 2b/T) drives it positive;
-  * the wall's energy while the user holds still, E_hold = E_gen(end of hold) − E_gen(middle of hold)
+  * the wall's energy while the user holds still, E_hold = E_gen(end of hold) − E_gen(¾ of the hold)
     (models/simulation/oscillation.py: the motor's exact work minus the ideal spring's).  A passive wall
     stops the device (friction sticks it) and E_hold is exactly 0: no velocity, no work.  A wall that
     chatters at the quantisation scale (K > 2f_c/q) keeps paying the friction's loss: E_hold > 0.
 
-net_energy = max(max_t E_net, E_hold).  Its error bound is the rounding of the sums (8·eps per term
+net_energy = E_hold when the wall chatters (the device within a few counts, E_hold sustained), else
+max_t E_net.  Its error bound is the rounding of the sums (8·eps per term
 over every term's magnitude) and of the stored energy; the trajectory itself is exact to the event
 location's tolerance (1e-15·T in time).
 
@@ -36,7 +37,8 @@ from models.simulation.scene import Scene
 from models.simulation.sim_loop import linear_step, run_sampled_loop
 from models.simulation.simulate import loop_spec, scene_friction
 
-__all__ = ["EnergyAudit", "MeasuredCycle", "energy_audit", "measure_cycle", "nonlinear_effects",
+__all__ = ["EnergyAudit", "MeasuredCycle", "NonlinearVerification", "energy_audit", "measure_cycle", "nonlinear_effects",
+           "verify_nonlinear", "probe_forces", "probe_hold", "release_start", "AMPLITUDE_RTOL", "FREQUENCY_RTOL",
            "CYCLE_MIN_COUNTS", "CHATTER_COUNTS", "GROWTH_RATIO"]
 
 _EPS = float(np.finfo(float).eps)
@@ -46,6 +48,8 @@ _EPS = float(np.finfo(float).eps)
 CYCLE_MIN_COUNTS = 0.25
 #: A release whose last quarter swings this much wider than the quarter before is growing, not cycling.
 GROWTH_RATIO = 1.05
+#: The audit's free motion grows when its last quarter swings wider than the quarter before by this factor.
+AUDIT_GROWTH = 1.01
 #: Motion within this many counts over the hold's last quarter is quantisation-scale chatter, not growth.
 CHATTER_COUNTS = 4.0
 
@@ -86,11 +90,12 @@ def _run(device: Device, scene: Scene, w: np.ndarray, x0: np.ndarray, v0: float)
 @dataclass(frozen=True)
 class EnergyAudit:
     net_energy: float
-    """[J] max(max_t E_net, E_hold) (module docstring): ≤ 0 for a passive display."""
+    """[J] the wall's net energy: E_hold when the audit found chatter, else max_t E_net (module docstring);
+    ≤ 0 for a passive display."""
     port_balance_max: float
     """[J] max_t E_net(t)."""
     hold_energy: float
-    """[J] E_hold: the wall's energy over the second half of the hold."""
+    """[J] E_hold: the wall's energy over the last quarter of the hold."""
     error_bound: float
     """[J] bound on the rounding error of net_energy."""
     active: bool
@@ -139,7 +144,6 @@ def energy_audit(device: Device, stiffness: float, damping: float, push_force: f
     bound = 8 * _EPS * (m * float(np.max(np.abs(stored))) + float(np.sum(np.abs(work)))
                         + float(np.sum(force_work)) + 0.5 * stiffness * float(np.max(xr ** 2)))
     port = float(np.max(e_net))
-    hold_e = last + before
     q = device.encoder_resolution
     motion = float(np.ptp(xr[k[1]:k[2] + 1])) if k[2] > k[1] else 0.0
     counts = motion / q if q is not None else None
@@ -147,11 +151,16 @@ def energy_audit(device: Device, stiffness: float, damping: float, push_force: f
     # chatter: the wall keeps paying friction and damping over the hold's last quarter as much as over the
     # quarter before (a decaying transient's share shrinks geometrically), the device within a few counts
     chatter = confined and last > bound and last >= 0.25 * before
-    instability = m < n or (port > bound and not confined)
+    # instability: the run diverged, or the free motion after the release swings wider in its last quarter
+    # than in the quarter before, beyond the quantisation scale (growth, not chatter)
+    kf = [min(int(round((t2 + 2 * t + free * f) / t)), m) for f in (0.5, 0.75, 1.0)]
+    swing_late, swing_early = float(np.ptp(xr[kf[1]:kf[2] + 1])), float(np.ptp(xr[kf[0]:kf[1] + 1]))
+    scale = CHATTER_COUNTS * q if q is not None else 0.0
+    instability = m < n or (swing_late > max(AUDIT_GROWTH * swing_early, scale) and port > bound)
     mode: Literal["none", "instability", "chatter"] = \
         "instability" if instability else "chatter" if chatter else "none"
-    net = max(port, hold_e)
-    return EnergyAudit(net, port, hold_e, bound, instability or chatter, mode, counts, push_force, m)
+    net = last if mode == "chatter" else port
+    return EnergyAudit(net, port, last, bound, instability or chatter, mode, counts, push_force, m)
 
 
 def spec_size(device: Device) -> int:
@@ -200,3 +209,85 @@ def measure_cycle(device: Device, stiffness: float, damping: float, initial: flo
     ups = np.nonzero(~sign[1:] & sign[:-1])[0]
     freq = None if len(ups) < 2 else (len(ups) - 1) / ((ups[-1] - ups[0]) * t)
     return MeasuredCycle("cycle", amp, freq, n)
+
+
+#: Relative tolerance on the describing function's amplitude and frequency against a long simulation: the
+#: spread measured on random walls (docs/quantisation.md, bench/bench_quantisation.py).
+AMPLITUDE_RTOL = 0.5
+FREQUENCY_RTOL = 0.25
+
+
+@dataclass(frozen=True)
+class NonlinearVerification:
+    verdict: Literal["confirmed", "contradicted", "not_checkable"]
+    reason: str
+    chatter_probe: EnergyAudit
+    """push held halfway between two encoder levels (or at 50 f_c without an encoder)."""
+    instability_probe: EnergyAudit
+    """a deep push released in two samples."""
+    measured: MeasuredCycle
+    release_from: float
+    """[m] the release's start."""
+    predicted_amplitude: float | None
+    predicted_frequency_hz: float | None
+
+
+def probe_forces(device: Device, stiffness: float, threshold: float | None) -> tuple[float, float]:
+    """[N] the chatter probe's held force (halfway between levels 50 and 51) and the instability probe's (10×
+    the predicted threshold, else 500 counts, else 1000 f_c, deep)."""
+    q, f_c = device.encoder_resolution, device.coulomb_friction or 0.0
+    soft = stiffness * q * 50.5 if q is not None else 50 * f_c
+    depth = 10 * threshold if threshold is not None else 500 * q if q is not None else 1e3 * f_c / stiffness
+    return soft, stiffness * depth
+
+
+def probe_hold(device: Device) -> float:
+    """[s] how long the chatter probe holds: twenty free-motion time constants m/b (the push's transient must have
+    died out before the hold's last quarter is read), within 1-5 s."""
+    return min(max(1.0, 20 * device.mass / max(device.damping, 1e-300)), 5.0)
+
+
+def release_start(device: Device, stiffness: float, cycle) -> float:
+    """[m] where the measured release starts: 1.5× a predicted cycle, 3× a threshold, else 20 counts (or
+    20 f_c/K without an encoder)."""
+    if cycle.exists:
+        return 1.5 * cycle.amplitude
+    if cycle.threshold_amplitude is not None:
+        return 3 * cycle.threshold_amplitude
+    q = device.encoder_resolution
+    return 20 * q if q is not None else 20 * (device.coulomb_friction or 0.0) / stiffness
+
+
+def verify_nonlinear(device: Device, stiffness: float, damping: float, analysis, duration: float = 3.0) \
+        -> NonlinearVerification:
+    """The audit and the measured cycle beside ``analysis`` (optim.stability.nonlinear.NonlinearAnalysis)."""
+    cycle = analysis.limit_cycle
+    soft_f, hard_f = probe_forces(device, stiffness, cycle.threshold_amplitude)
+    soft = energy_audit(device, stiffness, damping, soft_f, ramp=0.2, hold=probe_hold(device), free=0.2)
+    hard = energy_audit(device, stiffness, damping, hard_f, ramp=0.02, hold=0.3, free=4.0)
+    start = release_start(device, stiffness, cycle)
+    measured = measure_cycle(device, stiffness, damping, start, duration)
+    args = (soft, hard, measured, start, cycle.amplitude, cycle.frequency_hz)
+    regime = analysis.regime
+    if regime == "passive" and (soft.active or hard.active):
+        probe = soft if soft.active else hard
+        return NonlinearVerification("contradicted", f"passive predicted, but the audit found {probe.mode} "
+                                     f"(net energy {probe.net_energy:.3g} J > bound {probe.error_bound:.2g} J)", *args)
+    if measured.state == "decaying":
+        return NonlinearVerification("not_checkable", f"the release from {start:.3g} m was still decaying after "
+                                     f"{duration:g} s", *args)
+    expected = {"limit_cycle": "cycle", "unstable": "growing"}.get(regime, "settled")
+    if measured.state != expected:
+        return NonlinearVerification("contradicted", f"regime {regime} predicts the release from {start:.3g} m "
+                                     f"to be {expected}; the simulation shows {measured.state}", *args)
+    if expected == "cycle":
+        a_ok = abs(measured.amplitude / cycle.amplitude - 1) <= AMPLITUDE_RTOL
+        f_ok = measured.frequency_hz is not None and cycle.frequency_hz is not None and \
+            abs(measured.frequency_hz / cycle.frequency_hz - 1) <= FREQUENCY_RTOL
+        if not (a_ok and f_ok):
+            return NonlinearVerification("contradicted", f"cycle measured at {measured.amplitude:.3g} m, "
+                                         f"{measured.frequency_hz} Hz; predicted {cycle.amplitude:.3g} m, "
+                                         f"{cycle.frequency_hz:.3g} Hz (tolerances {AMPLITUDE_RTOL:g}, "
+                                         f"{FREQUENCY_RTOL:g} relative)", *args)
+    return NonlinearVerification("confirmed", f"the release from {start:.3g} m is {measured.state} as predicted"
+                                 + ("" if regime != "passive" else "; the audit found no active mode"), *args)

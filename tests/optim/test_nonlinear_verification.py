@@ -40,7 +40,7 @@ def test_chatter_mode_appears_above_two_fc_over_q(factor):
 @pytest.mark.slow
 @pytest.mark.parametrize("factor", [0.9, 1.1])
 def test_instability_mode_appears_above_two_b_over_t(factor):
-    res = _hard(SAMPLING_BINDS, factor * 1000.0, 0.07)
+    res = energy_audit(SAMPLING_BINDS, factor * 1000.0, 0.0, factor * 1000.0 * 0.07, ramp=0.02, hold=0.3, free=4.0)
     assert res.mode == ("instability" if factor > 1 else "none")
     assert (res.port_balance_max > res.error_bound) == (factor > 1)
 
