@@ -31,14 +31,15 @@ from typing import Literal
 import numpy as np
 
 from models.device import Device
-from models.simulation.friction import FrictionStepper
+from models.simulation.friction import FrictionEventLimit, FrictionStepper
 from models.simulation.oscillation import energy_generated
 from models.simulation.scene import Scene
 from models.simulation.sim_loop import linear_step, run_sampled_loop
-from models.simulation.simulate import loop_spec, scene_friction
+from models.simulation.simulate import loop_spec, scene_friction, scene_poles
 
 __all__ = ["EnergyAudit", "MeasuredCycle", "NonlinearVerification", "energy_audit", "measure_cycle", "nonlinear_effects",
-           "verify_nonlinear", "probe_forces", "probe_hold", "release_start", "AMPLITUDE_RTOL", "FREQUENCY_RTOL",
+           "verify_nonlinear", "probe_forces", "probe_hold", "release_start", "linear_time_constant",
+           "release_duration", "AMPLITUDE_RTOL", "FREQUENCY_RTOL",
            "CYCLE_MIN_COUNTS", "CHATTER_COUNTS", "GROWTH_RATIO"]
 
 _EPS = float(np.finfo(float).eps)
@@ -47,7 +48,7 @@ _EPS = float(np.finfo(float).eps)
 #: count: it is reported as chatter by the audit, not as a describing-function cycle).
 CYCLE_MIN_COUNTS = 0.25
 #: A release whose last quarter swings this much wider than the quarter before is growing, not cycling.
-GROWTH_RATIO = 1.05
+GROWTH_RATIO = 1.02
 #: The audit's free motion grows when its last quarter swings wider than the quarter before by this factor.
 AUDIT_GROWTH = 1.01
 #: Motion within this many counts over the hold's last quarter is quantisation-scale chatter, not growth.
@@ -221,11 +222,12 @@ FREQUENCY_RTOL = 0.25
 class NonlinearVerification:
     verdict: Literal["confirmed", "contradicted", "not_checkable"]
     reason: str
-    chatter_probe: EnergyAudit
-    """push held halfway between two encoder levels (or at 50 f_c without an encoder)."""
-    instability_probe: EnergyAudit
+    chatter_probe: EnergyAudit | None
+    """push held halfway between two encoder levels (or at 50 f_c without an encoder); None when the simulator
+    refused."""
+    instability_probe: EnergyAudit | None
     """a deep push released in two samples."""
-    measured: MeasuredCycle
+    measured: MeasuredCycle | None
     release_from: float
     """[m] the release's start."""
     predicted_amplitude: float | None
@@ -239,6 +241,24 @@ def probe_forces(device: Device, stiffness: float, threshold: float | None) -> t
     soft = stiffness * q * 50.5 if q is not None else 50 * f_c
     depth = 10 * threshold if threshold is not None else 500 * q if q is not None else 1e3 * f_c / stiffness
     return soft, stiffness * depth
+
+
+def linear_time_constant(device: Device, stiffness: float, damping: float) -> float:
+    """[s] 1/|γ| of the dominant closed-loop pole of the wall without its encoder and friction (how fast a
+    transient dies out or grows); inf when the poles cannot be had."""
+    eff = {k: v for k, v in nonlinear_effects(device).items() if k in ("delay", "cable_mode")}
+    scene = Scene(experiment="release", duration=1.0, controller={"stiffness": stiffness, "damping": damping},
+                  effects=eff, output_points=2)
+    poles, _ = scene_poles(device, scene)
+    if poles is None or poles.dominant_modulus <= 0:
+        return math.inf
+    rate = abs(math.log(poles.dominant_modulus)) / device.sample_time
+    return math.inf if rate == 0 else 1.0 / rate
+
+
+def release_duration(device: Device, stiffness: float, damping: float, lo: float = 2.0, hi: float = 5.0) -> float:
+    """[s] a release long enough for ten linear time constants, within [lo, hi]."""
+    return min(max(lo, 10 * linear_time_constant(device, stiffness, damping)), hi)
 
 
 def probe_hold(device: Device) -> float:
@@ -258,15 +278,20 @@ def release_start(device: Device, stiffness: float, cycle) -> float:
     return 20 * q if q is not None else 20 * (device.coulomb_friction or 0.0) / stiffness
 
 
-def verify_nonlinear(device: Device, stiffness: float, damping: float, analysis, duration: float = 3.0) \
+def verify_nonlinear(device: Device, stiffness: float, damping: float, analysis, duration: float | None = None) \
         -> NonlinearVerification:
     """The audit and the measured cycle beside ``analysis`` (optim.stability.nonlinear.NonlinearAnalysis)."""
     cycle = analysis.limit_cycle
     soft_f, hard_f = probe_forces(device, stiffness, cycle.threshold_amplitude)
-    soft = energy_audit(device, stiffness, damping, soft_f, ramp=0.2, hold=probe_hold(device), free=0.2)
-    hard = energy_audit(device, stiffness, damping, hard_f, ramp=0.02, hold=0.3, free=4.0)
     start = release_start(device, stiffness, cycle)
-    measured = measure_cycle(device, stiffness, damping, start, duration)
+    duration = duration if duration is not None else release_duration(device, stiffness, damping)
+    try:
+        soft = energy_audit(device, stiffness, damping, soft_f, ramp=0.2, hold=probe_hold(device), free=0.2)
+        hard = energy_audit(device, stiffness, damping, hard_f, ramp=0.02, hold=0.3, free=4.0)
+        measured = measure_cycle(device, stiffness, damping, start, duration)
+    except FrictionEventLimit as exc:
+        return NonlinearVerification("not_checkable", f"the simulator refused: {exc}", None, None, None, start,
+                                     cycle.amplitude, cycle.frequency_hz)
     args = (soft, hard, measured, start, cycle.amplitude, cycle.frequency_hz)
     regime = analysis.regime
     if regime == "passive" and (soft.active or hard.active):

@@ -68,6 +68,13 @@ def nonlinear_cost_ms(device: Device, damping: float) -> float:
     return 300.0 * stability_cost_ms(device, "exact", damping, 0)
 
 
+def nonlinear_verify_cost_ms(device: Device) -> float:
+    """Estimated cost [ms] of ``verify_nonlinear``: two energy audits and a release, ≤ ~15,000 samples, ≈ 0.3 ms
+    a sample with Coulomb friction (event integrator), ×3 for a cable, ≈ 0.02 ms without friction."""
+    per = 0.3 if device.coulomb_friction else 0.02
+    return 15_000 * per * (3.0 if device.cable is not None else 1.0)
+
+
 def verify_cost_ms(device: Device) -> float:
     """Estimated cost [ms] of one ``verify`` (optim.verification): two or three closed loops, by eigenvalues up to
     160 states (≈ 1-10 ms), by the argument principle beyond (≈ 20 ms + 0.03 ms per sample of delay)."""

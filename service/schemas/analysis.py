@@ -37,6 +37,33 @@ class LimitCycleOut(FiniteModel):
     error: str = Field(description="the method's known error (docs/quantisation.md)")
 
 
+class EnergyAuditOut(FiniteModel):
+    net_energy: float = Field(description="[J] the wall's net energy over the push (≤ 0 for a passive display)")
+    port_balance_max: float = Field(description="[J] max over time of S(t) − S(0) − user's work (S: the ideal wall's "
+                                                "storage)")
+    hold_energy: float = Field(description="[J] the wall's energy over the hold's last quarter")
+    error_bound: float = Field(description="[J] bound on the rounding error of net_energy")
+    active: bool
+    mode: Literal["none", "instability", "chatter"]
+    hold_motion_counts: float | None = Field(description="peak-to-peak motion over the hold's last quarter [counts]")
+    push_force: float = Field(description="[N] the held user force")
+
+
+class NonlinearVerificationOut(FiniteModel):
+    verdict: Literal["confirmed", "contradicted", "not_checkable"]
+    reason: str
+    chatter_probe: EnergyAuditOut | None = Field(description="a push held halfway between two encoder levels (null: "
+                                                         "the simulator refused, see reason)")
+    instability_probe: EnergyAuditOut | None = Field(description="a deep push released in two samples")
+    measured_state: Literal["settled", "cycle", "growing", "decaying"] | None = Field(
+        description="what a release did in simulation (decaying: still dying out at the end: not checkable)")
+    measured_amplitude: float | None = Field(description="[m] half peak-to-peak of x_r over the release's last quarter")
+    measured_frequency_hz: float | None = Field(description="[Hz] measured cycle frequency")
+    predicted_amplitude: float | None = Field(description="[m] the describing function's cycle")
+    predicted_frequency_hz: float | None = Field(description="[Hz] the describing function's cycle")
+    release_from: float = Field(description="[m] where the simulated release started")
+
+
 class NonlinearOut(FiniteModel):
     passive_stiffness_limit: float = Field(
         description="[N/m] largest passive K with this encoder and friction: min(2b/T, 2f_c/q) (Abbott & Okamura "
@@ -51,6 +78,9 @@ class NonlinearOut(FiniteModel):
     regime: Literal["passive", "stable_not_passive", "limit_cycle", "unstable"] | None = Field(
         description="passive | stable_not_passive | limit_cycle | unstable; null when no stiffness was given")
     reason: str
+    verification: NonlinearVerificationOut | None = Field(
+        None, description="present when verify was true and a stiffness given: the energy audit and the measured "
+                          "cycle by simulation (optim/nonlinear_verification.py)")
 
 
 class StabilityResponse(FiniteModel):

@@ -97,3 +97,15 @@ def test_the_simulator_reads_the_devices_friction(client):
     from_device = _post(client, "/v1/simulate", {"device": {**SMALL, "coulomb_friction": 0.05}, "scene": scene})
     assert named.status_code == from_device.status_code == 200
     assert named.json()["trajectory"]["motor_position"] == from_device.json()["trajectory"]["motor_position"]
+
+
+@pytest.mark.slow
+def test_verify_runs_the_audit_and_the_release(client):
+    dev = {**SMALL, "encoder_resolution": 1e-5, "coulomb_friction": 0.004}
+    r = _post(client, "/v1/analysis/stability", {"device": dev, "controller": {"stiffness": 500}, "verify": True})
+    assert r.status_code == 200, r.text
+    v = r.json()["nonlinear"]["verification"]
+    assert v["verdict"] == "confirmed", v
+    assert v["chatter_probe"]["mode"] == "none" and v["instability_probe"]["mode"] == "none"
+    assert v["chatter_probe"]["net_energy"] <= 0.0
+    assert v["measured_state"] == "settled"
