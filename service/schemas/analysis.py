@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import Literal
 
 from pydantic import BaseModel, Field, SerializerFunctionWrapHandler, model_serializer
 
@@ -111,7 +111,7 @@ class StabilityResponse(FiniteModel):
         None, description="present when the device has encoder_resolution or coulomb_friction (issue 31)")
 
     @model_serializer(mode="wrap")
-    def _without_absent_nonlinear(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:
+    def _without_absent_nonlinear(self, handler: SerializerFunctionWrapHandler):  # untyped: keeps the schema
         # a device without encoder or friction answers exactly as before the block existed
         out = handler(self)
         if out.get("nonlinear", 0) is None:
