@@ -44,6 +44,8 @@ import numpy as np
 from scipy.optimize import brentq
 
 from models.device import Device
+from optim.domain import DELTA_MAX
+from optim.errors import InputError
 from optim.stability.margins import critical_stiffness
 from optim.stability.passivity import max_passive_stiffness
 
@@ -162,8 +164,12 @@ def balance(device: Device, stiffness: float, damping: float, amplitude: float) 
     for _ in range(_OMEGA_ITER if f_c else 0):
         if res.crossover_frequency is None:
             break
-        res = critical_stiffness(_damped(device, friction_damping(f_c, amplitude, res.crossover_frequency)),
-                                 n * damping)
+        extra = friction_damping(f_c, amplitude, res.crossover_frequency)
+        if (device.damping + extra) * device.sample_time / device.mass > DELTA_MAX:
+            # friction's damping beyond the numerics' domain at this amplitude: K_cr grows with the damping
+            # (chapter eq. 10), far past any K the request can carry; the amplitude decays
+            return Balance(amplitude, n * stiffness, math.inf, None)
+        res = critical_stiffness(_damped(device, extra), n * damping)
     kcr = math.inf if res.critical_stiffness is None else res.critical_stiffness
     return Balance(amplitude, n * stiffness, kcr, res.crossover_frequency)
 
@@ -247,6 +253,15 @@ def analyse_nonlinear(device: Device, stiffness: float | None, damping: float) -
     limit is answered (regime None)."""
     if not device.nonlinear:
         return None
+    try:
+        with np.errstate(over="raise", invalid="raise"):
+            return _analyse(device, stiffness, damping)
+    except (FloatingPointError, OverflowError, ZeroDivisionError) as exc:
+        raise InputError("device", "the encoder resolution and Coulomb friction leave the numerically "
+                         "representable range of the harmonic balance") from exc
+
+
+def _analyse(device: Device, stiffness: float | None, damping: float) -> NonlinearAnalysis:
     limit = passive_stiffness_limit(device, damping)
     if stiffness is None:
         none = LimitCycle(False, None, None, None, "none: no stiffness given", DF_ERROR)
