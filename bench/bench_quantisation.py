@@ -246,11 +246,16 @@ def diolaiti_case(args: tuple) -> dict:
                  coulomb_friction=f_c if f_c > 0 else None)
     nl = analyse_nonlinear(dev, k, 0.0)
     start = release_start(dev, k, nl.limit_cycle)
+    duration = release_duration(dev, k, 0.0, 3.0, 15.0)
+    small = None
     try:
-        meas = measure_cycle(dev, k, 0.0, max(start, 20 * q), release_duration(dev, k, 0.0, 3.0, 15.0))
+        meas = measure_cycle(dev, k, 0.0, max(start, 20 * q), duration)
+        th = nl.limit_cycle.threshold_amplitude
+        if th is not None and f_c > 0:   # friction's hold on small motions: a release from 0.3× the threshold
+            small = measure_cycle(dev, k, 0.0, 0.3 * th, duration).state
     except FrictionEventLimit:
         meas = MeasuredCycle("refused", math.nan, None, 0)
-    return dict(d=d, beta=beta, sigma=sigma, regime=nl.regime, measured=meas.state, amp=meas.amplitude)
+    return dict(d=d, beta=beta, sigma=sigma, regime=nl.regime, measured=meas.state, amp=meas.amplitude, small=small)
 
 
 def run_diolaiti(pool) -> list[dict]:
@@ -267,14 +272,17 @@ def diolaiti_table(rows: list[dict]) -> list[str]:
     for d in (0, 1):
         out += ["", f"Slice d = {d} sample{'s' if d != 1 else ''} of delay (m = 0.2 kg, T = 1 ms, K = 1000 N/m, "
                 "q = 10 µm; β = b/(KT), σ = f_c/(Kq)). Each cell: predicted regime (P passive, S stable not passive, "
-                "C limit cycle, U unstable) / simulated release (s settled, c cycle, u growing, d still decaying).", "",
+                "C limit cycle, U unstable) / simulated release from 1.5× the cycle, 3× the growth threshold or 20 counts "
+                "(s settled, c cycle, u growing, d still decaying) / for U with friction, a release from 0.3× the "
+                "threshold.", "",
                 "| β \\ σ | " + " | ".join(f"{s:g}" for s in DIOLAITI_SIGMAS) + " |",
                 "|---|" + "---|" * len(DIOLAITI_SIGMAS)]
         for be in DIOLAITI_BETAS:
             cells = []
             for si in DIOLAITI_SIGMAS:
                 r = next(r for r in rows if r["d"] == d and r["beta"] == be and r["sigma"] == si)
-                cells.append(f"{_LETTER[r['regime']]}/{_MEAS[r['measured']]}")
+                cells.append(f"{_LETTER[r['regime']]}/{_MEAS[r['measured']]}"
+                             + (f"/{_MEAS[r['small']]}" if r.get("small") else ""))
             out.append(f"| {be:g} | " + " | ".join(cells) + " |")
     return out
 

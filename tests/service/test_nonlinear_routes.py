@@ -109,3 +109,32 @@ def test_verify_runs_the_audit_and_the_release(client):
     assert v["chatter_probe"]["mode"] == "none" and v["instability_probe"]["mode"] == "none"
     assert v["chatter_probe"]["net_energy"] <= 0.0
     assert v["measured_state"] == "settled"
+
+
+def test_passive_with_quantization_caps_the_designed_stiffness(client):
+    dev = {**SMALL, "encoder_resolution": 1e-5, "coulomb_friction": 0.004}
+    req = {"passivity": True, "passive_with_quantization": True, "min_gain_margin_db": 0}
+    r = _post(client, "/v1/design/stiffness", {"device": dev, "requirements": req})
+    assert r.status_code == 200, r.text
+    body = r.json()
+    # 2f_c/q = 800 N/m binds below the linear limits (2b/T = 1000): met as K ≤ cap
+    assert body["stiffness"] <= 800.0 and math.isclose(body["stiffness"], 800.0, rel_tol=1e-9)
+    assert "passive_with_quantization" in body["active_constraints"]
+
+
+@pytest.mark.parametrize("device, req, loc", [
+    ({**SMALL, "encoder_resolution": 1e-5}, {"passive_with_quantization": True},
+     ["body", "requirements", "passive_with_quantization"]),
+    (SMALL, {"passivity": True, "passive_with_quantization": True},
+     ["body", "requirements", "passive_with_quantization"]),
+])
+def test_passive_with_quantization_refusals(client, device, req, loc):
+    r = _post(client, "/v1/design/stiffness", {"device": device, "requirements": req})
+    assert r.status_code == 422 and r.json()["detail"][0]["loc"] == loc, r.text
+
+
+def test_without_friction_no_quantised_wall_is_passive(client):
+    dev = {**SMALL, "encoder_resolution": 1e-5}
+    r = _post(client, "/v1/design/stiffness", {"device": dev, "requirements": {"passivity": True,
+                                                                               "passive_with_quantization": True}})
+    assert r.status_code == 200 and r.json()["status"] == "infeasible"
