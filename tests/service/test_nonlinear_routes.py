@@ -138,3 +138,15 @@ def test_without_friction_no_quantised_wall_is_passive(client):
     r = _post(client, "/v1/design/stiffness", {"device": dev, "requirements": {"passivity": True,
                                                                                "passive_with_quantization": True}})
     assert r.status_code == 200 and r.json()["status"] == "infeasible"
+
+
+def test_without_a_wall_only_the_limit_is_answered(client):
+    dev = {**SMALL, "encoder_resolution": 1e-5, "coulomb_friction": 0.004}
+    nl = _post(client, "/v1/analysis/stability", {"device": dev}).json()["nonlinear"]
+    assert nl["regime"] is None and nl["limit_cycle"]["exists"] is False
+    assert math.isclose(nl["passive_stiffness_limit"], 800.0, rel_tol=1e-12)
+
+
+def test_presets_list_no_issue31_nulls(client):
+    body = client.get("/v1/presets").json()
+    assert all("encoder_resolution" not in d and "travel" not in d for d in body.values())
