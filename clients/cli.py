@@ -91,6 +91,19 @@ def _stability_rows(r) -> list[tuple]:
             ("elapsed", r.elapsed_ms, "ms")]
     if r.reason:
         rows.append(("reason", r.reason, ""))
+    nl = getattr(r, "nonlinear", None)
+    if nl is not None:
+        cyc = nl.limit_cycle
+        rows += [("passive stiffness limit", nl.passive_stiffness_limit, "N/m"), ("  binding term", nl.binding, ""),
+                 ("  covered by the theorem", nl.covered, ""), ("  source", nl.source, ""),
+                 ("regime", nl.regime, ""), ("  why", nl.reason, ""),
+                 ("limit cycle predicted", cyc.exists, ""), ("  amplitude", cyc.amplitude, "m"),
+                 ("  frequency", cyc.frequency_hz, "Hz"), ("  growth threshold", cyc.threshold_amplitude, "m")]
+        if nl.verification is not None:
+            v = nl.verification
+            rows += [("simulation verdict", v.verdict, ""), ("  why", v.reason, ""),
+                     ("  measured release", v.measured_state, ""), ("  measured amplitude", v.measured_amplitude, "m"),
+                     ("  measured frequency", v.measured_frequency_hz, "Hz")]
     return rows
 
 
@@ -108,11 +121,17 @@ def analyze(preset: Annotated[str | None, typer.Argument(help="preset name, or '
             damping: Annotated[float | None, typer.Option(help="B of the wall [N·s/m] (K_cr is for this B)")] = None,
             method: Annotated[str | None, typer.Option(help="linear | grid | exact | reference")] = None,
             grid_points: Annotated[int | None, typer.Option(help="frequencies for method=grid")] = None,
+            encoder: Annotated[float | None, typer.Option(
+                help="encoder resolution q [m per count] (device.encoder_resolution)")] = None,
+            coulomb: Annotated[float | None, typer.Option(
+                help="Coulomb friction f_c [N] on the motor side (device.coulomb_friction)")] = None,
             verify: c.Verify = False, local: Local = False, url: Url = DEFAULT_URL, token: Token = None, as_json: AsJson = False) -> None:
     """Critical stiffness K_cr(B), every crossover, margin and passivity (POST /v1/analysis/stability).
 
-    Exit 1 when the given wall is unstable or no K > 0 is stable.
+    With --encoder or --coulomb, also the passive stiffness limit (Abbott & Okamura), the predicted limit
+    cycle and the regime.  Exit 1 when the given wall is unstable or no K > 0 is stable.
     """
+    nonlinear = {k: v for k, v in (("encoder_resolution", encoder), ("coulomb_friction", coulomb)) if v is not None}
     controller = None
     if stiffness is not None or damping is not None:
         if stiffness is None:
@@ -126,12 +145,13 @@ def analyze(preset: Annotated[str | None, typer.Argument(help="preset name, or '
             with Progress(console=c.err, transient=True, disable=as_json) as bar:
                 task = bar.add_task("analysing presets", total=len(names))
                 for name in names:
-                    body = c.assemble({"device": {"preset": name}, "controller": controller}, sets)
+                    body = c.assemble({"device": {"preset": name, **nonlinear}, "controller": controller}, sets)
                     results[name] = zw.stability(body["device"], body.get("controller"), method=method,
                                                  grid_points=grid_points, verify=verify)
                     bar.advance(task)
         else:
-            body = c.assemble({"device": c.device_root(preset, device_file, sets), "controller": controller}, sets)
+            body = c.assemble({"device": {**c.device_root(preset, device_file, sets), **nonlinear},
+                               "controller": controller}, sets)
             with c.progress_status("analysing…", as_json):
                 result = zw.stability(body["device"], body.get("controller"), method=method, grid_points=grid_points,
                                       verify=verify)

@@ -154,6 +154,14 @@ class Device(BaseModel):
     cable: Cable | None = Field(default=None, description="two-mass cable model (§4)")
     human: Human | None = Field(default=None, description="the user's grasp Z_h (eq. 30)")
     force_sensor: ForceSensor | None = Field(default=None, description="force-sensor filter G_f (eq. 31)")
+    encoder_resolution: float | None = Field(
+        default=None, gt=0, le=1e3, description="q, encoder resolution on the motor side [m per count, or rad "
+        "for a rotary device]; measured position = q·round(x/q). Absent: a continuous encoder")
+    coulomb_friction: float | None = Field(
+        default=None, ge=0, le=_BIG, description="f_c, Coulomb friction force on the motor-side mass [N, or N·m "
+        "for a rotary device]. Absent: no Coulomb friction")
+    travel: float | None = Field(default=None, gt=0, le=1e3,
+                                 description="range of motion the encoder covers [m, or rad for a rotary device]")
 
     @model_validator(mode="before")
     @classmethod
@@ -187,6 +195,14 @@ class Device(BaseModel):
                         and not _close(float(given), total):
                     raise InputError(key, f"with a cable block, {key} must equal cable {rule} = {total:g}, got {given:g}")
         return data
+
+    @model_validator(mode="after")
+    def _encoder_within_travel(self) -> "Device":
+        q, travel = self.encoder_resolution, self.travel
+        if q is not None and travel is not None and q > travel:
+            raise InputError("encoder_resolution", f"{q:g} is larger than the device's travel {travel:g}: "
+                             "the encoder would not count once over the range of motion")
+        return self
 
     @model_validator(mode="after")
     def _cost_limit(self) -> "Device":
@@ -226,6 +242,18 @@ class Device(BaseModel):
     @staticmethod
     def preset_is_rotary(preset: str | None) -> bool:
         return preset in ROTARY_PRESETS
+
+    @property
+    def nonlinear(self) -> bool:
+        """True when the device carries an encoder resolution or a Coulomb friction (issue 31)."""
+        return self.encoder_resolution is not None or self.coulomb_friction is not None
+
+    @property
+    def encoder_counts(self) -> float | None:
+        """travel / q: the counts the encoder gives over the device's travel, when both are known."""
+        if self.encoder_resolution is None or self.travel is None:
+            return None
+        return self.travel / self.encoder_resolution
 
     def rigid(self) -> "Device":
         """The same device without its cable block (m = m_r + m_d, b = b_r + b_d)."""

@@ -124,3 +124,9 @@ def check_device_domain(device: Device) -> None:
     if device.force_sensor is not None:
         _ratio("force_sensor.time_constant", device.force_sensor.time_constant, t, "time_constant/sample_time",
                zero_ok=True)
+    if device.encoder_resolution is not None:
+        # 2f_c/q (Abbott & Okamura) and the describing function's q/A must stay normal numbers.
+        _ratio("encoder_resolution", device.encoder_resolution, 1.0, "encoder_resolution [m or rad]", zero_ok=False)
+    if device.coulomb_friction is not None:
+        _ratio("coulomb_friction", device.coulomb_friction, k_scale, "coulomb_friction·sample_time²/mass (m)",
+               zero_ok=True)

@@ -60,6 +60,21 @@ def stability_cost_ms(device: Device, method: str, damping: float, grid_points: 
     return _exact_ms(device, damping) * 2.0  # the cable's analysis adds the rigid K_cr
 
 
+def nonlinear_cost_ms(device: Device, damping: float) -> float:
+    """Estimated cost [ms] of ``analyse_nonlinear`` (optim.stability.nonlinear): ~48 amplitudes of the harmonic
+    balance plus its roots, each up to five exact K_cr (measured ≈ 0.1-0.2 s rigid, ≈ 1-2 s for the LHifAM cable)."""
+    if not device.nonlinear:
+        return 0.0
+    return 300.0 * stability_cost_ms(device, "exact", damping, 0)
+
+
+def nonlinear_verify_cost_ms(device: Device) -> float:
+    """Estimated cost [ms] of ``verify_nonlinear``: two energy audits and a release, ≤ ~15,000 samples, ≈ 0.3 ms
+    a sample with Coulomb friction (event integrator), ×3 for a cable, ≈ 0.02 ms without friction."""
+    per = 0.3 if device.coulomb_friction else 0.02
+    return 15_000 * per * (3.0 if device.cable is not None else 1.0)
+
+
 def verify_cost_ms(device: Device) -> float:
     """Estimated cost [ms] of one ``verify`` (optim.verification): two or three closed loops, by eigenvalues up to
     160 states (≈ 1-10 ms), by the argument principle beyond (≈ 20 ms + 0.03 ms per sample of delay)."""

@@ -68,6 +68,52 @@ class ForceFeedforwardResponse(Answer):
     verification: Annotated[common.VerificationOut | None, Field(description="present when verify was true")] = None
 
 
+class LimitCycleOut(Answer):
+    exists: Annotated[bool, Field(description="a stable (attracting) limit cycle is predicted")]
+    amplitude: Annotated[float | None, Field(description="[m] amplitude (half peak-to-peak) of x_r")]
+    frequency_hz: Annotated[float | None, Field(description="[Hz] its frequency")]
+    threshold_amplitude: Annotated[float | None, Field(description="[m] an unstable cycle: larger motions grow")]
+    method: str
+    error: Annotated[str, Field(description="the method's known error (docs/quantisation.md)")]
+
+
+class EnergyAuditOut(Answer):
+    net_energy: Annotated[float, Field(description="[J] the wall's net energy over the push (≤ 0 when passive)")]
+    port_balance_max: Annotated[float, Field(description="[J] max over time of S(t) − S(0) − user's work")]
+    hold_energy: Annotated[float, Field(description="[J] the wall's energy over the hold's last quarter")]
+    error_bound: Annotated[float, Field(description="[J] bound on the rounding error of net_energy")]
+    active: bool
+    mode: Literal["none", "instability", "chatter"]
+    hold_motion_counts: Annotated[float | None, Field(description="motion over the hold's last quarter [counts]")]
+    push_force: Annotated[float, Field(description="[N] the held user force")]
+
+
+class NonlinearVerificationOut(Answer):
+    verdict: Literal["confirmed", "contradicted", "not_checkable"]
+    reason: str
+    chatter_probe: EnergyAuditOut | None
+    instability_probe: EnergyAuditOut | None
+    measured_state: Literal["settled", "cycle", "growing", "decaying"] | None
+    measured_amplitude: float | None
+    measured_frequency_hz: float | None
+    predicted_amplitude: float | None
+    predicted_frequency_hz: float | None
+    release_from: float
+
+
+class NonlinearOut(Answer):
+    passive_stiffness_limit: Annotated[float, Field(description="[N/m] largest passive K with this encoder and friction")]
+    sampling_term: Annotated[float, Field(description="[N/m] 2b/T, or the delayed passivity limit when not covered")]
+    quantization_term: Annotated[float | None, Field(description="[N/m] 2f_c/q; null (infinite) without an encoder")]
+    binding: Literal["sampling", "quantization"]
+    source: str
+    covered: bool
+    limit_cycle: LimitCycleOut
+    regime: Literal["passive", "stable_not_passive", "limit_cycle", "unstable"] | None
+    reason: str
+    verification: NonlinearVerificationOut | None = None
+
+
 class StabilityResponse(Answer):
     critical_stiffness: Annotated[
         float | None, Field(description="K_cr(B) [N/m]; 0 when no K > 0 is stable; null when every K is")
@@ -104,3 +150,6 @@ class StabilityResponse(Answer):
     error_source: str
     reason: str | None
     verification: Annotated[common.VerificationOut | None, Field(description="present when verify was true")] = None
+    nonlinear: Annotated[
+        NonlinearOut | None, Field(description="present when the device has encoder_resolution or coulomb_friction")
+    ] = None

@@ -67,3 +67,8 @@ class Device(Answer):
     cable: Annotated[Cable | None, Field(description="two-mass cable model (§4)")] = None
     human: Annotated[Human | None, Field(description="the user's grasp Z_h (eq. 30)")] = None
     force_sensor: Annotated[ForceSensor | None, Field(description="force-sensor filter G_f (eq. 31)")] = None
+    encoder_resolution: Annotated[
+        float | None, Field(description="q, encoder resolution on the motor side [m per count, or rad]")
+    ] = None
+    coulomb_friction: Annotated[float | None, Field(description="f_c, Coulomb friction on the motor-side mass [N]")] = None
+    travel: Annotated[float | None, Field(description="range of motion the encoder covers [m, or rad]")] = None

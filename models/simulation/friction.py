@@ -24,10 +24,15 @@ from scipy.optimize import brentq
 
 from models.simulation.sim_plant import SampledPlant, exp_affine
 
-__all__ = ["FrictionStepper", "MAX_EVENTS_PER_SAMPLE", "SUBSTEPS"]
+__all__ = ["FrictionStepper", "FrictionEventLimit", "MAX_EVENTS_PER_SAMPLE", "SUBSTEPS"]
 
 MAX_EVENTS_PER_SAMPLE = 50
 SUBSTEPS = 8
+
+
+class FrictionEventLimit(RuntimeError):
+    """More than MAX_EVENTS_PER_SAMPLE stick-slip events in one piece of a sample (a Zeno-like chatter the
+    integrator refuses to guess through)."""
 
 
 class FrictionStepper:
@@ -116,7 +121,7 @@ class FrictionStepper:
                     events_here += 1
                     self.events += 1
                     if events_here > MAX_EVENTS_PER_SAMPLE:
-                        raise RuntimeError("coulomb_friction: more than "
+                        raise FrictionEventLimit("coulomb_friction: more than "
                                            f"{MAX_EVENTS_PER_SAMPLE} stick-slip events in one piece of a sample")
                     hit = True
                     break

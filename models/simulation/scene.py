@@ -99,13 +99,21 @@ class Marker(BaseModel):
 
 
 class Quantization(BaseModel):
+    """Encoder quantisation; without ``resolution`` the device's ``encoder_resolution`` is used."""
+
     model_config = _STRICT
-    resolution: float = Field(gt=0, le=1.0, description="q, encoder resolution [m]; measured position = q·round(x/q)")
+    resolution: float | None = Field(default=None, gt=0, le=1.0,
+                                     description="q, encoder resolution [m]; measured position = q·round(x/q); "
+                                                 "absent: the device's encoder_resolution")
 
 
 class CoulombFriction(BaseModel):
+    """Coulomb friction on the motor-side mass; without ``force`` the device's ``coulomb_friction`` is used."""
+
     model_config = _STRICT
-    force: float = Field(ge=0, le=_BIG, description="c, Coulomb friction force on the motor-side mass [N]")
+    force: float | None = Field(default=None, ge=0, le=_BIG,
+                                description="c, Coulomb friction force on the motor-side mass [N]; absent: the "
+                                            "device's coulomb_friction")
 
 
 class Saturation(BaseModel):

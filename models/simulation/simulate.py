@@ -36,7 +36,8 @@ from models.simulation.sim_plant import SceneModelError, build_plant, sample_pla
 from models.simulation.verdict import SceneVerdict, decide
 
 __all__ = ["Trajectory", "SimulationResult", "simulate", "propagation_method", "sample_count",
-           "check_cost", "SceneModelError", "loop_spec", "DIVERGENCE_FACTOR", "scene_poles"]
+           "check_cost", "SceneModelError", "loop_spec", "DIVERGENCE_FACTOR", "scene_poles", "scene_resolution",
+           "scene_friction"]
 
 #: A run stops as diverged when |x_r| exceeds this factor times its free-motion scale (_scale).
 DIVERGENCE_FACTOR = 1e6
@@ -102,8 +103,40 @@ def sample_count(device: Device, scene: Scene) -> int:
     return max(1, int(round(scene.duration / device.sample_time)))
 
 
+def scene_resolution(device: Device, scene: Scene) -> float | None:
+    """q [m] the scene quantises with: its own ``resolution``, else the device's ``encoder_resolution``; None
+    when the scene names no quantization.  A quantization named without a resolution on a device without one
+    is refused (SceneModelError naming scene.effects.quantization)."""
+    eff = scene.effects.quantization
+    if eff is None:
+        return None
+    if eff.resolution is not None:
+        return eff.resolution
+    if device.encoder_resolution is None:
+        raise SceneModelError("scene.effects.quantization", "names no resolution and the device has no "
+                              "encoder_resolution: give one of the two")
+    return device.encoder_resolution
+
+
+def scene_friction(device: Device, scene: Scene) -> float | None:
+    """f_c [N] of the scene's Coulomb friction: its own ``force``, else the device's ``coulomb_friction``; None
+    when the scene names none.  Refused (SceneModelError) when neither gives a force."""
+    eff = scene.effects.coulomb_friction
+    if eff is None:
+        return None
+    if eff.force is not None:
+        return eff.force
+    if device.coulomb_friction is None:
+        raise SceneModelError("scene.effects.coulomb_friction", "names no force and the device has no "
+                              "coulomb_friction: give one of the two")
+    return device.coulomb_friction
+
+
 def check_cost(device: Device, scene: Scene) -> None:
-    """Raise ValueError naming scene.duration when the run exceeds its method's sample limit."""
+    """Raise ValueError naming scene.duration when the run exceeds its method's sample limit, or naming the
+    effect when a nonlinear effect has no parameter (scene_resolution, scene_friction)."""
+    scene_resolution(device, scene)
+    scene_friction(device, scene)
     method = propagation_method(scene)
     n = sample_count(device, scene)
     if n > _LIMITS[method]:
@@ -133,7 +166,7 @@ def loop_spec(device: Device, scene: Scene) -> LoopSpec:
         relay_amplitude=scene.relay.amplitude if scene.relay is not None else None,
         ff_gain=ff.gain if ff is not None else 0.0,
         ff_filter=feedforward_filter(ff.cutoff_hz, ff.order, device.sample_time) if ff is not None else None,
-        quantization=eff.quantization.resolution if eff.quantization is not None else None,
+        quantization=scene_resolution(device, scene),
         max_force=eff.saturation.max_force if eff.saturation is not None else None,
     )
 
@@ -212,7 +245,7 @@ def simulate(device: Device, scene: Scene) -> SimulationResult:
         run = int(np.argmax(bad)) if bad.any() else n
         rec = Record(y[0, :run + 1], y[1, :run + 1], y[2, :run], y[3, :run], y[4, :run], y[5, :run])
     else:
-        step = FrictionStepper(spec.sampled, scene.effects.coulomb_friction.force) \
+        step = FrictionStepper(spec.sampled, scene_friction(device, scene)) \
             if method == "event-integrator" else linear_step(spec.sampled)
         if method == "event-integrator":
             step.reset(x0)

@@ -38,6 +38,7 @@ from typing import Literal
 import numpy as np
 
 from models.device import Device
+from optim.errors import InputError
 from optim.robust.box import STIFFNESS_PATHS, UncertaintyBox
 from optim.robust.passivity import describe_delays, largest_robust_passive_stiffness, passivity_corners, worst_passivity
 from optim.robust.passivity_cuts import PassivityCuts
@@ -101,6 +102,9 @@ def robust_design_stiffness(nominal: Device, requirements: StiffnessRequirements
     """The largest K (and its B) whose gain margin (and passivity, if required) holds for every device of the box."""
     t0 = time.perf_counter()
     req = requirements
+    if req.passive_with_quantization:
+        raise InputError("requirements.passive_with_quantization", "not available in the robust design (the encoder and friction "
+                         "are not parameters of the uncertainty box)")
     ignored = tuple(p for p, on in zip(box.paths, box.relevant(frozenset(box.paths) - STIFFNESS_PATHS)) if on)
     passivity, pkw = None, {}
     if req.passivity:

@@ -120,6 +120,10 @@ def design_stiffness(device: Device, requirements: StiffnessRequirements | None 
     req = requirements or StiffnessRequirements()
     ks, bs = device.stiffness_scale, device.damping_scale
     k_caps, b_caps = req.stiffness_caps(), req.damping_caps(device.sample_time)
+    k_caps.update(req.quantization_caps(device.encoder_resolution, device.coulomb_friction))
+    if k_caps.get("passive_with_quantization", 1.0) <= 0.0:
+        return _infeasible("no quantised wall is passive without Coulomb friction: K ≤ 2f_c/q = 0 (Abbott & Okamura "
+                           "2005)", t0)
     b_cap = min(b_caps.values(), default=math.inf)
     k_cap = min(k_caps.values(), default=math.inf)
     d_pass, conservative = passivity_samples(device)

@@ -46,6 +46,10 @@ class StiffnessRequirements(BaseModel):
                                                                      "20·log10(K_cr/K)")
     passivity: bool = Field(False, description="require passivity (delayed Colgate–Schenkel form; a fractional "
                                                "delay is rounded up to the next whole sample)")
+    passive_with_quantization: bool = Field(
+        False, description="require passivity with the device's encoder and Coulomb friction too: K ≤ 2f_c/q beside "
+                           "the delayed linear condition (Abbott & Okamura 2005; needs passivity and "
+                           "device.encoder_resolution; covered by the theorem only at B = 0, no delay, rigid)")
     max_damping: float | None = _limit("B ≤ max_damping [N·s/m]")
     max_stiffness: float | None = _limit("K ≤ max_stiffness [N/m]")
     max_force: float | None = _limit("actuator saturation F [N]; needs max_penetration (K·x ≤ F)")
@@ -60,6 +64,21 @@ class StiffnessRequirements(BaseModel):
                 missing, other = (b, a) if getattr(self, b) is None else (a, b)
                 raise InputError(missing, f"required when {other} is given ({rule})")
         return self
+
+    @model_validator(mode="after")
+    def _quantised_passivity_needs_passivity(self) -> "StiffnessRequirements":
+        if self.passive_with_quantization and not self.passivity:
+            raise InputError("passive_with_quantization", "needs passivity: true (the bound's linear term 2b/T is "
+                             "the passivity requirement)")
+        return self
+
+    def quantization_caps(self, encoder_resolution: float | None, coulomb_friction: float | None) -> dict[str, float]:
+        """K ≤ 2f_c/q [N/m] when passive_with_quantization (Abbott & Okamura 2005); refused without an encoder."""
+        if not self.passive_with_quantization:
+            return {}
+        if encoder_resolution is None:
+            raise InputError("requirements.passive_with_quantization", "needs device.encoder_resolution (q of K ≤ 2f_c/q)")
+        return {"passive_with_quantization": 2 * (coulomb_friction or 0.0) / encoder_resolution}
 
     @property
     def gain_factor(self) -> float:

@@ -460,6 +460,9 @@ def plan_study(problem: str, device: Mapping[str, Any], requirements: Mapping[st
     return plan
 
 
+_NONLINEAR_FIELDS = ("encoder_resolution", "coulomb_friction")
+
+
 def _check_base_and_extremes(plan: StudyPlan, prob: Problem) -> None:
     """The base must be valid, and so must each axis's extreme values applied alone to it."""
     try:
@@ -468,6 +471,13 @@ def _check_base_and_extremes(plan: StudyPlan, prob: Problem) -> None:
     except ValueError as exc:
         field, rule = _first_error_at(exc)
         raise StudyInputError(f"base.device.{field}" if field else "base.device", rule) from None
+    # the studies' problems analyse the linear loop only: an encoder or a friction would be silently ignored
+    for name in _NONLINEAR_FIELDS:
+        swept = any(a.path == f"device.{name}" for a in plan.axes)
+        if plan.device.get(name) is not None or swept:
+            raise StudyInputError(f"sweep.device.{name}" if swept else f"base.device.{name}",
+                                  "studies do not analyse encoder quantisation or Coulomb friction (issue 31): "
+                                  "use /v1/analysis/stability")
     try:
         prob.check_requirements(plan.requirements)
     except InputError as exc:

@@ -9,11 +9,20 @@ from fastapi import APIRouter, Body
 from pydantic import ValidationError
 
 from optim.errors import InputError
+from optim.nonlinear_verification import verify_nonlinear
 from optim.stability.analysis import analyse_stability
 from optim.stability.boundary import stability_boundary
+from optim.stability.nonlinear import analyse_nonlinear
 from optim.verification import verify_analysis, verify_boundary
 
-from ..cost import boundary_cost_ms, check_reference_cost, stability_cost_ms, verify_cost_ms
+from ..cost import (
+    boundary_cost_ms,
+    check_reference_cost,
+    nonlinear_cost_ms,
+    nonlinear_verify_cost_ms,
+    stability_cost_ms,
+    verify_cost_ms,
+)
 from ..errors import numerics_refused
 from ..executor import Compute
 from ..schemas.analysis import BoundaryRequest, BoundaryResponse, StabilityRequest, StabilityResponse
@@ -45,6 +54,31 @@ def _shallow(res) -> dict:
     return out
 
 
+def nonlinear_out(nl) -> dict:
+    """optim.stability.nonlinear.NonlinearAnalysis as the response's ``nonlinear`` block."""
+    p, c = nl.passive, nl.limit_cycle
+    return {"passive_stiffness_limit": p.stiffness, "sampling_term": p.sampling_term,
+            "quantization_term": p.quantization_term, "binding": p.binding, "source": p.source, "covered": p.covered,
+            "limit_cycle": {"exists": c.exists, "amplitude": c.amplitude, "frequency_hz": c.frequency_hz,
+                            "threshold_amplitude": c.threshold_amplitude, "method": c.method, "error": c.error},
+            "regime": nl.regime, "reason": nl.reason}
+
+
+def nonlinear_verification_out(v) -> dict:
+    """optim.nonlinear_verification.NonlinearVerification as the block's ``verification``."""
+    def audit(a) -> dict | None:
+        return None if a is None else {"net_energy": a.net_energy, "port_balance_max": a.port_balance_max, "hold_energy": a.hold_energy,
+                "error_bound": a.error_bound, "active": a.active, "mode": a.mode,
+                "hold_motion_counts": a.hold_motion_counts, "push_force": a.push_force}
+    return {"verdict": v.verdict, "reason": v.reason, "chatter_probe": audit(v.chatter_probe),
+            "instability_probe": audit(v.instability_probe),
+            "measured_state": v.measured.state if v.measured else None,
+            "measured_amplitude": v.measured.amplitude if v.measured else None,
+            "measured_frequency_hz": v.measured.frequency_hz if v.measured else None,
+            "predicted_amplitude": v.predicted_amplitude, "predicted_frequency_hz": v.predicted_frequency_hz,
+            "release_from": v.release_from}
+
+
 _STABILITY_EXAMPLES = {
     **device_examples(),
     "margin-of-a-wall": {"summary": "gain margin and passivity of K = 3500 N/m, B = 5 N·s/m with 1 ms delay",
@@ -68,6 +102,19 @@ async def stability(req: Annotated[StabilityRequest, Body(openapi_examples=_STAB
     except ValueError as exc:
         raise field_error(exc) from exc
     out = _shallow(res)   # non-finite numbers answer null (FiniteModel)
+    if req.device.nonlinear:
+        try:
+            nl = await compute.arun(analyse_nonlinear, req.device, k, b, cost_ms=nonlinear_cost_ms(req.device, b))
+        except ValueError as exc:
+            raise field_error(exc) from exc
+        out["nonlinear"] = nonlinear_out(nl)
+        if req.verify and k is not None:
+            try:
+                v = await compute.arun(verify_nonlinear, req.device, k, b, nl,
+                                       cost_ms=nonlinear_verify_cost_ms(req.device))
+            except ValueError as exc:
+                raise field_error(exc) from exc
+            out["nonlinear"]["verification"] = nonlinear_verification_out(v)
     if req.verify:   # only when asked: the fast path does no extra work
         out["verification"] = verification_out(await compute.arun(verify_analysis, req.device, res,
                                                            cost_ms=verify_cost_ms(req.device)))

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING, Any, Callable
 from fastapi import APIRouter
 
 from models.device import Device
+from models.simulation.friction import FrictionEventLimit
 from models.simulation.scene import Scene
 from models.simulation.simulate import SimulationResult, check_cost
 from optim.errors import InputError
@@ -40,6 +41,8 @@ async def run_scene(device: Device, scene: Scene, compute: BoundedExecutor, job:
         return await compute.arun(job, device, scene, *extra, cost_ms=cost)
     except ValueError as exc:
         raise _field_error(exc) from exc
+    except FrictionEventLimit as exc:   # the event integrator will not guess through a Zeno-like chatter
+        raise numerics_refused(exc, "scene") from exc
 
 
 def _cycle(c) -> dict:

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-from pydantic import BaseModel, Field
+from typing import Literal
+
+from pydantic import BaseModel, Field, SerializerFunctionWrapHandler, model_serializer
 
 from optim.stability.boundary import MAX_BOUNDARY_POINTS
 
@@ -22,6 +24,63 @@ class StabilityRequest(BaseModel):
     method: Method = Field(default="exact", description="rung of the accuracy ladder")
     grid_points: GridPoints = GridPointsField()
     verify: bool = VerifyField()
+
+
+class LimitCycleOut(FiniteModel):
+    exists: bool = Field(description="a stable (attracting) limit cycle is predicted")
+    amplitude: float | None = Field(description="[m] amplitude (half peak-to-peak) of x_r of the outermost stable cycle")
+    frequency_hz: float | None = Field(description="[Hz] its frequency")
+    threshold_amplitude: float | None = Field(
+        description="[m] an unstable cycle: motions larger than it grow (a linearly unstable wall held by friction "
+                    "or the quantiser's dead band for small motions); null when there is none")
+    method: str
+    error: str = Field(description="the method's known error (docs/quantisation.md)")
+
+
+class EnergyAuditOut(FiniteModel):
+    net_energy: float = Field(description="[J] the wall's net energy over the push (≤ 0 for a passive display)")
+    port_balance_max: float = Field(description="[J] max over time of S(t) − S(0) − user's work (S: the ideal wall's "
+                                                "storage)")
+    hold_energy: float = Field(description="[J] the wall's energy over the hold's last quarter")
+    error_bound: float = Field(description="[J] bound on the rounding error of net_energy")
+    active: bool
+    mode: Literal["none", "instability", "chatter"]
+    hold_motion_counts: float | None = Field(description="peak-to-peak motion over the hold's last quarter [counts]")
+    push_force: float = Field(description="[N] the held user force")
+
+
+class NonlinearVerificationOut(FiniteModel):
+    verdict: Literal["confirmed", "contradicted", "not_checkable"]
+    reason: str
+    chatter_probe: EnergyAuditOut | None = Field(description="a push held halfway between two encoder levels (null: "
+                                                         "the simulator refused, see reason)")
+    instability_probe: EnergyAuditOut | None = Field(description="a deep push released in two samples")
+    measured_state: Literal["settled", "cycle", "growing", "decaying"] | None = Field(
+        description="what a release did in simulation (decaying: still dying out at the end: not checkable)")
+    measured_amplitude: float | None = Field(description="[m] half peak-to-peak of x_r over the release's last quarter")
+    measured_frequency_hz: float | None = Field(description="[Hz] measured cycle frequency")
+    predicted_amplitude: float | None = Field(description="[m] the describing function's cycle")
+    predicted_frequency_hz: float | None = Field(description="[Hz] the describing function's cycle")
+    release_from: float = Field(description="[m] where the simulated release started")
+
+
+class NonlinearOut(FiniteModel):
+    passive_stiffness_limit: float = Field(
+        description="[N/m] largest passive K with this encoder and friction: min(2b/T, 2f_c/q) (Abbott & Okamura "
+                    "2005) in the theorem's case")
+    sampling_term: float = Field(description="[N/m] 2b/T, or zwidth's delayed passivity limit at B when not covered")
+    quantization_term: float | None = Field(description="[N/m] 2f_c/q; null (infinite) without an encoder resolution")
+    binding: Literal["sampling", "quantization"] = Field(description="the term that sets the limit")
+    source: str = Field(description="equation and paper, or the extension used")
+    covered: bool = Field(description="true only where the published theorem covers this wall (B = 0, no delay, "
+                                      "rigid device); false: an extension without proof")
+    limit_cycle: LimitCycleOut
+    regime: Literal["passive", "stable_not_passive", "limit_cycle", "unstable"] | None = Field(
+        description="passive | stable_not_passive | limit_cycle | unstable; null when no stiffness was given")
+    reason: str
+    verification: NonlinearVerificationOut | None = Field(
+        None, description="present when verify was true and a stiffness given: the energy audit and the measured "
+                          "cycle by simulation (optim/nonlinear_verification.py)")
 
 
 class StabilityResponse(FiniteModel):
@@ -48,6 +107,16 @@ class StabilityResponse(FiniteModel):
     error_source: str
     reason: str | None
     verification: VerificationOut | None = Field(None, description="present when verify was true")
+    nonlinear: NonlinearOut | None = Field(
+        None, description="present when the device has encoder_resolution or coulomb_friction (issue 31)")
+
+    @model_serializer(mode="wrap")
+    def _without_absent_nonlinear(self, handler: SerializerFunctionWrapHandler):  # untyped: keeps the schema
+        # a device without encoder or friction answers exactly as before the block existed
+        out = handler(self)
+        if out.get("nonlinear", 0) is None:
+            del out["nonlinear"]
+        return out
 
 
 class BoundaryRequest(BaseModel):

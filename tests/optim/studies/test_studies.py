@@ -190,3 +190,15 @@ def test_the_total_limit_is_the_callers():
     with pytest.raises(StudyInputError):
         plan_study("critical_stiffness", RIGID, {}, big)
     assert plan_study("critical_stiffness", RIGID, {}, big, max_points=2 * MAX_STUDY_POINTS).total == 2 * MAX_STUDY_POINTS
+
+
+@pytest.mark.parametrize("device, sweep, field", [
+    ({**RIGID, "encoder_resolution": 1e-5}, {"device.mass": [1.0, 2.0]}, "base.device.encoder_resolution"),
+    ({**RIGID, "coulomb_friction": 0.1}, {"device.mass": [1.0, 2.0]}, "base.device.coulomb_friction"),
+    (RIGID, {"device.encoder_resolution": [1e-5, 2e-5]}, "sweep.device.encoder_resolution"),
+])
+def test_studies_refuse_what_they_would_ignore(device, sweep, field):
+    # issue 31: the studies analyse the linear loop; an encoder or a friction is refused, never silently dropped
+    with pytest.raises(StudyInputError) as exc:
+        plan_study("stability", device, {}, sweep)
+    assert exc.value.field == field

@@ -1,0 +1,87 @@
+"""optim.stability.nonlinear against independent methods: the describing functions by numerical Fourier
+integrals, the Abbott–Okamura limit by hand, the regimes against zwidth's exact K_cr."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import quad
+
+from models.device import Device
+from optim.stability.margins import critical_stiffness
+from optim.stability.nonlinear import (
+    analyse_nonlinear,
+    friction_damping,
+    passive_stiffness_limit,
+    quantizer_gain,
+)
+
+
+def _fourier_gain(amplitude: float, q: float) -> float:
+    """First-harmonic gain of q·round(x/q) for x = A sin θ: (4/πA)·∫_0^{π/2} q·round(A sin θ/q)·sin θ dθ by
+    quadrature, piece by piece between the count thresholds (quarter-wave symmetry of an odd staircase)."""
+    cuts = [0.0] + [math.asin((i - 0.5) * q / amplitude) for i in range(1, 10_000)
+                    if (i - 0.5) * q < amplitude] + [math.pi / 2]
+    total = sum(quad(lambda th: q * round(amplitude * math.sin(th) / q) * math.sin(th), a, b)[0]
+                for a, b in zip(cuts, cuts[1:]))
+    return 4 * total / (math.pi * amplitude)
+
+
+@pytest.mark.parametrize("ratio", [0.3, 0.52, 0.7071, 1.0, 1.37, 2.5, 7.9, 31.0])
+def test_quantizer_gain_is_the_first_harmonic(ratio):
+    # the closed form against a quadrature of the staircase (rtol: quad's own accuracy on a step function)
+    assert math.isclose(quantizer_gain(ratio, 1.0), _fourier_gain(ratio, 1.0), rel_tol=1e-6, abs_tol=1e-9)
+
+
+def test_quantizer_gain_peaks_at_four_over_pi():
+    assert math.isclose(quantizer_gain(1 / math.sqrt(2), 1.0), 4 / math.pi, rel_tol=1e-12)
+    assert quantizer_gain(0.49, 1.0) == 0.0
+    assert abs(quantizer_gain(1e4 + 0.3, 1.0) - 1.0) < 1e-5
+
+
+def test_friction_damping_dissipates_what_coulomb_does_per_cycle():
+    # energy per cycle: Coulomb 4·f_c·A, viscous b·π·A²·ω (by hand)
+    f_c, a, w = 0.3, 2e-3, 50.0
+    assert math.isclose(friction_damping(f_c, a, w) * math.pi * a * a * w, 4 * f_c * a, rel_tol=1e-14)
+
+
+def test_abbott_okamura_limit_by_hand():
+    dev = Device(mass=0.2, damping=0.5, encoder_resolution=2e-5, coulomb_friction=0.02)
+    lim = passive_stiffness_limit(dev, 0.0)
+    assert lim.covered and lim.binding == "sampling" and lim.stiffness == 1000.0   # min(2·0.5/1e-3, 2·0.02/2e-5)
+    no_friction = Device(mass=0.2, damping=0.5, encoder_resolution=2e-5)
+    assert passive_stiffness_limit(no_friction, 0.0).stiffness == 0.0   # any quantised wall without friction
+    delayed = dev.model_copy(update={"delay": 0.002})
+    assert not passive_stiffness_limit(delayed, 0.0).covered
+
+
+@pytest.mark.parametrize("factor", [0.5, 0.9, 1.1, 2.0])
+def test_regime_agrees_with_the_exact_linear_loop(factor):
+    dev = Device(mass=0.2, damping=0.5, coulomb_friction=0.01, encoder_resolution=1e-5)
+    kcr = critical_stiffness(dev, 0.0).critical_stiffness
+    res = analyse_nonlinear(dev, factor * kcr, 0.0)
+    assert (res.regime == "unstable") == (factor > 1)
+    if factor > 1:   # friction holds small motions: the threshold is finite and positive
+        assert res.limit_cycle.threshold_amplitude is not None and res.limit_cycle.threshold_amplitude > 0
+
+
+def test_a_quantised_wall_without_friction_near_k_cr_cycles():
+    # N_q peaks at 4/π: K between π/4·K_cr and K_cr must cycle by the describing function
+    dev = Device(mass=0.2, damping=0.5, encoder_resolution=1e-5)
+    kcr = critical_stiffness(dev, 0.0).critical_stiffness
+    res = analyse_nonlinear(dev, 0.95 * kcr, 0.0)
+    assert res.regime == "limit_cycle" and res.limit_cycle.exists
+    assert 1e-5 / 2 < res.limit_cycle.amplitude < 1e-4
+    low = analyse_nonlinear(dev, 0.5 * kcr, 0.0)
+    assert low.regime == "stable_not_passive"
+
+
+def test_no_fields_no_block():
+    assert analyse_nonlinear(Device(mass=0.2, damping=0.5), 500.0, 0.0) is None
+
+
+def test_rigid_scan_is_cheap_enough():
+    dev = Device(mass=0.2, damping=0.5, encoder_resolution=1e-5, coulomb_friction=0.01)
+    assert np.isfinite(passive_stiffness_limit(dev, 0.0).stiffness)
