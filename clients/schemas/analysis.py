@@ -103,4 +103,14 @@ class StabilityResponse(Answer):
     ]
     error_source: str
     reason: str | None
+    stable_band: Annotated[
+        list[float | None] | None,
+        Field(
+            description=(
+                "[K_lo, K_hi] [N/m] (K_hi null: unbounded) where critical_stiffness is 0 because B ≥ B_max but the"
+                " closed loop is stable for K_lo < K < K_hi (a band not starting at 0, decided by the closed loop);"
+                " null when no K > 0 is stable there, or K_cr > 0 (stable for 0 < K < K_cr)"
+            )
+        ),
+    ] = None
     verification: Annotated[common.VerificationOut | None, Field(description="present when verify was true")] = None

@@ -47,6 +47,10 @@ class StabilityResponse(FiniteModel):
                     "crossover on its grid, or its samples show crossovers it missed)")
     error_source: str
     reason: str | None
+    stable_band: list[float | None] | None = Field(
+        None, description="[K_lo, K_hi] [N/m] (K_hi null: unbounded) where critical_stiffness is 0 because B ≥ B_max "
+                          "but the closed loop is stable for K_lo < K < K_hi (a band not starting at 0, decided by the "
+                          "closed loop); null when no K > 0 is stable there, or K_cr > 0 (stable for 0 < K < K_cr)")
     verification: VerificationOut | None = Field(None, description="present when verify was true")
 
 
