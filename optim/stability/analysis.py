@@ -30,14 +30,12 @@ from optim.stability.margins import (
     max_stable_damping,
 )
 from optim.stability.near_b_max import (
-    RHO_REFINE,
     ROUNDING,
     cancellation_ratio,
     input_conditioning,
-    refine_cable_crossover,
 )
 from optim.stability.passivity import passivity_margin
-from optim.stability.reference import REFERENCE_STIFFNESS_MAX_DELAY_SAMPLES, reference_critical_stiffness
+from optim.stability.reference import reference_critical_stiffness
 from optim.stability.stable_band import StableBand, stable_band
 from optim.stability.undamped_cable import is_undamped_cable
 
@@ -358,37 +356,22 @@ def _near_b_max(device: Device, damping: float, res, source: str) -> RungAnswer:
     b_max = res.max_stable_damping
     if not (damping > 0.0 and w is not None and math.isfinite(kcr) and kcr > 0.0):
         return RungAnswer(kcr, w, crossovers, EXACT_REL_ERROR, source, res.reason, b_max)
-    t, scale = device.sample_time, device.stiffness_scale
-    beta = damping / device.damping_scale
-    rho = cancellation_ratio(loop_plant(device), beta, w * t, kcr / scale)
     cond = input_conditioning(damping, b_max)
     err = max(EXACT_REL_ERROR, cond)
     if device.cable is None:
-        err = max(err, 8.0 * ROUNDING * rho)
+        t, scale = device.sample_time, device.stiffness_scale
+        rho = cancellation_ratio(loop_plant(device), damping / device.damping_scale, w * t, kcr / scale)
+        err = max(err, 8.0 * ROUNDING * rho)      # the closed form is good to a few ulp
         if err > EXACT_REL_ERROR:
             source += (f"; near B_max: K_cr is a difference of terms {rho:.3g}× larger (their rounding) and the inputs' "
                        f"rounding moves it by {cond:.2g} relative (B_max − B is {(b_max - damping) / b_max:.2g} of "
                        "B_max): the estimate carries both")
         return RungAnswer(kcr, w, crossovers, err, source, res.reason, b_max)
-    if rho > RHO_REFINE and device.delay_samples <= REFERENCE_STIFFNESS_MAX_DELAY_SAMPLES:
-        got = refine_cable_crossover(device, damping, w * t)
-        if got is None:
-            return RungAnswer(kcr, w, crossovers, math.inf, source + f"; near B_max (cancellation {rho:.3g}×) the "
-                              "40-digit re-solve of the binding crossover did not settle: no bound is claimed (method "
-                              "'reference' can)", res.reason, b_max)
-        th, alpha = got
-        new = alpha * scale
-        near = min(range(len(crossovers)), key=lambda i: abs(crossovers[i].frequency / w - 1.0), default=None)
-        if near is not None and abs(crossovers[near].frequency / w - 1.0) <= 1e-9:
-            crossovers = crossovers[:near] + (Crossover(th / t, new),) + crossovers[near + 1:]
-        source += (f"; near B_max (K_cr a difference of terms {rho:.3g}× larger, beyond the double evaluation of "
-                   f"the cable's 1/G) the binding crossover is re-solved in 40-digit arithmetic on the reference "
-                   f"rung's discretisation (it moved K_cr by {abs(new / kcr - 1):.2g} relative)"
+    if res.refined_near_b_max is not None:
+        source += (f"; near B_max (K_cr a difference of terms {res.refined_near_b_max:.3g}× larger, beyond the double "
+                   "evaluation of the cable's 1/G) the binding crossover is re-solved in 40-digit arithmetic on the "
+                   "reference rung's discretisation"
                    + (f"; the inputs' rounding moves it by {cond:.2g} relative" if cond > EXACT_REL_ERROR else ""))
-        return RungAnswer(new, th / t, crossovers, err, source, res.reason, b_max)
-    if rho > RHO_REFINE:
-        err = math.inf
-        source += f"; near B_max (cancellation {rho:.3g}×) beyond the 40-digit re-solve's delay cap: no bound claimed"
     elif cond > EXACT_REL_ERROR:
         source += f"; near B_max the inputs' rounding moves K_cr by {cond:.2g} relative: the estimate carries it"
     return RungAnswer(kcr, w, crossovers, err, source, res.reason, b_max)

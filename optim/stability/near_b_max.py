@@ -28,9 +28,9 @@ __all__ = ["cancellation_ratio", "input_conditioning", "refine_cable_crossover",
            "ROUNDING"]
 
 ROUNDING = 2.220446049250313e-16 / 2
-#: cancellation ratio above which a cable's K_cr is re-solved in 40 digits (the double's 1/G_n is good to ~1e-15
-#: at best: past 1e3 it cannot certify 1e-12)
-RHO_REFINE = 1e3
+#: cancellation ratio above which a cable's K_cr is re-solved in 40 digits (the double's modal 1/G_n was good to
+#: ≈ 2e-12 and once ≈ 1e-9 near B_max in a probe of 12 cables: past 100 the double cannot certify 1e-12 there)
+RHO_REFINE = 100.0
 #: bound on Σ|∂ln B_max/∂ln x| over the inputs (measured ≤ 3 on rigid and cable devices, docs/properties_analysis.md)
 B_MAX_SENSITIVITY = 8.0
 

@@ -32,7 +32,7 @@ import numpy as np
 
 from models.device import Device
 
-__all__ = ["StableBand", "stable_band", "EDGE_STEPS", "ALL_INTERVALS_MAX"]
+__all__ = ["StableBand", "stable_band", "crossings_at", "EDGE_STEPS", "ALL_INTERVALS_MAX"]
 
 #: relative steps at which each band edge is held to the closed loop (the second when the first is not decided)
 EDGE_STEPS = (1e-6, 1e-3)
@@ -57,7 +57,7 @@ class StableBand:
     reason: str
 
 
-def _crossings(device: Device, beta: float) -> list[tuple[float, float, int]]:
+def crossings_at(device: Device, beta: float) -> list[tuple[float, float, int]]:
     """(α, θ, change of the unstable count) of every K > 0 crossover at β, by the scan, sorted by α."""
     from optim.stability.crossovers import positive_real_crossings, scan_grid, theta_min
     from optim.stability.margins import loop_plant
@@ -94,7 +94,7 @@ def stable_band(device: Device, damping: float) -> StableBand:
     m, t = device.mass, device.sample_time
     to_alpha, beta = t * t / m, damping * t / m
     scale = 1.0 / to_alpha
-    cross = _crossings(device, beta)
+    cross = crossings_at(device, beta)
     # merge crossovers at the same K (to 1e-12): their changes add
     edges: list[list] = []
     for a, _, ch in cross:
