@@ -86,6 +86,26 @@ def crossings_at(device: Device, beta: float) -> list[tuple[float, float, int]]:
     return sorted(out)
 
 
+def _refined_edge(device: Device, damping: float, beta: float, alpha: float, cross: list) -> float | None | bool:
+    """The crossover at α re-solved in 40 digits where its cancellation ratio exceeds RHO_REFINE (None: not needed;
+    False: the re-solve did not settle or gave K ≤ 0)."""
+    from optim.stability.margins import loop_plant
+    from optim.stability.near_b_max import RHO_REFINE, cancellation_ratio, refine_cable_crossover
+    from optim.stability.reference import REFERENCE_STIFFNESS_MAX_DELAY_SAMPLES
+
+    if not math.isfinite(alpha):
+        return None
+    theta = min((c for c in cross if c[0] == alpha), key=lambda c: c[1])[1]
+    if theta >= math.pi or cancellation_ratio(loop_plant(device), beta, theta, alpha) <= RHO_REFINE:
+        return None
+    if device.delay_samples > REFERENCE_STIFFNESS_MAX_DELAY_SAMPLES:
+        return False
+    got = refine_cable_crossover(device, damping, theta)
+    if got is None or not got[1] > 0.0:
+        return False
+    return got[1]
+
+
 def stable_band(device: Device, damping: float) -> StableBand:
     """The stable set in K of the wall with virtual damping ``damping`` [N·s/m] at or above B_max (module docstring)."""
     from optim.stability.closed_loop import sampled_plant
@@ -152,6 +172,19 @@ def stable_band(device: Device, damping: float) -> StableBand:
                           "or above B_max: B_max and the closed loop disagree")
     lo_a = ks[i0 - 1]
     hi_a = ks[i1] if i1 < len(ks) else math.inf
+    # an edge at a K that is a small difference of O(β) terms (just past B_max the lower one is): re-solved in 40
+    # digits for a cable, as K_cr is below B_max (optim.stability.near_b_max; the double edge was 2e-6 off at 5e-9
+    # past B_max in the property run)
+    refined = {}
+    if device.cable is not None:
+        for edge in (lo_a, hi_a):
+            got = _refined_edge(device, damping, beta, edge, cross)
+            if got is False:
+                return StableBand("undetermined", None, 0, checked, f"the band edge at K = {edge * scale:.9g} N/m is "
+                                  "a difference of much larger terms and its 40-digit re-solve did not settle")
+            if got is not None:
+                refined[edge] = got
+    steps = []
     # each edge, just inside and just outside, by the closed loop
     for edge, inside_sign in ((lo_a, 1.0), (hi_a, -1.0)):
         if not math.isfinite(edge):
@@ -159,6 +192,7 @@ def stable_band(device: Device, damping: float) -> StableBand:
         j = ks.index(edge)
         gap_lo = edge - ks[j - 1] if j > 0 else edge
         gap_hi = ks[j + 1] - edge if j + 1 < len(ks) else math.inf
+        edge = refined.get(edge, edge)
         ok = None
         for step in EDGE_STEPS:
             e = min(step, 0.5 * gap_lo / edge, 0.5 * gap_hi / edge)
@@ -170,13 +204,15 @@ def stable_band(device: Device, damping: float) -> StableBand:
                                   "outside)")
             if inside and outside is False:
                 ok = True
+                steps.append(e)
                 break
         if not ok:
             return StableBand("undetermined", None, 0, checked, f"the closed loop cannot decide either side of the "
                               f"band edge at K = {edge * scale:.9g} N/m (a pole within rounding of the circle)")
-    band = (lo_a * scale, hi_a * scale)
+    band = (refined.get(lo_a, lo_a) * scale, refined.get(hi_a, hi_a) * scale)
     return StableBand("band", band, len(bands) - 1, checked, (
         f"the closed loop is stable for {band[0]:.6g} < K < {band[1]:.6g} N/m (and at no smaller K): a band past "
-        "B_max, its edges the crossovers there, confirmed by the closed-loop eigenvalues or argument principle just "
-        "inside and outside each"
+        "B_max, its edges the crossovers there" + (" (re-solved in 40 digits)" if refined else "") +
+        ", confirmed by the closed-loop eigenvalues or argument principle just inside and outside each (at "
+        f"{max(steps):.0e} relative)"
         + (f"; {len(bands) - 1} further stable band(s) above it" if len(bands) > 1 else "")))
