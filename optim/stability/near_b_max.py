@@ -17,6 +17,7 @@ the device's inputs (mass, damping, sample time, delay, and the cable's).  Both 
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 
 import mpmath as mp
 import numpy as np
@@ -48,16 +49,28 @@ def input_conditioning(damping: float, b_max: float | None) -> float:
     return ROUNDING * (damping + B_MAX_SENSITIVITY * b_max) / (b_max - damping)
 
 
-def refine_cable_crossover(device: Device, damping: float, theta: float, digits: int = 40
-                           ) -> tuple[float, float] | None:
-    """(θ, α) of the crossover near θ in ``digits`` digits (Newton on Im H of the reference discretisation), or None
-    when Newton does not settle within 1e-9 of θ."""
+@lru_cache(maxsize=64)
+def _damperless_h(device: Device, digits: int):
+    """−1/G_n(e^{jθ}) of the reference discretisation in digits + 10 digits, kept per device (its matrix exponentials
+    are most of a re-solve's cost; a boundary or a design re-solves one device at many B)."""
     from optim.stability.reference import cable_h
 
     with mp.workdps(digits + 10):
         d, f = split_delay(device.delay_samples)
+        return cable_h(device, d, mp.mpf(f), mp.mpf(0))
+
+
+def refine_cable_crossover(device: Device, damping: float, theta: float, digits: int = 40
+                           ) -> tuple[float, float] | None:
+    """(θ, α) of the crossover near θ in ``digits`` digits (Newton on Im H of the reference discretisation), or None
+    when Newton does not settle within 1e-9 of θ."""
+    with mp.workdps(digits + 10):
         beta = mp.mpf(damping) * mp.mpf(device.sample_time) / mp.mpf(device.mass)
-        h = cable_h(device, d, mp.mpf(f), beta)
+        h0 = _damperless_h(device, digits)
+
+        def h(t):
+            return h0(t) - beta * (1 - 1 / mp.expj(t))
+
         th = mp.mpf(theta)
         step = mp.mpf(10) ** (-(digits // 2))
         for _ in range(30):
