@@ -30,7 +30,10 @@ from optim.stability.margins import (
     max_stable_damping,
 )
 from optim.stability.near_b_max import (
+    B_MAX_SENSITIVITY,
+    MEASURE_WITHIN,
     ROUNDING,
+    b_max_sensitivity,
     cancellation_ratio,
     input_conditioning,
 )
@@ -356,7 +359,10 @@ def _near_b_max(device: Device, damping: float, res, source: str) -> RungAnswer:
     b_max = res.max_stable_damping
     if not (damping > 0.0 and w is not None and math.isfinite(kcr) and kcr > 0.0):
         return RungAnswer(kcr, w, crossovers, EXACT_REL_ERROR, source, res.reason, b_max)
-    cond = input_conditioning(damping, b_max)
+    sens = B_MAX_SENSITIVITY
+    if b_max is not None and math.isfinite(b_max) and b_max - damping <= MEASURE_WITHIN * b_max:
+        sens = b_max_sensitivity(device, b_max)
+    cond = input_conditioning(damping, b_max, sens)
     err = max(EXACT_REL_ERROR, cond)
     if device.cable is None:
         t, scale = device.sample_time, device.stiffness_scale

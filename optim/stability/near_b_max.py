@@ -10,8 +10,9 @@ binding crossover re-solved in 40-digit arithmetic on the reference rung's own d
 answer's θ; K is Re H there.
 
 The inputs themselves are rounded to double (a relative u each): K_cr ∝ (B_max − B) near B_max, so their rounding
-moves K_cr by about u·(B + S·B_max)/(B_max − B), S = :data:`B_MAX_SENSITIVITY` bounding Σ|∂ln B_max/∂ln x| over
-the device's inputs (mass, damping, sample time, delay, and the cable's).  Both terms enter the estimate.
+moves K_cr by about u·(B + S·B_max)/(B_max − B), S = Σ|∂ln B_max/∂ln x| over the device's inputs (mass, damping,
+sample time, delay, and the cable's), measured by differences where the term can matter (B within 1 % of B_max:
+rigid devices gave ≈ 2, a cable 266), else :data:`B_MAX_SENSITIVITY`.  Both terms enter the estimate.
 """
 
 from __future__ import annotations
@@ -25,15 +26,18 @@ import numpy as np
 from models.device import Device
 from models.discretize import split_delay
 
-__all__ = ["cancellation_ratio", "input_conditioning", "refine_cable_crossover", "RHO_REFINE", "B_MAX_SENSITIVITY",
+__all__ = ["cancellation_ratio", "input_conditioning", "b_max_sensitivity", "MEASURE_WITHIN", "refine_cable_crossover", "RHO_REFINE", "B_MAX_SENSITIVITY",
            "ROUNDING"]
 
 ROUNDING = 2.220446049250313e-16 / 2
 #: cancellation ratio above which a cable's K_cr is re-solved in 40 digits (the double's modal 1/G_n was good to
 #: ≈ 2e-12 and once ≈ 1e-9 near B_max in a probe of 12 cables: past 100 the double cannot certify 1e-12 there)
 RHO_REFINE = 100.0
-#: bound on Σ|∂ln B_max/∂ln x| over the inputs (measured ≤ 3 on rigid and cable devices, docs/properties_analysis.md)
+#: Σ|∂ln B_max/∂ln x| assumed where it is not measured (B more than 1 % below B_max, where the term stays < 1e-13),
+#: and the least used where it is
 B_MAX_SENSITIVITY = 8.0
+#: B within this relative distance of B_max: the sensitivity is measured
+MEASURE_WITHIN = 1e-2
 
 
 def cancellation_ratio(plant, beta: float, theta: float, alpha: float) -> float:
@@ -42,11 +46,40 @@ def cancellation_ratio(plant, beta: float, theta: float, alpha: float) -> float:
     return (inv + beta * abs(complex(np.expm1(-1j * theta)))) / alpha
 
 
-def input_conditioning(damping: float, b_max: float | None) -> float:
+def b_max_sensitivity(device: Device, b_max: float) -> float:
+    """Σ|∂ln B_max/∂ln x| over the device's nonzero inputs x (mass, damping, sample time, delay; a cable's masses,
+    dampings and stiffness instead of mass and damping), by forward differences of relative step 1e-6, doubled;
+    never below B_MAX_SENSITIVITY.  A cable measured 266 where rigid devices give ≈ 2."""
+    from optim.stability.margins import max_stable_damping
+
+    base = device.model_dump(exclude_none=True)
+    keys: list[tuple[str, ...]] = [("sample_time",), ("delay",)]
+    keys += [("cable", k) for k in base["cable"]] if "cable" in base else [("mass",), ("damping",)]
+    total = 0.0
+    for key in keys:
+        fields = {k: (dict(v) if isinstance(v, dict) else v) for k, v in base.items()}
+        where = fields if len(key) == 1 else fields["cable"]
+        if not where.get(key[-1]):
+            continue
+        where[key[-1]] *= 1.0 + 1e-6
+        if len(key) == 2:
+            fields.pop("mass", None)
+            fields.pop("damping", None)
+        try:
+            moved = max_stable_damping(Device(**fields))
+        except ValueError:
+            return math.inf
+        if not math.isfinite(moved):
+            return math.inf
+        total += abs(moved / b_max - 1.0) / 1e-6
+    return max(2.0 * total, B_MAX_SENSITIVITY)
+
+
+def input_conditioning(damping: float, b_max: float | None, sensitivity: float = B_MAX_SENSITIVITY) -> float:
     """Relative change of K_cr from rounding every input once (module docstring); 0 without a B_max."""
     if not damping > 0.0 or b_max is None or not math.isfinite(b_max) or not b_max > damping:
         return 0.0
-    return ROUNDING * (damping + B_MAX_SENSITIVITY * b_max) / (b_max - damping)
+    return ROUNDING * (damping + sensitivity * b_max) / (b_max - damping)
 
 
 @lru_cache(maxsize=64)
