@@ -70,7 +70,7 @@ class ForceFeedforwardResponse(Answer):
 
 class StabilityResponse(Answer):
     critical_stiffness: Annotated[
-        float | None, Field(description="K_cr(B) [N/m]; 0 when no K > 0 is stable; null when every K is")
+        float | None, Field(description="K_cr(B) [N/m]; 0 when K → 0⁺ is unstable (see stable_band); null when every K is")
     ]
     crossover_frequency: Annotated[float | None, Field(description="ω [rad/s] of the crossover that sets K_cr")]
     crossovers: Annotated[list[common.CrossoverOut], Field(description="every phase crossover with K > 0")]

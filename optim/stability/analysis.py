@@ -67,7 +67,8 @@ MODE_MATTERS_RTOL = 0.05
 @dataclass(frozen=True)
 class StabilityAnalysis:
     critical_stiffness: float | None
-    """K_cr(B) [N/m]; 0 when no K > 0 is stable; None when every K > 0 is."""
+    """K_cr(B) [N/m]; 0 when the loop is unstable as K → 0⁺ (no damping, or B ≥ B_max: ``stable_band`` then says
+    whether a larger K is stable); None when every K > 0 is."""
     crossover_frequency: float | None
     """ω [rad/s] of the crossover that sets K_cr."""
     crossovers: tuple[Crossover, ...]

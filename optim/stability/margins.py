@@ -2,7 +2,8 @@
 
 K_cr(B) is the smallest K > 0 at which the loop 1 + (K + B(1 - z⁻¹)/T)·G(z) = 0
 gets a pole on the unit circle (ARCHITECTURE.md), the minimum over every phase
-crossover including the Nyquist frequency, and 0 when no K > 0 is stable.
+crossover including the Nyquist frequency, and 0 when the loop is unstable as K → 0⁺ (past B_max a band of larger K
+may still be stable: optim.stability.stable_band).
 
 Why the minimum over crossovers is the answer: at K = 0⁺ every closed-loop pole
 is inside the unit circle provided the damper-only loop 1 + B(1 - z⁻¹)/T·G = 0 is
@@ -72,7 +73,8 @@ class CriticalStiffness:
     """K_cr(B) of one device, with every crossover and the reason when it is 0."""
 
     critical_stiffness: float
-    """K_cr [N/m]; 0 when no K > 0 is stable, inf when every K > 0 is."""
+    """K_cr [N/m]; 0 when the loop is unstable as K → 0⁺ (optim.stability.stable_band: a larger K may be), inf when
+    every K > 0 is."""
     crossover_frequency: float | None
     """ω [rad/s] of the crossover that sets K_cr (None when K_cr is 0 or inf)."""
     all_crossovers: tuple[Crossover, ...] | Callable[[], tuple[Crossover, ...]] = field(repr=False, compare=False)

@@ -25,7 +25,7 @@ class StabilityRequest(BaseModel):
 
 
 class StabilityResponse(FiniteModel):
-    critical_stiffness: float | None = Field(description="K_cr(B) [N/m]; 0 when no K > 0 is stable; null when every K is")
+    critical_stiffness: float | None = Field(description="K_cr(B) [N/m]; 0 when K → 0⁺ is unstable (see stable_band); null when every K is")
     crossover_frequency: float | None = Field(description="ω [rad/s] of the crossover that sets K_cr")
     crossovers: list[CrossoverOut] = Field(description="every phase crossover with K > 0")
     gain_margin_db: float | None = Field(description="20·log10(K_cr/K) [dB] when a controller is given")
