@@ -9,7 +9,8 @@ Why the minimum over crossovers is the answer: at K = 0⁺ every closed-loop pol
 is inside the unit circle provided the damper-only loop 1 + B(1 - z⁻¹)/T·G = 0 is
 stable (the pole at z = 1 then moves inwards with K).  That loop is stable for
 B below its own critical value B_max, found by the same crossover scan.  Above
-B_max nothing is stable: K_cr = 0 with that reason.
+B_max the loop is unstable as K → 0⁺: K_cr = 0 with that reason (and the band of larger K that the closed loop
+finds stable, if any, in the analysis: optim.stability.stable_band).
 """
 
 from __future__ import annotations
