@@ -175,7 +175,27 @@ class RigidZOH:
         zm1 = np.expm1(1j * theta)                         # z - 1 without cancellation
         one_minus_p = self._coef[0]  # type: ignore[attr-defined]
         den = zm1 * (zm1 + one_minus_p)
-        return den * np.exp(1j * self.d * theta) / self.numerator(z)
+        out = den * np.exp(1j * self.d * theta) / self.numerator(z)
+        at_pi = theta == math.pi
+        if np.any(at_pi) and self.inverse_at_nyquist() is not None:
+            out[at_pi] = self.inverse_at_nyquist()
+        return out
+
+    def inverse_at_nyquist(self) -> float | None:
+        """1/G_n(−1), real, in closed form: z = −1, z + 1 = 0 and (−1)^d exactly (issue 34).  The complex formula at
+        θ = π carries sin(π) ≈ 1.2e-16 into z + 1, and with a whole delay the numerator there is c(δ) = O(δ²)
+        (the ZOH zero beside −1): the rounding then moved the Nyquist crossover's K by ~1.3e-13/δ² (a 4.1× error at
+        δ ≈ 1e-16, 60-digit eigenvalues)."""
+        one_minus_p, phi12, g0p, g0v, g1p, g1v, _ = self.coefficients()
+        den = -2.0 * (one_minus_p - 2.0)
+        if self.f == 0.0:
+            num = self._c0[1]  # type: ignore[attr-defined]
+        else:
+            num = (g0p - g1p) * (one_minus_p - 2.0) + phi12 * (g0v - g1v)
+        if num == 0.0:
+            return None      # a zero on −1 (δ = 0): H(π) is a pole; the complex formula's value stands, as before
+        sign = -1.0 if self.d % 2 else 1.0
+        return sign * den / num
 
     def response(self, theta: np.ndarray) -> np.ndarray:
         return 1.0 / self.inverse_response(theta)

@@ -6,15 +6,25 @@ one optim.stability.margins analyses: the wall K + B(1 - z⁻¹)/T on the rigid 
 human, force sensor or feedforward.  Then the loop is stable iff 0 < K < K_cr(B) (with B < B_max;
 optim/stability/margins.py says why), a different method from the poles: the crossover scan.  K within
 MARGIN_AMBIGUITY of K_cr is a pole on the circle: undetermined.
+
+Past B_max (K_cr = 0) a band of larger K can still be stable (optim.stability.stable_band, issue 34): there the
+closed loop at the scene's K decides (eigenvalues with their rounding bound, else the argument principle), and it
+must agree with the band the analysis reports; a disagreement or a K on a band edge is undetermined.
 """
 
 from __future__ import annotations
+
+import math
 
 from models.device import Device
 from models.simulation.scene import Scene
 from models.simulation.simulate import SimulationResult
 from models.simulation.verdict import decide_exact
+from optim.stability.closed_loop import sampled_plant
 from optim.stability.margins import critical_stiffness
+from optim.stability.stable_band import stable_band
+from optim.stability.undamped_cable import is_undamped_cable
+from optim.verification import check_point
 
 __all__ = ["MARGIN_AMBIGUITY", "with_margin_verdict", "margin_verdict"]
 
@@ -35,6 +45,8 @@ def margin_verdict(device: Device, scene: Scene) -> tuple[str, str] | None:
     k, b = scene.controller.stiffness, scene.controller.damping
     crit = critical_stiffness(dev, b)
     k_cr = crit.critical_stiffness
+    if k_cr == 0.0 and b > 0.0 and not is_undamped_cable(dev):
+        return _past_b_max(dev, k, b)
     where = f"K = {k:.9g} N/m against K_cr(B = {b:.6g}) = {k_cr:.9g} N/m (optim.stability.margins, the crossover scan)"
     if abs(k - k_cr) <= MARGIN_AMBIGUITY * k_cr:
         return "undetermined", f"{where}: a pole on the unit circle within K_cr's accuracy"
@@ -42,6 +54,27 @@ def margin_verdict(device: Device, scene: Scene) -> tuple[str, str] | None:
         return "stable", f"every closed-loop pole lies inside the unit circle: {where}"
     why = f"; {crit.reason}" if crit.reason else ""
     return "unstable", f"a closed-loop pole lies outside the unit circle: {where}{why}"
+
+
+def _past_b_max(device: Device, k: float, b: float) -> tuple[str, str]:
+    """K_cr = 0 (B ≥ B_max), yet a band of K may be stable (optim.stability.stable_band): the closed loop at this K
+    decides (eigenvalues with their rounding bound, else the argument principle), and must agree with the band."""
+    band = stable_band(device, b)
+    m, t = device.mass, device.sample_time
+    point = check_point(device, sampled_plant(device), k * t * t / m, b * t / m)
+    where = f"K = {k:.9g} N/m at B = {b:.6g} N·s/m past B_max (K_cr = 0), by the closed loop ({point.method})"
+    if point.stable is None:
+        return "undetermined", f"{where}: {point.reason}"
+    inside = band.band is not None and band.band[0] < k < band.band[1]
+    if band.status == "undetermined" or (band.band is not None and any(
+            abs(k / e - 1.0) <= MARGIN_AMBIGUITY for e in band.band if math.isfinite(e))):
+        return "undetermined", f"{where}: {'stable' if point.stable else 'unstable'} there, but {band.reason}"
+    if point.stable != inside:
+        return "undetermined", (f"{where}: {'stable' if point.stable else 'unstable'} there, against the stable "
+                                f"band's analysis ({band.reason})")
+    if point.stable:
+        return "stable", f"every closed-loop pole lies inside the unit circle: {where}; {band.reason}"
+    return "unstable", f"a closed-loop pole lies outside the unit circle: {where}; {band.reason}"
 
 
 def with_margin_verdict(device: Device, scene: Scene, result: SimulationResult) -> SimulationResult:

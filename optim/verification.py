@@ -34,6 +34,7 @@ from optim.stability.closed_loop import (
 )
 
 __all__ = [
+    "check_point",
     "DEFAULT_EPSILON",
     "claimed_epsilon",
     "not_checkable",
@@ -120,6 +121,11 @@ def _check_point(device: Device, plant: SampledPlant, alpha: float, beta: float)
     if cnt.count is None:
         return _Point(None, None, None, ARGUMENT, cnt.reason)
     return _Point(cnt.count == 0, None, cnt.count, ARGUMENT, None)
+
+
+#: the closed loop's verdict at one (α, β): eigenvalues with their rounding bound up to EIG_MAX_STATES states, else
+#: the argument principle (optim.stability.stable_band and optim.scene_verdict decide past B_max with it)
+check_point = _check_point
 
 
 def claimed_epsilon(method: str, error_estimate: float | None, linear_factor: float = 1.0) -> float | None:

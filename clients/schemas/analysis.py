@@ -116,7 +116,7 @@ class NonlinearOut(Answer):
 
 class StabilityResponse(Answer):
     critical_stiffness: Annotated[
-        float | None, Field(description="K_cr(B) [N/m]; 0 when no K > 0 is stable; null when every K is")
+        float | None, Field(description="K_cr(B) [N/m]; 0 when K → 0⁺ is unstable (see stable_band); null when every K is")
     ]
     crossover_frequency: Annotated[float | None, Field(description="ω [rad/s] of the crossover that sets K_cr")]
     crossovers: Annotated[list[common.CrossoverOut], Field(description="every phase crossover with K > 0")]
@@ -149,6 +149,16 @@ class StabilityResponse(Answer):
     ]
     error_source: str
     reason: str | None
+    stable_band: Annotated[
+        list[float | None] | None,
+        Field(
+            description=(
+                "[K_lo, K_hi] [N/m] (K_hi null: unbounded) where critical_stiffness is 0 because B ≥ B_max but the"
+                " closed loop is stable for K_lo < K < K_hi (a band not starting at 0, decided by the closed loop);"
+                " null when no K > 0 is stable there, or K_cr > 0 (stable for 0 < K < K_cr)"
+            )
+        ),
+    ] = None
     verification: Annotated[common.VerificationOut | None, Field(description="present when verify was true")] = None
     nonlinear: Annotated[
         NonlinearOut | None, Field(description="present when the device has encoder_resolution or coulomb_friction")

@@ -29,8 +29,18 @@ from optim.stability.margins import (
     loop_plant,
     max_stable_damping,
 )
+from optim.stability.near_b_max import (
+    B_MAX_SENSITIVITY,
+    MEASURE_WITHIN,
+    ROUNDING,
+    b_max_sensitivity,
+    cancellation_ratio,
+    input_conditioning,
+)
 from optim.stability.passivity import passivity_margin
 from optim.stability.reference import reference_critical_stiffness
+from optim.stability.stable_band import StableBand, stable_band
+from optim.stability.undamped_cable import is_undamped_cable
 
 __all__ = ["Method", "METHODS", "GridPoints", "MIN_GRID_POINTS", "check_rung", "StabilityAnalysis", "analyse_stability", "linear_error_estimate",
            "grid_critical_stiffness", "grid_blind_spot", "DEFAULT_GRID_POINTS", "MAX_GRID_POINTS", "EXACT_REL_ERROR",
@@ -57,7 +67,8 @@ MODE_MATTERS_RTOL = 0.05
 @dataclass(frozen=True)
 class StabilityAnalysis:
     critical_stiffness: float | None
-    """K_cr(B) [N/m]; 0 when no K > 0 is stable; None when every K > 0 is."""
+    """K_cr(B) [N/m]; 0 when the loop is unstable as K → 0⁺ (no damping, or B ≥ B_max: ``stable_band`` then says
+    whether a larger K is stable); None when every K > 0 is."""
     crossover_frequency: float | None
     """ω [rad/s] of the crossover that sets K_cr."""
     crossovers: tuple[Crossover, ...]
@@ -92,6 +103,10 @@ class StabilityAnalysis:
     """Relative error bound or estimate of critical_stiffness."""
     error_source: str
     reason: str | None
+    stable_band: tuple[float, float] | None = None
+    """[K_lo, K_hi] [N/m] (K_hi may be inf): where K_cr = 0 because B ≥ B_max, the stiffnesses the closed loop is
+    nevertheless stable at (optim.stability.stable_band: a band not starting at 0); None when there is none or
+    K_cr > 0 (the stable set is then 0 < K < K_cr)."""
 
 
 def linear_error_estimate(device: Device, damping: float) -> float:
@@ -334,8 +349,39 @@ def _exact_rung(device: Device, damping: float) -> RungAnswer:
                           source + f"; NOT confirmed by the closed loop ({res.unconfirmed}): the cable mode lies within "
                           "1e-12 of the unit circle, where double precision cannot vouch for it (method 'reference' "
                           "can)", res.reason, res.max_stable_damping)
-    return RungAnswer(res.critical_stiffness, res.crossover_frequency, tuple(res.crossovers), EXACT_REL_ERROR, source,
-                      res.reason, res.max_stable_damping)
+    return _near_b_max(device, damping, res, source)
+
+
+def _near_b_max(device: Device, damping: float, res, source: str) -> RungAnswer:
+    """The exact answer's error estimate with the cancellation near B_max and the inputs' conditioning
+    (optim.stability.near_b_max); a cable's binding crossover re-solved in 40 digits where its double evaluation
+    cannot certify 1e-12."""
+    kcr, w, crossovers = res.critical_stiffness, res.crossover_frequency, tuple(res.crossovers)
+    b_max = res.max_stable_damping
+    if not (damping > 0.0 and w is not None and math.isfinite(kcr) and kcr > 0.0):
+        return RungAnswer(kcr, w, crossovers, EXACT_REL_ERROR, source, res.reason, b_max)
+    sens = B_MAX_SENSITIVITY
+    if b_max is not None and math.isfinite(b_max) and b_max - damping <= MEASURE_WITHIN * b_max:
+        sens = b_max_sensitivity(device, b_max)
+    cond = input_conditioning(damping, b_max, sens)
+    err = max(EXACT_REL_ERROR, cond)
+    if device.cable is None:
+        t, scale = device.sample_time, device.stiffness_scale
+        rho = cancellation_ratio(loop_plant(device), damping / device.damping_scale, w * t, kcr / scale)
+        err = max(err, 8.0 * ROUNDING * rho)      # the closed form is good to a few ulp
+        if err > EXACT_REL_ERROR:
+            source += (f"; near B_max: K_cr is a difference of terms {rho:.3g}× larger (their rounding) and the inputs' "
+                       f"rounding moves it by {cond:.2g} relative (B_max − B is {(b_max - damping) / b_max:.2g} of "
+                       "B_max): the estimate carries both")
+        return RungAnswer(kcr, w, crossovers, err, source, res.reason, b_max)
+    if res.refined_near_b_max is not None:
+        source += (f"; near B_max (K_cr a difference of terms {res.refined_near_b_max:.3g}× larger, beyond the double "
+                   "evaluation of the cable's 1/G) the binding crossover is re-solved in 40-digit arithmetic on the "
+                   "reference rung's discretisation"
+                   + (f"; the inputs' rounding moves it by {cond:.2g} relative" if cond > EXACT_REL_ERROR else ""))
+    elif cond > EXACT_REL_ERROR:
+        source += f"; near B_max the inputs' rounding moves K_cr by {cond:.2g} relative: the estimate carries it"
+    return RungAnswer(kcr, w, crossovers, err, source, res.reason, b_max)
 
 
 def _reference_rung(device: Device, damping: float) -> RungAnswer:
@@ -358,13 +404,24 @@ class WallJudgement:
     passivity_conservative: bool = False
 
 
-def _judge_wall(device: Device, stiffness: float | None, damping: float, kcr: float | None) -> WallJudgement:
+#: a stiffness within this relative distance of a band edge past B_max is on it: neither side is claimed
+BAND_EDGE_RTOL = 1e-9
+
+
+def _judge_wall(device: Device, stiffness: float | None, damping: float, kcr: float | None,
+                band: StableBand | None = None) -> WallJudgement:
     if stiffness is None:
         return WallJudgement()
-    stable = bool(kcr is not None and stiffness < kcr)
+    stable: bool | None = bool(kcr is not None and stiffness < kcr)
     gm = gain_margin_db(kcr, stiffness) if kcr and math.isfinite(kcr) else None
     if kcr == 0:
         gm, stable = None, False
+        if band is not None and band.status == "undetermined":
+            stable = None
+        elif band is not None and band.band is not None:
+            lo, hi = band.band
+            near = any(abs(stiffness / e - 1.0) <= BAND_EDGE_RTOL for e in (lo, hi) if math.isfinite(e))
+            stable = None if near else lo < stiffness < hi
     pm = passivity_margin(device, stiffness, damping)
     return WallJudgement(gm, stable, pm.passive, pm.required_damping, pm.conservative)
 
@@ -421,7 +478,12 @@ def _analyse(device: Device, stiffness: float | None, damping: float, method: st
     else:
         rung = _reference_rung(device, damping)
     kcr, reason, b_max = rung.critical_stiffness, rung.reason, rung.max_stable_damping
-    wall = _judge_wall(device, stiffness, damping, kcr)
+    band = None
+    if kcr == 0 and damping > 0 and method in ("exact", "reference") and not is_undamped_cable(device):
+        # K_cr = 0 past B_max: the closed loop decides whether some K > 0 is stable all the same
+        band = stable_band(device, damping)
+        reason = _band_reason(reason, band)
+    wall = _judge_wall(device, stiffness, damping, kcr, band)
     cable = _judge_cable(device, damping, method, kcr)
     if damping > 0 and b_max is None and method == "exact":
         b_max = max_stable_damping(device)
@@ -436,4 +498,17 @@ def _analyse(device: Device, stiffness: float | None, damping: float, method: st
         max_stable_damping=_finite(b_max), q_criterion=cable.q_criterion, mode_matters=cable.mode_matters,
         rigid_critical_stiffness=_finite(cable.rigid_critical_stiffness), method=method,
         elapsed_ms=(time.perf_counter() - t0) * 1e3, error_estimate=rung.error_estimate,
-        error_source=rung.error_source, reason=reason)
+        error_source=rung.error_source, reason=reason,
+        stable_band=band.band if band is not None and band.status == "band" else None)
+
+
+def _band_reason(reason: str | None, band: StableBand) -> str:
+    """The rung's reason for K_cr = 0, with what the closed loop says of the stable set past B_max."""
+    base = reason or "no positive stiffness is stable"
+    if band.status == "none":
+        return f"{base} (the closed loop confirms it: {band.reason})"
+    cut = base.replace(": no positive stiffness is stable", "").replace("no positive stiffness is stable", "")
+    if band.status == "band":
+        return f"{cut.rstrip(': ;')}: K_cr = 0 (unstable as K → 0⁺), but {band.reason}"
+    return f"{cut.rstrip(': ;')}: K_cr = 0 (unstable as K → 0⁺); whether a band of larger K is stable is undetermined " \
+        f"({band.reason})"

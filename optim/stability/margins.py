@@ -2,13 +2,15 @@
 
 K_cr(B) is the smallest K > 0 at which the loop 1 + (K + B(1 - z⁻¹)/T)·G(z) = 0
 gets a pole on the unit circle (ARCHITECTURE.md), the minimum over every phase
-crossover including the Nyquist frequency, and 0 when no K > 0 is stable.
+crossover including the Nyquist frequency, and 0 when the loop is unstable as K → 0⁺ (past B_max a band of larger K
+may still be stable: optim.stability.stable_band).
 
 Why the minimum over crossovers is the answer: at K = 0⁺ every closed-loop pole
 is inside the unit circle provided the damper-only loop 1 + B(1 - z⁻¹)/T·G = 0 is
 stable (the pole at z = 1 then moves inwards with K).  That loop is stable for
 B below its own critical value B_max, found by the same crossover scan.  Above
-B_max nothing is stable: K_cr = 0 with that reason.
+B_max the loop is unstable as K → 0⁺: K_cr = 0 with that reason (and the band of larger K that the closed loop
+finds stable, if any, in the analysis: optim.stability.stable_band).
 """
 
 from __future__ import annotations
@@ -29,6 +31,8 @@ from optim.stability.cable_brackets import cable_loop, cable_min_crossing
 from optim.stability.crossovers import Crossing, positive_real_crossings, scan_grid, theta_min
 from optim.stability.fast_cable import bounded_min_crossing
 from optim.stability.fast_rigid import fast_beta_max, fast_rigid, rigid_loop
+from optim.stability.near_b_max import RHO_REFINE, cancellation_ratio, refine_cable_crossover
+from optim.stability.reference import REFERENCE_STIFFNESS_MAX_DELAY_SAMPLES
 from optim.stability.rigid_levels import rigid_crossovers
 from optim.stability.rigid_tail import tail_is_clear
 from optim.stability.undamped_cable import (
@@ -70,7 +74,8 @@ class CriticalStiffness:
     """K_cr(B) of one device, with every crossover and the reason when it is 0."""
 
     critical_stiffness: float
-    """K_cr [N/m]; 0 when no K > 0 is stable, inf when every K > 0 is."""
+    """K_cr [N/m]; 0 when the loop is unstable as K → 0⁺ (optim.stability.stable_band: a larger K may be), inf when
+    every K > 0 is."""
     crossover_frequency: float | None
     """ω [rad/s] of the crossover that sets K_cr (None when K_cr is 0 or inf)."""
     all_crossovers: tuple[Crossover, ...] | Callable[[], tuple[Crossover, ...]] = field(repr=False, compare=False)
@@ -90,6 +95,9 @@ class CriticalStiffness:
     unconfirmed: str | None = None
     """Why the closed loop could not confirm this answer (a cable mode within NEAR_LOSSLESS_GAP of the unit circle,
     optim.stability.undamped_cable); the exact rung then claims no error bound.  None: no such doubt."""
+    refined_near_b_max: float | None = None
+    """A cable near B_max: the cancellation ratio ρ of K_cr = Re H (optim.stability.near_b_max) when the binding
+    crossover was re-solved in 40 digits for it (ρ > RHO_REFINE); None otherwise."""
 
     def __getstate__(self) -> dict:
         # results travel pickled between processes (service.jobs): send the list, never the closure
@@ -204,13 +212,55 @@ def critical_stiffness(device: Device, damping: float = 0.0, *, b_max: float | N
         if fast is not None:
             return fast
     elif isinstance(plant, StateSpaceZOH) and plant.modal_form() is not None:
-        res = _bounded(device, plant, damping, b_max)
+        res = _refined_near_b_max(device, plant, damping, _bounded(device, plant, damping, b_max))
         if mode_gap(plant) < NEAR_LOSSLESS_GAP:
             why = confirm_near_lossless(device, damping, res.critical_stiffness)
             if why is not None:
                 res = replace(res, unconfirmed=why)
         return res
     return scan_critical_stiffness(device, damping, b_max=b_max)
+
+
+def _refined_near_b_max(device: Device, plant: StateSpaceZOH, damping: float, res: CriticalStiffness
+                        ) -> CriticalStiffness:
+    """A cable's K_cr near B_max, where it is a small difference of O(β) terms (cancellation ρ > RHO_REFINE) that the
+    double evaluation of the cable's 1/G cannot certify (a 1.15e-4 relative error, on the unsafe side, 9.4e-6 below
+    B_max): the binding crossover re-solved in 40 digits (optim.stability.near_b_max).  Where that does not settle
+    (or the delay is past the reference's cap) the answer is kept and said unconfirmed: no error bound."""
+    k, w, b_max = res.critical_stiffness, res.crossover_frequency, res.max_stable_damping
+    if not (damping > 0.0 and b_max is not None and damping > 0.5 * b_max and w is not None
+            and math.isfinite(k) and k > 0.0):
+        return res
+    t, scale = device.sample_time, device.stiffness_scale
+    rho = cancellation_ratio(plant, damping / device.damping_scale, w * t, k / scale)
+    if rho <= RHO_REFINE:
+        return res
+    got = None
+    if device.delay_samples <= REFERENCE_STIFFNESS_MAX_DELAY_SAMPLES:
+        got = refine_cable_crossover(device, damping, w * t)
+    if got is None:
+        return replace(res, unconfirmed=f"near B_max K_cr is a difference of terms {rho:.3g}× larger, and its 40-digit "
+                       "re-solve did not settle (or the delay is past the reference rung's cap)")
+    theta, alpha = got
+    if not alpha > 0.0:
+        # in 40 digits the crossover's K is ≤ 0: B is at or above the true B_max, whose double value (the bounded
+        # scan's) lies above it by more than B_max − B (2.5e-9 of B_max on a property-run cable): K_cr = 0
+        return CriticalStiffness(0.0, None, (), damping, b_max, path=res.path, refined_near_b_max=rho, reason=(
+            f"virtual damping B = {damping:.6g} N·s/m is at or above the largest stable virtual damping: the binding "
+            f"crossover re-solved in 40 digits has K ≤ 0 (B_max = {b_max:.9g} N·s/m in double precision is above the "
+            "true value by more than B_max − B): no positive stiffness is stable"))
+    new_k, new_w = alpha * scale, theta / t
+    old_list = res.all_crossovers
+
+    def every() -> tuple[Crossover, ...]:
+        found = old_list() if callable(old_list) else old_list
+        near = min(range(len(found)), key=lambda i: abs(found[i].frequency / new_w - 1.0), default=None)
+        if near is None or abs(found[near].frequency / new_w - 1.0) > 1e-9:
+            return found
+        return found[:near] + (Crossover(new_w, new_k),) + found[near + 1:]
+
+    return replace(res, critical_stiffness=new_k, crossover_frequency=new_w, all_crossovers=every,
+                   refined_near_b_max=rho)
 
 
 def _undamped_damper(device: Device, plant) -> tuple[bool | None, float]:

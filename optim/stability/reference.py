@@ -21,7 +21,7 @@ from optim.errors import InputError
 from optim.stability.undamped_cable import is_undamped_cable
 from optim.stability.undamped_cable import refuse as refuse_undamped
 
-__all__ = ["ReferenceResult", "reference_critical_stiffness", "REFERENCE_STIFFNESS_MAX_DELAY_SAMPLES"]
+__all__ = ["cable_h", "ReferenceResult", "reference_critical_stiffness", "REFERENCE_STIFFNESS_MAX_DELAY_SAMPLES"]
 
 #: Cap of the 40-digit K_cr rung itself (any caller): its scan grows with the delay in samples (docs/limits.md).
 REFERENCE_STIFFNESS_MAX_DELAY_SAMPLES = 2000
@@ -106,6 +106,10 @@ def _cable_h(device: Device, d: int, f, beta):
         g = x[0] * z ** (-d)
         return -1 / g - beta * (1 - 1 / z)
     return h
+
+
+#: H(θ) of a cable in the working precision (optim.stability.near_b_max re-solves a crossover with it)
+cable_h = _cable_h
 
 
 def _bisect(h, lo, hi, digits: int):

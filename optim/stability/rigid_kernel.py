@@ -105,6 +105,15 @@ def _h(v, beta, t):
     z = complex(math.cos(t), st)
     zm1 = complex(-2.0 * sh * sh, st)
     omp = v[AT_OMP]
+    if t == math.pi:
+        # z = −1 exactly (RigidZOH.inverse_at_nyquist): H(π) real, without sin(π)'s rounding in z + 1
+        if v[AT_FRAC] == 0.0:
+            num_pi = v[AT_C]
+        else:
+            num_pi = (v[AT_G0P] - v[AT_G1P]) * (omp - 2.0) + v[AT_PHI12] * (v[AT_G0V] - v[AT_G1V])
+        if num_pi != 0.0:        # 0: a zero on −1 (δ = 0), H(π) is a pole: the complex formula's value, as before
+            inv_pi = (-1.0 if int(v[AT_D]) % 2 else 1.0) * (-2.0 * (omp - 2.0)) / num_pi
+            return complex(-inv_pi - 2.0 * beta * sh * sh, 0.0)
     if v[AT_FRAC] == 0.0:
         num = v[AT_A] * (z + 1.0) + v[AT_C]
     else:

@@ -84,7 +84,7 @@ class NonlinearOut(FiniteModel):
 
 
 class StabilityResponse(FiniteModel):
-    critical_stiffness: float | None = Field(description="K_cr(B) [N/m]; 0 when no K > 0 is stable; null when every K is")
+    critical_stiffness: float | None = Field(description="K_cr(B) [N/m]; 0 when K → 0⁺ is unstable (see stable_band); null when every K is")
     crossover_frequency: float | None = Field(description="ω [rad/s] of the crossover that sets K_cr")
     crossovers: list[CrossoverOut] = Field(description="every phase crossover with K > 0")
     gain_margin_db: float | None = Field(description="20·log10(K_cr/K) [dB] when a controller is given")
@@ -106,6 +106,10 @@ class StabilityResponse(FiniteModel):
                     "crossover on its grid, or its samples show crossovers it missed)")
     error_source: str
     reason: str | None
+    stable_band: list[float | None] | None = Field(
+        None, description="[K_lo, K_hi] [N/m] (K_hi null: unbounded) where critical_stiffness is 0 because B ≥ B_max "
+                          "but the closed loop is stable for K_lo < K < K_hi (a band not starting at 0, decided by the "
+                          "closed loop); null when no K > 0 is stable there, or K_cr > 0 (stable for 0 < K < K_cr)")
     verification: VerificationOut | None = Field(None, description="present when verify was true")
     nonlinear: NonlinearOut | None = Field(
         None, description="present when the device has encoder_resolution or coulomb_friction (issue 31)")

@@ -131,3 +131,18 @@ def test_gain_margin_is_reported_for_a_given_wall(client):
     # Definition (eq. 13): 20·log10(K_cr/K); the core's own value is compared exactly above.
     assert r["gain_margin_db"] == pytest.approx(20 * math.log10(r["critical_stiffness"] / 3500.0), rel=1e-14)
     assert r["stable"] is True
+
+
+def test_stable_band_past_b_max_reaches_the_client(client):
+    """Issue 34: K_cr = 0 past B_max with a band of stable K: the answer carries it, the client model reads it."""
+    from clients.schemas import StabilityResponse as ClientStability
+    from tests.optim.stability.test_near_b_max_band import BAND_B, BAND_CABLE
+
+    r = client.post("/v1/analysis/stability", json={"device": BAND_CABLE,
+                                                    "controller": {"stiffness": 0.01, "damping": BAND_B}})
+    assert r.status_code == 200, r.text
+    body = r.json()
+    assert body["critical_stiffness"] == 0.0 and body["stable"] is True
+    lo, hi = body["stable_band"]
+    assert lo < 0.01 < hi
+    assert ClientStability.model_validate(body).stable_band == [lo, hi]

@@ -136,6 +136,8 @@ def _h(plant: RigidZOH, beta: float, t: float) -> complex:
     st = math.sin(t)
     z = complex(math.cos(t), st)
     zm1 = complex(-2.0 * sh * sh, st)                 # z − 1 without cancellation
+    if t == math.pi and plant.inverse_at_nyquist() is not None:
+        return complex(-plant.inverse_at_nyquist() - 2.0 * beta * sh * sh, 0.0)
     if plant.f == 0.0:
         omp = plant.coefficients()[0]
         a, c = plant.f0_numerator()

@@ -20,6 +20,7 @@ import pytest
 
 from models.device import Device
 from models.plants import stiffness_loop_plant
+from optim.stability import margins
 from optim.stability.cable_brackets import cable_loop, clear_memo
 from optim.stability.margins import (
     _damper_crossings,
@@ -29,6 +30,13 @@ from optim.stability.margins import (
     scan_critical_stiffness,
 )
 from tests.optim.stability.random_cables import random_cable
+
+
+@pytest.fixture(autouse=True)
+def _double_paths_only(monkeypatch):
+    """These tests hold the double paths (brackets, bounded scan) to the double scan; the 40-digit re-solve of a cable's
+    K_cr near B_max (optim.stability.near_b_max) is held to the closed loop in test_near_b_max_band.py."""
+    monkeypatch.setattr(margins, "RHO_REFINE", math.inf)
 
 RTOL = 1e-12
 

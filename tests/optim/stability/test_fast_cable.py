@@ -21,6 +21,13 @@ from optim.stability.margins import critical_stiffness, loop_plant, max_stable_d
 from optim.stability.reference import reference_critical_stiffness
 from tests.optim.stability.random_cables import random_cable
 
+
+@pytest.fixture(autouse=True)
+def _double_paths_only(monkeypatch):
+    """These tests hold the double paths (brackets, bounded scan) to the double scan; the 40-digit re-solve of a cable's
+    K_cr near B_max (optim.stability.near_b_max) is held to the closed loop in test_near_b_max_band.py."""
+    monkeypatch.setattr(margins, "RHO_REFINE", math.inf)
+
 RTOL = 1e-12
 
 
