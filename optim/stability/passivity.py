@@ -29,7 +29,14 @@ from models.device import Device
 from models.discretize import split_delay
 from optim.errors import InputError
 from optim.golden import golden_minimum
-from optim.stability.passivity_kernel import best_of_rows, needs_python, polish_max, prefix_samples
+from optim.stability.passivity_kernel import (
+    SUP_TOL,
+    best_of_rows,
+    needs_python,
+    polish_max,
+    prefix_samples,
+    sup_bound,
+)
 
 __all__ = ["PassivityCheck", "PassiveStiffness", "passivity_samples", "kernel", "passivity_margin",
            "is_passive", "max_passive_stiffness", "largest_passive_stiffness", "passive_alpha_on_grid",
@@ -47,13 +54,19 @@ class PassivityCheck:
 
     passive: bool
     required_damping: float
-    """sup over θ of P(θ) [N·s/m]: the physical damping passivity needs (passive iff b exceeds it)."""
+    """sup over θ of P(θ) [N·s/m], bounded from above: the physical damping passivity needs (passive iff b exceeds
+    it).  With delay (and B > 0) a proven upper bound (optim.stability.passivity_kernel.sup_bound): never below the
+    sup, at most ``error_bound`` above it."""
     delay_samples_used: int
     """whole samples of delay used (a fractional delay is rounded up)."""
     conservative: bool
     """True when a fractional delay was rounded up to the next whole sample."""
     worst_angle: float | None = None
-    """θ = ωT [rad] where P(θ) is largest."""
+    """θ = ωT [rad] where P(θ) is largest (the largest value met)."""
+    error_bound: float = 0.0
+    """[N·s/m]: required_damping − sup P lies in [0, error_bound] (sup_bound: 1e-13 of P's scale hk·(2d+1) + B
+    plus twice its rounding bound); the closed forms (no delay, or B = 0) are the formula in floating point,
+    within rounding (≤ 1 ulp) of it, and say 0."""
 
 
 @dataclass(frozen=True)
@@ -245,7 +258,9 @@ def passivity_margin(device: Device, stiffness: float, damping: float) -> Passiv
     v_best, t_best, decided = best_of_rows(d, hk, damping, grid, vals, top, v_pi)   # compiled
     if not decided:   # a bracket needs _p_slopes_at's numpy sums: the rows in Python
         v_best, t_best = _best_of_rows(d, hk, damping, grid, vals, top.tolist(), v_pi)
-    return PassivityCheck(device.damping > v_best, v_best, d, conservative, t_best)
+    # the polished maxima are where P is largest only if no lobe between samples is higher: the proven bound
+    upper, _, t_best, err = sup_bound(d, n, hk, damping, grid, vals, v_best, t_best, SUP_TOL)   # compiled
+    return PassivityCheck(device.damping > upper, upper, d, conservative, t_best, err)
 
 
 def is_passive(device: Device, stiffness: float, damping: float) -> bool:
