@@ -5,8 +5,8 @@ C = K·T/2 + B, u = (d+1)θ (not the Dirichlet quotient optim.stability.passivit
 96 points per period of u, offset by half a step from θ = 0.  Every sampled local maximum is polished in floats
 (Newton on P' with the form's own derivatives, inside ±1 sample); those within ``window`` (relative to P's scale)
 of the best, at most MAX_REFINED of them, and the first FIRST_LOBES peaks (P ≤ E(θ), which falls with θ: in a flat
-bound the highest lobes are the first) are refined in mpmath (``DPS`` digits: the root of P' in its bracket of
-±2 samples, Anderson–Björck); θ = 0 (the limit (K·T/2)(2d+1) − B) and θ = π are taken in mpmath too.  Shares no code with optim.stability.passivity or optim.verification.
+bound the highest lobes are the first) are refined in mpmath (``DPS`` digits: Newton on P' from the float polish,
+kept inside ±2 samples, whose ends are candidates too); θ = 0 (the limit (K·T/2)(2d+1) − B) and θ = π are taken in mpmath too.  Shares no code with optim.stability.passivity or optim.verification.
 """
 
 from __future__ import annotations
@@ -16,11 +16,11 @@ import math
 import mpmath as mp
 import numpy as np
 
-DPS = 34
+DPS = 32
 #: candidates refined at most (a flat bound, hk ≪ B, has d nearly equal lobes: the highest by the parabola)
-MAX_REFINED = 40
+MAX_REFINED = 24
 #: the first peaks (smallest θ) always refined
-FIRST_LOBES = 12
+FIRST_LOBES = 4
 
 
 def _p_mp(hk: mp.mpf, b: mp.mpf, d: int, x: mp.mpf) -> mp.mpf:
@@ -30,13 +30,18 @@ def _p_mp(hk: mp.mpf, b: mp.mpf, d: int, x: mp.mpf) -> mp.mpf:
     return hk * mp.cot(x / 2) * mp.sin(u) - (hk + b) * mp.cos(u)
 
 
-def _dp_mp(hk: mp.mpf, b: mp.mpf, d: int, x: mp.mpf) -> mp.mpf:
-    u, e = (d + 1) * x, d + 1
-    sh = mp.sin(x / 2)
-    return (-hk / (2 * sh * sh) * mp.sin(u) + hk * mp.cot(x / 2) * e * mp.cos(u) + (hk + b) * e * mp.sin(u))
+def _slopes_mp(hk: mp.mpf, b: mp.mpf, d: int, x: mp.mpf) -> tuple[mp.mpf, mp.mpf]:
+    """(P', P'') of the form A·sin u − C·cos u."""
+    e = d + 1
+    cu, su = mp.cos_sin((d + 1) * x)
+    ch, sh = mp.cos_sin(x / 2)
+    a0, a1, a2 = hk * ch / sh, -hk / (2 * sh * sh), hk * ch / (2 * sh ** 3)
+    c = hk + b
+    return (a1 * su + a0 * e * cu + c * e * su,
+            a2 * su + 2 * a1 * e * cu - a0 * e * e * su + c * e * e * cu)
 
 
-def mp_sup(hk: float, b: float, d: int, window: float = 1e-5) -> tuple[float, float, int]:
+def mp_sup(hk: float, b: float, d: int, window: float = 1e-9) -> tuple[float, float, int]:
     """(sup P as a float, rounded from ``DPS`` digits; its θ; candidates refined)."""
     e = d + 1
     m = 96 * e + 64
@@ -60,6 +65,8 @@ def mp_sup(hk: float, b: float, d: int, window: float = 1e-5) -> tuple[float, fl
             step = np.where(f2 < 0, -f1 / f2, 0.0)
             x = np.clip(x + np.nan_to_num(step), theta[peaks] - h, theta[peaks] + h)
         x = np.clip(x, h / 4, math.pi)
+        x_polished = np.full(m, np.nan)
+        x_polished[peaks] = x
         est = np.maximum(hk / np.tan(x / 2) * np.sin(e * x) - c * np.cos(e * x), vals[peaks])
     scale = abs(hk) * (2 * d + 1) + abs(b)
     order = np.argsort(-est)
@@ -74,15 +81,17 @@ def mp_sup(hk: float, b: float, d: int, window: float = 1e-5) -> tuple[float, fl
         for j in peaks[keep]:
             a = mp.mpf(max(float(theta[j]) - 2 * h, h / 4))
             c = mp.mpf(min(float(theta[j]) + 2 * h, math.pi))
-            fa, fc = _dp_mp(mhk, mb, d, a), _dp_mp(mhk, mb, d, c)
-            cands = [a, c]
-            if fa > 0 > fc:
-                try:
-                    cands.append(mp.findroot(lambda x: _dp_mp(mhk, mb, d, x), (a, c), solver="anderson"))
-                except (ValueError, ZeroDivisionError):
-                    cands += [mp.mpf(float(theta[j]))]
-            else:
-                cands.append(mp.mpf(float(theta[j])))
+            x = mp.mpf(float(x_polished[j]))       # Newton on P' from the float polish, kept inside [a, c]
+            cands = [x]
+            for _ in range(4):
+                f1, f2 = _slopes_mp(mhk, mb, d, x)
+                if not f2 < 0:
+                    cands += [a, c, mp.mpf(float(theta[j]))]   # not a concave peak: its bracket's ends and sample
+                    break
+                x = min(max(x - f1 / f2, a), c)
+                if abs(f1 / f2) < mp.mpf(10) ** (-DPS + 6) * (1 + abs(x)):
+                    break
+            cands.append(x)
             for x in cands:
                 if 0 <= x <= mp.pi:
                     v = _p_mp(mhk, mb, d, x)
