@@ -8,6 +8,8 @@ Newton); tests/optim/stability/passivity_cases.py draws random walls and walls a
   a wrong label is ``passive: true`` with b ≤ sup, or ``passive: false`` with b above required's own bound
   (b > sup + error_bound).  ``passive: false`` with b in (sup, sup + error_bound] is the stated conservatism,
   counted apart.
+* ``largest_passive_stiffness`` on the aimed walls: its K, backed off by 1e-8 as a design is, passive by the
+  mpmath sup;
 * ``verify_passivity`` (its own proof) on a share of them, given the analysis' label: it must never confirm a wrong
   label nor contradict a right one; not_checkable only within its band.
 
@@ -24,7 +26,7 @@ import pytest
 
 from models.device import Device
 from optim.stability.kernels import compile_kernels
-from optim.stability.passivity import passivity_margin, passivity_samples
+from optim.stability.passivity import largest_passive_stiffness, passivity_margin, passivity_samples
 from optim.verification import verify_passivity, whole_delay_samples
 
 from .passivity_cases import aimed_wall, random_wall, whole_samples
@@ -42,7 +44,7 @@ def run_passivity_property(n_random: int, n_aimed: int, seed: int, verify_every:
            "passive": 0, "not_passive": 0, "verified": 0, "verify": {"confirmed": 0, "contradicted": 0,
                                                                      "not_checkable": 0},
            "verify_wrong": [], "max_rel_err": 0.0, "max_rel_bound": 0.0, "max_d": 0, "fractional": 0,
-           "ms": [], "verify_ms": [], "ref_ms": []}
+           "ms": [], "verify_ms": [], "ref_ms": [], "passive_k_checked": 0, "passive_k_unsafe": []}
     for i in range(n_random + n_aimed):
         t0 = time.perf_counter()
         if i < n_random:
@@ -76,6 +78,13 @@ def run_passivity_property(n_random: int, n_aimed: int, seed: int, verify_every:
         elif not r.passive and truly:
             out["conservative"] += 1
         out["passive" if r.passive else "not_passive"] += 1
+        if i >= n_random and big_b > 0.0:
+            # the largest passive K at this B, backed off as a design is (1e-8): passive by the mpmath sup
+            kp = largest_passive_stiffness(dev, big_b).stiffness
+            if kp > 0.0:
+                out["passive_k_checked"] += 1
+                if not mp_sup(kp * (1 - 1e-8) * dev.sample_time / 2, big_b, d)[0] < b:
+                    out["passive_k_unsafe"].append((*case, kp))
         if i % verify_every == 0 or i >= n_random:
             t0 = time.perf_counter()
             v = verify_passivity(dev, k, big_b, r.passive)
@@ -135,6 +144,6 @@ def test_passivity_labels_against_the_mpmath_sup():
     """300 walls (150 random, 150 aimed): 0 wrong labels, the bound holds, verify never wrong."""
     out = run_passivity_property(150, 150, seed=34)
     assert out["wrong_labels"] == [] and out["bound_violations"] == []
-    assert out["verify_wrong"] == []
+    assert out["verify_wrong"] == [] and out["passive_k_unsafe"] == []
     assert out["verify"]["confirmed"] >= 0.8 * out["verified"]
     assert out["max_rel_bound"] < 1e-10 and math.isfinite(out["max_rel_err"])
