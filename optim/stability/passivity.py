@@ -323,7 +323,7 @@ def _no_lobe_above(device: Device, damping: float, theta: np.ndarray, ratio, upp
     for _ in range(6):
         chk = passivity_margin(device, upper, damping)
         if chk.required_damping - chk.error_bound <= b or chk.worst_angle is None:
-            return upper, upper_t
+            return _proven_passive(device, damping, upper), upper_t
         i = int(np.clip(np.searchsorted(theta, chk.worst_angle), 0, theta.size - 1))
         t_new, k_new = _refine_min(ratio, theta, ratio(theta), i)
         r_w = float(ratio(np.array([chk.worst_angle]))[0])
@@ -339,7 +339,40 @@ def _no_lobe_above(device: Device, damping: float, theta: np.ndarray, ratio, upp
             lo = mid
         else:
             hi = mid
-    return lo, upper_t
+    return lo, upper_t   # proven passive (the bisection's lower end)
+
+
+def _proven_passive(device: Device, damping: float, upper: float) -> float:
+    """The largest K ≤ ``upper`` that passivity_margin proves passive (its bound below b), to 1e-6 of the last
+    back-off: ``upper`` itself when proven; else back-offs 1e-12, 1e-11, …, 0.1 of it, then bisection between the
+    last two (from 0 when none is proven).  The passive K are an interval (sup P is convex in K), so every K below the answer is passive too; where b
+    equals the sup at ``upper`` to within the bound's error, the answer lies below the true supremum by about that
+    error over ∂P/∂K (issue 34: a design backed off by 1e-8 is not always outside that band)."""
+    if passivity_margin(device, upper, damping).passive:
+        return upper
+    bad = upper
+    for j in range(6, 18):
+        k = upper * (1.0 - 10.0 ** (j - 18))    # back-offs 1e-12, 1e-11, …, 0.1 of upper
+        if not k > 0.0:
+            break
+        if passivity_margin(device, k, damping).passive:
+            good = k
+            for _ in range(20):
+                mid = 0.5 * (good + bad)
+                if passivity_margin(device, mid, damping).passive:
+                    good = mid
+                else:
+                    bad = mid
+            return good
+        bad = k
+    good = 0.0
+    for _ in range(64):
+        mid = 0.5 * (good + bad)
+        if passivity_margin(device, mid, damping).passive:
+            good = mid
+        else:
+            bad = mid
+    return good
 
 
 def max_passive_stiffness(device: Device, damping: float) -> float:
