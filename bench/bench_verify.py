@@ -81,10 +81,12 @@ def main() -> None:
                        ("Grid answers outside their estimate", "grid_contradicted")):
         if r[key]:
             lines += [f"{title} (first 10):", ""] + [f"- `{c}`" for c in r[key][:10]] + [""]
-    # the section bench/bench_near_b_max.py writes is kept as it is
+    # the sections bench/bench_near_b_max.py and bench/bench_passivity.py write are kept as they are
+    from bench.bench_passivity import HEADER
     old = args.out.read_text() if args.out.exists() else ""
-    kept = old[old.index(NEAR_MARKER):] if NEAR_MARKER in old else ""
-    args.out.write_text("\n".join(lines) + ("\n" + kept if kept else ""))
+    starts = [old.index(m) for m in (NEAR_MARKER, HEADER) if m in old]
+    kept = old[min(starts):] if starts else ""
+    args.out.write_text("\n".join(lines) + ("\n\n" + kept if kept else ""))
     print(args.out.read_text())
 
 

@@ -21,6 +21,7 @@ import time
 from dataclasses import dataclass, replace
 from typing import Literal
 
+import mpmath as mp
 import numpy as np
 from scipy.optimize import minimize_scalar
 
@@ -37,6 +38,7 @@ __all__ = [
     "check_point",
     "DEFAULT_EPSILON",
     "claimed_epsilon",
+    "labelled",
     "not_checkable",
     "EIG_MAX_STATES",
     "PASSIVITY_RTOL",
@@ -50,9 +52,12 @@ __all__ = [
     "verify_force_feedforward",
     "verify_passivity",
     "verify_stiffness_design",
+    "whole_delay_samples",
 ]
 
 Verdict = Literal["confirmed", "contradicted", "not_checkable"]
+
+_EPS = 2.220446049250313e-16
 
 #: relative step around an exact (or reference) answer: far above its claimed 1e-12, far below any use
 DEFAULT_EPSILON = 1e-6
@@ -69,10 +74,15 @@ class PassivityVerification:
 
     verdict: Verdict
     required_damping: float | None
-    """sup over θ of (T/2)·Re[(1 − e^{−jθ})·e^{−jdθ}·C(e^{jθ})]/(1 − cos θ) [N·s/m]."""
+    """the largest value met of (T/2)·Re[(1 − e^{−jθ})·e^{−jdθ}·C(e^{jθ})]/(1 − cos θ) [N·s/m] (the verdict rests
+    on verify's own proof, :func:`_certify`, not on this number)."""
     physical_damping: float
     """b [N·s/m]."""
     reason: str | None
+    label: Literal["passive", "not passive"] = "passive"
+    """the label checked (the answer's ``passive``)."""
+    label_confirmed: Literal["passive", "not passive"] | None = None
+    """the label this record confirms: ``label`` when the verdict is confirmed, else None."""
 
 
 @dataclass(frozen=True)
@@ -100,6 +110,24 @@ class Verification:
     passivity: PassivityVerification | None = None
     points: tuple | None = None
     """robust designs: one optim.verification_robust.PointVerification per checked device of the box."""
+    label: str | None = None
+    """what the record checks, in the answer's words: the critical gain, and the wall's own labels (``stable``,
+    ``passive`` / ``not passive``) when the answer gives them."""
+    label_confirmed: str | None = None
+    """``label`` when the verdict is confirmed (every part of it holds), else None: what was confirmed, explicitly."""
+
+
+def labelled(v: Verification, label: str | None) -> Verification:
+    """The record with its ``label``, and ``label_confirmed`` = the label when the verdict is confirmed."""
+    return replace(v, label=label, label_confirmed=label if v.verdict == "confirmed" and label else None)
+
+
+def _gain_label(name: str, critical: float | None, unit: str) -> str:
+    if critical is None or math.isinf(critical):
+        return f"every {name.split('_', 1)[1].replace('_', ' ')} is stable"
+    if critical == 0.0:
+        return f"{name} = 0: no positive {name.split('_', 1)[1].replace('_', ' ')} is stable"
+    return f"{name} = {critical:.9g}{unit}"
 
 
 @dataclass(frozen=True)
@@ -157,6 +185,13 @@ def _methods(*points: _Point) -> str:
 
 
 def verify_critical_stiffness(device: Device, damping: float, critical: float | None,
+                              epsilon: float = DEFAULT_EPSILON, next_crossing: float | None = None) -> Verification:
+    """:func:`_critical_stiffness_check`, labelled with the critical stiffness it checks."""
+    return labelled(_critical_stiffness_check(device, damping, critical, epsilon, next_crossing),
+                    _gain_label("critical_stiffness", critical, " N/m"))
+
+
+def _critical_stiffness_check(device: Device, damping: float, critical: float | None,
                               epsilon: float = DEFAULT_EPSILON, next_crossing: float | None = None) -> Verification:
     """Is the loop with this B stable at K_cr·(1 − ε) and unstable at K_cr·(1 + ε)?
 
@@ -221,9 +256,9 @@ def verify_critical_stiffness(device: Device, damping: float, critical: float | 
 
 # --- passivity: the Colgate–Schenkel condition written as a frequency response -----------------------------
 
-#: relative tolerance of the recomputed required damping (:func:`_required_damping`): passivity is decided only
-#: when b and the requirement differ by more than this times the requirement's rounding scale (the sum of the
-#: moduli of the products it is made of, the delay's phase error d·θ·u included; :func:`_required_terms`).
+#: relative rounding allowance of the recomputed condition in floats (:func:`_required_terms`), used by the float
+#: screen of :func:`_certify`: this times the value's rounding scale (the sum of the moduli of the products it is
+#: made of, the delay's phase error d·θ·u included) bounds its error.
 #: Each product and sum rounds once, so the error is ≤ ≈ 16·u·scale = 1.8e-15·scale (u = 1.1e-16); measured
 #: against 40-digit mpmath up to the 10,000-sample limit it is ≤ 3.4e-16·scale
 #: (tests/optim/test_verification_passivity.py).  1e-12 is that bound ×500, and the design back-off
@@ -255,7 +290,18 @@ def _required_terms(device: Device, stiffness: float, damping: float, whole: int
     return k_part + b_part, scale
 
 
-def _required_damping(device: Device, stiffness: float, damping: float, whole: int) -> tuple[float, float, float]:
+def _required_samples(device: Device, stiffness: float, damping: float,
+                      whole: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """verify's own grid (geometric from 1e-7 to 1e-2, then ≥ 64 points per period of the delay's phase up to π),
+    the condition there and its rounding scales."""
+    n = max(4096, 64 * (whole + 1))
+    grid = np.concatenate([np.geomspace(1e-7, 1e-2, 200), np.linspace(1e-2, math.pi, n)[1:]])
+    vals, scales = _required_terms(device, stiffness, damping, whole, grid)
+    return grid, vals, scales
+
+
+def _required_damping(device: Device, stiffness: float, damping: float, whole: int, grid: np.ndarray | None = None,
+                      vals: np.ndarray | None = None) -> tuple[float, float, float]:
     """sup over θ ∈ (0, π] of (T/2)·Re[(1 − e^{−jθ})·e^{−jdθ}·C(e^{jθ})]/(1 − cos θ), its θ, and its rounding
     scale there (see :data:`PASSIVITY_RTOL`).
 
@@ -268,9 +314,8 @@ def _required_damping(device: Device, stiffness: float, damping: float, whole: i
     def f(theta: float) -> float:
         return float(_required_terms(device, stiffness, damping, whole, np.array([theta]))[0][0])
 
-    n = max(4096, 64 * (whole + 1))
-    grid = np.concatenate([np.geomspace(1e-7, 1e-2, 200), np.linspace(1e-2, math.pi, n)[1:]])
-    vals, _ = _required_terms(device, stiffness, damping, whole, grid)
+    if grid is None or vals is None:
+        grid, vals, _ = _required_samples(device, stiffness, damping, whole)
     padded = np.concatenate([[-np.inf], vals, [-np.inf]])
     peaks = np.flatnonzero((vals >= padded[:-2]) & (vals >= padded[2:]))
     best_t, best_v = float(grid[int(np.argmax(vals))]), float(np.max(vals))
@@ -288,26 +333,154 @@ def _required_damping(device: Device, stiffness: float, damping: float, whole: i
     return best_v, best_t, float(scale[0])
 
 
-def verify_passivity(device: Device, stiffness: float, damping: float, claimed: bool) -> PassivityVerification:
-    """The claimed passivity of (K, B) against the condition recomputed from its complex form.
+def whole_delay_samples(device: Device) -> int:
+    """⌈t_d/T⌉, the whole samples of delay of the delayed Colgate–Schenkel test (ARCHITECTURE.md: a fractional
+    delay is rounded up).  A quotient within 64 ulp of a whole number is that number (0.003/0.001 is
+    2.9999999999999996 and 3.0000000000000004 comes from the same intent): the rule of models.discretize.split_delay,
+    written again here (verify shares no code with the analysis; tests/optim/test_verification_passivity.py holds
+    the two equal)."""
+    r = device.delay / device.sample_time
+    n = round(r)
+    if abs(r - n) <= 64 * _EPS * max(1.0, r):
+        return int(n)
+    return int(math.ceil(r))
 
-    Decided only when b differs from the requirement by more than :data:`PASSIVITY_RTOL` of the size of the
-    requirement's rounding scale (its rounding bound with a wide margin; the condition is strict): otherwise
-    not_checkable, with the two numbers.  A design backs off by DESIGN_BACK_OFF = 1e-8 of K, far outside this band."""
-    whole = math.ceil(device.delay / device.sample_time - 1e-9)
-    req, _, scale = _required_damping(device, stiffness, damping, whole)
+
+def _mp_value(t: float, k: float, b: float, whole: int, theta) -> "mp.mpf":
+    """(T/2)·Re[(1 − e^{−jθ})·e^{−jdθ}·C(e^{jθ})]/(1 − cos θ) in mpmath (the caller's precision), with
+    1 − e^{−jθ} = 2j·sin(θ/2)·e^{−jθ/2} (no cancellation at small θ); the limit K·T·(d + ½) − B at θ = 0."""
+    if theta == 0:
+        return mp.mpf(k) * mp.mpf(t) * (whole + mp.mpf(1) / 2) - mp.mpf(b)
+    x = mp.mpf(theta)
+    s = mp.sin(x / 2)
+    a = 2j * s * mp.expjpi(-x / (2 * mp.pi))
+    c = mp.mpf(k) + mp.mpf(b) * a / mp.mpf(t)
+    z = a * mp.expjpi(-whole * x / mp.pi) * c
+    return mp.mpf(t) / 2 * mp.re(z) / (2 * s * s)
+
+
+#: the resolution of verify's 40-digit decision, relative to the condition's size times d + 1
+MP_RTOL = 1e-28
+#: mpmath evaluations the proof may spend before it says not_checkable
+_PROOF_EVALS = 4000
+
+
+def _certify(device: Device, k: float, b_virt: float, whole: int, b: float, tol: float,
+             grid: np.ndarray, vals: np.ndarray, scales: np.ndarray) -> tuple[bool | None, float, float, str | None]:
+    """Decide b > sup P with a proof of its own: (passive, the largest value met, its θ, reason when undecided).
+
+    Not passive: a witness θ at which the condition, evaluated in 40-digit mpmath, reaches b + tol.  Passive: every
+    interval of verify's own grid (θ = 0, then the samples above 1e-7) bounded below b − tol, by
+      * the modulus: |Re[(1 − e^{−jθ})e^{−jdθ}C]| ≤ 2 sin(θ/2)·|C(e^{jθ})|, so the condition is at most
+        T·|C(e^{jθ})|/(2 sin(θ/2)) = √((KT/2)²/sin²(θ/2) + KTB + B²), which falls with θ (the delay drops out);
+      * the curvature: its second derivative is at most M2 = (KT/2)·d(d+1)(2d+1)/3 + |B|·(d+1)² (the Dirichlet
+        sum's), so on [a, c] it is at most max(f(a), f(c)) + M2·(c − a)²/8;
+    in floats with each value's rounding scale (16u of it bounds the error; PASSIVITY_RTOL is taken), and where that does not
+    clear an interval, in mpmath by bisection with the curvature bound until it clears or a witness appears.
+    Neither within the budget: undecided (b within tol of the sup, as the caller's band says)."""
+    t = device.sample_time
+    hk, ab = abs(k) * t / 2, abs(b_virt)
+    m2 = (hk * whole * (whole + 1.0) * (2 * whole + 1.0) / 3.0 + ab * (whole + 1.0) ** 2) * (1 + 1e-12)
+    best_i = int(np.argmax(vals))
+    best_v, best_t = float(vals[best_i]), float(grid[best_i])
+    th = np.concatenate([[0.0], grid])
+    fv = np.concatenate([[k * t * (whole + 0.5) - b_virt], vals])
+    sc = np.concatenate([[abs(k * t * (whole + 0.5)) + ab], scales])
+    err = PASSIVITY_RTOL * np.maximum(sc[:-1], sc[1:])
+    h = np.diff(th)
+    with np.errstate(divide="ignore"):
+        env = np.sqrt((hk / np.sin(th[:-1] / 2)) ** 2 + abs(k) * t * ab + ab * ab) * (1 + 1e-13)
+    ub = np.minimum(np.maximum(fv[:-1], fv[1:]) + err + m2 * h * h / 8, env)
+    # the last sample is π's neighbour: the interval up to π itself
+    ub_pi = min(float(fv[-1] + err[-1] + m2 * (math.pi - th[-1]) ** 2 / 8), float(env[-1]))
+    open_i = np.flatnonzero(ub >= b - tol).tolist()
+    with mp.workdps(40):
+        evals = 0
+        stack = [(mp.mpf(float(th[i])), mp.mpf(float(th[i + 1]))) for i in open_i]
+        if ub_pi >= b - tol:
+            stack.append((mp.mpf(float(th[-1])), +mp.pi))
+        vals_mp: dict = {}
+        unresolved = False
+
+        def f(x):
+            nonlocal evals
+            key = str(x)
+            if key not in vals_mp:
+                vals_mp[key] = _mp_value(t, k, b_virt, whole, x)
+                evals += 1
+            return vals_mp[key]
+
+        while stack:
+            if evals > _PROOF_EVALS:
+                return None, best_v, best_t, (f"the proof did not close within {_PROOF_EVALS} 40-digit evaluations "
+                                              "(b is within reach of the sup)")
+            a, c = stack.pop()
+            fa, fc = f(a), f(c)
+            top = fa if fa >= fc else fc
+            if float(top) > best_v:
+                best_v, best_t = float(top), float(a if fa >= fc else c)
+            if top >= b + tol:
+                return False, float(top), float(a if fa >= fc else c), None
+            if float(top + m2 * (c - a) ** 2 / 8) < b - tol:
+                continue
+            if float(m2 * (c - a) ** 2 / 8) < tol * 1e-3:
+                unresolved = True   # P is within tol of b here (a flank crossing b, or b at the sup): go on
+                continue
+            mid = (a + c) / 2
+            stack += [(a, mid), (mid, c)] if fa >= fc else [(mid, c), (a, mid)]   # the higher end first
+    if unresolved:
+        return None, best_v, best_t, "b equals the condition to within tol somewhere and no value exceeds it"
+    return True, best_v, best_t, None
+
+
+def verify_passivity(device: Device, stiffness: float, damping: float, claimed: bool) -> PassivityVerification:
+    """The claimed passivity of (K, B) against the condition recomputed from its complex form, with a proof of its
+    own (:func:`_certify`: a 40-digit witness above b, or every interval of its own grid bounded below b).
+
+    The delay is ⌈t_d/T⌉ (:func:`whole_delay_samples`, the analysis' rule).  Decided beyond :data:`MP_RTOL` (the
+    40-digit resolution); otherwise, or when the proof does not close within its budget, not_checkable with the
+    reason.  A design backs off by DESIGN_BACK_OFF = 1e-8 of K, far outside."""
+    whole = whole_delay_samples(device)
+    grid, vals, scales = _required_samples(device, stiffness, damping, whole)
+    req, theta, scale = _required_damping(device, stiffness, damping, whole, grid, vals)
     b = device.damping
-    tol = PASSIVITY_RTOL * max(abs(b), abs(req), scale, 1e-300)
-    if abs(b - req) <= tol:
-        return PassivityVerification("not_checkable", req, b,
-                                     f"b equals the damping passivity requires to within its rounding bound "
-                                     f"({PASSIVITY_RTOL:g} relative)")
-    passive = b > req
+    # 40-digit values of the condition for these (float) inputs are good to ~1e-36 of the phase's size: a witness
+    # or a bound beyond MP_RTOL of it decides
+    tol = MP_RTOL * (abs(stiffness) * device.sample_time * (whole + 1) + abs(damping) + abs(b)) * (whole + 1)
+    if req >= b + tol:   # the float search's maximum: a 40-digit witness when it holds there
+        with mp.workdps(40):
+            w = float(_mp_value(device.sample_time, stiffness, damping, whole, theta))
+        if w >= b + tol:
+            return _passivity_record(False, claimed, max(req, w), b, True)
+    passive, best, _, why = _certify(device, stiffness, damping, whole, b, tol, grid, vals, scales)
+    req = max(req, best)
+    if passive is None:
+        return PassivityVerification("not_checkable", req, b, why, _word(claimed), None)
+    hk = abs(stiffness) * device.sample_time / 2
+    band = (1e-13 + 3e-15 * (whole + 2)) * (hk * (2 * whole + 1) + abs(damping))
+    if passive and not claimed:
+        # the analysis says 'not passive' on its safe side when b is within its error bound above the sup: a
+        # contradiction needs the sup below b − band too
+        below, _, _, _ = _certify(device, stiffness, damping, whole, b - band, tol, grid, vals, scales)
+        if below is not True:
+            return PassivityVerification("not_checkable", req, b,
+                                         "passive, but b may exceed the sup by less than the analysis' stated error "
+                                         "bound (1e-13 of the scale plus its rounding): 'not passive' is its safe "
+                                         "side there", _word(claimed), None)
+    return _passivity_record(passive, claimed, req, b, not passive)
+
+
+def _word(passive: bool) -> str:
+    return "passive" if passive else "not passive"
+
+
+def _passivity_record(passive: bool, claimed: bool, req: float, b: float, witness: bool) -> PassivityVerification:
     if passive == claimed:
-        return PassivityVerification("confirmed", req, b, None)
+        return PassivityVerification("confirmed", req, b, None, _word(claimed), _word(claimed))
     return PassivityVerification("contradicted", req, b,
-                                 f"said {'passive' if claimed else 'not passive'}, but b = {b:.9g} "
-                                 f"{'>' if passive else '≤'} required {req:.9g} N·s/m")
+                                 f"said {_word(claimed)}, but b = {b:.9g} {'>' if passive else '≤'} the sup "
+                                 f"(≥ {req:.9g} N·s/m" + (", a 40-digit witness)" if witness else ")"),
+                                 _word(claimed), None)
 
 
 def _with_labels(v: Verification, device: Device, stiffness: float, damping: float, stable: bool | None,
@@ -332,9 +505,15 @@ def _with_labels(v: Verification, device: Device, stiffness: float, damping: flo
             reasons.append(f"passivity: {pas.reason}")
     verdict: Verdict = ("contradicted" if "contradicted" in verdicts else
                         "not_checkable" if "not_checkable" in verdicts else "confirmed")
-    return replace(v, verdict=verdict, reason="; ".join(reasons) or None, design_radius=p.radius,
-                   design_unstable_poles=p.count, passivity=pas, elapsed_ms=(time.perf_counter() - t0) * 1e3,
-                   method=v.method or p.method)
+    words = [v.label] if v.label else []
+    if stable is not None:
+        words.append(f"the wall (K = {stiffness:.9g} N/m, B = {damping:.9g} N·s/m) is {'stable' if stable else 'unstable'}")
+    if passive is not None:
+        words.append(_word(passive))
+    out = replace(v, verdict=verdict, reason="; ".join(reasons) or None, design_radius=p.radius,
+                  design_unstable_poles=p.count, passivity=pas, elapsed_ms=(time.perf_counter() - t0) * 1e3,
+                  method=v.method or p.method)
+    return labelled(out, "; ".join(words) or None)
 
 
 def verify_stiffness_design(device: Device, stiffness: float, damping: float, gain_margin_db: float | None,
@@ -349,6 +528,8 @@ def verify_stiffness_design(device: Device, stiffness: float, damping: float, ga
         v = not_checkable(t0, "the design's rung states no error bound on its K_cr: its margin claims nothing to check")
     else:
         v = verify_critical_stiffness(device, damping, kc, epsilon)
+    if gain_margin_db is not None and kc is not None:
+        v = labelled(v, f"gain_margin_db = {gain_margin_db:.9g} (critical stiffness K·10^(GM/20) = {kc:.9g} N/m)")
     return _with_labels(v, device, stiffness, damping, True, passive, t0)
 
 
@@ -396,6 +577,17 @@ def _ff_point(loop, force_gain: float) -> _Point:
 
 
 def verify_critical_force_gain(device: Device, human, critical: float | None, order: int | None = None,
+                               cutoff_hz: float | None = None, epsilon: float | None = DEFAULT_EPSILON,
+                               next_crossing: float | None = None, design_gain: float | None = None) -> Verification:
+    """:func:`_critical_force_gain_check`, labelled with the critical force gain (and the designed one) it checks."""
+    v = _critical_force_gain_check(device, human, critical, order, cutoff_hz, epsilon, next_crossing, design_gain)
+    label = _gain_label("critical_force_gain", critical, "")
+    if design_gain is not None:
+        label += f"; the designed force_gain = {design_gain:.9g} is stable"
+    return labelled(v, label)
+
+
+def _critical_force_gain_check(device: Device, human, critical: float | None, order: int | None = None,
                                cutoff_hz: float | None = None, epsilon: float | None = DEFAULT_EPSILON,
                                next_crossing: float | None = None, design_gain: float | None = None) -> Verification:
     """Is 1 + K_f·D·G_1 stable at K_f,cr·(1 − ε) and unstable at K_f,cr·(1 + ε)?  ``design_gain``: a
@@ -475,4 +667,5 @@ def verify_boundary(device: Device, boundary, epsilon: float = DEFAULT_EPSILON) 
     n = sum(counts.values())
     reason = (f"{n} points (the optimum included): {counts['confirmed']} confirmed, {counts['contradicted']} "
               f"contradicted, {counts['not_checkable']} not checkable" + ("; " + "; ".join(bad) if bad else ""))
-    return replace(best, verdict=verdict, reason=reason, elapsed_ms=(time.perf_counter() - t0) * 1e3)
+    return labelled(replace(best, verdict=verdict, reason=reason, elapsed_ms=(time.perf_counter() - t0) * 1e3),
+                    f"critical_stiffness at each of the {n} points (the optimum's: {best.label})")

@@ -17,6 +17,7 @@ from optim.hardware.hardware_targets import device_with
 from optim.transparency.feedforward import resolve_human
 from optim.verification import (
     Verification,
+    labelled,
     not_checkable,
     verify_critical_force_gain,
     verify_stiffness_design,
@@ -50,5 +51,6 @@ def verify_hardware_design(device: Device, free: str, value: float | None, contr
                "not_checkable" if "not_checkable" in verdicts else "confirmed")
     reasons = [f"{name}: {v.reason}" for name, v in parts if v.reason]
     methods = "; ".join(dict.fromkeys(v.method for _, v in parts if v.method))
-    return replace(parts[0][1], verdict=verdict, method=methods or None, reason="; ".join(reasons) or None,
-                   elapsed_ms=(time.perf_counter() - t0) * 1e3)
+    out = replace(parts[0][1], verdict=verdict, method=methods or None, reason="; ".join(reasons) or None,
+                  elapsed_ms=(time.perf_counter() - t0) * 1e3)
+    return labelled(out, "; ".join(f"{name}: {v.label}" for name, v in parts if v.label) or None)

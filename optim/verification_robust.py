@@ -31,7 +31,7 @@ from models.filters import ButterworthLowPass
 from optim.robust.box import STIFFNESS_PATHS, UncertaintyBox
 from optim.stability.margins import critical_stiffness
 from optim.transparency.feedforward import critical_force_gain, resolve_human
-from optim.verification import Verdict, Verification, verify_critical_force_gain, verify_stiffness_design
+from optim.verification import Verdict, Verification, labelled, verify_critical_force_gain, verify_stiffness_design
 
 __all__ = ["PointVerification", "verify_robust_inertia", "verify_robust_stiffness"]
 
@@ -84,8 +84,10 @@ def _overall(points: list[PointVerification], t0: float, what: str) -> Verificat
               f"{counts['contradicted']} contradicted, {counts['not_checkable']} not checkable"
               + ("; " + "; ".join(bad) if bad else ""))
     methods = "; ".join(dict.fromkeys(p.method for p in points if p.method)) or None
-    return Verification(verdict, methods, None, None, None, None, None, None, None,
-                        (time.perf_counter() - t0) * 1e3, reason, points=tuple(points))
+    out = Verification(verdict, methods, None, None, None, None, None, None, None,
+                       (time.perf_counter() - t0) * 1e3, reason, points=tuple(points))
+    return labelled(out, f"the design holds on each of the {len(points)} devices of the box ({what}): its critical "
+                         "gain there, the designed gain stable (and passive when required), the margin")
 
 
 def _point(device: dict, kind: PointKind, critical: float | None, gained: float, required_db: float,

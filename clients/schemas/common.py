@@ -21,12 +21,36 @@ class HumanOut(Answer):
 
 
 class PassivityVerificationOut(Answer):
-    verdict: Literal["confirmed", "contradicted", "not_checkable"]
+    verdict: Annotated[
+        Literal["confirmed", "contradicted", "not_checkable"],
+        Field(
+            description=(
+                "whether `label` holds: b against the condition's sup, decided by verify's own proof (a 40-digit"
+                " witness above b, or every interval of its own grid bounded below b)"
+            )
+        ),
+    ]
     required_damping: Annotated[
-        float | None, Field(description="the delayed Colgate–Schenkel bound recomputed from its complex form [N·s/m]")
+        float | None,
+        Field(
+            description=(
+                "the delayed Colgate–Schenkel condition recomputed from its complex form: the largest value met"
+                " [N·s/m]"
+            )
+        ),
     ]
     physical_damping: Annotated[float, Field(description="b [N·s/m]")]
     reason: str | None
+    label: Annotated[Literal["passive", "not passive"], Field(description="the label checked: the answer's `passive`")]
+    label_confirmed: Annotated[
+        Literal["passive", "not passive"] | None,
+        Field(
+            description=(
+                "the label this record confirms (`label` when the verdict is confirmed, else null): a confirmed"
+                " `not passive` is not a passive wall"
+            )
+        ),
+    ]
 
 
 class PointVerificationOut(Answer):
@@ -105,6 +129,19 @@ class VerificationOut(Answer):
                 " and the worst device found); the verdict above is the worst of them"
             )
         ),
+    ] = None
+    label: Annotated[
+        str | None,
+        Field(
+            description=(
+                "what the record checks, in the answer's words: the critical gain (or the design's margin), and the"
+                " wall's own labels (stable, passive or not passive) when the answer gives them"
+            )
+        ),
+    ] = None
+    label_confirmed: Annotated[
+        str | None,
+        Field(description="`label` when the verdict is confirmed, else null: what was confirmed, explicitly"),
     ] = None
     elapsed_ms: Annotated[float, Field(description="time the verification took [ms]")]
     reason: str | None

@@ -29,7 +29,14 @@ from models.device import Device
 from models.discretize import split_delay
 from optim.errors import InputError
 from optim.golden import golden_minimum
-from optim.stability.passivity_kernel import best_of_rows, needs_python, polish_max, prefix_samples
+from optim.stability.passivity_kernel import (
+    SUP_TOL,
+    best_of_rows,
+    needs_python,
+    polish_max,
+    prefix_samples,
+    sup_bound,
+)
 
 __all__ = ["PassivityCheck", "PassiveStiffness", "passivity_samples", "kernel", "passivity_margin",
            "is_passive", "max_passive_stiffness", "largest_passive_stiffness", "passive_alpha_on_grid",
@@ -47,13 +54,19 @@ class PassivityCheck:
 
     passive: bool
     required_damping: float
-    """sup over θ of P(θ) [N·s/m]: the physical damping passivity needs (passive iff b exceeds it)."""
+    """sup over θ of P(θ) [N·s/m], bounded from above: the physical damping passivity needs (passive iff b exceeds
+    it).  With delay (and B > 0) a proven upper bound (optim.stability.passivity_kernel.sup_bound): never below the
+    sup, at most ``error_bound`` above it."""
     delay_samples_used: int
     """whole samples of delay used (a fractional delay is rounded up)."""
     conservative: bool
     """True when a fractional delay was rounded up to the next whole sample."""
     worst_angle: float | None = None
-    """θ = ωT [rad] where P(θ) is largest."""
+    """θ = ωT [rad] where P(θ) is largest (the largest value met)."""
+    error_bound: float = 0.0
+    """[N·s/m]: required_damping − sup P lies in [0, error_bound] (sup_bound: 1e-13 of P's scale hk·(2d+1) + B
+    plus twice its rounding bound); the closed forms (no delay, or B = 0) are the formula in floating point,
+    within rounding (≤ 1 ulp) of it, and say 0."""
 
 
 @dataclass(frozen=True)
@@ -245,7 +258,9 @@ def passivity_margin(device: Device, stiffness: float, damping: float) -> Passiv
     v_best, t_best, decided = best_of_rows(d, hk, damping, grid, vals, top, v_pi)   # compiled
     if not decided:   # a bracket needs _p_slopes_at's numpy sums: the rows in Python
         v_best, t_best = _best_of_rows(d, hk, damping, grid, vals, top.tolist(), v_pi)
-    return PassivityCheck(device.damping > v_best, v_best, d, conservative, t_best)
+    # the polished maxima are where P is largest only if no lobe between samples is higher: the proven bound
+    upper, _, t_best, err = sup_bound(d, n, hk, damping, grid, vals, v_best, t_best, SUP_TOL)   # compiled
+    return PassivityCheck(device.damping > upper, upper, d, conservative, t_best, err)
 
 
 def is_passive(device: Device, stiffness: float, damping: float) -> bool:
@@ -287,12 +302,77 @@ def largest_passive_stiffness(device: Device, damping: float) -> PassiveStiffnes
     if np.any(s < 0):
         lr = neg_ratio_lower(theta)
         lower = max(0.0, -_refine_min(neg_ratio_lower, theta, lr, int(np.argmin(lr)))[1])
+    if upper > 0.0 and math.isfinite(upper) and upper > lower:
+        upper, upper_t = _no_lobe_above(device, damping, theta, ratio, upper, upper_t)
     if not (upper > 0.0) or upper <= lower:
         return PassiveStiffness(0.0, damping, None, d, conservative,
                                 reason=f"no positive stiffness is passive with b = {b:.6g} N·s/m, B = {damping:.6g} "
                                        f"N·s/m and {d} samples of delay"
                                        + (" (fractional delay rounded up)" if conservative else ""))
     return PassiveStiffness(float(upper), damping, upper_t, d, conservative)
+
+
+def _no_lobe_above(device: Device, damping: float, theta: np.ndarray, ratio, upper: float,
+                   upper_t: float) -> tuple[float, float]:
+    """The grid's smallest ratio, refined, binds only if no lobe between samples binds harder: check it with the
+    proven sup (``passivity_margin`` at K = upper: the largest value of P met must not exceed b beyond its error
+    bound).  Where a lobe does, its angle (the sup's) is refined as the grid's was and K lowered to it; after a few
+    such rounds, bisection on K with the proven check (P is linear in K for each θ, so sup P is convex in K and
+    the passive K form an interval)."""
+    b = device.damping
+    for _ in range(6):
+        chk = passivity_margin(device, upper, damping)
+        if chk.required_damping - chk.error_bound <= b or chk.worst_angle is None:
+            return _proven_passive(device, damping, upper), upper_t
+        i = int(np.clip(np.searchsorted(theta, chk.worst_angle), 0, theta.size - 1))
+        t_new, k_new = _refine_min(ratio, theta, ratio(theta), i)
+        r_w = float(ratio(np.array([chk.worst_angle]))[0])
+        if r_w < k_new:
+            t_new, k_new = chk.worst_angle, r_w
+        if not k_new < upper:
+            break
+        upper, upper_t = k_new, t_new
+    lo, hi = 0.0, upper
+    for _ in range(64):
+        mid = 0.5 * (lo + hi)
+        if passivity_margin(device, mid, damping).passive:
+            lo = mid
+        else:
+            hi = mid
+    return lo, upper_t   # proven passive (the bisection's lower end)
+
+
+def _proven_passive(device: Device, damping: float, upper: float) -> float:
+    """The largest K ≤ ``upper`` that passivity_margin proves passive (its bound below b), to 1e-6 of the last
+    back-off: ``upper`` itself when proven; else back-offs 1e-12, 1e-11, …, 0.1 of it, then bisection between the
+    last two (from 0 when none is proven).  The passive K are an interval (sup P is convex in K), so every K below the answer is passive too; where b
+    equals the sup at ``upper`` to within the bound's error, the answer lies below the true supremum by about that
+    error over ∂P/∂K (issue 34: a design backed off by 1e-8 is not always outside that band)."""
+    if passivity_margin(device, upper, damping).passive:
+        return upper
+    bad = upper
+    for j in range(6, 18):
+        k = upper * (1.0 - 10.0 ** (j - 18))    # back-offs 1e-12, 1e-11, …, 0.1 of upper
+        if not k > 0.0:
+            break
+        if passivity_margin(device, k, damping).passive:
+            good = k
+            for _ in range(20):
+                mid = 0.5 * (good + bad)
+                if passivity_margin(device, mid, damping).passive:
+                    good = mid
+                else:
+                    bad = mid
+            return good
+        bad = k
+    good = 0.0
+    for _ in range(64):
+        mid = 0.5 * (good + bad)
+        if passivity_margin(device, mid, damping).passive:
+            good = mid
+        else:
+            bad = mid
+    return good
 
 
 def max_passive_stiffness(device: Device, damping: float) -> float:
@@ -324,6 +404,8 @@ def batch_required_damping(d: int, half_tk: np.ndarray, damping: np.ndarray) -> 
     The vectorised form of ``passivity_margin`` (the study path): the same grid, its three largest
     samples per row refined by golden-section search over [θ_{i−1}, θ_{i+1}] in lock step (P is smooth
     there; the bounded Brent search of ``passivity_margin`` is the second computation in the tests).
+    Each row's maximum then seeds the proven bound (``sup_bound``), as in ``passivity_margin``: the required damping
+    is never below the sup, and at most 1e-13 of P's scale plus its rounding bound above it.
     Returns (required damping [N·s/m], worst θ [rad]) per row.
     """
     half_tk = np.asarray(half_tk, float)
@@ -351,4 +433,15 @@ def batch_required_damping(d: int, half_tk: np.ndarray, damping: np.ndarray) -> 
     t_all = np.where(better, t_ref, theta[top])
     v_all = np.where(better, v_ref, v_grid)
     j = np.argmax(v_all, axis=1)
-    return v_all[np.arange(n), j], t_all[np.arange(n), j]
+    v_top, t_top = v_all[np.arange(n), j], t_all[np.arange(n), j]
+    # as passivity_margin: the refined maxima are the sup only if no lobe between samples is higher; each row's
+    # required damping is the proven bound (optim.stability.passivity_kernel.sup_bound) from there
+    out_v, out_t = np.empty(n), np.empty(n)
+    for r in range(n):
+        hk_r, b_r = float(half_tk[r]), float(damping[r])
+        if d == 0 or b_r == 0.0:   # passivity_margin's closed forms (eq. 3; B = 0: the sup at θ → 0)
+            out_v[r], out_t[r] = (hk_r + b_r, math.pi) if d == 0 and b_r > 0.0 else (hk_r * (2 * d + 1.0), 0.0)
+            continue
+        out_v[r], _, out_t[r], _ = sup_bound(d, m, float(half_tk[r]), float(damping[r]), theta, p[r],
+                                             float(v_top[r]), float(t_top[r]), SUP_TOL)
+    return out_v, out_t

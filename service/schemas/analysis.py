@@ -90,7 +90,10 @@ class StabilityResponse(FiniteModel):
     gain_margin_db: float | None = Field(description="20·log10(K_cr/K) [dB] when a controller is given")
     stable: bool | None
     passive: bool | None = Field(description="delayed Colgate–Schenkel condition (ARCHITECTURE.md)")
-    passivity_required_damping: float | None = Field(description="physical damping passivity needs [N·s/m]")
+    passivity_required_damping: float | None = Field(
+        description="physical damping passivity needs [N·s/m]: with delay, a proven upper bound of the condition's "
+                    "sup over θ (at most 1e-13 of its scale K·T/2·(2d+1) + B, plus its rounding bound, above it); "
+                    "passive iff b exceeds it")
     passivity_conservative: bool = Field(description="a fractional delay was rounded up for passivity")
     linear_estimate: float = Field(description="(b + B)/(T/2 + t_d) [N/m], eq. 10")
     linear_error: float | None = Field(description="relative error of eq. 10 against this K_cr")

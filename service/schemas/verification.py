@@ -19,11 +19,17 @@ def VerifyField():
 
 
 class PassivityVerificationOut(BaseModel):
-    verdict: Literal["confirmed", "contradicted", "not_checkable"]
-    required_damping: float | None = Field(description="the delayed Colgate–Schenkel bound recomputed from its "
-                                                       "complex form [N·s/m]")
+    verdict: Literal["confirmed", "contradicted", "not_checkable"] = Field(
+        description="whether `label` holds: b against the condition's sup, decided by verify's own proof (a "
+                    "40-digit witness above b, or every interval of its own grid bounded below b)")
+    required_damping: float | None = Field(description="the delayed Colgate–Schenkel condition recomputed from its "
+                                                       "complex form: the largest value met [N·s/m]")
     physical_damping: float = Field(description="b [N·s/m]")
     reason: str | None
+    label: Literal["passive", "not passive"] = Field(description="the label checked: the answer's `passive`")
+    label_confirmed: Literal["passive", "not passive"] | None = Field(
+        description="the label this record confirms (`label` when the verdict is confirmed, else null): a confirmed "
+                    "`not passive` is not a passive wall")
 
 
 class PointVerificationOut(BaseModel):
@@ -59,6 +65,11 @@ class VerificationOut(BaseModel):
     points: list[PointVerificationOut] | None = Field(
         None, description="robust designs (requirements.uncertainty): one verdict per checked device of the box "
                           "(every corner and the worst device found); the verdict above is the worst of them")
+    label: str | None = Field(None, description="what the record checks, in the answer's words: the critical gain "
+                                                 "(or the design's margin), and the wall's own labels (stable, passive "
+                                                 "or not passive) when the answer gives them")
+    label_confirmed: str | None = Field(None, description="`label` when the verdict is confirmed, else null: what "
+                                                          "was confirmed, explicitly")
     elapsed_ms: float = Field(description="time the verification took [ms]")
     reason: str | None
 

@@ -31,6 +31,27 @@ def test_stability_verify_checks_the_walls_labels(client):
 
 
 @pytest.mark.slow
+def test_the_issue_34_wall_is_not_passive_and_the_labels_say_so(client):
+    """The audit's wall: zwidth required 29962.6817 N·s/m and said passive, verify 'confirmed'; the 32-digit sup is
+    29962.7703618644 (tests/optim/stability/test_passivity_bound.py).  Now not passive, the required damping at or
+    above the sup, and every verify record names the label it confirms (issue 29)."""
+    body = {"device": {"sample_time": 1.16184710959797e-05, "delay": 0.0003253171906874316,
+                       "mass": 6.442665896890286, "damping": 29962.72},
+            "controller": {"stiffness": 680339.6224449361, "damping": 29958.72929925067}, "verify": True}
+    r = client.post("/v1/analysis/stability", json=body).json()
+    assert r["passive"] is False
+    assert 29962.7703618643 <= r["passivity_required_damping"] <= 29962.7703618644 + 4e-9
+    v = r["verification"]
+    assert v["passivity"]["verdict"] == "confirmed" and v["passivity"]["label"] == "not passive"
+    assert v["passivity"]["label_confirmed"] == "not passive"
+    if v["verdict"] == "confirmed":
+        assert v["label_confirmed"] == v["label"] and v["label"].endswith("not passive")
+    assert v["label"].startswith("critical_stiffness = ")
+    # a passive wall's record says passive
+    ok = client.post("/v1/analysis/stability", json={**body, "device": {**body["device"], "damping": 29962.8}}).json()
+    assert ok["passive"] is True and ok["verification"]["passivity"]["label_confirmed"] == "passive"
+
+
 def test_long_delay_uses_the_argument_principle(client):
     body = {"device": {**LHIFAM_RIGID, "delay": 2.0}, "verify": True}   # 2,000 samples of delay
     v = client.post("/v1/analysis/stability", json=body).json()["verification"]

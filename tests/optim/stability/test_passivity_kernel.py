@@ -15,6 +15,7 @@ from models.device import Device
 from optim.stability import passivity
 from optim.stability import passivity_kernel as pk
 
+from . import passivity_python as twin
 from .passivity_python import _passivity_prefix
 
 pytestmark = pytest.mark.skipif(
@@ -57,6 +58,27 @@ def test_prefix_and_polish_equal_their_python_twins_bit_for_bit():
     assert polished >= 100 and numpy_rows >= 10   # both kinds of bracket were met
 
 
+def test_sup_bound_equals_its_python_twin_bit_for_bit():
+    """The proven bound (compiled) against tests/optim/stability/passivity_python.sup_bound, from the grid's largest
+    sample and from the polished maximum alike, and p_value at random angles."""
+    rng = np.random.default_rng(79)
+    bisected = 0
+    for i in range(400):
+        dev, k, b = _wall(rng, i)
+        d, _ = passivity.passivity_samples(dev)
+        hk, n = k * dev.sample_time / 2, 64 * (d + 1) + 257
+        grid, vals, v_pi = pk.prefix_samples(d, n, hk, b)
+        j = int(np.argmax(vals))
+        for start in [(float(vals[j]), float(grid[j])), (v_pi, math.pi)]:
+            got = pk.sup_bound(d, n, hk, b, grid, vals, *start, pk.SUP_TOL)
+            want = twin.sup_bound(d, n, hk, b, grid, vals, *start, pk.SUP_TOL)
+            assert got == want, (dev, k, b)
+            bisected += got[1] > start[0]
+        t = float(rng.uniform(0, math.pi))
+        assert pk.p_value(t, d, hk, b) == twin.p_value(t, d, hk, b)
+    assert bisected >= 50   # the bound met values above the start (between samples)
+
+
 def test_passivity_margin_equals_the_python_path(monkeypatch):
     """passivity_margin whole (compiled samples, rows and polish; the rows in Python where a bracket needs numpy's
     sums) against the same function with every kernel replaced by its Python twin."""
@@ -76,6 +98,7 @@ def test_passivity_margin_equals_the_python_path(monkeypatch):
     monkeypatch.setattr(passivity, "polish_max", passivity._polish_max)
     monkeypatch.setattr(passivity, "best_of_rows", lambda d, hk, b, grid, vals, top, v_pi: (
         *passivity._best_of_rows(d, hk, b, grid, vals, top.tolist(), v_pi), True))
+    monkeypatch.setattr(passivity, "sup_bound", twin.sup_bound)
     want = [passivity.passivity_margin(dev, k, b) for dev, k, b in walls]
     assert got == want
     assert sum(c.passive for c in got) >= 40 and sum(not c.passive for c in got) >= 40

@@ -108,7 +108,8 @@ def test_batch_passivity_equals_the_bounded_search(d):
     for ki, bi, gi, ai in zip(k, b, got, angle):
         ref = passivity_margin(dev, float(ki), float(bi))
         scale = ki * dev.sample_time / 2 * (2 * d + 1) + bi
-        assert abs(gi - ref.required_damping) <= 1e-13 * scale
+        # both are proven upper bounds of the sup (issue 34), each within its own error bound of it
+        assert abs(gi - ref.required_damping) <= 1e-13 * scale + ref.error_bound
         assert 0.0 <= ai <= math.pi
     # the closed-form limits: B = 0 → K(T/2 + t_d) at θ → 0 (ARCHITECTURE.md), d = 0 → KT/2 + B (eq. 3)
     k0 = np.array([1000.0, 7000.0])
