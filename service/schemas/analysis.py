@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
-from pydantic import BaseModel, Field
+from typing import Any
+
+from pydantic import BaseModel, Field, model_serializer
 
 from optim.stability.boundary import MAX_BOUNDARY_POINTS
 
-from .common import LHIFAM_RIGID, STRICT, Controller, CrossoverOut, Device
+from .common import LHIFAM_RIGID, STRICT, CrossoverOut, Device, RenderedController, RenderedEnvironment
 from .finite import FiniteModel
 from .ladder import GridPoints, GridPointsField, Method
 from .verification import VerificationOut, VerifyField
@@ -18,10 +20,16 @@ class StabilityRequest(BaseModel):
         {"device": {"preset": "lhifam", "delay": 0.001}, "controller": {"stiffness": 3500, "damping": 5}},
         {"device": LHIFAM_RIGID, "method": "linear"}]}}
     device: Device
-    controller: Controller | None = Field(default=None, description="the wall to check; K_cr is for its B")
+    controller: RenderedController | None = Field(
+        default=None, description="the wall to check; K_cr is for its B, virtual mass and velocity filter")
     method: Method = Field(default="exact", description="rung of the accuracy ladder")
     grid_points: GridPoints = GridPointsField()
     verify: bool = VerifyField()
+
+
+class MassRangeOut(FiniteModel):
+    min: float | None = Field(description="M [kg] below which the wall goes unstable; null: none")
+    max: float | None = Field(description="M [kg] above which the wall goes unstable; null: none")
 
 
 class StabilityResponse(FiniteModel):
@@ -48,6 +56,17 @@ class StabilityResponse(FiniteModel):
     error_source: str
     reason: str | None
     verification: VerificationOut | None = Field(None, description="present when verify was true")
+    mass_range: MassRangeOut | None = Field(
+        None, description="the stable virtual masses at (K, B) and this filter; present when the controller names "
+                          "mass or velocity_filter and a stiffness (exact rung), null when the wall is unstable")
+
+    @model_serializer(mode="wrap")
+    def _omit_absent_mass_range(self, handler: Any) -> dict[str, Any]:
+        # today's requests answer exactly as before: the block appears only when the rendering was asked for
+        data = handler(self)
+        if data.get("mass_range") is None and "mass_range" not in self.model_fields_set:
+            data.pop("mass_range", None)
+        return data
 
 
 class BoundaryRequest(BaseModel):
@@ -57,6 +76,8 @@ class BoundaryRequest(BaseModel):
     device: Device
     damping_max: float | None = Field(default=None, gt=0, le=1e15, description="largest B [N·s/m]; default B_max")
     points: int = Field(default=50, ge=2, le=MAX_BOUNDARY_POINTS)
+    controller: RenderedEnvironment | None = Field(
+        default=None, description="virtual mass and velocity filter of the walls on the boundary (default: today's)")
     verify: bool = VerifyField()
 
 
