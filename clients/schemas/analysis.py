@@ -68,6 +68,11 @@ class ForceFeedforwardResponse(Answer):
     verification: Annotated[common.VerificationOut | None, Field(description="present when verify was true")] = None
 
 
+class MassRangeOut(Answer):
+    min: Annotated[float | None, Field(description="M [kg] below which the wall goes unstable; null: none")]
+    max: Annotated[float | None, Field(description="M [kg] above which the wall goes unstable; null: none")]
+
+
 class StabilityResponse(Answer):
     critical_stiffness: Annotated[
         float | None, Field(description="K_cr(B) [N/m]; 0 when no K > 0 is stable; null when every K is")
@@ -104,3 +109,12 @@ class StabilityResponse(Answer):
     error_source: str
     reason: str | None
     verification: Annotated[common.VerificationOut | None, Field(description="present when verify was true")] = None
+    mass_range: Annotated[
+        MassRangeOut | None,
+        Field(
+            description=(
+                "the stable virtual masses at (K, B) and this filter; present when the controller names mass or"
+                " velocity_filter and a stiffness (exact rung), null when the wall is unstable"
+            )
+        ),
+    ] = None

@@ -24,8 +24,11 @@ every pole but z = 1 lies inside (a damped device, a stable filter), crosses no 
 * path 1: M from 0 at B = 0 (h_M with α = β = 0), then B from 0 at M (h_B);
 * path 2: B from 0 at M = 0 (h_B with μ = 0), then M from 0 at B (h_M with α = 0).
 
-A segment with no crossing keeps the state of its start; from a stable start, one crossing (a transversal pair of
-poles, or a real one) leaves it unstable.  Whatever neither path decides is refused, never guessed.
+Along each segment the unstable poles are counted: at a crossing the pole z(g) solves h(z) = g, so it leaves the
+circle as the gain g rises when d Im h/dθ > 0 there (a pair at ±θ, or one real pole at θ = π), and enters it when
+d Im h/dθ < 0; the sign is that of the refined bracket's ends.  The K = 0⁺ loop is stable when the count ends at 0.
+A crossing whose direction is not resolved (a tangency) leaves the path undecided; what neither path decides is
+refused (InputError on ``mass``), never guessed.
 """
 
 from __future__ import annotations
@@ -41,7 +44,6 @@ from models.device import Device
 from models.velocity_filter import Rendering
 from optim.errors import InputError
 from optim.stability.crossovers import (
-    Crossing,
     positive_real_crossings,
     refine_grid,
     scan_grid,
@@ -53,7 +55,7 @@ from optim.stability.margins import NO_DAMPING_REASON, CriticalStiffness, Crosso
 from optim.stability.undamped_cable import is_undamped_cable
 
 __all__ = ["MassRange", "rendered_critical_stiffness", "rendered_max_stable_damping", "rendered_mass_range",
-           "real_crossings", "k_loop", "Decision"]
+           "real_crossings", "k_loop", "Decision", "Passage", "clear_caches"]
 
 Decision = Literal["stable", "unstable", "undecided"]
 #: |V_n| or |A_n| below this counts as a zero of the estimate on the circle (a moving average's 2πk/n)
@@ -114,13 +116,25 @@ def _m_loop(device: Device, rendering: Rendering, alpha: float, beta: float):
     return h
 
 
-def real_crossings(h, grid: np.ndarray) -> list[Crossing]:
-    """Every θ ∈ (0, π] where h is real and non-zero, with its value (both signs): the scan of
-    optim.stability.crossovers.positive_real_crossings (one refinement of the grid, every sign change of Im h
+@dataclass(frozen=True)
+class Passage:
+    """A real value of h on the circle: the gain that puts a closed-loop pole at e^{jθ}, and which way it goes."""
+
+    angle: float
+    value: float
+    outward: int
+    """Poles leaving the unit circle as the gain rises through ``value``: +2 / −2 for a pair at ±θ, +1 / −1 for a
+    real pole at θ = π, 0 where the direction is not resolved (a tangency).  The pole z(g) solves h(z) = g, so
+    dz/dg = 1/h'(z) = jz/(dh/dθ) and its radial part Re(z̄·dz/dg) has the sign of d Im h/dθ."""
+
+
+def real_crossings(h, grid: np.ndarray) -> list[Passage]:
+    """Every θ ∈ (0, π] where h is real and non-zero, with its value (both signs) and the poles' direction: the scan
+    of optim.stability.crossovers.positive_real_crossings (one refinement of the grid, every sign change of Im h
     refined to 4 ulp, near-tangencies, exact zeros on a sample, the Nyquist point) without its Re h > 0 filter."""
     grid, values = refine_grid(h, grid)
     im, re = values.imag, values.real
-    found: list[Crossing] = []
+    found: list[Passage] = []
     with np.errstate(divide="ignore", invalid="ignore"):
         turn = np.abs(np.angle(values[1:] / values[:-1]))
     # a sign change of Im h across which arg h jumps by ≈ π is a pole of h on the circle (a zero of V or A there:
@@ -128,60 +142,73 @@ def real_crossings(h, grid: np.ndarray) -> list[Crossing]:
     idx = np.nonzero((np.sign(im[:-1]) * np.sign(im[1:]) < 0) & (turn < 0.5 * math.pi))[0]
     if idx.size:
         roots = solve_brackets(lambda t: h(t).imag, grid[idx], grid[idx + 1], im[idx], im[idx + 1])
-        found += [Crossing(float(t), float(v)) for t, v in zip(roots, h(roots).real) if v != 0.0]
-    found += tangential_pairs(h, grid, values)
-    found += [Crossing(c.angle, -c.value) for c in tangential_pairs(lambda t: -h(t), grid, -values)]
+        found += [Passage(float(t), float(v), 2 if im[i + 1] > 0 else -2)
+                  for t, v, i in zip(roots, h(roots).real, idx) if v != 0.0]
+    # a near-tangency's two crossings (optim.stability.crossovers.tangential_pairs) move their poles opposite ways;
+    # their order along θ tells which: Im h rises through the first one when it was negative between samples
+    for sign in (1.0, -1.0):
+        pair = tangential_pairs(lambda t, s=sign: s * h(t), grid, sign * values)
+        for j in range(0, len(pair) - 1, 2):
+            first, second = pair[j], pair[j + 1]
+            mid = complex(h(np.array([0.5 * (first.angle + second.angle)]))[0]).imag
+            out = 2 if mid < 0 else -2
+            found += [Passage(first.angle, sign * first.value, out), Passage(second.angle, sign * second.value, -out)]
     for i in np.nonzero(im[1:-1] == 0.0)[0] + 1:
         if re[i] != 0.0:
-            found.append(Crossing(float(grid[i]), float(re[i])))
+            out = 2 if (im[i - 1] < 0 < im[i + 1]) else -2 if (im[i - 1] > 0 > im[i + 1]) else 0
+            found.append(Passage(float(grid[i]), float(re[i]), out))
     v_pi = complex(h(np.array([math.pi]))[0]).real
     if v_pi != 0.0:
         found = [c for c in found if math.pi - c.angle > 1e-9]
-        found.append(Crossing(math.pi, v_pi))
+        below = im[-2] if grid[-1] == math.pi else im[-1]
+        found.append(Passage(math.pi, v_pi, 1 if below < 0 else -1 if below > 0 else 0))
     return sorted((c for c in found if math.isfinite(c.value) and abs(c.value) < 1e250), key=lambda c: c.angle)
 
 
-def _segment(values: list[float], start: float, end: float) -> int:
-    """Crossings strictly between ``start`` and ``end`` (or at ``end``)."""
-    lo, hi = min(start, end), max(start, end)
-    return sum(1 for v in values if lo < v <= hi) if end >= start else sum(1 for v in values if lo <= v < hi)
-
-
-def _after(state: Decision, crossings: int) -> Decision:
-    if crossings == 0:
-        return state
-    if state == "stable" and crossings == 1:
-        return "unstable"
-    return "undecided"
+def _walk(passages, start: float, end: float, unstable: int | None) -> int | None:
+    """Unstable poles after moving a gain from ``start`` to ``end`` across ``passages`` (None: not resolved)."""
+    if unstable is None or end == start:
+        return unstable
+    up = end > start
+    for c in sorted(passages, key=lambda c: c.value, reverse=not up):
+        if (start < c.value <= end) if up else (end <= c.value < start):
+            if c.outward == 0:
+                return None
+            unstable += c.outward if up else -c.outward
+    return unstable if unstable >= 0 else None
 
 
 @lru_cache(maxsize=1024)
-def _mass_crossings(device: Device, rendering: Rendering, beta: float) -> tuple[float, ...]:
+def _mass_crossings(device: Device, rendering: Rendering, beta: float) -> tuple[Passage, ...]:
     """μ values (dimensionless) where the K = 0⁺ loop at β gets a pole on the circle."""
-    h = _m_loop(device, rendering, 0.0, beta)
-    return tuple(c.value for c in real_crossings(h, _grid(device, rendering, beta)))
+    return tuple(real_crossings(_m_loop(device, rendering, 0.0, beta), _grid(device, rendering, beta)))
 
 
 @lru_cache(maxsize=1024)
-def _damper_crossings(device: Device, rendering: Rendering, mu: float) -> tuple[float, ...]:
+def _damper_crossings(device: Device, rendering: Rendering, mu: float) -> tuple[Passage, ...]:
     """β values (dimensionless) where the K = 0⁺ loop at μ gets a pole on the circle."""
-    h = _b_loop(device, rendering, mu)
-    return tuple(c.value for c in real_crossings(h, _grid(device, rendering, 0.0)))
+    return tuple(real_crossings(_b_loop(device, rendering, mu), _grid(device, rendering, 0.0)))
 
 
-def _on_path(crossings, start: float, end: float) -> int:
-    """Crossings on the segment of a gain from ``start`` to ``end`` (none to scan for when it does not move)."""
-    return 0 if end == start else _segment(list(crossings()), start, end)
+def clear_caches() -> None:
+    """Forget the K = 0⁺ loop's crossings kept per (device, filter, gain) (benchmarks time a wall not seen before)."""
+    _mass_crossings.cache_clear()
+    _damper_crossings.cache_clear()
 
 
 def _reduced_loop(device: Device, rendering: Rendering, beta: float, mu: float) -> Decision:
-    """Whether the K = 0⁺ loop (every pole but z = 1) is stable at (β, μ), by the two paths of the docstring."""
-    p1 = _after(_after("stable", _on_path(lambda: _mass_crossings(device, rendering, 0.0), 0.0, mu)),
-                _on_path(lambda: _damper_crossings(device, rendering, mu), 0.0, beta))
-    if p1 != "undecided":
-        return p1
-    return _after(_after("stable", _on_path(lambda: _damper_crossings(device, rendering, 0.0), 0.0, beta)),
-                  _on_path(lambda: _mass_crossings(device, rendering, beta), 0.0, mu))
+    """Whether the K = 0⁺ loop (every pole but z = 1) is stable at (β, μ): the unstable poles counted along the
+    two paths of the module docstring (the first that resolves its count answers)."""
+    for first, second in (("mass", "damper"), ("damper", "mass")):
+        if first == "mass":
+            n = _walk(_mass_crossings(device, rendering, 0.0) if mu else (), 0.0, mu, 0)
+            n = _walk(_damper_crossings(device, rendering, mu) if beta else (), 0.0, beta, n)
+        else:
+            n = _walk(_damper_crossings(device, rendering, 0.0) if beta else (), 0.0, beta, 0)
+            n = _walk(_mass_crossings(device, rendering, beta) if mu else (), 0.0, mu, n)
+        if n is not None:
+            return "stable" if n == 0 else "unstable"
+    return "undecided"
 
 
 def _check(device: Device, rendering: Rendering, damping: float) -> None:
@@ -193,15 +220,26 @@ def _check(device: Device, rendering: Rendering, damping: float) -> None:
 
 
 def rendered_max_stable_damping(device: Device, rendering: Rendering) -> float:
-    """B_max [N·s/m] at this M and filter: the largest B with a stable K = 0⁺ loop, reached from B = 0 at this M
-    (inf when no B destabilises it; 0 when B = 0⁺ is already unstable)."""
+    """B_max [N·s/m] at this M and filter: the largest B with a stable K = 0⁺ loop (B from 0 at this M, the poles
+    counted across each crossing); inf when no B destabilises it, 0 when no B > 0 is stable, nan when the count is
+    not resolved."""
     _check(device, rendering, 0.0)
     mu = rendering.mass / device.mass
-    start = _after("stable", _on_path(lambda: _mass_crossings(device, rendering, 0.0), 0.0, mu))
-    if start != "stable":
-        return 0.0
-    up = [v for v in _damper_crossings(device, rendering, mu) if v > 0.0]
-    return min(up, default=math.inf) * device.damping_scale
+    n = _walk(_mass_crossings(device, rendering, 0.0) if mu else (), 0.0, mu, 0)
+    passages = sorted((c for c in _damper_crossings(device, rendering, mu) if c.value > 0.0), key=lambda c: c.value)
+    last_stable_end = 0.0
+    for c in passages:
+        if n is None or c.outward == 0:
+            return math.nan
+        before = n
+        n += c.outward
+        if before == 0 and n > 0:
+            last_stable_end = c.value
+        elif n < 0:
+            return math.nan
+    if n is None:
+        return math.nan
+    return math.inf if n == 0 else last_stable_end * device.damping_scale
 
 
 def rendered_critical_stiffness(device: Device, damping: float, rendering: Rendering) -> CriticalStiffness:
@@ -209,12 +247,20 @@ def rendered_critical_stiffness(device: Device, damping: float, rendering: Rende
     _check(device, rendering, damping)
     beta, mu = damping / device.damping_scale, rendering.mass / device.mass
     if device.damping + damping <= 0.0:
+        if mu != 0.0 and not rendering.velocity.is_backward_difference:
+            # C = K + M·A with a filtered A: its lag acts like damping (M·s²/(τs + 1) ≈ Ms² + jMτω³), so the double
+            # pole at z = 1 may split inwards; the z → 1 argument above needs b + B > 0 (the property run found
+            # such walls stable at small K)
+            raise InputError("damping", "with no physical or virtual damping (b = B = 0) a filtered virtual mass "
+                                        "decides the poles at z = 1, which this analysis does not resolve: give B > 0")
         return CriticalStiffness(0.0, None, (), damping, 0.0, reason=NO_DAMPING_REASON)
     b_max = rendered_max_stable_damping(device, rendering) if damping > 0.0 else None
+    if b_max is not None and math.isnan(b_max):
+        b_max = None
     state = _reduced_loop(device, rendering, beta, mu)
     if state == "undecided":
         raise InputError("mass", "whether the loop with K → 0⁺ is stable at this virtual mass, damping and filter "
-                                 "cannot be decided from the crossings (several crossings on every path)")
+                                 "cannot be decided: a crossing on every path whose direction is not resolved")
     if state == "unstable":
         return CriticalStiffness(0.0, None, (), damping, b_max, reason=(
             f"with B = {damping:.6g} N·s/m, M = {rendering.mass:.6g} kg and this velocity filter the loop is "
@@ -239,7 +285,7 @@ def rendered_mass_range(device: Device, stiffness: float, damping: float, render
     alpha, beta = stiffness / device.stiffness_scale, damping / device.damping_scale
     mu = rendering.mass / device.mass
     h = _m_loop(device, rendering, alpha, beta)
-    values = [c.value for c in real_crossings(h, _grid(device, rendering, beta))]
+    values = [c.value for c in real_crossings(h, _grid(device, rendering, beta)) if c.outward != 0]
     lo = max((v for v in values if v < mu), default=-math.inf)
     hi = min((v for v in values if v > mu), default=math.inf)
     return MassRange(lo * device.mass, hi * device.mass)

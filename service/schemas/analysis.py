@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from typing import Any
-
 from pydantic import BaseModel, Field, model_serializer
 
 from optim.stability.boundary import MAX_BOUNDARY_POINTS
@@ -61,7 +59,7 @@ class StabilityResponse(FiniteModel):
                           "mass or velocity_filter and a stiffness (exact rung), null when the wall is unstable")
 
     @model_serializer(mode="wrap")
-    def _omit_absent_mass_range(self, handler: Any) -> dict[str, Any]:
+    def _omit_absent_mass_range(self, handler):   # unannotated: the response schema stays the model's own
         # today's requests answer exactly as before: the block appears only when the rendering was asked for
         data = handler(self)
         if data.get("mass_range") is None and "mass_range" not in self.model_fields_set:
