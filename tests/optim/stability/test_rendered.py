@@ -167,3 +167,54 @@ def test_undamped_cable_is_refused_with_its_field():
     with pytest.raises(InputError) as exc:
         rendered_critical_stiffness(dev, 1.0, rendering(LowPass(kind="low_pass", cutoff_hz=50.0), 0.0, 1e-3))
     assert exc.value.field == "velocity_filter"
+
+
+def _mp_k_loop(device: Device, spec, damping: float, mass: float):
+    """h_K(θ) in 40-digit mpmath: −1/G_n from the reference rung's own discretisation (optim.stability.reference),
+    the filter from its coefficients R, D evaluated again in mpmath."""
+    from mpmath import mp
+
+    from models.discretize import split_delay
+    from models.velocity_filter import velocity_transfer
+    from optim.stability.reference import _cable_h, _rigid_h
+
+    d, f = split_delay(device.delay_samples)
+    inv = (_rigid_h(mp.mpf(device.delta), d, mp.mpf(f), 0) if device.cable is None
+           else _cable_h(device, d, mp.mpf(f), 0))
+    vel = velocity_transfer(spec, device.sample_time)
+    beta, mu = mp.mpf(damping) * device.sample_time / device.mass, mp.mpf(mass) / device.mass
+
+    def poly(c, w):
+        return sum(mp.mpf(ck) * w ** k for k, ck in enumerate(c))
+
+    def h(theta):
+        w = 1 / mp.expj(theta)
+        v = (1 - w) * poly(vel.r, w) / poly(vel.d, w)
+        return inv(theta) - beta * v - mu * v * (1 - w)
+    return h
+
+
+@pytest.mark.slow
+def test_critical_stiffness_agrees_with_40_digits():
+    """The exact rung's claim (1e-12) for filtered walls: the binding crossover refined again in 40-digit mpmath on the
+    reference rung's discretisation (rigid and cable, whole and fractional delay, M of either sign)."""
+    from mpmath import mp
+
+    from optim.stability.reference import _bisect
+    mp.dps = 40
+    cases = [(LHIFAM, LowPass(kind="low_pass", cutoff_hz=50.0), 5.0, 0.0),
+             (LHIFAM.model_copy(update={"delay": 0.0037}), LowPass(kind="low_pass", cutoff_hz=80.0, order=2), 8.0,
+              -1.0),
+             (LHIFAM.model_copy(update={"delay": 0.002}), MovingAverage(kind="moving_average", samples=4), 3.0, 1.5),
+             (CABLE, LowPass(kind="low_pass", cutoff_hz=100.0), 2.0, 0.0),
+             (CABLE.model_copy(update={"delay": 0.0013}), LowPass(kind="low_pass", cutoff_hz=150.0, order=2), 1.0,
+              0.0)]
+    worst = 0.0
+    for dev, spec, damping, mass in cases:
+        res = rendered_critical_stiffness(dev, damping, rendering(spec, mass, dev.sample_time))
+        theta = res.crossover_frequency * dev.sample_time
+        h = _mp_k_loop(dev, spec, damping, mass)
+        root = _bisect(h, mp.mpf(theta) * (1 - mp.mpf("1e-7")), min(mp.mpf(theta) * (1 + mp.mpf("1e-7")), mp.pi), 40)
+        k = float(mp.re(h(root))) * dev.mass / dev.sample_time ** 2
+        worst = max(worst, abs(res.critical_stiffness / k - 1))
+    assert worst <= 1e-12
