@@ -199,7 +199,10 @@ def clear_caches() -> None:
 def _reduced_loop(device: Device, rendering: Rendering, beta: float, mu: float) -> Decision:
     """Whether the K = 0⁺ loop (every pole but z = 1) is stable at (β, μ): the unstable poles counted along the
     two paths of the module docstring (the first that resolves its count answers)."""
-    for first, second in (("mass", "damper"), ("damper", "mass")):
+    # without physical damping the loop at B = 0 keeps a pole at z = 1 for every M (G's double pole meets A's double
+    # zero): a walk of M at B = 0 starts on the circle, so B goes first there
+    order = (("damper", "mass"),) if device.damping == 0.0 else (("mass", "damper"), ("damper", "mass"))
+    for first, _ in order:
         if first == "mass":
             n = _walk(_mass_crossings(device, rendering, 0.0) if mu else (), 0.0, mu, 0)
             n = _walk(_damper_crossings(device, rendering, mu) if beta else (), 0.0, beta, n)
@@ -225,6 +228,9 @@ def rendered_max_stable_damping(device: Device, rendering: Rendering) -> float:
     not resolved."""
     _check(device, rendering, 0.0)
     mu = rendering.mass / device.mass
+    if device.damping == 0.0 and mu != 0.0:
+        # the walk of M at B = 0 starts on the circle (see _reduced_loop): B_max at this M is not resolved
+        return math.nan
     n = _walk(_mass_crossings(device, rendering, 0.0) if mu else (), 0.0, mu, 0)
     passages = sorted((c for c in _damper_crossings(device, rendering, mu) if c.value > 0.0), key=lambda c: c.value)
     last_stable_end = 0.0

@@ -218,3 +218,20 @@ def test_critical_stiffness_agrees_with_40_digits():
         k = float(mp.re(h(root))) * dev.mass / dev.sample_time ** 2
         worst = max(worst, abs(res.critical_stiffness / k - 1))
     assert worst <= 1e-12
+
+
+@pytest.mark.parametrize("mass", [-7.0, -6.0, -3.0, 2.0])
+def test_a_frictionless_device_walks_the_damper_first(mass):
+    """b = 0: the loop at B = 0 keeps a pole at z = 1 for every M, so B goes first; M below −m drives that pole out
+    (z − 1 ≈ −β/(1 + μ)): K_cr = 0, which the closed loop confirms; above −m the answer is held to it too."""
+    dev = Device(mass=5.4, damping=0.0, sample_time=1e-3, delay=0.001)
+    spec = LowPass(kind="low_pass", cutoff_hz=80.0)
+    res = rendered_critical_stiffness(dev, 5.0, rendering(spec, mass, 1e-3))
+    k = res.critical_stiffness
+    if mass < -5.4:
+        assert k == 0.0
+        assert _stable(dev, 1e-3, 5.0, spec, mass) is False
+    else:
+        assert 0 < k < math.inf
+        assert _stable(dev, k * (1 - 1e-6), 5.0, spec, mass) is True
+        assert _stable(dev, k * (1 + 1e-6), 5.0, spec, mass) is False
