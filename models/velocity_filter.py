@@ -166,6 +166,10 @@ def velocity_transfer(spec: BackwardDifference | LowPass | MovingAverage | Trans
         if not spec.cutoff_hz < nyquist:
             raise InputError("velocity_filter.cutoff_hz", f"must be below the Nyquist frequency 1/(2T) = "
                                                           f"{nyquist:.6g} Hz")
+        if not 2.0 * math.pi * spec.cutoff_hz * sample_time >= POLE_MARGIN:
+            raise InputError("velocity_filter.cutoff_hz", f"must be at least {POLE_MARGIN / (2 * math.pi):.3g}/T = "
+                                                          f"{POLE_MARGIN / (2 * math.pi * sample_time):.3g} Hz (its "
+                                                          "pole would sit on the unit circle)")
         if spec.order == 1:
             a = math.exp(-2.0 * math.pi * spec.cutoff_hz * sample_time)
             return VelocityTransfer("low_pass", (-math.expm1(-2.0 * math.pi * spec.cutoff_hz * sample_time),),

@@ -111,3 +111,10 @@ def test_mass_must_be_finite():
     assert rendering(MovingAverage(kind="moving_average", samples=1), 0.0, T).is_default
     assert not rendering(MovingAverage(kind="moving_average", samples=2), 0.0, T).is_default
     assert not rendering(None, -0.5, T).is_default
+
+
+def test_a_cutoff_too_low_to_represent_is_refused():
+    for order in (1, 2):
+        with pytest.raises(InputError) as exc:
+            velocity_transfer(LowPass(kind="low_pass", cutoff_hz=5e-324, order=order), T)
+        assert exc.value.field == "velocity_filter.cutoff_hz"
