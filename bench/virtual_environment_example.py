@@ -80,9 +80,16 @@ def main() -> None:
         "| today's requests | unchanged bit for bit: without `mass` and `velocity_filter` nothing new is computed "
         "or answered (tests/service/test_recorded_answers.py) |",
         "",
+        "| `POST /v1/simulate` | `scene.controller.mass`, `scene.controller.velocity_filter`: the wall as one "
+        "difference equation in the exact recursion and the per-sample loop; the verdict's closed-loop poles include "
+        "the filter's states |",
+        "| clients | `zwidth analyze --velocity-filter low_pass:50:1 --virtual-mass -1`; the Python client's "
+        "`StabilityResponse.mass_range` |",
+        "",
         "Not yet: designs (`requirements.velocity_filter`, the cutoff designed in CasADi, the noise rules "
-        "`max_force_noise_rms`), simulation scenes, studies, the Python client's and the CLI's flags, MATLAB and the "
-        "explorer.",
+        "`max_force_noise_rms`), studies sweeping `controller.velocity_filter.cutoff_hz` or `controller.mass`, "
+        "MATLAB and the explorer.  Cost: a filtered K_cr takes the scan of h_K plus the K → 0⁺ loop's crossings "
+        "(≈ 6–40 ms on the loaded test machine, docs/bench_core.md), well above today's compiled rigid path.",
         "",
         "## How it is exact",
         "",
