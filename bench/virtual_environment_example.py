@@ -79,7 +79,6 @@ def main() -> None:
         "(eq. 10, the grid's error bounds and the 40-digit reference are written for today's wall) |",
         "| today's requests | unchanged bit for bit: without `mass` and `velocity_filter` nothing new is computed "
         "or answered (tests/service/test_recorded_answers.py) |",
-        "",
         "| `POST /v1/simulate` | `scene.controller.mass`, `scene.controller.velocity_filter`: the wall as one "
         "difference equation in the exact recursion and the per-sample loop; the verdict's closed-loop poles include "
         "the filter's states |",
