@@ -87,6 +87,8 @@ def _stability_rows(r) -> list[tuple]:
             ("cable mode matters", r.mode_matters, ""),
             ("B_max", r.max_stable_damping, "N·s/m"),
             ("crossovers", len(r.crossovers), ""),
+            *([("virtual mass range", f"[{r.mass_range.min}, {r.mass_range.max}]", "kg")]
+              if getattr(r, "mass_range", None) is not None else []),
             ("method", r.method, ""), ("error estimate", r.error_estimate, "relative"),
             ("elapsed", r.elapsed_ms, "ms")]
     if r.reason:
@@ -112,6 +114,23 @@ def _says_no(r) -> bool:
     return r.stable is False or r.critical_stiffness == 0.0
 
 
+def parse_velocity_filter(text: str) -> dict:
+    """``--velocity-filter``: ``backward_difference``, ``low_pass:F_HZ[:ORDER]`` or ``moving_average:N`` as the
+    request's ``controller.velocity_filter`` (the server checks the values: a cutoff below Nyquist, N ≥ 1)."""
+    kind, *args = text.strip().split(":")
+    try:
+        if kind == "backward_difference" and not args:
+            return {"kind": kind}
+        if kind == "low_pass" and 1 <= len(args) <= 2:
+            return {"kind": kind, "cutoff_hz": float(args[0]), "order": int(args[1]) if len(args) == 2 else 1}
+        if kind == "moving_average" and len(args) == 1:
+            return {"kind": kind, "samples": int(args[0])}
+    except ValueError:
+        pass
+    raise c.usage_error(f"--velocity-filter {text!r}: expected backward_difference, low_pass:F_HZ[:ORDER] (e.g. "
+                        "low_pass:50:1) or moving_average:N")
+
+
 @app.command()
 @handle_errors
 def analyze(preset: Annotated[str | None, typer.Argument(help="preset name, or 'all' for every preset",
@@ -125,6 +144,10 @@ def analyze(preset: Annotated[str | None, typer.Argument(help="preset name, or '
                 help="encoder resolution q [m per count] (device.encoder_resolution)")] = None,
             coulomb: Annotated[float | None, typer.Option(
                 help="Coulomb friction f_c [N] on the motor side (device.coulomb_friction)")] = None,
+            velocity_filter: Annotated[str | None, typer.Option(
+                help="the velocity the damper sees: backward_difference | low_pass:F_HZ[:ORDER] | "
+                     "moving_average:N")] = None,
+            virtual_mass: Annotated[float | None, typer.Option(help="virtual mass M of the wall [kg]")] = None,
             verify: c.Verify = False, local: Local = False, url: Url = DEFAULT_URL, token: Token = None, as_json: AsJson = False) -> None:
     """Critical stiffness K_cr(B), every crossover, margin and passivity (POST /v1/analysis/stability).
 
@@ -133,11 +156,15 @@ def analyze(preset: Annotated[str | None, typer.Argument(help="preset name, or '
     """
     nonlinear = {k: v for k, v in (("encoder_resolution", encoder), ("coulomb_friction", coulomb)) if v is not None}
     controller = None
-    if stiffness is not None or damping is not None:
-        if stiffness is None:
+    rendered = velocity_filter is not None or virtual_mass is not None
+    if stiffness is not None or damping is not None or rendered:
+        if stiffness is None and not rendered:
             raise c.usage_error("--damping needs --stiffness (the wall is K + B(1 − z⁻¹)/T); without a wall, "
                                 "K_cr is reported at B = 0")
-        controller = {"stiffness": stiffness, **({"damping": damping} if damping is not None else {})}
+        controller = {**({"stiffness": stiffness} if stiffness is not None else {}),
+                      **({"damping": damping} if damping is not None else {}),
+                      **({"mass": virtual_mass} if virtual_mass is not None else {}),
+                      **({"velocity_filter": parse_velocity_filter(velocity_filter)} if velocity_filter else {})}
     with open_client(Connection(local, url, token)) as zw:
         if preset == "all":
             names = list(zw.presets())

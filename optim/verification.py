@@ -28,10 +28,19 @@ from scipy.optimize import minimize_scalar
 from models.device import Device
 from optim.stability.closed_loop import (
     SampledPlant,
+    circle_poles,
+    count_outside,
     radius_excess,
     sampled_plant,
     stiffness_closed_loop,
     unstable_count,
+)
+from optim.stability.closed_loop_rendered import (
+    filter_poles,
+    filter_polynomials,
+    rendered_closed_loop,
+    rendered_return_difference,
+    rendered_states,
 )
 
 __all__ = [
@@ -51,6 +60,8 @@ __all__ = [
     "verify_critical_stiffness",
     "verify_force_feedforward",
     "verify_passivity",
+    "verify_rendered_passivity",
+    "RENDERED_PASSIVITY_RTOL",
     "verify_stiffness_design",
     "whole_delay_samples",
 ]
@@ -139,7 +150,9 @@ class _Point:
     reason: str | None
 
 
-def _check_point(device: Device, plant: SampledPlant, alpha: float, beta: float) -> _Point:
+def _check_point(device: Device, plant: SampledPlant, alpha: float, beta: float, render: tuple | None = None) -> _Point:
+    if render is not None:
+        return _rendered_point(device, plant, alpha, beta, render)
     n = plant.e.shape[0] + 1 + plant.d + (1 if plant.f > 0 else 0)
     if n <= EIG_MAX_STATES:
         ex = radius_excess(stiffness_closed_loop(plant, alpha, beta))
@@ -154,6 +167,23 @@ def _check_point(device: Device, plant: SampledPlant, alpha: float, beta: float)
 #: the closed loop's verdict at one (α, β): eigenvalues with their rounding bound up to EIG_MAX_STATES states, else
 #: the argument principle (optim.stability.stable_band and optim.scene_verdict decide past B_max with it)
 check_point = _check_point
+
+
+def _rendered_point(device: Device, plant: SampledPlant, alpha: float, beta: float, render: tuple) -> _Point:
+    """The closed loop with the velocity filter's states and the virtual mass (``render`` = (filter spec, M [kg]))."""
+    spec, mass = render
+    t, mu = device.sample_time, mass / device.mass
+    if rendered_states(plant, spec, t) <= EIG_MAX_STATES:
+        ex = radius_excess(rendered_closed_loop(plant, spec, t, alpha, beta, mu))
+        if ex.decided_stable or ex.decided_unstable:
+            return _Point(ex.decided_stable, 1.0 + ex.excess, None, EIGEN, None)
+    m1, pairs = circle_poles(device)
+    poles = np.concatenate([1.0 + np.linalg.eigvals(plant.e), filter_poles(spec, t)])
+    cnt = count_outside(lambda th: rendered_return_difference(plant, spec, t, alpha, beta, mu, th), poles, plant.d,
+                        m1, pairs)
+    if cnt.count is None:
+        return _Point(None, None, None, ARGUMENT, cnt.reason)
+    return _Point(cnt.count == 0, None, cnt.count, ARGUMENT, None)
 
 
 def claimed_epsilon(method: str, error_estimate: float | None, linear_factor: float = 1.0) -> float | None:
@@ -185,21 +215,25 @@ def _methods(*points: _Point) -> str:
 
 
 def verify_critical_stiffness(device: Device, damping: float, critical: float | None,
-                              epsilon: float = DEFAULT_EPSILON, next_crossing: float | None = None) -> Verification:
+                              epsilon: float = DEFAULT_EPSILON, next_crossing: float | None = None,
+                              render: tuple | None = None) -> Verification:
     """:func:`_critical_stiffness_check`, labelled with the critical stiffness it checks."""
-    return labelled(_critical_stiffness_check(device, damping, critical, epsilon, next_crossing),
+    return labelled(_critical_stiffness_check(device, damping, critical, epsilon, next_crossing, render),
                     _gain_label("critical_stiffness", critical, " N/m"))
 
 
 def _critical_stiffness_check(device: Device, damping: float, critical: float | None,
-                              epsilon: float = DEFAULT_EPSILON, next_crossing: float | None = None) -> Verification:
+                              epsilon: float = DEFAULT_EPSILON, next_crossing: float | None = None,
+                              render: tuple | None = None) -> Verification:
     """Is the loop with this B stable at K_cr·(1 − ε) and unstable at K_cr·(1 + ε)?
 
     ``critical``: the answer to check [N/m]; 0 (no positive K stable) is checked as instability at a small
     K; None or inf (every K stable) is not checkable at finitely many gains, but a K that is unstable
     contradicts it.  ``next_crossing``: the next larger crossover's K, when the answer lists one: ε is
     kept below half the gap, so that the point above stays below it.  ``epsilon`` ≥ 0.5 (an approximate
-    rung's own error estimate) checks K/(1 + ε) below instead of a non-positive K.
+    rung's own error estimate) checks K/(1 + ε) below instead of a non-positive K.  ``render``: (velocity filter
+    spec, virtual mass M [kg]) of a rendered wall, closed with the filter's states
+    (optim.stability.closed_loop_rendered); None: today's wall.
     """
     t0 = time.perf_counter()
     m, t = device.mass, device.sample_time
@@ -208,7 +242,7 @@ def _critical_stiffness_check(device: Device, damping: float, critical: float | 
     if critical is not None and critical == 0.0:
         # no positive K is stable: the loop must be unstable already at a small K
         k_small = min(1e-6 * (device.damping + damping) / (t / 2 + device.delay), 1e-9 / to_alpha) or 1e-9 / to_alpha
-        p = _check_point(device, plant, k_small * to_alpha, beta)
+        p = _check_point(device, plant, k_small * to_alpha, beta, render)
         verdict: Verdict = "confirmed" if p.stable is False else ("contradicted" if p.stable else "not_checkable")
         reason = ("K_cr = 0: the loop is unstable at a small K" if p.stable is False else
                   "K_cr = 0 but the loop is stable at a small K" if p.stable else p.reason)
@@ -216,7 +250,7 @@ def _critical_stiffness_check(device: Device, damping: float, critical: float | 
                             (time.perf_counter() - t0) * 1e3, reason)
     if critical is None or math.isinf(critical):
         probe = 100.0 * (device.damping + damping) / (t / 2 + device.delay) or 1.0 / to_alpha
-        p = _check_point(device, plant, probe * to_alpha, beta)
+        p = _check_point(device, plant, probe * to_alpha, beta, render)
         if p.stable is False:
             return Verification("contradicted", p.method, None, None, probe, None, p.radius, None, p.count,
                                 (time.perf_counter() - t0) * 1e3, "every K was said stable, but this K is not")
@@ -236,8 +270,8 @@ def _critical_stiffness_check(device: Device, damping: float, critical: float | 
     for e in tries:
         k_lo = critical * (1.0 - e) if e < 0.5 else critical / (1.0 + e)
         k_hi = critical * (1.0 + e)
-        lo = _check_point(device, plant, k_lo * to_alpha, beta)
-        hi = _check_point(device, plant, k_hi * to_alpha, beta)
+        lo = _check_point(device, plant, k_lo * to_alpha, beta, render)
+        hi = _check_point(device, plant, k_hi * to_alpha, beta, render)
         out = Verification("not_checkable", _methods(lo, hi), e, k_lo, k_hi, lo.radius, hi.radius, lo.count,
                            hi.count, 0.0, None)
         if lo.stable is False or hi.stable is True:
@@ -483,13 +517,69 @@ def _passivity_record(passive: bool, claimed: bool, req: float, b: float, witnes
                                  _word(claimed), None)
 
 
+#: relative tolerance of the rendered wall's recomputed passivity bound (its polynomial form loses ≈ u/θ of B at
+#: small θ, sampled from θ = 1e-4 up): decided only outside this band of the bound's scale
+RENDERED_PASSIVITY_RTOL = 1e-9
+
+
+def _rendered_bound(device: Device, stiffness: float, damping: float, render: tuple, whole: int,
+                    theta: np.ndarray) -> np.ndarray:
+    """(T/2)·Re{(1 − e^{−jθ})·e^{−jdθ}·C(e^{jθ})}/(1 − cos θ) with C = (m/T²)·P(z⁻¹)/D(z⁻¹) from the difference
+    equation's polynomials (optim.stability.closed_loop_rendered), not from the analysis' V(z)."""
+    spec, mass = render
+    m, t = device.mass, device.sample_time
+    num, den = filter_polynomials(spec, t)
+    w = np.exp(-1j * theta)
+    one_minus_w = 1.0 - w
+    v = np.polyval(num[::-1], w) / np.polyval(den[::-1], w)            # T·V
+    c = stiffness + (m / (t * t)) * ((damping * t / m) * v + (mass / m) * v * one_minus_w)
+    return (t / 2) * (one_minus_w * np.exp(-1j * whole * theta) * c).real / (1.0 - np.cos(theta))
+
+
+def verify_rendered_passivity(device: Device, stiffness: float, damping: float, render: tuple,
+                              claimed: bool) -> PassivityVerification:
+    """The claimed passivity of a rendered wall against the general condition recomputed from the controller's
+    polynomials: a uniform grid from θ = 1e-4 (≥ 64 points per turn of the delay's phase), its 6 highest maxima
+    polished, and the limit K·T·(d + ½) − B as θ → 0⁺; decided outside :data:`RENDERED_PASSIVITY_RTOL`."""
+    whole = math.ceil(device.delay / device.sample_time - 1e-9)
+
+    def f(x: float) -> float:
+        return float(_rendered_bound(device, stiffness, damping, render, whole, np.array([x]))[0])
+
+    grid = np.concatenate([np.geomspace(1e-4, 0.05, 300), np.linspace(0.05, math.pi, max(20001, 64 * (whole + 1)))])
+    vals = _rendered_bound(device, stiffness, damping, render, whole, grid)
+    req = float(np.max(vals))
+    for i in np.argsort(vals)[-6:]:
+        a, b = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
+        r = minimize_scalar(lambda x: -f(x), bounds=(a, b), method="bounded", options={"xatol": 1e-12})
+        req = max(req, float(-r.fun))
+    req = max(req, stiffness * device.sample_time * (whole + 0.5) - damping)
+    b = device.damping
+    scale = max(abs(req), stiffness * device.sample_time * (whole + 1), damping,
+                abs(render[1]) / device.sample_time, 1e-300)
+    if abs(b - req) <= RENDERED_PASSIVITY_RTOL * scale:
+        return PassivityVerification("not_checkable", req, b, f"b equals the damping passivity requires to within "
+                                                              f"{RENDERED_PASSIVITY_RTOL:g} of its scale")
+    passive = b > req
+    if passive == claimed:
+        return PassivityVerification("confirmed", req, b, None)
+    return PassivityVerification("contradicted", req, b,
+                                 f"said {'passive' if claimed else 'not passive'}, but b = {b:.9g} "
+                                 f"{'>' if passive else '≤'} required {req:.9g} N·s/m")
+
+
 def _with_labels(v: Verification, device: Device, stiffness: float, damping: float, stable: bool | None,
-                 passive: bool | None, t0: float) -> Verification:
+                 passive: bool | None, t0: float, render: tuple | None = None) -> Verification:
     """Add the checks of a wall's own labels: the closed loop at K itself, and its passivity."""
     plant = sampled_plant(device)
     m, t = device.mass, device.sample_time
-    p = _check_point(device, plant, stiffness * t * t / m, damping * t / m)
-    pas = verify_passivity(device, stiffness, damping, passive) if passive is not None else None
+    p = _check_point(device, plant, stiffness * t * t / m, damping * t / m, render)
+    if passive is None:
+        pas = None
+    elif render is None:
+        pas = verify_passivity(device, stiffness, damping, passive)
+    else:
+        pas = verify_rendered_passivity(device, stiffness, damping, render, passive)
     verdicts = [v.verdict]
     reasons = [v.reason] if v.reason else []
     if p.stable is None:
@@ -533,8 +623,9 @@ def verify_stiffness_design(device: Device, stiffness: float, damping: float, ga
     return _with_labels(v, device, stiffness, damping, True, passive, t0)
 
 
-def verify_analysis(device: Device, analysis) -> Verification:
-    """Verify an optim.stability.analysis.StabilityAnalysis on whatever rung produced it.
+def verify_analysis(device: Device, analysis, render: tuple | None = None) -> Verification:
+    """Verify an optim.stability.analysis.StabilityAnalysis on whatever rung produced it (``render``: the rendered
+    wall's (velocity filter spec, virtual mass M [kg]), closed with the filter's states; None: today's wall).
 
     Exact and reference answers are checked at ±:data:`DEFAULT_EPSILON`; an approximate rung (linear, grid)
     at ± its own error estimate (its claim), and not at all when it claims no bound.  The labels of a given
@@ -552,10 +643,11 @@ def verify_analysis(device: Device, analysis) -> Verification:
     # above), with no cap at the next listed crossover (a cap would test a stronger claim than the rung made).
     exact = analysis.method in ("exact", "reference")
     v = verify_critical_stiffness(device, analysis.damping, kcr, eps,
-                                  next_crossing=min(above) if above and exact else None)
+                                  next_crossing=min(above) if above and exact else None, render=render)
     if analysis.stiffness is None:
         return v
-    return _with_labels(v, device, analysis.stiffness, analysis.damping, analysis.stable, analysis.passive, t0)
+    return _with_labels(v, device, analysis.stiffness, analysis.damping, analysis.stable, analysis.passive, t0,
+                        render)
 
 
 # --- force feedforward: K_f,cr of 1 + K_f·D·G_1 --------------------------------------------------------------
@@ -646,7 +738,8 @@ def verify_force_feedforward(device: Device, analysis, order: int | None, cutoff
 
 # --- the stability boundary: every point, the optimum's record -----------------------------------------------
 
-def verify_boundary(device: Device, boundary, epsilon: float = DEFAULT_EPSILON) -> Verification:
+def verify_boundary(device: Device, boundary, render: tuple | None = None,
+                    epsilon: float = DEFAULT_EPSILON) -> Verification:
     """Verify every K_cr(B) of an optim.stability.boundary.Boundary; the record is the optimum's, the verdict the worst
     over the points, and the reason counts them (a contradicted point is named)."""
     t0 = time.perf_counter()
@@ -654,13 +747,14 @@ def verify_boundary(device: Device, boundary, epsilon: float = DEFAULT_EPSILON) 
     bad: list[str] = []
     for p in boundary.points:
         k = p.critical_stiffness if math.isfinite(p.critical_stiffness) else None
-        v = verify_critical_stiffness(device, p.damping, k, epsilon)
+        v = verify_critical_stiffness(device, p.damping, k, epsilon, render=render)
         counts[v.verdict] += 1
         if v.verdict != "confirmed" and len(bad) < 3:
             bad.append(f"B = {p.damping:.6g}: {v.verdict} ({v.reason})")
     opt = boundary.optimum
     best = verify_critical_stiffness(device, opt.damping,
-                                     opt.critical_stiffness if math.isfinite(opt.critical_stiffness) else None, epsilon)
+                                     opt.critical_stiffness if math.isfinite(opt.critical_stiffness) else None, epsilon,
+                                     render=render)
     counts[best.verdict] += 1
     verdict: Verdict = ("contradicted" if counts["contradicted"] else
                         "not_checkable" if counts["not_checkable"] else "confirmed")

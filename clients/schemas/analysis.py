@@ -114,6 +114,11 @@ class NonlinearOut(Answer):
     verification: NonlinearVerificationOut | None = None
 
 
+class MassRangeOut(Answer):
+    min: Annotated[float | None, Field(description="M [kg] below which the wall goes unstable; null: none")]
+    max: Annotated[float | None, Field(description="M [kg] above which the wall goes unstable; null: none")]
+
+
 class StabilityResponse(Answer):
     critical_stiffness: Annotated[
         float | None, Field(description="K_cr(B) [N/m]; 0 when K → 0⁺ is unstable (see stable_band); null when every K is")
@@ -171,4 +176,13 @@ class StabilityResponse(Answer):
     verification: Annotated[common.VerificationOut | None, Field(description="present when verify was true")] = None
     nonlinear: Annotated[
         NonlinearOut | None, Field(description="present when the device has encoder_resolution or coulomb_friction")
+    ] = None
+    mass_range: Annotated[
+        MassRangeOut | None,
+        Field(
+            description=(
+                "the stable virtual masses at (K, B) and this filter; present when the controller names mass or"
+                " velocity_filter and a stiffness (exact rung), null when the wall is unstable"
+            )
+        ),
     ] = None

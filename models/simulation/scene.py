@@ -16,6 +16,7 @@ from typing import Literal
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from models.errors import InputError
+from models.velocity_filter import MAX_VIRTUAL_MASS, VelocityFilter
 
 __all__ = [
     "EFFECT_NAMES", "LINEAR_EFFECTS", "SAMPLED_NONLINEAR_EFFECTS", "CONTINUOUS_NONLINEAR_EFFECTS",
@@ -46,11 +47,17 @@ _BIG = 1e12
 
 
 class WallController(BaseModel):
-    """Bilateral virtual wall C(z) = K + B(1 - z⁻¹)/T at position 0 (force -C·x)."""
+    """Bilateral virtual wall C(z) = K + B·V(z) + M·A(z) at position 0 (force −C·x); today's C(z) = K + B(1 − z⁻¹)/T
+    without mass and velocity_filter (ARCHITECTURE.md, "The rendered virtual environment")."""
 
     model_config = _STRICT
     stiffness: float = Field(ge=0, le=_BIG, description="K, virtual stiffness [N/m]")
     damping: float = Field(default=0.0, ge=0, le=_BIG, description="B, virtual damping [N·s/m]")
+    mass: float = Field(default=0.0, ge=-MAX_VIRTUAL_MASS, le=MAX_VIRTUAL_MASS,
+                        description="M, virtual mass [kg] rendered as M·A(z), A = V·(1 − z⁻¹)/T; negative compensates "
+                                    "inertia")
+    velocity_filter: VelocityFilter | None = Field(default=None, description="V(z), the velocity the damper sees; "
+                                                                             "null: the backward difference")
 
 
 class InitialState(BaseModel):

@@ -22,7 +22,7 @@ Two propagations, both exact between samples:
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.signal import butter, tf2ss
@@ -31,7 +31,7 @@ from models.errors import InputError
 from models.simulation.sim_plant import SampledPlant
 
 __all__ = ["LoopSpec", "Record", "feedforward_filter", "closed_loop_matrices", "run_sampled_loop",
-           "linear_step"]
+           "linear_step", "wall_polynomials", "linear_part"]
 
 
 @dataclass(frozen=True)
@@ -45,6 +45,28 @@ class LoopSpec:
     """D(z) as (A_d, B_d, C_d, D_d); None with ff_gain > 0 means D = 1."""
     quantization: float | None = None
     max_force: float | None = None
+    wall: tuple[np.ndarray, np.ndarray] | None = None
+    """A rendered wall's difference equation D(z⁻¹)·w = −P(z⁻¹)·y (P, D ascending in z⁻¹, D[0] = 1; SI): a velocity
+    filter or a virtual mass (:func:`wall_polynomials`); None: today's u = −K·y − B·(y − y_prev)/T."""
+
+
+def wall_polynomials(stiffness: float, damping: float, mass: float, velocity, sample_time: float
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """(P, D) of C = K + B·V + M·A with V = (1 − z⁻¹)·R/(T·D) (models.velocity_filter.VelocityTransfer ``velocity``):
+    D·C = K·D + (B/T)·N̂ + (M/T²)·N̂·(1 − z⁻¹), N̂ = (1 − z⁻¹)·R."""
+    t = sample_time
+    den = np.asarray(velocity.d, dtype=float)
+    nhat = np.convolve([1.0, -1.0], velocity.r)
+    p = np.zeros(max(den.size, nhat.size + 1))
+    p[:den.size] += stiffness * den
+    p[:nhat.size] += damping / t * nhat
+    p[:nhat.size + 1] += mass / (t * t) * np.convolve(nhat, [1.0, -1.0])
+    return p, den
+
+
+def linear_part(spec: LoopSpec) -> LoopSpec:
+    """The scene's loop without its sampled nonlinearities (quantization, saturation)."""
+    return replace(spec, quantization=None, max_force=None, relay_amplitude=None)
 
 
 @dataclass(frozen=True)
@@ -99,18 +121,32 @@ def _sizes(spec: LoopSpec) -> tuple[int, int, int]:
 def closed_loop_matrices(spec: LoopSpec, x0: np.ndarray, v0: float):
     """(A_cl, b_w, out, d_out, ζ0) of a linear wall scene; outputs as in :class:`Record` order.
 
-    ζ = [x (n), u[k-1] … u[k-d-1], y[k-1], D(z) states].
+    ζ = [x (n), u[k-1] … u[k-d-1], y[k-1], D(z) states, and a rendered wall's y[k-2] … and w[k-1] …].
     """
     if spec.relay_amplitude is not None or spec.quantization is not None or spec.max_force is not None:
         raise ValueError("closed_loop_matrices: only a linear scene has closed-loop matrices")
     sp, pl = spec.sampled, spec.sampled.plant
     n, nb, nd = _sizes(spec)
     d, t = sp.d, sp.sample_time
-    size = n + nb + 1 + nd
+    # a rendered wall adds its past positions y[k−2] … and its past outputs w[k−1] … after the feedforward states
+    ny, nw = (0, 0) if spec.wall is None else (max(spec.wall[0].size - 2, 0), spec.wall[1].size - 1)
+    iy2, iw = n + nb + 1 + nd, n + nb + 1 + nd + ny
+    size = n + nb + 1 + nd + ny + nw
     ip = pl.motor_position
     lrow = np.zeros(size)                       # u[k] = lrow · ζ[k]
-    lrow[ip] -= spec.stiffness + spec.damping / t
-    lrow[n + nb] += spec.damping / t
+    if spec.wall is None:
+        lrow[ip] -= spec.stiffness + spec.damping / t
+        lrow[n + nb] += spec.damping / t
+    else:
+        p, den = spec.wall
+        lrow[ip] -= p[0]
+        if p.size > 1:
+            lrow[n + nb] -= p[1]
+        for i in range(2, p.size):
+            lrow[iy2 + i - 2] -= p[i]
+        for i in range(1, den.size):
+            lrow[iw + i - 1] -= den[i]
+    wrow = lrow.copy()                          # the wall's own output, before the feedforward
     if spec.ff_gain:
         if pl.sensor is None:
             raise InputError("scene.effects.force_feedforward", "needs the force sensor state")
@@ -119,7 +155,7 @@ def closed_loop_matrices(spec: LoopSpec, x0: np.ndarray, v0: float):
         else:
             ad, bd, cd, dd = spec.ff_filter
             lrow[pl.sensor] += spec.ff_gain * dd
-            lrow[n + nb + 1:] += spec.ff_gain * cd
+            lrow[n + nb + 1:n + nb + 1 + nd] += spec.ff_gain * cd
     ub_row = lrow if d == 0 else np.eye(size)[n + d - 1]
     ua_row = np.eye(size)[n + d]
     a = np.zeros((size, size))
@@ -131,8 +167,15 @@ def closed_loop_matrices(spec: LoopSpec, x0: np.ndarray, v0: float):
     a[n + nb, ip] = 1.0
     if nd:
         ad, bd, cd, dd = spec.ff_filter
-        a[n + nb + 1:, n + nb + 1:] = ad
-        a[n + nb + 1:, pl.sensor] = bd
+        a[n + nb + 1:n + nb + 1 + nd, n + nb + 1:n + nb + 1 + nd] = ad
+        a[n + nb + 1:n + nb + 1 + nd, pl.sensor] = bd
+    for j in range(ny):                          # y[k−2−j] ← y[k−1−j]
+        a[iy2 + j, n + nb if j == 0 else iy2 + j - 1] = 1.0
+    for j in range(nw):                          # w[k−1−j] ← w[k−j]
+        if j == 0:
+            a[iw] = wrow
+        else:
+            a[iw + j, iw + j - 1] = 1.0
     b_w = np.zeros(size)
     b_w[:n] = sp.gamma_user
     out = np.zeros((6, size))
@@ -147,6 +190,11 @@ def closed_loop_matrices(spec: LoopSpec, x0: np.ndarray, v0: float):
     z0 = np.zeros(size)
     z0[:n] = x0
     z0[n + nb] = x0[ip] - v0 * t
+    for j in range(ny):
+        z0[iy2 + j] = x0[ip] - v0 * t * (j + 2)
+    for j in range(nw):
+        # the wall's past outputs as if the device had moved at v0 (a velocity estimate of a ramp is v0)
+        z0[iw + j] = -spec.stiffness * (x0[ip] - v0 * t * (j + 1)) - spec.damping * v0
     return a, b_w, out, d_out, z0
 
 
@@ -190,6 +238,10 @@ def run_sampled_loop(spec: LoopSpec, x0: np.ndarray, v0: float, w: np.ndarray, n
         return q * round(pos / q) if q is not None else pos
 
     y_prev = measure(x[ip] - v0 * t)
+    if spec.wall is not None:
+        p_wall, d_wall = spec.wall
+        ys = [measure(x[ip] - v0 * t * j) for j in range(1, p_wall.size)]      # y[k−1], y[k−2], …
+        ws = [-k_wall * (x[ip] - v0 * t * j) - spec.damping * v0 for j in range(1, d_wall.size)]
     last = relay if relay is not None else 0.0
     if relay is not None:
         last = -relay if x[ip] > 0 else relay
@@ -203,7 +255,13 @@ def run_sampled_loop(spec: LoopSpec, x0: np.ndarray, v0: float, w: np.ndarray, n
         if relay is not None:
             u = -relay if y > 0 else (relay if y < 0 else last)
         else:
-            u = -k_wall * y - b_wall * (y - y_prev)
+            if spec.wall is None:
+                u = -k_wall * y - b_wall * (y - y_prev)
+            else:
+                u = -p_wall[0] * y - sum(p_wall[i] * ys[i - 1] for i in range(1, p_wall.size)) \
+                    - sum(d_wall[i] * ws[i - 1] for i in range(1, d_wall.size))
+                ys = [y] + ys[:-1] if ys else ys
+                ws = [u] + ws[:-1] if ws else ws
             if kf:
                 s = x[pl.sensor]
                 if ff is None:

@@ -29,11 +29,14 @@ from models.simulation.sim_loop import (
     Record,
     closed_loop_matrices,
     feedforward_filter,
+    linear_part,
     linear_step,
     run_sampled_loop,
+    wall_polynomials,
 )
 from models.simulation.sim_plant import SceneModelError, build_plant, sample_plant
 from models.simulation.verdict import SceneVerdict, decide
+from models.velocity_filter import rendering
 
 __all__ = ["Trajectory", "SimulationResult", "simulate", "propagation_method", "sample_count",
            "check_cost", "SceneModelError", "loop_spec", "DIVERGENCE_FACTOR", "scene_poles", "scene_resolution",
@@ -159,7 +162,17 @@ def loop_spec(device: Device, scene: Scene) -> LoopSpec:
     plant = build_plant(device, eff)
     sampled = sample_plant(plant, device.sample_time, device.delay if eff.delay is not None else 0.0)
     ff = eff.force_feedforward
+    wall = None
+    c = scene.controller
+    if c is not None and ({"mass", "velocity_filter"} & c.model_fields_set):
+        try:
+            vel = rendering(c.velocity_filter, c.mass, device.sample_time)
+        except InputError as exc:
+            raise exc.under("scene.controller.") from None
+        if not vel.is_default:
+            wall = wall_polynomials(c.stiffness, c.damping, c.mass, vel.velocity, device.sample_time)
     return LoopSpec(
+        wall=wall,
         sampled=sampled,
         stiffness=scene.controller.stiffness if scene.controller else 0.0,
         damping=scene.controller.damping if scene.controller else 0.0,
@@ -185,8 +198,7 @@ def scene_poles(device: Device, scene: Scene) -> tuple[ScenePoles | None, str | 
         return None, "a relay loop has no linearisation (its gain is unbounded at y = 0)"
     spec = loop_spec(device, scene)
     if spec.quantization is not None or spec.max_force is not None:
-        spec = LoopSpec(sampled=spec.sampled, stiffness=spec.stiffness, damping=spec.damping, ff_gain=spec.ff_gain,
-                        ff_filter=spec.ff_filter)
+        spec = linear_part(spec)
     a = closed_loop_matrices(spec, np.zeros(spec.sampled.phi.shape[0]), 0.0)[0]
     if not np.all(np.isfinite(a)):
         return None, "the closed-loop matrix is not finite in floating point (extreme parameters)"

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Annotated, Literal, get_args
 
 import numpy as np
@@ -18,6 +18,7 @@ from pydantic import Field, TypeAdapter, ValidationError
 
 from models.device import Device
 from models.plants import Q_criterion
+from models.velocity_filter import Rendering
 from optim.errors import NOT_REPRESENTABLE, InputError, from_validation
 from optim.stability.crossovers import LOG_MIN_SAMPLES, LOG_PER_DECADE, refine_grid, theta_min
 from optim.stability.margins import (
@@ -38,7 +39,9 @@ from optim.stability.near_b_max import (
     input_conditioning,
 )
 from optim.stability.passivity import passivity_margin
+from optim.stability.passivity_rendered import rendered_passivity
 from optim.stability.reference import reference_critical_stiffness
+from optim.stability.rendered import MassRange, rendered_critical_stiffness, rendered_mass_range
 from optim.stability.stable_band import StableBand, stable_band
 from optim.stability.undamped_cable import is_undamped_cable
 
@@ -107,6 +110,9 @@ class StabilityAnalysis:
     """[K_lo, K_hi] [N/m] (K_hi may be inf): where K_cr = 0 because B ≥ B_max, the stiffnesses the closed loop is
     nevertheless stable at (optim.stability.stable_band: a band not starting at 0); None when there is none or
     K_cr > 0 (the stable set is then 0 < K < K_cr)."""
+    mass_range: MassRange | None = None
+    """The stable virtual masses at (K, B) and this filter [kg] (asked with a rendering and a stiffness, exact rung;
+    None when the wall is unstable at its own M)."""
 
 
 def linear_error_estimate(device: Device, damping: float) -> float:
@@ -272,14 +278,21 @@ def _finite(x: float | None) -> float | None:
 
 
 def analyse_stability(device: Device, stiffness: float | None = None, damping: float = 0.0,
-                      method: str = "exact", grid_points: int = DEFAULT_GRID_POINTS) -> StabilityAnalysis:
+                      method: str = "exact", grid_points: int = DEFAULT_GRID_POINTS,
+                      rendering: Rendering | None = None) -> StabilityAnalysis:
     """K_cr(B) of the device on the chosen rung, and the margin, stability and passivity of (K, B).
+
+    ``rendering``: the wall's velocity filter and virtual mass (models.velocity_filter); None is today's wall
+    C(z) = K + B(1 − z⁻¹)/T.  Given (even the default), a stiffness also gets its ``mass_range``.  Any other than
+    the default is analysed on the exact rung only (InputError naming ``method`` otherwise).
 
     Raises ValueError (naming the field) for inputs the numerics cannot represent: an
     overflow or an invalid operation is never turned into a NaN answer.
     """
     try:
         with np.errstate(over="raise", invalid="raise"):
+            if rendering is not None:
+                return _analyse_rendered(device, stiffness, damping, method, grid_points, rendering)
             return _analyse(device, stiffness, damping, method, grid_points)
     except (FloatingPointError, OverflowError, ZeroDivisionError) as exc:
         raise InputError("device", NOT_REPRESENTABLE) from exc
@@ -512,3 +525,68 @@ def _band_reason(reason: str | None, band: StableBand) -> str:
         return f"{cut.rstrip(': ;')}: K_cr = 0 (unstable as K → 0⁺), but {band.reason}"
     return f"{cut.rstrip(': ;')}: K_cr = 0 (unstable as K → 0⁺); whether a band of larger K is stable is undetermined " \
         f"({band.reason})"
+
+
+#: why only the exact rung analyses a velocity filter or a virtual mass
+RENDERED_RUNGS = ("only the exact rung analyses a velocity filter or a virtual mass: eq. 10 (linear), the grid's "
+                  "error bounds and the 40-digit reference are written for C(z) = K + B(1 − z⁻¹)/T")
+
+
+def _rendered_rung(device: Device, damping: float, rendering: Rendering) -> RungAnswer:
+    """Every crossover of h_K = −1/G_n − βV_n − μA_n bracketed and refined (optim.stability.rendered)."""
+    res = rendered_critical_stiffness(device, damping, rendering)
+    return RungAnswer(res.critical_stiffness, res.crossover_frequency, tuple(res.crossovers), EXACT_REL_ERROR,
+                      "every crossover of the rendered wall C(z) = K + B·V(z) + M·A(z) bracketed and refined to 4 ulp "
+                      "in ω (the adaptive scan, the filter's poles and zeros among its clusters); the K → 0⁺ loop "
+                      "decided by the crossings of B and M along two paths; confirmed by closed-loop eigenvalues "
+                      "with the filter's states (docs/properties_filter.md)", res.reason, res.max_stable_damping)
+
+
+def _analyse_rendered(device: Device, stiffness: float | None, damping: float, method: str, grid_points: int,
+                      rendering: Rendering) -> StabilityAnalysis:
+    check_rung(method, grid_points)
+    if stiffness is not None and not (math.isfinite(stiffness) and stiffness > 0):
+        raise InputError("stiffness", "must be finite and > 0")
+    if not (math.isfinite(damping) and damping >= 0):
+        raise InputError("damping", "must be finite and ≥ 0")
+    if rendering.is_default:
+        plain = _analyse(device, stiffness, damping, method, grid_points)
+        if stiffness is None or method != "exact":
+            return plain
+        t0 = time.perf_counter()
+        mass = rendered_mass_range(device, stiffness, damping, rendering)
+        return replace(plain, mass_range=mass, elapsed_ms=plain.elapsed_ms + (time.perf_counter() - t0) * 1e3)
+    if method != "exact":
+        raise InputError("method", RENDERED_RUNGS)
+    t0 = time.perf_counter()
+    lin = linear_estimate(device, damping)
+    rung = _rendered_rung(device, damping, rendering)
+    kcr, reason, b_max = rung.critical_stiffness, rung.reason, rung.max_stable_damping
+    gm = stable = passive = required = None
+    conservative = False
+    mass = None
+    if stiffness is not None:
+        stable = bool(kcr is not None and stiffness < kcr)
+        gm = gain_margin_db(kcr, stiffness) if kcr and math.isfinite(kcr) else None
+        if kcr == 0:
+            gm, stable = None, False
+        pm = rendered_passivity(device, stiffness, damping, rendering)
+        passive, required, conservative = pm.passive, pm.required_damping, pm.conservative
+        if stable:
+            mass = rendered_mass_range(device, stiffness, damping, rendering)
+    cable = CableJudgement()
+    if device.cable is not None:
+        rigid_k = rendered_critical_stiffness(device.rigid(), damping, rendering).critical_stiffness
+        mode = None
+        if kcr is not None and math.isfinite(kcr) and rigid_k and math.isfinite(rigid_k):
+            mode = abs(kcr / rigid_k - 1) > MODE_MATTERS_RTOL
+        cable = CableJudgement(Q_criterion(device), mode, rigid_k)
+    lin_err = abs(lin / kcr - 1) if kcr and math.isfinite(kcr) else None
+    return StabilityAnalysis(
+        critical_stiffness=_finite(kcr), crossover_frequency=rung.crossover_frequency, crossovers=rung.crossovers,
+        damping=damping, stiffness=stiffness, gain_margin_db=gm, stable=stable, passive=passive,
+        passivity_required_damping=required, passivity_conservative=conservative, linear_estimate=lin,
+        linear_error=lin_err, max_stable_damping=_finite(b_max), q_criterion=cable.q_criterion,
+        mode_matters=cable.mode_matters, rigid_critical_stiffness=_finite(cable.rigid_critical_stiffness),
+        method=method, elapsed_ms=(time.perf_counter() - t0) * 1e3, error_estimate=rung.error_estimate,
+        error_source=rung.error_source, reason=reason, mass_range=mass)

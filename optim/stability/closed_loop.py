@@ -27,6 +27,7 @@ from scipy.linalg import eig, expm, matrix_balance
 from models.device import Device
 
 __all__ = [
+    "circle_poles",
     "RadiusExcess",
     "SampledPlant",
     "UnstableCount",
@@ -226,6 +227,11 @@ def _circle_poles(device: Device) -> tuple[int, tuple[float, ...]]:
     angle = cb.natural_frequency * device.sample_time
     folded = math.remainder(angle, 2 * math.pi)
     return 2, (abs(folded),)
+
+
+def circle_poles(device: Device) -> tuple[int, tuple[float, ...]]:
+    """The open-loop poles exactly on the unit circle (see ``count_outside``): z = 1's multiplicity, undamped angles."""
+    return _circle_poles(device)
 
 
 def _return_difference(plant: SampledPlant, alpha: float, beta: float, theta: np.ndarray) -> np.ndarray:

@@ -8,6 +8,8 @@ from typing import Annotated
 from fastapi import APIRouter, Body
 from pydantic import ValidationError
 
+from models.device import Device
+from models.velocity_filter import Rendering, rendering
 from optim.errors import InputError
 from optim.nonlinear_verification import verify_nonlinear
 from optim.stability.analysis import analyse_stability
@@ -30,6 +32,8 @@ from ..schemas.common import device_examples
 from ..schemas.verification import verification_out
 
 router = APIRouter(prefix="/v1/analysis", tags=["analysis"])
+#: a rendered wall takes the scan (and the K → 0⁺ loop's two): its cost estimate is today's path's times this
+RENDERED_COST_FACTOR = 10
 
 
 def field_error(exc: ValueError, prefix: str = "") -> InputError:
@@ -46,11 +50,26 @@ def field_error(exc: ValueError, prefix: str = "") -> InputError:
     return numerics_refused(exc, "device")
 
 
+def _rendering(controller, device: Device) -> Rendering | None:
+    """The controller's velocity filter and virtual mass at the device's T (None when it names neither: today's
+    wall, its fast path); the filter's rules that need T (a cutoff below Nyquist, a stable velocity estimate) as
+    422s under ``controller.``."""
+    if controller is None or not controller.rendered:
+        return None
+    try:
+        return rendering(controller.velocity_filter, controller.mass, device.sample_time)
+    except InputError as exc:
+        raise exc.under("controller.") from None
+
+
 def _shallow(res) -> dict:
     """``asdict`` of a StabilityAnalysis without its recursive deep copy (~0.1 ms, a sixth of the request): its only
     nested dataclasses are the crossovers, plain pairs of floats."""
     out = {f.name: getattr(res, f.name) for f in fields(res)}
     out["crossovers"] = [{"frequency": c.frequency, "stiffness": c.stiffness} for c in res.crossovers]
+    mass = out.pop("mass_range")
+    if mass is not None:
+        out["mass_range"] = {"min": mass.min, "max": mass.max}
     return out
 
 
@@ -96,9 +115,12 @@ async def stability(req: Annotated[StabilityRequest, Body(openapi_examples=_STAB
     k = req.controller.stiffness if req.controller else None
     b = req.controller.damping if req.controller else 0.0
     check_reference_cost(req.device, req.method)
+    rendered = _rendering(req.controller, req.device)
+    args = (rendered,) if rendered is not None else ()
     try:
-        res = await compute.arun(analyse_stability, req.device, k, b, req.method, req.grid_points,
-                                 cost_ms=stability_cost_ms(req.device, req.method, b, req.grid_points))
+        res = await compute.arun(analyse_stability, req.device, k, b, req.method, req.grid_points, *args,
+                                 cost_ms=stability_cost_ms(req.device, req.method, b, req.grid_points)
+                                 * (1 if rendered is None else RENDERED_COST_FACTOR))
     except ValueError as exc:
         raise field_error(exc) from exc
     out = _shallow(res)   # non-finite numbers answer null (FiniteModel)
@@ -115,8 +137,11 @@ async def stability(req: Annotated[StabilityRequest, Body(openapi_examples=_STAB
             except ValueError as exc:
                 raise field_error(exc) from exc
             out["nonlinear"]["verification"] = nonlinear_verification_out(v)
+    if rendered is not None:
+        out.setdefault("mass_range", None)
     if req.verify:   # only when asked: the fast path does no extra work
-        out["verification"] = verification_out(await compute.arun(verify_analysis, req.device, res,
+        spec = (req.controller.velocity_filter, req.controller.mass) if rendered is not None else None
+        out["verification"] = verification_out(await compute.arun(verify_analysis, req.device, res, spec,
                                                            cost_ms=verify_cost_ms(req.device)))
     return StabilityResponse(**out)
 
@@ -125,14 +150,17 @@ async def stability(req: Annotated[StabilityRequest, Body(openapi_examples=_STAB
              summary="The stability boundary K_cr(B) from B = 0 to B_max and the B allowing the stiffest wall")
 async def boundary(req: Annotated[BoundaryRequest, Body(openapi_examples=device_examples(points=20))],
              compute: Compute) -> BoundaryResponse:
+    rendered = _rendering(req.controller, req.device)
     try:
-        res = await compute.arun(stability_boundary, req.device, req.damping_max, req.points,
-                                 cost_ms=boundary_cost_ms(req.device, req.points))
+        res = await compute.arun(stability_boundary, req.device, req.damping_max, req.points, rendered,
+                                 cost_ms=boundary_cost_ms(req.device, req.points)
+                                 * (1 if rendered is None else RENDERED_COST_FACTOR))
     except ValueError as exc:
         raise field_error(exc) from exc
     verification = None
     if req.verify:
-        verification = verification_out(await compute.arun(verify_boundary, req.device, res,
+        spec = (req.controller.velocity_filter, req.controller.mass) if rendered is not None else None
+        verification = verification_out(await compute.arun(verify_boundary, req.device, res, spec,
                                                     cost_ms=(req.points + 1) * verify_cost_ms(req.device)))
     return BoundaryResponse(points=[asdict(p) for p in res.points], optimum=asdict(res.optimum),
                             max_stable_damping=res.max_stable_damping, method="exact", elapsed_ms=res.elapsed_ms,

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import BaseModel, Field, SerializerFunctionWrapHandler, model_serializer
+from pydantic import BaseModel, Field, model_serializer
 
 from optim.stability.boundary import MAX_BOUNDARY_POINTS
 
-from .common import LHIFAM_RIGID, STRICT, Controller, CrossoverOut, Device
+from .common import LHIFAM_RIGID, STRICT, CrossoverOut, Device, RenderedController, RenderedEnvironment
 from .finite import FiniteModel
 from .ladder import GridPoints, GridPointsField, Method
 from .verification import VerificationOut, VerifyField
@@ -20,7 +20,8 @@ class StabilityRequest(BaseModel):
         {"device": {"preset": "lhifam", "delay": 0.001}, "controller": {"stiffness": 3500, "damping": 5}},
         {"device": LHIFAM_RIGID, "method": "linear"}]}}
     device: Device
-    controller: Controller | None = Field(default=None, description="the wall to check; K_cr is for its B")
+    controller: RenderedController | None = Field(
+        default=None, description="the wall to check; K_cr is for its B, virtual mass and velocity filter")
     method: Method = Field(default="exact", description="rung of the accuracy ladder")
     grid_points: GridPoints = GridPointsField()
     verify: bool = VerifyField()
@@ -83,6 +84,11 @@ class NonlinearOut(FiniteModel):
                           "cycle by simulation (optim/nonlinear_verification.py)")
 
 
+class MassRangeOut(FiniteModel):
+    min: float | None = Field(description="M [kg] below which the wall goes unstable; null: none")
+    max: float | None = Field(description="M [kg] above which the wall goes unstable; null: none")
+
+
 class StabilityResponse(FiniteModel):
     critical_stiffness: float | None = Field(description="K_cr(B) [N/m]; 0 when K → 0⁺ is unstable (see stable_band); null when every K is")
     crossover_frequency: float | None = Field(description="ω [rad/s] of the crossover that sets K_cr")
@@ -116,14 +122,19 @@ class StabilityResponse(FiniteModel):
     verification: VerificationOut | None = Field(None, description="present when verify was true")
     nonlinear: NonlinearOut | None = Field(
         None, description="present when the device has encoder_resolution or coulomb_friction (issue 31)")
+    mass_range: MassRangeOut | None = Field(
+        None, description="the stable virtual masses at (K, B) and this filter; present when the controller names "
+                          "mass or velocity_filter and a stiffness (exact rung), null when the wall is unstable")
 
     @model_serializer(mode="wrap")
-    def _without_absent_nonlinear(self, handler: SerializerFunctionWrapHandler):  # untyped: keeps the schema
-        # a device without encoder or friction answers exactly as before the block existed
-        out = handler(self)
-        if out.get("nonlinear", 0) is None:
-            del out["nonlinear"]
-        return out
+    def _omit_absent_blocks(self, handler):   # unannotated: the response schema stays the model's own
+        # today's requests answer exactly as before: each block appears only when its input was given
+        data = handler(self)
+        if data.get("nonlinear", 0) is None:
+            del data["nonlinear"]
+        if data.get("mass_range") is None and "mass_range" not in self.model_fields_set:
+            data.pop("mass_range", None)
+        return data
 
 
 class BoundaryRequest(BaseModel):
@@ -133,6 +144,8 @@ class BoundaryRequest(BaseModel):
     device: Device
     damping_max: float | None = Field(default=None, gt=0, le=1e15, description="largest B [N·s/m]; default B_max")
     points: int = Field(default=50, ge=2, le=MAX_BOUNDARY_POINTS)
+    controller: RenderedEnvironment | None = Field(
+        default=None, description="virtual mass and velocity filter of the walls on the boundary (default: today's)")
     verify: bool = VerifyField()
 
 

@@ -4,10 +4,20 @@ from __future__ import annotations
 
 from typing import Annotated, Any, Callable, TypeVar
 
-from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidatorFunctionWrapHandler, WrapValidator
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidatorFunctionWrapHandler,
+    WrapValidator,
+    model_validator,
+)
 
 from models.device import Device as CoreDevice
+from models.errors import InputError
 from models.simulation.scene import Scene as CoreScene
+from models.velocity_filter import MAX_VIRTUAL_MASS, VelocityFilter
 from optim.domain import check_device_domain
 
 #: Every request model: unknown fields refused, finite numbers only, and a number must be a JSON number
@@ -62,10 +72,45 @@ class Controller(BaseModel):
     damping: float = Field(default=0.0, ge=0, le=1e15, description="B [N·s/m or N·m·s/rad]")
 
 
+_MASS = Field(default=0.0, ge=-MAX_VIRTUAL_MASS, le=MAX_VIRTUAL_MASS,
+              description="M, virtual mass [kg or kg·m²] rendered as M·A(z), A = V·(1 − z⁻¹)/T; negative "
+                          "compensates the device's inertia")
+_FILTER = Field(default=None, description="the velocity the damper sees, V(z); null: the backward difference "
+                                          "(1 − z⁻¹)/T (ARCHITECTURE.md, \"The rendered virtual environment\")")
+
+
+class RenderedEnvironment(BaseModel):
+    """What a wall renders besides K and B: C(z) = K + B·V(z) + M·A(z)."""
+
+    model_config = STRICT
+    mass: float = _MASS
+    velocity_filter: VelocityFilter | None = _FILTER
+
+    @property
+    def rendered(self) -> bool:
+        """Whether the request named a virtual mass or a velocity filter (even the default ones)."""
+        return bool({"mass", "velocity_filter"} & self.model_fields_set)
+
+
+class RenderedController(RenderedEnvironment):
+    """The rendered wall C(z) = K + B·V(z) + M·A(z): today's C(z) = K + B(1 − z⁻¹)/T when mass and
+    velocity_filter are absent."""
+
+    stiffness: float | None = Field(default=None, gt=0, le=1e15, description="K [N/m or N·m/rad]; optional when "
+                                                                               "mass or velocity_filter is given")
+    damping: float = Field(default=0.0, ge=0, le=1e15, description="B [N·s/m or N·m·s/rad]")
+
+    @model_validator(mode="after")
+    def _stiffness_or_rendering(self) -> "RenderedController":
+        if self.stiffness is None and not self.rendered:
+            raise InputError("stiffness", "required unless mass or velocity_filter is given")
+        return self
+
+
 class CrossoverOut(BaseModel):
     frequency: float = Field(description="ω [rad/s]")
     stiffness: float = Field(description="K [N/m] that puts a closed-loop pole at e^{jωT}")
 
 
-__all__ = ["Device", "Scene", "Controller", "CrossoverOut", "STRICT", "LHIFAM_RIGID", "device_examples",
+__all__ = ["Device", "Scene", "Controller", "RenderedController", "RenderedEnvironment", "CrossoverOut", "STRICT", "LHIFAM_RIGID", "device_examples",
            "json_numbers"]

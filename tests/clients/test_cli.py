@@ -107,6 +107,18 @@ def test_usage_errors_exit_2():
     run("analyze", "lhifam", "--nonsense", code=2)                 # typer's own usage error
 
 
+def test_analyze_a_filtered_wall_with_a_virtual_mass():
+    r = local_equals_remote("analyze", "lhifam", "--set", "device.cable=null", "--stiffness", "3000", "--damping", "5",
+                            "--velocity-filter", "low_pass:50:1", "--virtual-mass", "-1", "--verify")
+    assert r["critical_stiffness"] > 3000 and r["verification"]["verdict"] == "confirmed"
+    assert r["mass_range"]["min"] < -1 < r["mass_range"]["max"]
+    k_only = run_json("analyze", "lhifam", "--set", "device.cable=null", "--velocity-filter", "moving_average:4")
+    assert k_only["critical_stiffness"] > 0 and k_only.get("mass_range") is None
+    run("analyze", "lhifam", "--velocity-filter", "low_pass", code=2)              # no cutoff
+    r = run("analyze", "lhifam", "--velocity-filter", "low_pass:600", code=2)       # above Nyquist: the server's 422
+    assert "controller.velocity_filter.cutoff_hz" in r.stderr
+
+
 def test_a_422_exits_2_naming_the_field():
     r = run("analyze", "lhifam", "--set", "device.delay=-1", code=2)
     assert "device.delay" in r.stderr and "greater than or equal to 0" in r.stderr

@@ -1,0 +1,297 @@
+"""K_cr, B_max and the stable range of the virtual mass for any rendered wall C(z) = K + B·V(z) + M·A(z), exactly.
+
+The closed loop 1 + C(z)·G(z) = 0 has a pole at z = e^{jθ} exactly when (dimensionless: α = KT²/m, β = BT/m,
+μ = M/m, V_n = T·V, A_n = T²·A, G_n = G·m/T²)
+
+    α + β·V_n(θ) + μ·A_n(θ) = −1/G_n(e^{jθ}).
+
+Each gain enters affinely, so the one that moves is solved for and the others are held fixed:
+
+    K:  h_K(θ) = −1/G_n − β V_n − μ A_n          (K_cr: the smallest positive real value of h_K)
+    B:  h_B(θ) = (−1/G_n − μ A_n)/V_n            (B_max at this M: the smallest positive real value at α = 0⁺)
+    M:  h_M(θ) = (−1/G_n − α − β V_n)/A_n        (the stable range of M: the real values nearest the given M)
+
+A closed-loop pole crosses the unit circle only where the moving gain equals a real value of its h, so each
+answer is the scan of optim.stability.crossovers (the adaptive grid, every bracket refined to 4 ulp in θ) of the
+right h; no Padé, no fixed grid.
+
+Why the smallest positive crossover of h_K is K_cr (as optim.stability.margins argues for today's wall): at K = 0
+every velocity estimate has V(1) = 0, so z = 1 is a closed-loop pole for every B and M, and with K = 0⁺ it moves
+inwards, z − 1 ≈ −K·T/(b + B) (V'(1)·T = 1; the mass term is O((z − 1)²)).  The other poles are those of the loop
+1 + (B·V + M·A)·G with z = 1 removed (the "K = 0⁺ loop").  It is stable when a path of (B, M) from (0, 0), where
+every pole but z = 1 lies inside (a damped device, a stable filter), crosses no real value of its h:
+
+* path 1: M from 0 at B = 0 (h_M with α = β = 0), then B from 0 at M (h_B);
+* path 2: B from 0 at M = 0 (h_B with μ = 0), then M from 0 at B (h_M with α = 0).
+
+Along each segment the unstable poles are counted: at a crossing the pole z(g) solves h(z) = g, so it leaves the
+circle as the gain g rises when d Im h/dθ > 0 there (a pair at ±θ, or one real pole at θ = π), and enters it when
+d Im h/dθ < 0; the sign is that of the refined bracket's ends.  The K = 0⁺ loop is stable when the count ends at 0.
+A crossing whose direction is not resolved (a tangency) leaves the path undecided; what neither path decides is
+refused (InputError on ``mass``), never guessed.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+from typing import Literal
+
+import numpy as np
+
+from models.device import Device
+from models.velocity_filter import Rendering
+from optim.errors import InputError
+from optim.stability.crossovers import (
+    positive_real_crossings,
+    refine_grid,
+    scan_grid,
+    solve_brackets,
+    tangential_pairs,
+    theta_min,
+)
+from optim.stability.margins import NO_DAMPING_REASON, CriticalStiffness, Crossover, loop_plant
+from optim.stability.undamped_cable import is_undamped_cable
+
+__all__ = ["MassRange", "rendered_critical_stiffness", "rendered_max_stable_damping", "rendered_mass_range",
+           "real_crossings", "k_loop", "Decision", "Passage", "clear_caches"]
+
+Decision = Literal["stable", "unstable", "undecided"]
+#: |V_n| or |A_n| below this counts as a zero of the estimate on the circle (a moving average's 2πk/n)
+_TINY = 1e-300
+
+
+@dataclass(frozen=True)
+class MassRange:
+    """The stable virtual masses at a given (K, B) and filter: the interval of M around the analysed one."""
+
+    min: float
+    """M [kg] below which the wall goes unstable (−inf: none)."""
+    max: float
+    """M [kg] above which the wall goes unstable (inf: none)."""
+
+
+def _grid(device: Device, rendering: Rendering, beta: float) -> np.ndarray:
+    plant = loop_plant(device)
+    hints = (tuple(plant.pole_angles()) + tuple(plant.zero_angles()) + rendering.velocity.pole_angles()
+             + rendering.velocity.zero_angles())
+    return scan_grid(theta_min(device.delta + beta, device.delay_samples), device.delay_samples, hints,
+                     width_hint=max(device.delta, 1e-6))
+
+
+def _safe(x: np.ndarray) -> np.ndarray:
+    return np.where(np.abs(x) < _TINY, _TINY, x)
+
+
+def k_loop(device: Device, rendering: Rendering, beta: float, mu: float):
+    """h_K(θ) = −1/G_n − β V_n − μ A_n (dimensionless)."""
+    plant = loop_plant(device)
+
+    def h(theta: np.ndarray) -> np.ndarray:
+        return -plant.inverse_response(theta) - rendering.controller_response(theta, beta, mu)
+    return h
+
+
+def _b_loop(device: Device, rendering: Rendering, mu: float):
+    plant = loop_plant(device)
+    vel = rendering.velocity
+
+    def h(theta: np.ndarray) -> np.ndarray:
+        v = vel.response(theta)
+        with np.errstate(over="ignore", divide="ignore"):
+            return (-plant.inverse_response(theta) - mu * v * -np.expm1(-1j * theta)) / _safe(v)
+    return h
+
+
+def _m_loop(device: Device, rendering: Rendering, alpha: float, beta: float):
+    plant = loop_plant(device)
+    vel = rendering.velocity
+
+    def h(theta: np.ndarray) -> np.ndarray:
+        v = vel.response(theta)
+        a = v * -np.expm1(-1j * theta)
+        with np.errstate(over="ignore", divide="ignore"):
+            return (-plant.inverse_response(theta) - alpha - beta * v) / _safe(a)
+    return h
+
+
+@dataclass(frozen=True)
+class Passage:
+    """A real value of h on the circle: the gain that puts a closed-loop pole at e^{jθ}, and which way it goes."""
+
+    angle: float
+    value: float
+    outward: int
+    """Poles leaving the unit circle as the gain rises through ``value``: +2 / −2 for a pair at ±θ, +1 / −1 for a
+    real pole at θ = π, 0 where the direction is not resolved (a tangency).  The pole z(g) solves h(z) = g, so
+    dz/dg = 1/h'(z) = jz/(dh/dθ) and its radial part Re(z̄·dz/dg) has the sign of d Im h/dθ."""
+
+
+def real_crossings(h, grid: np.ndarray) -> list[Passage]:
+    """Every θ ∈ (0, π] where h is real and non-zero, with its value (both signs) and the poles' direction: the scan
+    of optim.stability.crossovers.positive_real_crossings (one refinement of the grid, every sign change of Im h
+    refined to 4 ulp, near-tangencies, exact zeros on a sample, the Nyquist point) without its Re h > 0 filter."""
+    grid, values = refine_grid(h, grid)
+    im, re = values.imag, values.real
+    found: list[Passage] = []
+    with np.errstate(divide="ignore", invalid="ignore"):
+        turn = np.abs(np.angle(values[1:] / values[:-1]))
+    # a sign change of Im h across which arg h jumps by ≈ π is a pole of h on the circle (a zero of V or A there:
+    # a moving average's 2πk/n, the Butterworth's z = −1), where the moving gain → ±∞: not a crossing
+    idx = np.nonzero((np.sign(im[:-1]) * np.sign(im[1:]) < 0) & (turn < 0.5 * math.pi))[0]
+    if idx.size:
+        roots = solve_brackets(lambda t: h(t).imag, grid[idx], grid[idx + 1], im[idx], im[idx + 1])
+        found += [Passage(float(t), float(v), 2 if im[i + 1] > 0 else -2)
+                  for t, v, i in zip(roots, h(roots).real, idx) if v != 0.0]
+    # a near-tangency's two crossings (optim.stability.crossovers.tangential_pairs) move their poles opposite ways;
+    # their order along θ tells which: Im h rises through the first one when it was negative between samples
+    for sign in (1.0, -1.0):
+        pair = tangential_pairs(lambda t, s=sign: s * h(t), grid, sign * values)
+        for j in range(0, len(pair) - 1, 2):
+            first, second = pair[j], pair[j + 1]
+            mid = complex(h(np.array([0.5 * (first.angle + second.angle)]))[0]).imag
+            out = 2 if mid < 0 else -2
+            found += [Passage(first.angle, sign * first.value, out), Passage(second.angle, sign * second.value, -out)]
+    for i in np.nonzero(im[1:-1] == 0.0)[0] + 1:
+        if re[i] != 0.0:
+            out = 2 if (im[i - 1] < 0 < im[i + 1]) else -2 if (im[i - 1] > 0 > im[i + 1]) else 0
+            found.append(Passage(float(grid[i]), float(re[i]), out))
+    v_pi = complex(h(np.array([math.pi]))[0]).real
+    if v_pi != 0.0:
+        found = [c for c in found if math.pi - c.angle > 1e-9]
+        below = im[-2] if grid[-1] == math.pi else im[-1]
+        found.append(Passage(math.pi, v_pi, 1 if below < 0 else -1 if below > 0 else 0))
+    return sorted((c for c in found if math.isfinite(c.value) and abs(c.value) < 1e250), key=lambda c: c.angle)
+
+
+def _walk(passages, start: float, end: float, unstable: int | None) -> int | None:
+    """Unstable poles after moving a gain from ``start`` to ``end`` across ``passages`` (None: not resolved)."""
+    if unstable is None or end == start:
+        return unstable
+    up = end > start
+    for c in sorted(passages, key=lambda c: c.value, reverse=not up):
+        if (start < c.value <= end) if up else (end <= c.value < start):
+            if c.outward == 0:
+                return None
+            unstable += c.outward if up else -c.outward
+    return unstable if unstable >= 0 else None
+
+
+@lru_cache(maxsize=1024)
+def _mass_crossings(device: Device, rendering: Rendering, beta: float) -> tuple[Passage, ...]:
+    """μ values (dimensionless) where the K = 0⁺ loop at β gets a pole on the circle."""
+    return tuple(real_crossings(_m_loop(device, rendering, 0.0, beta), _grid(device, rendering, beta)))
+
+
+@lru_cache(maxsize=1024)
+def _damper_crossings(device: Device, rendering: Rendering, mu: float) -> tuple[Passage, ...]:
+    """β values (dimensionless) where the K = 0⁺ loop at μ gets a pole on the circle."""
+    return tuple(real_crossings(_b_loop(device, rendering, mu), _grid(device, rendering, 0.0)))
+
+
+def clear_caches() -> None:
+    """Forget the K = 0⁺ loop's crossings kept per (device, filter, gain) (benchmarks time a wall not seen before)."""
+    _mass_crossings.cache_clear()
+    _damper_crossings.cache_clear()
+
+
+def _reduced_loop(device: Device, rendering: Rendering, beta: float, mu: float) -> Decision:
+    """Whether the K = 0⁺ loop (every pole but z = 1) is stable at (β, μ): the unstable poles counted along the
+    two paths of the module docstring (the first that resolves its count answers)."""
+    # without physical damping the loop at B = 0 keeps a pole at z = 1 for every M (G's double pole meets A's double
+    # zero): a walk of M at B = 0 starts on the circle, so B goes first there
+    order = (("damper", "mass"),) if device.damping == 0.0 else (("mass", "damper"), ("damper", "mass"))
+    for first, _ in order:
+        if first == "mass":
+            n = _walk(_mass_crossings(device, rendering, 0.0) if mu else (), 0.0, mu, 0)
+            n = _walk(_damper_crossings(device, rendering, mu) if beta else (), 0.0, beta, n)
+        else:
+            n = _walk(_damper_crossings(device, rendering, 0.0) if beta else (), 0.0, beta, 0)
+            n = _walk(_mass_crossings(device, rendering, beta) if mu else (), 0.0, mu, n)
+        if n is not None:
+            return "stable" if n == 0 else "unstable"
+    return "undecided"
+
+
+def _check(device: Device, rendering: Rendering, damping: float) -> None:
+    if not (math.isfinite(damping) and damping >= 0.0):
+        raise InputError("damping", "virtual damping B must be finite and ≥ 0")
+    if is_undamped_cable(device):
+        raise InputError("velocity_filter", "a velocity filter or a virtual mass on a cable with every damping 0 is "
+                                            "not analysed (its mode sits on the unit circle)")
+
+
+def rendered_max_stable_damping(device: Device, rendering: Rendering) -> float:
+    """B_max [N·s/m] at this M and filter: the largest B with a stable K = 0⁺ loop (B from 0 at this M, the poles
+    counted across each crossing); inf when no B destabilises it, 0 when no B > 0 is stable, nan when the count is
+    not resolved."""
+    _check(device, rendering, 0.0)
+    mu = rendering.mass / device.mass
+    if device.damping == 0.0 and mu != 0.0:
+        # the walk of M at B = 0 starts on the circle (see _reduced_loop): B_max at this M is not resolved
+        return math.nan
+    n = _walk(_mass_crossings(device, rendering, 0.0) if mu else (), 0.0, mu, 0)
+    passages = sorted((c for c in _damper_crossings(device, rendering, mu) if c.value > 0.0), key=lambda c: c.value)
+    last_stable_end = 0.0
+    for c in passages:
+        if n is None or c.outward == 0:
+            return math.nan
+        before = n
+        n += c.outward
+        if before == 0 and n > 0:
+            last_stable_end = c.value
+        elif n < 0:
+            return math.nan
+    if n is None:
+        return math.nan
+    return math.inf if n == 0 else last_stable_end * device.damping_scale
+
+
+def rendered_critical_stiffness(device: Device, damping: float, rendering: Rendering) -> CriticalStiffness:
+    """K_cr(B) of the wall C(z) = K + B·V(z) + M·A(z): every crossover of h_K (module docstring)."""
+    _check(device, rendering, damping)
+    beta, mu = damping / device.damping_scale, rendering.mass / device.mass
+    if device.damping + damping <= 0.0:
+        if mu != 0.0 and not rendering.velocity.is_backward_difference:
+            # C = K + M·A with a filtered A: its lag acts like damping (M·s²/(τs + 1) ≈ Ms² + jMτω³), so the double
+            # pole at z = 1 may split inwards; the z → 1 argument above needs b + B > 0 (the property run found
+            # such walls stable at small K)
+            raise InputError("damping", "with no physical or virtual damping (b = B = 0) a filtered virtual mass "
+                                        "decides the poles at z = 1, which this analysis does not resolve: give B > 0")
+        return CriticalStiffness(0.0, None, (), damping, 0.0, reason=NO_DAMPING_REASON)
+    b_max = rendered_max_stable_damping(device, rendering) if damping > 0.0 else None
+    if b_max is not None and math.isnan(b_max):
+        b_max = None
+    state = _reduced_loop(device, rendering, beta, mu)
+    if state == "undecided":
+        raise InputError("mass", "whether the loop with K → 0⁺ is stable at this virtual mass, damping and filter "
+                                 "cannot be decided: a crossing on every path whose direction is not resolved")
+    if state == "unstable":
+        return CriticalStiffness(0.0, None, (), damping, b_max, reason=(
+            f"with B = {damping:.6g} N·s/m, M = {rendering.mass:.6g} kg and this velocity filter the loop is "
+            "unstable already as K → 0⁺: no positive stiffness is stable"))
+    h = k_loop(device, rendering, beta, mu)
+    found = positive_real_crossings(h, _grid(device, rendering, beta))
+    scale, t = device.stiffness_scale, device.sample_time
+    crossovers = tuple(Crossover(frequency=c.angle / t, stiffness=c.value * scale) for c in found)
+    if not crossovers:
+        return CriticalStiffness(math.inf, None, (), damping, b_max,
+                                 reason="no phase crossover: every positive stiffness is stable")
+    best = min(crossovers, key=lambda c: c.stiffness)
+    return CriticalStiffness(best.stiffness, best.frequency, crossovers, damping, b_max)
+
+
+def rendered_mass_range(device: Device, stiffness: float, damping: float, rendering: Rendering) -> MassRange | None:
+    """The interval of virtual mass M [kg] around ``rendering.mass`` on which the wall (K, B) and filter stay
+    stable: the nearest real values of h_M below and above it (None when the wall is unstable at this M)."""
+    kcr = rendered_critical_stiffness(device, damping, rendering)
+    if not stiffness < kcr.critical_stiffness:
+        return None
+    alpha, beta = stiffness / device.stiffness_scale, damping / device.damping_scale
+    mu = rendering.mass / device.mass
+    h = _m_loop(device, rendering, alpha, beta)
+    values = [c.value for c in real_crossings(h, _grid(device, rendering, beta)) if c.outward != 0]
+    lo = max((v for v in values if v < mu), default=-math.inf)
+    hi = min((v for v in values if v > mu), default=math.inf)
+    return MassRange(lo * device.mass, hi * device.mass)
