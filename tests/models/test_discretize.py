@@ -34,7 +34,9 @@ def _rigid_mp(delta, d, f, theta, dps=60):
     """Modified z-transform of 1/(s²(s+δ)) in mpmath (an independent derivation)."""
     with mp.workdps(dps):
         a, f, th = mp.mpf(delta), mp.mpf(f), mp.mpf(theta)
-        z = mp.expj(th)
+        # θ = π is the Nyquist point itself (z = −1 exactly, as RigidZOH.inverse_at_nyquist takes it), not the
+        # double nearest π, whose sin ≈ 1.2e-16 would put z + 1 off the real axis
+        z = mp.mpf(-1) if theta == math.pi else mp.expj(th)
         m = 1 - f
         e = mp.exp(-a)
         if f == 0:
