@@ -4,7 +4,7 @@ Exit codes (also in ``zwidth --help`` and docs/clients.md):
 
 ====  =====================================================================================
 0     the command worked and the answer is "yes" (or is plain information)
-1     the answer is "no": a design is infeasible or failed, the given wall is unstable or
+1     the answer is "no": a design is infeasible, failed or unsafe, the given wall is unstable or
       no positive stiffness is stable, a simulation is unstable or undetermined (its verdict
       does not show the wall stable)
 2     usage or validation error: a bad option, an unknown preset, a 422 from the service
@@ -39,8 +39,8 @@ __all__ = ["EXIT_OK", "EXIT_NO", "EXIT_USAGE", "EXIT_SERVICE", "EXIT_CODES_HELP"
            "assemble", "emit", "table", "fmt", "out", "err", "usage_error", "progress_status", "exit_unless_optimal"]
 
 EXIT_OK, EXIT_NO, EXIT_USAGE, EXIT_SERVICE = 0, 1, 2, 3
-EXIT_CODES_HELP = ("Exit codes: 0 ok; 1 the answer is no (design infeasible or failed, wall unstable, simulation "
-                   "unstable or undetermined); 2 usage or validation error (422 names the field); 3 service or transport error.")
+EXIT_CODES_HELP = ("Exit codes: 0 ok; 1 the answer is no (design infeasible, failed or unsafe, wall unstable, "
+                   "simulation unstable or undetermined); 2 usage or validation error (422 names the field); 3 service or transport error.")
 
 # A pipe or a log file gets 132 columns rather than rich's 80, so that tables are not truncated.
 out = Console(highlight=False, soft_wrap=True, width=None if sys.stdout.isatty() else 132)
@@ -107,7 +107,8 @@ def full_install(what: str) -> Iterator[None]:
 
 # ------------------------------------------------------------------------------------------------ errors
 def exit_unless_optimal(status: str) -> None:
-    """A design that is not ``optimal`` (infeasible or failed: no safe design delivered) ends with exit code 1."""
+    """A design that is not ``optimal`` (infeasible, failed, or unsafe by its own exact check: no safe design
+    delivered) ends with exit code 1."""
     if status != "optimal":
         raise typer.Exit(EXIT_NO)
 

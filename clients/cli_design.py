@@ -1,6 +1,6 @@
 """``zwidth design stiffness|inertia``: the safest controller the device allows (POST /v1/design/*).
 
-Exit 1 when the design is ``infeasible`` or ``failed`` (no safe design delivered).
+Exit 1 when the design is ``infeasible``, ``failed`` or ``unsafe`` (no safe design delivered).
 """
 
 from __future__ import annotations

@@ -19,6 +19,7 @@ __all__ = [
     "PRESETS",
     "ROTARY_PRESETS",
     "MAX_DELAY_SAMPLES",
+    "delay_limit_rule",
     "preset_names",
 ]
 
@@ -26,6 +27,15 @@ __all__ = [
 #: analysis scans a frequency grid whose size grows linearly with the delay; at
 #: this limit one analysis costs well under a second.
 MAX_DELAY_SAMPLES = 10_000
+
+
+
+def delay_limit_rule(delay: float, sample_time: float) -> str:
+    """The delay limit broken by ``delay`` [s], in samples and in the seconds it means at ``sample_time`` [s]."""
+    return (f"must satisfy delay/sample_time ≤ {MAX_DELAY_SAMPLES} samples, i.e. delay ≤ "
+            f"{MAX_DELAY_SAMPLES * sample_time:g} s at sample_time = {sample_time:g} s; "
+            f"{delay:g} s is {delay / sample_time:.6g} samples")
+
 
 _STRICT = ConfigDict(extra="forbid", allow_inf_nan=False, frozen=True)
 # Bounds that keep every derived dimensionless number representable in double
@@ -150,7 +160,11 @@ class Device(BaseModel):
     mass: float = _pos("m, total moving mass [kg or kg·m²]")
     damping: float = _nonneg("b, total physical damping [N·s/m or N·m·s/rad]")
     sample_time: float = Field(default=0.001, gt=0, le=1.0, description="T, sample period [s]")
-    delay: float = Field(default=0.0, ge=0, le=1e4, description="t_d, total loop delay [s], any real ≥ 0")
+    # The limit is in samples (delay / sample_time ≤ MAX_DELAY_SAMPLES, checked with its unit in _cost_limit); the
+    # schema's maximum is what that allows at the largest sample time (1 s), so no request above it is valid.
+    delay: float = Field(default=0.0, ge=0, json_schema_extra={"maximum": MAX_DELAY_SAMPLES * 1.0},
+                         description=f"t_d, total loop delay [s], any real ≥ 0 with delay/sample_time ≤ "
+                                     f"{MAX_DELAY_SAMPLES} samples")
     cable: Cable | None = Field(default=None, description="two-mass cable model (§4)")
     human: Human | None = Field(default=None, description="the user's grasp Z_h (eq. 30)")
     force_sensor: ForceSensor | None = Field(default=None, description="force-sensor filter G_f (eq. 31)")
@@ -207,9 +221,7 @@ class Device(BaseModel):
     @model_validator(mode="after")
     def _cost_limit(self) -> "Device":
         if self.delay / self.sample_time > MAX_DELAY_SAMPLES:
-            raise InputError(
-                "delay", f"{self.delay:g} s is {self.delay / self.sample_time:.6g} samples; "
-                f"the limit is {MAX_DELAY_SAMPLES} samples of delay (delay / sample_time)")
+            raise InputError("delay", delay_limit_rule(self.delay, self.sample_time))
         return self
 
     # Dimensionless numbers of Table 1.

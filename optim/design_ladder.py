@@ -17,8 +17,11 @@ untouched.  The other rungs:
 
 The approximate rungs (linear, grid) report the *exact* analysis of the design they
 produced beside it (``exact_check``): a user must see when a closed-form design is
-actually unsafe.  Each answer says its rung, cost, error estimate and where that
-estimate comes from.
+actually unsafe.  A design that fails its own exact check (margin below the requirement,
+unstable, or not passive when passivity is required) is not ``optimal``: its status is
+``unsafe`` and its ``reason`` gives the exact margin; the top-level fields stay the
+rung's own (what the rung computed), the exact ones are in ``exact_check``.  Each
+answer says its rung, cost, error estimate and where that estimate comes from.
 """
 
 from __future__ import annotations
@@ -69,6 +72,16 @@ class ExactCheck:
     passive: bool | None = None
     """exact delayed passivity of (K, B) (stiffness designs with passivity required)."""
     statement: str = ""
+
+    @property
+    def safe(self) -> bool:
+        """the design meets its margin requirement and (when required) is passive, by the exact analysis."""
+        return self.meets_min_gain_margin and self.passive is not False
+
+
+def _unsafe_reason(method: str, check: ExactCheck) -> str:
+    return (f"the {method} rung's design fails its own exact check: {check.statement.removeprefix('UNSAFE: ')} "
+            "(its top-level margin is the rung's estimate; exact_check has the exact analysis)")
 
 
 @dataclass(frozen=True)
@@ -249,6 +262,8 @@ def design_stiffness_on_rung(device: Device, req: StiffnessRequirements | None =
             err, src = None, "no design to verify"
     if method in ("linear", "grid") and design.status == "optimal":
         check = _stiffness_check(device, req, design.stiffness, design.damping)
+        if not check.safe:
+            design = replace(design, status="unsafe", reason=_unsafe_reason(method, check))
     elapsed = (time.perf_counter() - t0) * 1e3
     design = replace(design, elapsed_ms=elapsed)
     return design, RungInfo(method, err, src, check, elapsed)
@@ -354,6 +369,9 @@ def design_inertia_on_rung(device: Device, req: InertiaRequirements | None = Non
             filt = ButterworthLowPass(req.filter_order, design.filter_cutoff_hz, device.sample_time)
             kx, _ = _exact_force_gain(device, humans, filt)
             check = _exact_check(kx, design.force_gain, req.min_gain_margin_db, "design")
+            if not check.safe:
+                design = InertiaDesign(**{**design.__dict__, "status": "unsafe",
+                                          "reason": _unsafe_reason(method, check)})
     elapsed = (time.perf_counter() - t0) * 1e3
     design = InertiaDesign(**{**design.__dict__, "elapsed_ms": elapsed})
     return design, RungInfo(method, err, src, check, elapsed)

@@ -15,6 +15,7 @@ must agree with the band the analysis reports; a disagreement or a K on a band e
 from __future__ import annotations
 
 import math
+from typing import Literal
 
 from models.device import Device
 from models.simulation.scene import Scene
@@ -32,7 +33,7 @@ __all__ = ["MARGIN_AMBIGUITY", "with_margin_verdict", "margin_verdict"]
 MARGIN_AMBIGUITY = 1e-9
 
 
-def margin_verdict(device: Device, scene: Scene) -> tuple[str, str] | None:
+def margin_verdict(device: Device, scene: Scene) -> tuple[Literal["stable", "unstable", "undetermined"], str] | None:
     """(stable | unstable | undetermined, reason) from K_cr(B), or None when the scene's loop is not the
     one optim.stability.margins analyses."""
     eff = scene.effects

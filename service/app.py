@@ -29,6 +29,7 @@ from .errors import ERROR_RESPONSES, NOT_FOUND, install_error_handlers
 from .executor import BoundedExecutor
 from .logs import configure_logging
 from .middleware import BodyLimitMiddleware, RequestContextMiddleware
+from .route_names import name_routes, plain_descriptions
 from .settings import Settings
 
 __all__ = ["create_app", "app", "VERSION"]
@@ -116,6 +117,15 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             application.include_router(router, dependencies=guard, responses=v1_responses)
         else:
             application.include_router(router)
+    raw_openapi = application.openapi
+
+    def openapi() -> dict:
+        # one kind of summary and operation id for every route, descriptions without Sphinx roles (route_names.py)
+        if application.openapi_schema is None:
+            application.openapi_schema = name_routes(plain_descriptions(raw_openapi()))
+        return application.openapi_schema
+
+    application.openapi = openapi     # type: ignore[method-assign]  # FastAPI's documented way to customise it
 
     # add_middleware wraps: the last added is the outermost.
     if settings.cors_origins:

@@ -1,10 +1,23 @@
-"""Suite-wide guard of the fast local loop (``scripts/test.sh -m "not slow"``, < 2 min on 2 cores).
+"""Suite-wide guards.
 
-A test that starts a real server process (marked ``e2e``, or using the live-server fixtures) costs seconds before
-it asserts anything; it must be marked ``slow`` too, so that the fast loop never pays for it.  CI runs everything.
+* The fast local loop (``scripts/test.sh -m "not slow"``, < 2 min on 2 cores): a test that starts a real server
+  process (marked ``e2e``, or using the live-server fixtures) costs seconds before it asserts anything; it must be
+  marked ``slow`` too, so that the fast loop never pays for it.  CI runs everything.
+* The user's study store: the whole session runs on a temporary one.  ``pytest_configure`` (before any test module
+  is imported) points ``ZWIDTH_DATABASE_URL`` and ``XDG_DATA_HOME`` (platformdirs' user data directory on Linux)
+  into a fresh temporary directory, so every in-process app, every server process started with this environment
+  and every CLI call stores its studies there; the user's store (``~/.local/share/zwidth/studies.db``, or wherever
+  platformdirs and the user's own ``ZWIDTH_DATABASE_URL`` put it) is fingerprinted first and checked unchanged at
+  the end of the session (a change is reported; tests/service/test_store_isolation.py proves by study id that the
+  suite's studies land in the temporary store and never in the user's).
 """
 
 from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+from pathlib import Path
 
 import pytest
 
@@ -31,3 +44,75 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     if unmarked:
         raise pytest.UsageError("tests that start a server process must be marked slow (the fast loop skips them): "
                                 + ", ".join(unmarked[:10]) + (" …" if len(unmarked) > 10 else ""))
+
+
+# ------------------------------------------------------------------------------------------------ the study store
+#: Environment variables the session sets (their values before, restored at the end).
+_ISOLATING = ("ZWIDTH_DATABASE_URL", "XDG_DATA_HOME")
+_saved: dict[str, str | None] = {}
+#: The user's study store(s) as the machine chose them before the session: path → fingerprint.
+USER_STORES: dict[Path, tuple | None] = {}
+#: The session's temporary directory (the study store is studies.db in it).
+SESSION_STORE_DIR: Path | None = None
+
+
+def user_stores(environ=os.environ) -> list[Path]:
+    """The SQLite files a server started with ``environ`` would use as its study store (platformdirs' default, and
+    the user's own ZWIDTH_DATABASE_URL when it names a SQLite file)."""
+    from platformdirs import user_data_path
+
+    out = [user_data_path("zwidth", appauthor=False) / "studies.db"]
+    url = environ.get("ZWIDTH_DATABASE_URL", "")
+    if url.startswith("sqlite:///") and url != "sqlite:///:memory:":
+        out.append(Path(url.removeprefix("sqlite:///")))
+    return out
+
+
+def fingerprint(path: Path) -> tuple | None:
+    """(size, mtime_ns) of the store, and the size of its write-ahead log (a reader opening the store touches the
+    log's mtime, a writer grows it); None when neither exists."""
+    parts: list[tuple] = []
+    for p, stamp in ((path, True), (path.with_name(path.name + "-wal"), False)):
+        try:
+            st = p.stat()
+        except FileNotFoundError:
+            continue
+        parts.append((p.name, st.st_size, st.st_mtime_ns) if stamp else (p.name, st.st_size))
+    return tuple(parts) or None
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    global SESSION_STORE_DIR
+    for path in user_stores():
+        USER_STORES[path] = fingerprint(path)
+    SESSION_STORE_DIR = Path(tempfile.mkdtemp(prefix="zwidth-test-store-"))
+    for name in _ISOLATING:
+        _saved[name] = os.environ.get(name)
+    os.environ["XDG_DATA_HOME"] = str(SESSION_STORE_DIR / "data")
+    os.environ["ZWIDTH_DATABASE_URL"] = f"sqlite:///{SESSION_STORE_DIR / 'studies.db'}"
+
+
+def changed_user_stores() -> list[str]:
+    return [f"{path}: {before} before the session, {fingerprint(path)} now"
+            for path, before in USER_STORES.items() if fingerprint(path) != before]
+
+
+def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
+    # A warning, not a failure: another process (the user's own server, another checkout's tests) may write the
+    # user's store during the session.  The proof that this suite does not is by study id
+    # (tests/service/test_store_isolation.py).
+    changed = changed_user_stores()
+    if changed:
+        session.config.get_terminal_writer().line(
+            "warning: the user's study store changed during the test session (this suite writes only to "
+            f"{SESSION_STORE_DIR}; another process using the store?):\n  " + "\n  ".join(changed), yellow=True)
+
+
+def pytest_unconfigure(config: pytest.Config) -> None:
+    for name, value in _saved.items():
+        if value is None:
+            os.environ.pop(name, None)
+        else:
+            os.environ[name] = value
+    if SESSION_STORE_DIR is not None:
+        shutil.rmtree(SESSION_STORE_DIR, ignore_errors=True)

@@ -191,7 +191,15 @@ class HardwareDesignResponse(Answer):
 
 
 class InertiaResponse(Answer):
-    status: Literal["optimal", "infeasible", "failed"]
+    status: Annotated[
+        Literal["optimal", "infeasible", "failed", "unsafe"],
+        Field(
+            description=(
+                "optimal; infeasible or failed (reason says why); unsafe: the design of an approximate rung (method"
+                " linear or grid) fails its own exact check (reason and exact_check give the exact margin)"
+            )
+        ),
+    ]
     objective: Literal["min_apparent_mass", "target_apparent_mass"]
     force_gain: Annotated[float | None, Field(description="K_f")]
     filter_cutoff_hz: float | None
@@ -237,7 +245,15 @@ class InertiaResponse(Answer):
 
 
 class StiffnessDesignResponse(Answer):
-    status: Literal["optimal", "infeasible", "failed"]
+    status: Annotated[
+        Literal["optimal", "infeasible", "failed", "unsafe"],
+        Field(
+            description=(
+                "optimal; infeasible or failed (reason says why); unsafe: the design of an approximate rung (method"
+                " linear or grid) fails its own exact check (reason and exact_check give the exact margin)"
+            )
+        ),
+    ]
     stiffness: Annotated[float | None, Field(description="K [N/m]")] = None
     damping: Annotated[float | None, Field(description="B [N·s/m]")] = None
     critical_stiffness: Annotated[float | None, Field(description="exact K_cr at the chosen B [N/m]")] = None

@@ -119,6 +119,7 @@ def closed_loop_poles(a: np.ndarray, sample_time: float, translation_invariant: 
     rho, ang = float(mod[dom]), abs(float(np.angle(z)))
     gamma = math.log(rho) / sample_time if rho > 0 else -math.inf
     aside = "; the exact pole z = 1 of the free position (no wall stiffness) is set aside" if free else ""
+    state: Literal["stable", "unstable", "marginal"]
     if np.any(mod - width > 1.0):
         j = int(np.argmax(np.where(mod - width > 1.0, mod, -np.inf)))
         state, reason = "unstable", (f"a closed-loop pole lies outside the unit circle: |z| = {mod[j]:.9g} "

@@ -85,6 +85,7 @@ def _rigid(device: Device, human) -> tuple[np.ndarray, np.ndarray, np.ndarray, i
 
 def _cable(device: Device, human) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int, int, float]:
     c = device.cable
+    assert c is not None, "_cable is called for a device with a cable block"
     m_r, b_r, m_d, b_d, k_c, b_c = c.motor_mass, c.motor_damping, c.body_mass, c.body_damping, c.stiffness, c.damping
     k_h = 0.0
     if human is not None:

@@ -15,12 +15,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
-from models.simulation.oscillation import Verdict
+from models.simulation.oscillation import Verdict, VerdictState
 from models.simulation.scene_poles import ScenePoles
 
 __all__ = ["SceneVerdict", "decide", "decide_exact"]
 
-_FROM_POLES = {"stable": "stable", "unstable": "unstable", "marginal": "undetermined"}
+_FROM_POLES: dict[str, VerdictState] = {"stable": "stable", "unstable": "unstable", "marginal": "undetermined"}
 
 
 @dataclass(frozen=True)
@@ -66,7 +66,7 @@ def decide(measured: Verdict, poles: ScenePoles | None, linear: bool, poles_note
     return SceneVerdict(top, measured, poles, False, None, "closed-loop poles", _disagreement(measured, poles))
 
 
-def decide_exact(measured: Verdict, state: str, reason: str, method: Literal["critical stiffness"],
+def decide_exact(measured: Verdict, state: VerdictState, reason: str, method: Literal["critical stiffness"],
                  poles_note: str | None) -> SceneVerdict:
     """A linear scene decided exactly without its poles (optim/scene_verdict.py: K against K_cr(B))."""
     if state == "undetermined":

@@ -58,7 +58,8 @@ class Sensitivity:
 
 @dataclass(frozen=True)
 class StiffnessDesign:
-    status: Literal["optimal", "infeasible", "failed"]
+    status: Literal["optimal", "infeasible", "failed", "unsafe"]
+    """unsafe: a design of an approximate rung (linear, grid) that fails its own exact check (optim.design_ladder)."""
     stiffness: float | None = None
     """K [N/m]."""
     damping: float | None = None

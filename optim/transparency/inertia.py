@@ -71,7 +71,8 @@ class ParetoPoint:
 
 @dataclass(frozen=True)
 class InertiaDesign:
-    status: Literal["optimal", "infeasible", "failed"]
+    status: Literal["optimal", "infeasible", "failed", "unsafe"]
+    """unsafe: a design of an approximate rung (linear, grid) that fails its own exact check (optim.design_ladder)."""
     objective: Literal["min_apparent_mass", "target_apparent_mass"]
     force_gain: float | None
     filter_cutoff_hz: float | None

@@ -106,7 +106,7 @@
 
   function statusBadge(status) {
     const good = ["optimal", "identified", "stable", "confirmed", "done", "feasible"];
-    const bad = ["infeasible", "failed", "unstable", "contradicted", "cancelled"];
+    const bad = ["infeasible", "failed", "unsafe", "unstable", "contradicted", "cancelled"];
     const cls = good.includes(status) ? "good" : bad.includes(status) ? "bad" : "unsure";
     return `<span class="status ${cls}" data-status="${escapeText(status)}">${escapeText(status)}</span>`;
   }

@@ -11,7 +11,7 @@ from optim.stiffness.requirements import StiffnessRequirements
 
 from .common import Device  # the numerics' validated domain (optim.domain) applies
 from .finite import FiniteModel
-from .ladder import ExactCheckOut, GridPoints, GridPointsField, Method, MethodField
+from .ladder import DesignStatus, DesignStatusField, ExactCheckOut, GridPoints, GridPointsField, Method, MethodField
 from .verification import VerificationOut, VerifyField
 
 __all__ = ["StiffnessRequirementsIn", "StiffnessDesignRequest", "SensitivityOut", "StiffnessDesignResponse",
@@ -101,7 +101,7 @@ class PassivityWorstCaseOut(BaseModel):
 
 
 class StiffnessDesignResponse(FiniteModel):
-    status: Literal["optimal", "infeasible", "failed"]
+    status: DesignStatus = DesignStatusField()
     stiffness: float | None = Field(None, description="K [N/m]")
     damping: float | None = Field(None, description="B [N·s/m]")
     critical_stiffness: float | None = Field(None, description="exact K_cr at the chosen B [N/m]")

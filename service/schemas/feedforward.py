@@ -13,7 +13,7 @@ from optim.transparency.inertia_requirements import InertiaRequirements
 from .common import STRICT, Device, json_numbers
 from .design_stiffness import RangeIn
 from .finite import FiniteModel
-from .ladder import ExactCheckOut, GridPoints, GridPointsField, Method, MethodField
+from .ladder import DesignStatus, DesignStatusField, ExactCheckOut, GridPoints, GridPointsField, Method, MethodField
 from .verification import VerificationOut, VerifyField
 
 _LHIFAM_FF = {"mass": 5.4, "damping": 3.5, "sample_time": 0.001,
@@ -138,7 +138,7 @@ class RigidComparisonOut(BaseModel):
 
 
 class InertiaResponse(FiniteModel):
-    status: Literal["optimal", "infeasible", "failed"]
+    status: DesignStatus = DesignStatusField()
     objective: Literal["min_apparent_mass", "target_apparent_mass"]
     force_gain: float | None = Field(description="K_f")
     filter_cutoff_hz: float | None

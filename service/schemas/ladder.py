@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import asdict
+from typing import Literal
 
 from pydantic import BaseModel, Field
 
@@ -10,7 +11,8 @@ from optim.stability.analysis import DEFAULT_GRID_POINTS, GridPoints, Method
 
 from .finite import finite_or_null
 
-__all__ = ["Method", "GridPoints", "MethodField", "GridPointsField", "ExactCheckOut", "rung_fields"]
+__all__ = ["Method", "GridPoints", "MethodField", "GridPointsField", "ExactCheckOut", "rung_fields", "DesignStatus",
+           "DesignStatusField"]
 
 # Method and GridPoints (the rung and its bounds) are optim.stability.analysis's: one rule, one message.
 
@@ -18,6 +20,16 @@ __all__ = ["Method", "GridPoints", "MethodField", "GridPointsField", "ExactCheck
 def MethodField():  # noqa: N802  (a Field factory, used like a type in the request models)
     return Field(default="exact", description="rung of the accuracy ladder: linear (closed form), grid (dense scan on "
                                               "a frequency grid), exact, reference (exact design re-verified at 40 digits)")
+
+
+#: status of a stiffness or inertia design (optim.stiffness.StiffnessDesign, optim.transparency.InertiaDesign)
+DesignStatus = Literal["optimal", "infeasible", "failed", "unsafe"]
+
+
+def DesignStatusField():  # noqa: N802
+    return Field(description="optimal; infeasible or failed (reason says why); unsafe: the design of an approximate "
+                             "rung (method linear or grid) fails its own exact check (reason and exact_check give the "
+                             "exact margin)")
 
 
 def GridPointsField():  # noqa: N802

@@ -33,7 +33,8 @@ class Server:
 def start_server(tmp: Path, env_extra: dict[str, str] | None = None, timeout: float = 60.0) -> Server:
     port = free_port()
     env = {k: v for k, v in os.environ.items() if not k.startswith("ZWIDTH_")}
-    env.update({"PYTHONPATH": str(ROOT), **(env_extra or {})})
+    # its own study store in its temporary directory, never the user's (tests/conftest.py)
+    env.update({"PYTHONPATH": str(ROOT), "ZWIDTH_DATABASE_URL": f"sqlite:///{tmp / 'studies.db'}", **(env_extra or {})})
     log = open(tmp / f"server-{port}.log", "wb")
     # The CLI's `serve` command: the session server doubles as that command's end-to-end test.
     proc = subprocess.Popen([sys.executable, "-m", "clients.cli", "serve", "--host", "127.0.0.1", "--port", str(port)],

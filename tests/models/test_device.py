@@ -60,7 +60,7 @@ def test_unknown_preset_and_inconsistent_sums_are_named():
 
 def test_delay_cost_limit():
     Device(mass=1, damping=1, sample_time=1e-3, delay=MAX_DELAY_SAMPLES * 1e-3)
-    with pytest.raises(ValidationError, match=f"limit is {MAX_DELAY_SAMPLES} samples"):
+    with pytest.raises(ValidationError, match=f"delay/sample_time ≤ {MAX_DELAY_SAMPLES} samples"):
         Device(mass=1, damping=1, sample_time=1e-3, delay=(MAX_DELAY_SAMPLES + 1) * 1e-3)
 
 

@@ -37,6 +37,8 @@ def test_linear_stiffness_is_eq10_at_the_damping_limit_and_reports_the_exact_mar
     assert chk.critical_value == pytest.approx(exact, rel=1e-15)
     assert chk.gain_margin_db == pytest.approx(20 * math.log10(exact / d.stiffness), rel=1e-12)
     assert chk.gain_margin_db < 6.0 and not chk.meets_min_gain_margin and chk.statement.startswith("UNSAFE")
+    # so the design is not called optimal: its status says unsafe, its reason the exact margin
+    assert d.status == "unsafe" and f"{chk.gain_margin_db:.4g} dB" in d.reason
     # the rung's error estimate covers eq. 10's true error at that B (within 2x)
     assert abs(d.critical_stiffness / exact - 1) <= 2 * info.error_estimate
 
@@ -77,6 +79,7 @@ def test_linear_inertia_is_eq33_and_flags_the_unsafe_cable_design():
     assert d.force_gain == pytest.approx((1 + 5.4 / 2) / rho, rel=1e-14)
     assert d.filter_cutoff_hz == pytest.approx(d.cutoff_band_hz[1], rel=1e-15)
     assert not info.exact_check.meets_min_gain_margin and info.exact_check.gain_margin_db < 6.0
+    assert d.status == "unsafe" and f"{info.exact_check.gain_margin_db:.4g} dB" in d.reason
     ex, _ = design_inertia_on_rung(FF_CABLE, req, "exact")
     assert ex.force_gain > d.force_gain  # eq. 33 is not conservative either way: only the check tells
 
@@ -92,6 +95,57 @@ def test_grid_and_reference_inertia_against_exact():
     ref, ri = design_inertia_on_rung(FF_CABLE, req, "reference")
     assert ref.critical_force_gain == pytest.approx(ex.critical_force_gain, rel=1e-12)
     assert ri.error_estimate <= 1e-12
+
+
+def test_the_issue_29_linear_design_is_unsafe_with_its_exact_margin():
+    """The LHifAM cable at 1 ms with max_damping 50: eq. 10 claims 6 dB, the exact analysis of that very design
+    gives 2.385 dB (issue 29 saw `optimal` beside `UNSAFE: … 2.385 dB`)."""
+    d, info = design_stiffness_on_rung(CABLE_D1, StiffnessRequirements(max_damping=50.0), "linear")
+    chk = info.exact_check
+    assert d.gain_margin_db == pytest.approx(6.0, rel=1e-12)                   # the rung's own claim
+    assert chk.gain_margin_db == pytest.approx(20 * math.log10(critical_stiffness(CABLE_D1, 50.0).critical_stiffness
+                                                               / d.stiffness), rel=1e-12)
+    assert round(chk.gain_margin_db, 3) == 2.385
+    assert d.status == "unsafe" and "2.385 dB, below the required 6 dB" in d.reason
+
+
+STIFFNESS_CASES = [(RIGID, StiffnessRequirements(max_damping=20.0)),
+                   (RIGID, StiffnessRequirements(max_damping=20.0, passivity=True)),
+                   (CABLE_D1, StiffnessRequirements(max_damping=50.0)),
+                   (CABLE_D1, StiffnessRequirements(max_damping=5.0, min_gain_margin_db=3.0)),
+                   (Device(**LHIFAM_RIGID, delay=2.5e-3), StiffnessRequirements(max_stiffness=2000.0))]
+
+
+@pytest.mark.parametrize(("method", "grid_points"), [("linear", 1000), ("grid", 1000), ("grid", 64)])
+@pytest.mark.parametrize("case", range(len(STIFFNESS_CASES)))
+def test_a_stiffness_design_is_optimal_exactly_when_its_exact_check_is_safe(method, grid_points, case):
+    """Both outcomes occur: linear is unsafe on cases 0-2 and 4 and optimal on 3; the 64-point grid's design with
+    passivity (case 1) is stable with 6.2 dB but not passive."""
+    device, req = STIFFNESS_CASES[case]
+    d, info = design_stiffness_on_rung(device, req, method, grid_points)
+    assert d.status in ("optimal", "unsafe", "infeasible")
+    if d.status == "infeasible":
+        assert info.exact_check is None
+        return
+    chk = info.exact_check
+    # the check is recomputed here from the exact analysis, not read back from the rung
+    margin = 20 * math.log10(critical_stiffness(device, d.damping).critical_stiffness / d.stiffness)
+    passive = passivity_margin(device, d.stiffness, d.damping).passive if req.passivity else None
+    safe = margin >= req.min_gain_margin_db * (1 - 1e-9) - 1e-12 and passive is not False
+    assert chk.gain_margin_db == pytest.approx(margin, rel=1e-12, abs=1e-12)
+    assert (d.status == "optimal") == safe, (d.status, margin, passive, chk.statement)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("method", ["linear", "grid"])
+def test_an_inertia_design_is_optimal_exactly_when_its_exact_check_is_safe(method):
+    for device in (FF_CABLE, Device(**LHIFAM_RIGID, human=HUMAN_EQ30, force_sensor=SENSOR_EQ31)):
+        d, info = design_inertia_on_rung(device, InertiaRequirements(), method)
+        assert d.status in ("optimal", "unsafe")
+        chk = info.exact_check
+        assert (d.status == "optimal") == (chk.meets_min_gain_margin and chk.gain_margin_db is not None), chk
+        if d.status == "unsafe":
+            assert f"{chk.gain_margin_db:.4g} dB" in d.reason
 
 
 def test_bad_method_names_the_field():

@@ -228,7 +228,7 @@ def test_numerics_input_error_is_422_with_field_and_rule(client):
     assert r.status_code == 422 and e["loc"] == ["body", "device", "mass"] and "mass/sample_time" in e["msg"]
     r = client.post("/v1/analysis/stability", json={"device": {**LHIFAM_RIGID, "delay": 11.0}})
     (e,) = r.json()["detail"]
-    assert e["loc"] == ["body", "device", "delay"] and "limit is 10000 samples" in e["msg"]
+    assert e["loc"] == ["body", "device", "delay"] and "delay/sample_time ≤ 10000 samples" in e["msg"]
 
 
 def test_design_input_errors_are_422_not_failed(client):

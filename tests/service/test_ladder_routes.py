@@ -47,12 +47,23 @@ def test_linear_designs_carry_their_exact_margin(client):
                                                   "requirements": {"max_damping": 20}, "method": "linear"}).json()
     assert j["status"] == "optimal" and j["method"] == "linear"
     assert j["exact_check"]["gain_margin_db"] is not None and j["exact_check"]["statement"]
+    assert j["exact_check"]["meets_min_gain_margin"] is True        # optimal: its own exact check agrees
     j = client.post("/v1/design/stiffness", json={"device": {"preset": "lhifam"}, "method": "linear"}).json()
     assert j["status"] == "infeasible" and "unbounded" in j["reason"] and j["damping"] is None
     j = client.post("/v1/design/inertia", json={"device": FF, "method": "linear"}).json()
     assert j["method"] == "linear" and j["exact_check"]["meets_min_gain_margin"] is False
+    assert j["status"] == "unsafe" and f"{j['exact_check']['gain_margin_db']:.4g} dB" in j["reason"]
     j = client.post("/v1/design/stiffness", json={"device": {"preset": "lhifam"}}).json()
     assert j["method"] == "exact" and j["exact_check"] is None and j["error_estimate"] <= 1e-12
+
+
+def test_a_linear_design_failing_its_exact_check_is_unsafe_not_optimal(client):
+    """Issue 29: eq. 10's design at max_damping 50 claims 6 dB; its own exact check says 2.385 dB."""
+    j = client.post("/v1/design/stiffness", json={"device": {"preset": "lhifam", "delay": 0.001},
+                                                  "requirements": {"max_damping": 50}, "method": "linear"}).json()
+    assert j["exact_check"]["statement"].startswith("UNSAFE: the exact margin of this design is 2.385 dB")
+    assert j["status"] == "unsafe"
+    assert "the exact margin of this design is 2.385 dB, below the required 6 dB" in j["reason"]
 
 
 FRICTIONLESS = {"mass": 5.4, "damping": 0.0, "sample_time": 1e-3, "delay": 1e-3}
