@@ -22,7 +22,7 @@ from fastapi.middleware.cors import CORSMiddleware
 from optim.stability.kernels import compile_kernels
 
 from . import routes
-from .auth import UNAUTHORIZED, bearer_auth
+from .auth import UNAUTHORIZED, BearerAuthMiddleware, bearer_auth
 from .body_guard import BodyGuardMiddleware
 from .docs import install_docs
 from .errors import ERROR_RESPONSES, NOT_FOUND, install_error_handlers
@@ -85,6 +85,21 @@ def _warm_up(executor: BoundedExecutor) -> None:
     executor.warm_up()
 
 
+def _die_with_supervisor() -> None:
+    """A uvicorn worker (``--workers N``, a spawned child of the supervisor) dies with the supervisor, even on
+    its SIGKILL: PR_SET_PDEATHSIG (the supervisor spawns its workers from its main thread) and a parent watch
+    (service.lifeline).  Its forkserver, compute and study workers follow it.  A SIGKILLed supervisor used to
+    leave 7-9 processes serving the port, and a restart failed with "address already in use" (issue 28).
+    A server run as one process (no multiprocessing parent) is left alone."""
+    import multiprocessing
+
+    from .lifeline import die_with_parent
+
+    parent = multiprocessing.parent_process()
+    if parent is not None and parent.pid is not None:
+        die_with_parent(pdeathsig=True, parent=parent.pid)
+
+
 def create_app(settings: Settings | None = None) -> FastAPI:
     settings = settings or Settings()
     configure_logging(settings.log_level)
@@ -93,6 +108,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     @asynccontextmanager
     async def lifespan(_: FastAPI) -> AsyncIterator[None]:
+        _die_with_supervisor()
         executor.open()
         if settings.prestart_workers:
             # In the background: the server answers /healthz while the workers start.
@@ -124,7 +140,10 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                                    allow_headers=["Authorization", "Content-Type", "X-Request-ID"],
                                    expose_headers=["X-Request-ID"])
     application.add_middleware(BodyGuardMiddleware, timeout=settings.body_timeout)
-    application.add_middleware(BodyLimitMiddleware, max_body_bytes=settings.max_body_bytes)
+    application.add_middleware(BodyLimitMiddleware, max_body_bytes=settings.max_body_bytes,
+                               timeout=settings.body_timeout)
+    if token:   # before anything that reads the body: an unauthenticated body is never read nor scanned
+        application.add_middleware(BearerAuthMiddleware, token=token)
     application.add_middleware(RequestContextMiddleware, access_log=settings.access_log)
     return application
 
