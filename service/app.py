@@ -1,10 +1,11 @@
 """The zwidth HTTP service: ``service.app:app``, built by :func:`create_app`.
 
-Layers, outermost first: request id + JSON access log, body-size limit (413), body guard (408 for a
-slow body, 422 for JSON nested deeper than 64 or a lone surrogate), CORS (only when ZWIDTH_CORS_ORIGINS is set), then the routers found in
-service/routes (every module with a ``router``), the /v1 ones behind the bearer
-token when ZWIDTH_API_TOKEN is set.  /healthz, /docs, /redoc and /openapi.json
-stay open.
+Layers, outermost first: request id + JSON access log, bearer auth of /v1 on the headers alone (401; only when
+ZWIDTH_API_TOKEN is set: before any byte of the body is read), body-size limit (413; a chunked body under the
+body deadline, 408), body guard (408 for a slow body, 415 for a charset but UTF-8, 422 for JSON nested deeper
+than 64 or a lone surrogate; linear in the body), CORS (only when ZWIDTH_CORS_ORIGINS is set), then the routers
+found in service/routes (every module with a ``router``), the /v1 ones also behind the token's dependency (which
+documents it in OpenAPI).  /healthz, /readyz, /docs, /redoc and /openapi.json stay open.
 """
 
 from __future__ import annotations
@@ -50,7 +51,8 @@ Transparency for Haptic Rendering"). SI units throughout; every analysis says wh
 ladder produced it (`method`) and what it cost (`elapsed_ms`).
 
 Invalid input answers 422 naming the field and the rule; bodies above the size limit 413, bodies slower
-than ZWIDTH_BODY_TIMEOUT 408; a computation past the request time budget 503. Limits: see docs/limits.md."""
+than ZWIDTH_BODY_TIMEOUT 408, bodies not in UTF-8 415; a computation past the request time budget 503. Limits: see
+docs/limits.md."""
 
 
 def _routers():

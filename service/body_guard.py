@@ -138,6 +138,14 @@ def body_charset(body: bytes, content_type: bytes | None) -> str:
     return json.detect_encoding(body[:4])
 
 
+def _is_json(content_type: bytes | None) -> bool:
+    """Whether FastAPI would parse a body of this Content-Type as JSON (none, application/json, application/*+json)."""
+    if not content_type:
+        return True
+    media = content_type.split(b";", 1)[0].strip().lower()
+    return media == b"application/json" or (media.startswith(b"application/") and media.endswith(b"+json"))
+
+
 def _json(status: int, content: Any, close: bool = False) -> tuple[Message, Message]:
     body = json.dumps(content).encode()
     headers = [(b"content-type", b"application/json"), (b"content-length", str(len(body)).encode())]
@@ -219,7 +227,9 @@ class BodyGuardMiddleware:
 
     def _refusal(self, body: bytes, content_type: bytes | None = None) -> tuple[Message, Message] | None:
         charset = body_charset(body, content_type)
-        if charset not in ("utf-8", "utf8", "utf-8-sig"):
+        # Only a body the app would parse as JSON (FastAPI parses one without a Content-Type as JSON too); any other
+        # content type is the app's 422 at the header.
+        if _is_json(content_type) and charset not in ("utf-8", "utf8", "utf-8-sig"):
             return _json(415, {"detail": f"the request body must be UTF-8 JSON; it is {charset[:40]!r} "
                                          "(send Content-Type: application/json, UTF-8)"})
         depth = json_depth(body, self.max_depth)

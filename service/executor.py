@@ -263,15 +263,17 @@ class BoundedExecutor:
         except TimeoutError:
             # The caller's 503 first, then the kill and the re-fork (they took the answer past the budget under
             # CPU contention: a 10 s budget answered at 13.8 s, issue 28).
+            self._count_replaced()
             job.future.set_exception(ComputeTimeout(job.budget))
             _log.warning("compute budget exceeded; worker killed and replaced",
                          extra={"budget_s": job.budget, "function": getattr(job.fn, "__qualname__", str(job.fn))})
-            return self._replace(slot, worker)
+            return self._replace(slot, worker, counted=True)
         except (EOFError, OSError) as exc:
+            self._count_replaced()
             job.future.set_exception(
                 ComputeUnavailable("the compute worker died during the computation; it was replaced"))
             _log.error("compute worker died; replaced", extra={"error": type(exc).__name__})
-            return self._replace(slot, worker)
+            return self._replace(slot, worker, counted=True)
         except Exception as exc:  # noqa: BLE001 - e.g. unpicklable arguments: nothing reached the worker
             job.future.set_exception(exc)
             return worker
@@ -281,10 +283,14 @@ class BoundedExecutor:
             job.future.set_exception(value)
         return worker
 
-    def _replace(self, slot: int, worker: _Worker) -> _Worker | None:
-        self._drop(slot, worker)
+    def _count_replaced(self) -> None:
         with self._lock:
             self.replaced += 1
+
+    def _replace(self, slot: int, worker: _Worker, counted: bool = False) -> _Worker | None:
+        self._drop(slot, worker)
+        if not counted:
+            self._count_replaced()
         try:  # a fork of the warm forkserver: ready by the next call
             return self._start(slot)
         except Exception:  # noqa: BLE001 - the next call starts one itself

@@ -99,7 +99,10 @@ def _status(row: dict) -> StudyStatus:
 
 @router.post("", status_code=202, response_model=StudyCreated,
              responses={429: {"description": "too many studies queued or running (ZWIDTH_STUDY_MAX_ACTIVE); "
-                                             "the Retry-After header says when to try again"}})
+                                             "the Retry-After header says when to try again",
+                              "content": {"application/json": {"schema": {
+                                  "type": "object", "properties": {"detail": {"type": "string"}},
+                                  "required": ["detail"]}}}}})
 def submit_study(req: StudyRequest, request: Request) -> StudyCreated:
     """Plan the study, store the request (on disk before answering), queue it: 202 with its id."""
     runner = _runner(request)

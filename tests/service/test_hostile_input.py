@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import socket
+import tempfile
 import time
 
 import pytest
@@ -17,6 +18,7 @@ from .conftest import LHIFAM_RIGID, make_client, start_live_server
 JSON = {"content-type": "application/json"}
 STABILITY = "/v1/analysis/stability"
 TOKEN = "hostile-test-token"
+_STORE = f"sqlite:///{tempfile.mkdtemp(prefix='zwidth-hostile-')}/studies.db"   # never the user's store
 
 
 def issue_body(size: int) -> bytes:
@@ -67,7 +69,7 @@ def test_the_guard_counts_what_the_parser_sees():
 
 @pytest.fixture(scope="module")
 def client():
-    with make_client() as c:
+    with make_client(database_url=_STORE) as c:
         yield c
 
 
@@ -120,7 +122,7 @@ def test_subnormal_identification_inputs_are_422_at_their_field():
     """Forces around 1e-310 and a sample_time of 5e-324 divided by zero (500)."""
     from tests.service.test_identify import _fr
 
-    with make_client(inline_cost_ms=25) as c:
+    with make_client(inline_cost_ms=25, database_url=_STORE) as c:
         ts = _time_series()
         tiny = {**ts, "force": [f * 1e-310 for f in ts["force"]]}
         cases = [({"model": "rigid", "data": tiny}, ["body", "data", "force"]),
@@ -145,7 +147,7 @@ def test_doc_pages_cannot_be_framed(client, path):
 def test_an_unauthenticated_body_is_never_read():
     """Auth runs on the headers, before the body is counted or scanned: 401 for the 1 MB hostile body at once,
     and for a body that never arrives."""
-    with make_client(api_token=TOKEN) as c:
+    with make_client(api_token=TOKEN, database_url=_STORE) as c:
         t0 = time.perf_counter()
         r = c.post(STABILITY, content=issue_body(999_000), headers=JSON)
         assert r.status_code == 401 and time.perf_counter() - t0 < 1.0
@@ -173,9 +175,10 @@ def _read_all(sock: socket.socket, timeout: float) -> bytes:
 
 
 @pytest.mark.slow
-def test_50_stalled_chunked_bodies_are_answered_408_and_closed_while_healthz_answers():
+def test_50_stalled_chunked_bodies_are_answered_408_and_closed_while_healthz_answers(tmp_path):
     """50 connections that start a chunked body and stall were held 45 s (never closed)."""
-    server = start_live_server({"ZWIDTH_BODY_TIMEOUT": "2", "ZWIDTH_PRESTART_WORKERS": "false"})
+    server = start_live_server({"ZWIDTH_BODY_TIMEOUT": "2", "ZWIDTH_PRESTART_WORKERS": "false",
+                                "ZWIDTH_DATABASE_URL": f"sqlite:///{tmp_path / 's.db'}"})
     socks = []
     try:
         head = (f"POST {STABILITY} HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
@@ -205,12 +208,14 @@ def test_50_stalled_chunked_bodies_are_answered_408_and_closed_while_healthz_ans
 
 
 @pytest.mark.slow
-def test_the_80_kb_body_does_not_freeze_a_live_server():
-    """Reproducer: unauthenticated, 80 kB of the hostile shape froze the whole server (and /healthz) 13-15 s."""
+def test_the_80_kb_body_does_not_freeze_a_live_server(tmp_path):
+    """Reproducer: unauthenticated, 80 kB of the hostile shape froze the whole server (and /healthz) 13-15 s; here
+    1 MB of it."""
     import http.client
     import threading
 
-    server = start_live_server({"ZWIDTH_PRESTART_WORKERS": "false"})
+    server = start_live_server({"ZWIDTH_PRESTART_WORKERS": "false",
+                                "ZWIDTH_DATABASE_URL": f"sqlite:///{tmp_path / 's.db'}"})
     try:
         results = {}
 

@@ -261,3 +261,19 @@ def test_readyz_lists_studies_as_degraded_with_a_read_only_home(tmp_path):
         assert status == 200 and ready["ready"] is True   # the rest of the service serves
     finally:
         _stop(proc)
+
+
+@pytest.mark.slow
+def test_migrations_racing_on_a_fresh_sqlite_file_run_once(tmp_path):
+    """Two processes migrating one fresh file at once, 5 times (uvicorn --workers 2 started without `zwidth serve`,
+    which migrates first): the lock lets one create the tables and the other find them ("table studies already
+    exists" before)."""
+    code = ("import sys; from service.studies.store import StudyStore; s = StudyStore(sys.argv[1]); s.migrate(); "
+            "print('migrated', s.count_active())")
+    for attempt in range(5):
+        url = f"sqlite:///{tmp_path / f'race{attempt}.db'}"
+        procs = [subprocess.Popen([PY, "-c", code, url], cwd=ROOT, env=_env(), stdout=subprocess.PIPE,
+                                  stderr=subprocess.STDOUT) for _ in range(2)]
+        outs = [p.communicate(timeout=120)[0].decode() for p in procs]
+        assert [p.returncode for p in procs] == [0, 0], outs
+        assert all("migrated 0" in o for o in outs), outs
