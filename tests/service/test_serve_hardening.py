@@ -26,7 +26,8 @@ UNSHARE = shutil.which("unshare")
 
 
 def _env(**extra: str | None) -> dict[str, str]:
-    env = {**os.environ, "PYTHONPATH": str(ROOT), "ZWIDTH_ACCESS_LOG": "false", "ZWIDTH_PRESTART_WORKERS": "false"}
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "ZWIDTH_ACCESS_LOG": "false", "ZWIDTH_PRESTART_WORKERS": "false",
+           "COLUMNS": "400"}   # rich wraps at the terminal width: one message, one line
     for k in ("ZWIDTH_API_TOKEN", "ZWIDTH_API_TOKEN_FILE", "ZWIDTH_ALLOW_NO_AUTH", "ZWIDTH_DATABASE_URL"):
         env.pop(k, None)
     env.update({k: v for k, v in extra.items() if v is not None})
@@ -208,6 +209,7 @@ def test_five_fresh_starts_with_2_workers_each_serve_studies_from_every_worker(t
             _stop(proc)
             out = proc.stdout.read().decode()
         assert "already exists" not in out and "study store unavailable" not in out, out[-3000:]
+        assert f"studies are stored in sqlite:///{db}" in " ".join(out.split()), out[-3000:]   # printed at start
 
 
 # ------------------------------------------------------------------------------------------------ HOME
