@@ -152,6 +152,7 @@ class BoundedExecutor:
         self._lock = threading.Lock()
         self._dispatchers: list[threading.Thread] = []
         self._live: dict[int, _Worker] = {}     # dispatcher slot -> its worker (for shutdown and tests)
+        self._replacing: dict[int, tuple[float, float]] = {}   # slot -> (start, end) of its last worker replacement
         self._waiting = 0
         self._busy = 0
         self._closed = False
@@ -242,7 +243,7 @@ class BoundedExecutor:
 
     def _execute(self, slot: int, worker: _Worker | None, job: _Job) -> _Worker | None:
         """Run ``job`` on ``worker`` (started if needed); returns the worker to use next."""
-        remaining = job.budget - (time.monotonic() - job.queued_at)
+        remaining = job.budget - (time.monotonic() - job.queued_at) + self._replacement_credit(slot, job)
         if remaining <= 0:
             job.future.set_exception(ComputeTimeout(job.budget, waiting=True))
             return worker
@@ -267,13 +268,13 @@ class BoundedExecutor:
             job.future.set_exception(ComputeTimeout(job.budget))
             _log.warning("compute budget exceeded; worker killed and replaced",
                          extra={"budget_s": job.budget, "function": getattr(job.fn, "__qualname__", str(job.fn))})
-            return self._replace(slot, worker, counted=True)
+            return self._replace_timed(slot, worker)
         except (EOFError, OSError) as exc:
             self._count_replaced()
             job.future.set_exception(
                 ComputeUnavailable("the compute worker died during the computation; it was replaced"))
             _log.error("compute worker died; replaced", extra={"error": type(exc).__name__})
-            return self._replace(slot, worker, counted=True)
+            return self._replace_timed(slot, worker)
         except Exception as exc:  # noqa: BLE001 - e.g. unpicklable arguments: nothing reached the worker
             job.future.set_exception(exc)
             return worker
@@ -282,6 +283,22 @@ class BoundedExecutor:
         else:
             job.future.set_exception(value)
         return worker
+
+    def _replace_timed(self, slot: int, worker: _Worker) -> _Worker | None:
+        """:meth:`_replace` (already counted), remembering when this slot was busy with it: a call that waited in
+        the queue meanwhile is not charged for it (a worker's start-up is not the caller's computation)."""
+        t0 = time.monotonic()
+        try:
+            return self._replace(slot, worker, counted=True)
+        finally:
+            self._replacing[slot] = (t0, time.monotonic())
+
+    def _replacement_credit(self, slot: int, job: _Job) -> float:
+        """Seconds of ``job``'s wait in the queue that this slot spent replacing its worker."""
+        span = self._replacing.get(slot)
+        if span is None:
+            return 0.0
+        return max(0.0, span[1] - max(span[0], job.queued_at))
 
     def _count_replaced(self) -> None:
         with self._lock:
