@@ -78,13 +78,13 @@ def json_depth(body: bytes, at_most: int = MAX_JSON_DEPTH) -> int:
     quote = b == _QUOTE
     slash = b == _BACKSLASH
     if slash.any():
-        idx = np.arange(n, dtype=np.int64)
-        # last index ≤ i that is not a backslash (−1 if none): the run of backslashes ending at i is i − that
-        last_plain = np.maximum.accumulate(np.where(slash, -1, idx))
-        run = idx - last_plain
-        escaped = np.zeros(n, dtype=bool)
-        escaped[1:] = (run[:-1] & 1).astype(bool)
-        quote &= ~escaped
+        # the runs of backslashes: [start, end); a quote right after an odd run is escaped
+        edges = np.diff(slash.view(np.int8), prepend=np.int8(0), append=np.int8(0))
+        starts = np.flatnonzero(edges == 1)
+        ends = np.flatnonzero(edges == -1)
+        odd = ends[((ends - starts) & 1).astype(bool)]
+        odd = odd[odd < n]
+        quote[odd[quote[odd]]] = False
     outside = (np.cumsum(quote, dtype=np.int64) & 1) == 0     # quotes seen so far (inclusive) even
     step = (((b == 0x5B) | (b == 0x7B)) & outside).astype(np.int32)
     step -= ((b == 0x5D) | (b == 0x7D)) & outside
