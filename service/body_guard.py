@@ -24,8 +24,8 @@ The body is then replayed to the app unchanged.
 (numpy) over the bytes, with no regular expression that can backtrack: a string's end is the first ``"``
 after an even run of backslashes, found from the run lengths, not by matching.  The previous
 ``"(?:[^"\\\\]|\\\\.)*"`` regex restarted at every quote of an unterminated string, so ``[``×65, ``"``,
-``\\"``×40,000 (80 kB) took 13-15 s and 1 MB ≈ 40 min (issue 28); the scan takes ≈ 10 ms per MB on any
-shape (tests/service/test_body_guard_linear.py).  A body above 64 kB is scanned in a worker thread, so
+``\\"``×40,000 (80 kB) took 13-15 s and 1 MB ≈ 40 min (issue 28); the scan takes a few ms per MB on any
+shape on an idle core, ≤ 0.2 s on the loaded 2-core machine (tests/service/test_hostile_input.py).  A body above 64 kB is scanned in a worker thread, so
 the event loop keeps serving meanwhile.  The surrogate check parses the body (json.loads, linear, and only
 after the depth check made that safe) only when a ``\\uD8..``-``\\uDF..`` escape appears at all.
 """
