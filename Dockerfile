@@ -1,4 +1,7 @@
-# zwidth HTTP service.  Build:  docker build -t zwidth .   Run:  docker run -p 8000:8000 zwidth
+# zwidth HTTP service.  Build:  docker build -t zwidth .
+# Run (a token is required: `zwidth serve` refuses a non-loopback bind without one, exit 2, saying why):
+#   python3 -c 'import secrets; print(secrets.token_urlsafe(32))' > zwidth_token
+#   docker run -p 8000:8000 -v "$PWD/zwidth_token:/run/secrets/zwidth_token:ro" zwidth
 # (docs/docker.md).  scripts/docker-recipe-check.sh replays the install step below without Docker.
 
 # --- build stage: a virtual environment with zwidth and its pinned dependencies -------------------
@@ -22,7 +25,8 @@ ENV PATH=/opt/zwidth/bin:$PATH \
     PYTHONUNBUFFERED=1 \
     MPLCONFIGDIR=/tmp/matplotlib \
     NUMBA_CACHE_DIR=/home/zwidth/.cache/numba \
-    ZWIDTH_DATABASE_URL=sqlite:////home/zwidth/zwidth.db
+    ZWIDTH_DATABASE_URL=sqlite:////home/zwidth/zwidth.db \
+    ZWIDTH_API_TOKEN_FILE=/run/secrets/zwidth_token
 USER zwidth
 WORKDIR /home/zwidth
 EXPOSE 8000

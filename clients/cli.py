@@ -362,23 +362,40 @@ def compute_workers_per_server(servers: int, cpus: int | None) -> int:
 
 
 @app.command()
-def serve(host: str = typer.Option("127.0.0.1", help="interface to bind (0.0.0.0 in a container)"),
+def serve(host: str = typer.Option("127.0.0.1", help="interface to bind; anything but loopback needs a token "
+                                                   "(ZWIDTH_API_TOKEN or ZWIDTH_API_TOKEN_FILE)"),
           port: int = typer.Option(8000, min=1, max=65535, help="TCP port"),
           workers: int = typer.Option(1, min=1, help="uvicorn worker processes, each with its own compute pool "
                                                      "(of cores // workers processes unless ZWIDTH_COMPUTE_WORKERS "
                                                      "is set)"),
-          log_level: str = typer.Option("info", help="log level (logs are JSON lines on stderr)")) -> None:
-    """Serve the HTTP API with uvicorn (settings from ZWIDTH_* environment variables)."""
+          log_level: str = typer.Option("info", help="log level (logs are JSON lines on stderr)"),
+          insecure_no_auth: bool = typer.Option(False, "--insecure-no-auth",
+                                                help="serve a non-loopback address without a token (also "
+                                                     "ZWIDTH_ALLOW_NO_AUTH=1); refused otherwise")) -> None:
+    """Serve the HTTP API with uvicorn (settings from ZWIDTH_* environment variables).
+
+    Refuses (exit 2, saying why) to bind a non-loopback address without a token, and to start when the default
+    study store under HOME cannot be created.  The store is created and migrated once, before the workers."""
     import os
 
     with c.full_install("zwidth serve"):
         import uvicorn
 
         from service.logs import uvicorn_log_config
-        from service.settings import Settings, describe_store
+        from service.settings import Settings
+        from service.startup import StartRefused, check_exposure, prepare_store
 
-    c.err.print(f"zwidth: studies are stored in {describe_store(Settings().database_url)} "
-                "(ZWIDTH_DATABASE_URL to change)")
+    try:
+        settings = Settings()
+        warning = check_exposure(host, settings.token, insecure_no_auth)
+        shown, store_warning = prepare_store(settings)
+    except (StartRefused, ValueError) as exc:   # ValueError: a setting (e.g. HOME unset for the default store)
+        c.err.print(f"[bold red]zwidth serve: {escape(str(exc))}[/]")
+        raise typer.Exit(2) from None
+    for w in (warning, store_warning):
+        if w:
+            c.err.print(f"[bold yellow]{escape(w)}[/]")
+    c.err.print(f"zwidth: studies are stored in {escape(shown)} (ZWIDTH_DATABASE_URL to change)")
     if workers > 1:   # each uvicorn worker has its own compute pool: share the cores out, unless told otherwise
         os.environ.setdefault("ZWIDTH_COMPUTE_WORKERS", str(compute_workers_per_server(workers, os.cpu_count())))
 

@@ -26,7 +26,7 @@ from optim.errors import InputError
 
 __all__ = ["DELTA_MIN", "DELTA_MAX", "SCALE_MIN", "SCALE_MAX", "RATIO_MIN", "RATIO_MAX", "CUTOFF_RATIO_MIN",
            "check_device_domain", "check_human_domain", "check_human_mass", "check_cutoff_domain",
-           "check_controller_domain"]
+           "check_controller_domain", "SAMPLE_TIME_MIN", "SIGNAL_MIN", "check_sample_time", "check_signal_scale"]
 
 #: Smallest non-zero δ = bT/m (below it the scan's lowest frequency ~1e-4·√δ underflows).
 DELTA_MIN = 1e-30
@@ -46,6 +46,30 @@ RATIO_MAX = 1e30
 #: reference; at 1e-12 the reference rung's scan misses the crossover the exact rung finds, and below ~1e-15
 #: the exact answer stops scaling (tests/optim/test_domain.py).  1e-9 is 1 µHz at 1 kHz: no force filter.
 CUTOFF_RATIO_MIN = 1e-9
+
+
+#: Smallest sample time [s].  With it (and mass ≤ 1e12) the scales m/T² and m/T can only leave their range
+#: through the mass, so each rule names the field at fault (a subnormal sample_time was blamed on
+#: device.mass: issue 29).  Far below any loop (1e-100 s); T² stays a normal double.
+SAMPLE_TIME_MIN = 1e-100
+#: Smallest magnitude of a measured signal's scale (the largest |force|, the position's range, the largest
+#: |X/F|) an identification can fit: the fit squares and divides by them (forces of 1e-310 N divided by zero,
+#: issue 28).  1e-100 keeps the squares normal doubles.
+SIGNAL_MIN = 1e-100
+
+
+def check_sample_time(sample_time: float, field: str) -> None:
+    """``field`` (a sample time [s]) at least SAMPLE_TIME_MIN (the upper limit, 1 s, is the schemas' own)."""
+    if not sample_time >= SAMPLE_TIME_MIN:
+        raise InputError(field, f"must be ≥ {SAMPLE_TIME_MIN:g} s for double-precision analysis (got "
+                                f"{sample_time:.3g} s; the loop's period squared must stay a normal double)")
+
+
+def check_signal_scale(scale: float, field: str, what: str) -> None:
+    """A measured signal's ``scale`` (its largest magnitude or range, ``what``) at least SIGNAL_MIN."""
+    if not scale >= SIGNAL_MIN:
+        raise InputError(field, f"{what} is {scale:.3g}: at least {SIGNAL_MIN:g} is needed for double-precision "
+                                "fitting (check the units: N, m)")
 
 
 def _ratio(field: str, value: float, scale: float, what: str, zero_ok: bool) -> None:
@@ -96,6 +120,7 @@ def check_cutoff_domain(cutoff_hz: float, sample_time: float, field: str) -> Non
 
 def check_device_domain(device: Device) -> None:
     """Raise ValueError("field: rule") if the device's dimensionless numbers leave the validated domain."""
+    check_sample_time(device.sample_time, "sample_time")
     # m/T/T, not m/T**2: T² of a subnormal T underflows to 0 (a ZeroDivisionError); the quotient overflows to inf.
     scales = (device.mass / device.sample_time / device.sample_time, device.mass / device.sample_time)
     if not all(SCALE_MIN <= s <= SCALE_MAX for s in scales):

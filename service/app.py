@@ -1,10 +1,11 @@
 """The zwidth HTTP service: ``service.app:app``, built by :func:`create_app`.
 
-Layers, outermost first: request id + JSON access log, body-size limit (413), body guard (408 for a
-slow body, 422 for JSON nested deeper than 64 or a lone surrogate), CORS (only when ZWIDTH_CORS_ORIGINS is set), then the routers found in
-service/routes (every module with a ``router``), the /v1 ones behind the bearer
-token when ZWIDTH_API_TOKEN is set.  /healthz, /docs, /redoc and /openapi.json
-stay open.
+Layers, outermost first: request id + JSON access log, bearer auth of /v1 on the headers alone (401; only when
+ZWIDTH_API_TOKEN is set: before any byte of the body is read), body-size limit (413; a chunked body under the
+body deadline, 408), body guard (408 for a slow body, 415 for a charset but UTF-8, 422 for JSON nested deeper
+than 64 or a lone surrogate; linear in the body), CORS (only when ZWIDTH_CORS_ORIGINS is set), then the routers
+found in service/routes (every module with a ``router``), the /v1 ones also behind the token's dependency (which
+documents it in OpenAPI).  /healthz, /readyz, /docs, /redoc and /openapi.json stay open.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from fastapi.middleware.cors import CORSMiddleware
 from optim.stability.kernels import compile_kernels
 
 from . import routes
-from .auth import UNAUTHORIZED, bearer_auth
+from .auth import UNAUTHORIZED, BearerAuthMiddleware, bearer_auth
 from .body_guard import BodyGuardMiddleware
 from .docs import install_docs
 from .errors import ERROR_RESPONSES, NOT_FOUND, install_error_handlers
@@ -51,7 +52,8 @@ Transparency for Haptic Rendering"). SI units throughout; every analysis says wh
 ladder produced it (`method`) and what it cost (`elapsed_ms`).
 
 Invalid input answers 422 naming the field and the rule; bodies above the size limit 413, bodies slower
-than ZWIDTH_BODY_TIMEOUT 408; a computation past the request time budget 503. Limits: see docs/limits.md."""
+than ZWIDTH_BODY_TIMEOUT 408, bodies not in UTF-8 415; a computation past the request time budget 503. Limits: see
+docs/limits.md."""
 
 
 def _routers():
@@ -86,6 +88,21 @@ def _warm_up(executor: BoundedExecutor) -> None:
     executor.warm_up()
 
 
+def _die_with_supervisor() -> None:
+    """A uvicorn worker (``--workers N``, a spawned child of the supervisor) dies with the supervisor, even on
+    its SIGKILL: PR_SET_PDEATHSIG (the supervisor spawns its workers from its main thread) and a parent watch
+    (service.lifeline).  Its forkserver, compute and study workers follow it.  A SIGKILLed supervisor used to
+    leave 7-9 processes serving the port, and a restart failed with "address already in use" (issue 28).
+    A server run as one process (no multiprocessing parent) is left alone."""
+    import multiprocessing
+
+    from .lifeline import die_with_parent
+
+    parent = multiprocessing.parent_process()
+    if parent is not None and parent.pid is not None:
+        die_with_parent(pdeathsig=True, parent=parent.pid)
+
+
 def create_app(settings: Settings | None = None) -> FastAPI:
     settings = settings or Settings()
     configure_logging(settings.log_level)
@@ -94,6 +111,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     @asynccontextmanager
     async def lifespan(_: FastAPI) -> AsyncIterator[None]:
+        _die_with_supervisor()
         executor.open()
         if settings.prestart_workers:
             # In the background: the server answers /healthz while the workers start.
@@ -134,7 +152,10 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                                    allow_headers=["Authorization", "Content-Type", "X-Request-ID"],
                                    expose_headers=["X-Request-ID"])
     application.add_middleware(BodyGuardMiddleware, timeout=settings.body_timeout)
-    application.add_middleware(BodyLimitMiddleware, max_body_bytes=settings.max_body_bytes)
+    application.add_middleware(BodyLimitMiddleware, max_body_bytes=settings.max_body_bytes,
+                               timeout=settings.body_timeout)
+    if token:   # before anything that reads the body: an unauthenticated body is never read nor scanned
+        application.add_middleware(BearerAuthMiddleware, token=token)
     application.add_middleware(RequestContextMiddleware, access_log=settings.access_log)
     return application
 

@@ -15,9 +15,17 @@ from fastapi.openapi.docs import get_redoc_html, get_swagger_ui_html, get_swagge
 from fastapi.responses import FileResponse, HTMLResponse
 from fastapi.staticfiles import StaticFiles
 
-__all__ = ["install_docs", "STATIC_URL"]
+__all__ = ["install_docs", "STATIC_URL", "NO_FRAMING"]
 
 STATIC_URL = "/static-docs"
+#: The doc pages may not be framed by another site (clickjacking: "Try it out" sends requests with the user's
+#: token): the CSP directive for current browsers, X-Frame-Options for older ones.
+NO_FRAMING = {"Content-Security-Policy": "frame-ancestors 'none'", "X-Frame-Options": "DENY"}
+
+
+def _unframed(page: HTMLResponse) -> HTMLResponse:
+    page.headers.update(NO_FRAMING)
+    return page
 
 
 def _assets_dir() -> str:
@@ -34,25 +42,25 @@ def install_docs(app: FastAPI) -> None:
     @app.get("/docs", include_in_schema=False)
     async def swagger_ui(request: Request) -> HTMLResponse:
         root = request.scope.get("root_path", "")
-        return get_swagger_ui_html(
+        return _unframed(get_swagger_ui_html(
             openapi_url=f"{root}{openapi_url}", title=f"{app.title} - Swagger UI",
             oauth2_redirect_url=f"{root}{redirect_url}",
             swagger_js_url=f"{root}{STATIC_URL}/swagger-ui-bundle.js",
             swagger_css_url=f"{root}{STATIC_URL}/swagger-ui.css",
             swagger_favicon_url=f"{root}/favicon.ico",
             # validatorUrl null: Swagger UI would otherwise ask validator.swagger.io about the schema.
-            swagger_ui_parameters={"validatorUrl": None, "tryItOutEnabled": True})
+            swagger_ui_parameters={"validatorUrl": None, "tryItOutEnabled": True}))
 
     @app.get(redirect_url, include_in_schema=False)
     async def swagger_ui_redirect() -> HTMLResponse:
-        return get_swagger_ui_oauth2_redirect_html()
+        return _unframed(get_swagger_ui_oauth2_redirect_html())
 
     @app.get("/redoc", include_in_schema=False)
     async def redoc(request: Request) -> HTMLResponse:
         root = request.scope.get("root_path", "")
-        return get_redoc_html(openapi_url=f"{root}{openapi_url}", title=f"{app.title} - ReDoc",
-                              redoc_js_url=f"{root}{STATIC_URL}/redoc.standalone.js",
-                              redoc_favicon_url=f"{root}/favicon.ico", with_google_fonts=False)
+        return _unframed(get_redoc_html(openapi_url=f"{root}{openapi_url}", title=f"{app.title} - ReDoc",
+                                        redoc_js_url=f"{root}{STATIC_URL}/redoc.standalone.js",
+                                        redoc_favicon_url=f"{root}/favicon.ico", with_google_fonts=False))
 
     @app.get("/favicon.ico", include_in_schema=False)
     async def favicon() -> FileResponse:

@@ -41,6 +41,8 @@ ERROR_RESPONSES: dict[int | str, dict[str, Any]] = {
     408: {"description": "the request body did not arrive within ZWIDTH_BODY_TIMEOUT",
           "content": {"application/json": {"schema": _DETAIL}}},
     413: {"description": "request body above ZWIDTH_MAX_BODY_BYTES", "content": {"application/json": {"schema": _DETAIL}}},
+    415: {"description": "the request body is not UTF-8 (a declared or detected charset other than UTF-8)",
+          "content": {"application/json": {"schema": _DETAIL}}},
     503: {"description": "the computation exceeded the request time budget (ZWIDTH_REQUEST_TIMEOUT) "
                          "or its worker died; the worker was replaced", "content": {"application/json": {"schema": _DETAIL}}},
 }

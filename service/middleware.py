@@ -6,6 +6,7 @@ never buffer a response.
 
 from __future__ import annotations
 
+import asyncio
 import json
 import logging
 import re
@@ -101,12 +102,17 @@ class BodyLimitMiddleware:
     A declared ``Content-Length`` above the limit is refused before any byte of
     the body is read.  A body without one (chunked) is counted as it streams and
     refused as soon as the count passes the limit; below the limit it is
-    buffered (at most ``max_body_bytes``) and replayed to the app.
+    buffered (at most ``max_body_bytes``) and replayed to the app.  The whole
+    chunked body must arrive within ``timeout`` seconds of the headers (else 408
+    and the connection is closed), as a body with a length must in the body
+    guard: 50 chunked bodies that started and stalled used to be held open for
+    good (issue 28).
     """
 
-    def __init__(self, app: ASGIApp, max_body_bytes: int) -> None:
+    def __init__(self, app: ASGIApp, max_body_bytes: int, timeout: float = 10.0) -> None:
         self.app = app
         self.limit = max_body_bytes
+        self.timeout = timeout
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] != "http":
@@ -126,8 +132,17 @@ class BodyLimitMiddleware:
             return
         chunks: list[bytes] = []
         total = 0
+        deadline = asyncio.get_running_loop().time() + self.timeout
         while True:
-            message = await receive()
+            try:
+                async with asyncio.timeout_at(deadline):
+                    message = await receive()
+            except TimeoutError:
+                from .body_guard import body_timeout_answer
+
+                for m in body_timeout_answer(self.timeout):
+                    await send(m)
+                return
             if message["type"] != "http.request":
                 return  # client went away while sending
             chunk = message.get("body", b"")

@@ -18,8 +18,17 @@ __all__ = ["Settings", "default_database_url", "describe_store"]
 
 def default_database_url() -> str:
     """SQLite in the platform's user data directory (e.g. ~/.local/share/zwidth/studies.db on Linux), so a
-    study store never lands in whatever directory the server happened to start from."""
+    study store never lands in whatever directory the server happened to start from.
+
+    With HOME unset (and no XDG_DATA_HOME) there is no user directory to use: Python would fall back to the
+    password database's home (root's, in a container started with ``env -i``), so this refuses, saying why."""
+    import os
+
     from platformdirs import user_data_path
+
+    if os.name == "posix" and not os.environ.get("XDG_DATA_HOME") and not os.environ.get("HOME"):
+        raise ValueError("database_url: HOME is unset, so the default study store (~/.local/share/zwidth/studies.db) "
+                         "has no home; set HOME to a writable directory, or ZWIDTH_DATABASE_URL")
 
     return f"sqlite:///{user_data_path('zwidth', appauthor=False) / 'studies.db'}"
 

@@ -21,6 +21,11 @@ class ComputeQueue(Answer):
     ]
 
 
+class Degraded(Answer):
+    family: Annotated[str, Field(description="the route family that answers 503 now, e.g. 'studies' (/v1/studies)")]
+    reason: Annotated[str, Field(description="why, in general terms (the cause is in the server's log)")]
+
+
 class Health(Answer):
     status: Annotated[str, Field(description="'ok' when the service answers")]
     version: Annotated[str, Field(description="zwidth version")]
@@ -41,3 +46,13 @@ class Readiness(Answer):
     ]
     version: Annotated[str, Field(description="zwidth version")]
     queue: ComputeQueue
+    degraded: Annotated[
+        list[Degraded],
+        Field(
+            default_factory=list,
+            description=(
+                "route families that answer 503 whatever the request (e.g. the study store could not be opened: a"
+                " read-only or missing HOME); the rest of the service serves. Empty when every family serves"
+            ),
+        ),
+    ]

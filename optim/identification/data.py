@@ -14,6 +14,7 @@ from typing import Literal
 import numpy as np
 from scipy.signal import welch
 
+from optim.domain import check_sample_time, check_signal_scale
 from optim.errors import InputError
 
 __all__ = [
@@ -95,6 +96,7 @@ def check_time_series(data: TimeSeriesData, free_parameters: int, models: tuple[
     """Raise ValueError("data.<field>: rule") when the record cannot identify ``models``."""
     if not (math.isfinite(data.sample_time) and 0 < data.sample_time <= 1.0):
         raise InputError("data.sample_time", "must be finite, > 0 and ≤ 1 s")
+    check_sample_time(data.sample_time, "data.sample_time")
     u, y = data.force, data.position
     if u.ndim != 1 or y.ndim != 1:
         raise InputError("data.force", "force and position must be flat lists of numbers")
@@ -113,6 +115,8 @@ def check_time_series(data: TimeSeriesData, free_parameters: int, models: tuple[
         raise InputError("data.force", "the input is constant, it excites nothing (use a chirp, a PRBS or steps)")
     if float(np.ptp(y)) == 0.0:
         raise InputError("data.position", "the position never changes (no motion was measured)")
+    check_signal_scale(scale, "data.force", "the largest |force|")
+    check_signal_scale(float(np.ptp(y)), "data.position", "the position's range (max − min)")
     f5, f95 = excited_band(u, data.sample_time)
     for m in models:
         ratio = f95 / f5 if f5 > 0 else math.inf
@@ -127,6 +131,7 @@ def check_response(data: FrequencyResponseData, free_parameters: int) -> None:
     w, h = data.frequency, data.response
     if not (math.isfinite(data.sample_time) and 0 < data.sample_time <= 1.0):
         raise InputError("sample_time", "must be finite, > 0 and ≤ 1 s")
+    check_sample_time(data.sample_time, "sample_time")
     if len(w) != len(h):
         raise InputError("data.real", f"frequency, real and imag must have the same length ({len(w)} ≠ {len(h)})")
     if len(w) > MAX_RESPONSE_POINTS:
@@ -145,6 +150,7 @@ def check_response(data: FrequencyResponseData, free_parameters: int) -> None:
                          f"{free_parameters} free parameters (at least {need})")
     if np.any(np.abs(h) == 0):
         raise InputError("data.real", "a response of exactly 0 cannot be weighted (relative error)")
+    check_signal_scale(float(np.min(np.abs(h))), "data.real", "the smallest |X/F|")
     if data.model_kind == "sampled" and np.any(w * data.sample_time >= math.pi):
         raise InputError("data.frequency", f"a sampled response is defined below the Nyquist frequency "
                          f"π/T = {math.pi / data.sample_time:.6g} rad/s")

@@ -19,6 +19,7 @@ from pydantic import Field, TypeAdapter, ValidationError
 from models.device import Device
 from models.plants import Q_criterion
 from models.velocity_filter import Rendering
+from optim.domain import check_controller_domain
 from optim.errors import NOT_REPRESENTABLE, InputError, from_validation
 from optim.stability.crossovers import LOG_MIN_SAMPLES, LOG_PER_DECADE, refine_grid, theta_min
 from optim.stability.margins import (
@@ -480,6 +481,11 @@ def _analyse(device: Device, stiffness: float | None, damping: float, method: st
         raise InputError("stiffness", "must be finite and > 0")
     if not (math.isfinite(damping) and damping >= 0):
         raise InputError("damping", "must be finite and ≥ 0")
+    # α and β in the numeric domain (a subnormal B left beta_max None: a TypeError, issue 28)
+    if stiffness is not None:
+        check_controller_domain(stiffness, device, "stiffness", "stiffness")
+    if damping != 0.0:
+        check_controller_domain(damping, device, "damping", "damping")
     t0 = time.perf_counter()
     lin = linear_estimate(device, damping)
     if method == "linear":

@@ -43,6 +43,8 @@ MAX_PAGE = 10_000
 #: 64-bit integers of SQLite and PostgreSQL, which answered a larger one with OverflowError: a 500).
 MAX_OFFSET = 2**53 - 1
 MAX_PLOT_POINTS = 200_000
+#: Retry-After [s] of the 429 past ZWIDTH_STUDY_MAX_ACTIVE active studies.
+STUDY_RETRY_AFTER_S = 30
 
 
 def _runner(request: Request) -> StudyRunner:
@@ -95,7 +97,12 @@ def _status(row: dict) -> StudyStatus:
                        finished_at=row["finished_at"], error=row["error"], sweep=list(req.get("sweep", {})))
 
 
-@router.post("", status_code=202, response_model=StudyCreated)
+@router.post("", status_code=202, response_model=StudyCreated,
+             responses={429: {"description": "too many studies queued or running (ZWIDTH_STUDY_MAX_ACTIVE); "
+                                             "the Retry-After header says when to try again",
+                              "content": {"application/json": {"schema": {
+                                  "type": "object", "properties": {"detail": {"type": "string"}},
+                                  "required": ["detail"]}}}}})
 def submit_study(req: StudyRequest, request: Request) -> StudyCreated:
     """Plan the study, store the request (on disk before answering), queue it: 202 with its id."""
     runner = _runner(request)
@@ -106,6 +113,11 @@ def submit_study(req: StudyRequest, request: Request) -> StudyCreated:
         plan = plan_from_request(body)
     except StudyInputError as exc:
         raise _invalid(_body_loc(exc.field, body["sweep"]), exc.msg) from exc
+    cap = getattr(request.app.state, "study_max_active", None)
+    if cap is not None and runner.store.count_active() >= cap:
+        raise HTTPException(status_code=429, headers={"Retry-After": str(STUDY_RETRY_AFTER_S)},
+                            detail=f"{cap} studies are already queued or running (ZWIDTH_STUDY_MAX_ACTIVE); "
+                                   "retry when one has finished, or cancel one")
     study_id = str(uuid.uuid4())
     runner.store.create(study_id, req.problem, body, plan.total)
     runner.notify()

@@ -4,8 +4,9 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import BaseModel, Field, model_serializer
+from pydantic import BaseModel, Field, model_serializer, model_validator
 
+from optim.domain import check_controller_domain
 from optim.stability.boundary import MAX_BOUNDARY_POINTS
 
 from .common import LHIFAM_RIGID, STRICT, CrossoverOut, Device, RenderedController, RenderedEnvironment
@@ -25,6 +26,16 @@ class StabilityRequest(BaseModel):
     method: Method = Field(default="exact", description="rung of the accuracy ladder")
     grid_points: GridPoints = GridPointsField()
     verify: bool = VerifyField()
+
+    @model_validator(mode="after")
+    def _in_domain(self) -> "StabilityRequest":
+        """optim.domain: the wall's K and B, made dimensionless by the device (α = K·T²/m, β = B·T/m), within range
+        (B may be 0).  A B of 5e-324 used to pass the schema and answer 500 (issue 28)."""
+        if self.controller is not None:
+            check_controller_domain(self.controller.stiffness, self.device, "stiffness", "controller.stiffness")
+            if self.controller.damping != 0.0:
+                check_controller_domain(self.controller.damping, self.device, "damping", "controller.damping")
+        return self
 
 
 class LimitCycleOut(FiniteModel):

@@ -21,6 +21,12 @@ class StudySettings(BaseSettings):
                             description="points per task: large enough to amortise a task's overhead, small enough "
                                         "for progress and a prompt cancel (vectorised problems take up to their "
                                         "chunk_factor times this, optim.studies.problems)")
+    busy_timeout: float = Field(default=5.0, gt=0, le=3600,
+                                description="how long a request waits for a locked SQLite store [s] before its 503 "
+                                            "(capped at the request budget ZWIDTH_REQUEST_TIMEOUT)")
+    max_active: int = Field(default=100, ge=1, le=1_000_000,
+                            description="studies that may be queued or running at once; past it POST /v1/studies "
+                                        "answers 429 with Retry-After (a restart resumes every active study)")
     dask_direct: bool = Field(default=True,
                               description="gather a Dask task's results from its worker directly (False: through the "
                                           "scheduler, for workers the service cannot reach)")

@@ -39,9 +39,11 @@ async def study_lifespan(app: FastAPI) -> AsyncIterator[None]:
     url = _service_setting(app, "database_url", None) or default_database_url()
     scheduler = _service_setting(app, "dask_scheduler", None)
     cfg = StudySettings()
+    budget = _service_setting(app, "request_timeout", 30.0)
+    app.state.study_max_active = cfg.max_active
     runner = None
     try:
-        store = StudyStore(url)
+        store = StudyStore(url, busy_timeout=min(cfg.busy_timeout, float(budget)))
         await run_in_threadpool(store.migrate)
         log.info("study store: %s", describe_store(url))
         runner = StudyRunner(store, lambda: make_executor(scheduler, cfg.workers, cfg.dask_direct),

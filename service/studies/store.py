@@ -72,26 +72,57 @@ chunks = sa.Table(
 _MIGRATIONS = Path(__file__).parent / "migrations"
 
 
-def _sqlite_pragmas(dbapi_conn, _record, synchronous: str = "FULL") -> None:
+#: How long an API write waits for SQLite's write lock by default [s] (the service passes its own, inside the
+#: request budget: ZWIDTH_STUDY_BUSY_TIMEOUT); the results' writer keeps WRITER_BUSY_TIMEOUT.
+BUSY_TIMEOUT = 5.0
+WRITER_BUSY_TIMEOUT = 30.0
+
+
+def _sqlite_pragmas(dbapi_conn, _record, synchronous: str = "FULL", busy_timeout: float = BUSY_TIMEOUT) -> None:
     cur = dbapi_conn.cursor()
     cur.execute("PRAGMA journal_mode=WAL")      # readers never block the writer
     cur.execute(f"PRAGMA synchronous={synchronous}")   # FULL: a 202 means the request is on disk
-    cur.execute("PRAGMA busy_timeout=30000")    # the API's single-row writes wait instead of failing
+    # the API's single-row writes wait instead of failing, within the request budget (a locked store used to make
+    # POST /v1/studies wait 30 s for its 503: issue 28)
+    cur.execute(f"PRAGMA busy_timeout={int(busy_timeout * 1000)}")
     cur.execute("PRAGMA foreign_keys=ON")
     if synchronous == "NORMAL":   # the results' writer: a chunk's block spans many pages
         cur.execute("PRAGMA cache_size=-65536")   # 64 MB of page cache instead of 2 MB
     cur.close()
 
 
-def make_engine(url: str, synchronous: str = "FULL") -> Engine:
+def make_engine(url: str, synchronous: str = "FULL", busy_timeout: float = BUSY_TIMEOUT) -> Engine:
     parsed = sa.engine.make_url(url)
     if parsed.get_backend_name() == "sqlite":
         if parsed.database and parsed.database != ":memory:":
             Path(parsed.database).expanduser().resolve().parent.mkdir(parents=True, exist_ok=True)
-        engine = sa.create_engine(url, connect_args={"check_same_thread": False, "timeout": 30})
-        event.listen(engine, "connect", lambda conn, rec: _sqlite_pragmas(conn, rec, synchronous))
+        engine = sa.create_engine(url, connect_args={"check_same_thread": False, "timeout": busy_timeout})
+        event.listen(engine, "connect", lambda conn, rec: _sqlite_pragmas(conn, rec, synchronous, busy_timeout))
         return engine
     return sa.create_engine(url, pool_pre_ping=True)
+
+
+#: The advisory lock key of the migrations on PostgreSQL (any fixed 64-bit number: "zwidth" in ASCII).
+_MIGRATION_LOCK_KEY = 0x7A7769647468
+
+
+class _file_lock:
+    """An exclusive ``flock`` on ``path`` (created), released on exit or when the process dies."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+
+    def __enter__(self) -> None:
+        import fcntl
+        import os
+
+        self.fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o600)
+        fcntl.flock(self.fd, fcntl.LOCK_EX)
+
+    def __exit__(self, *exc) -> None:
+        import os
+
+        os.close(self.fd)   # closing releases the lock
 
 
 def _same(column, value):
@@ -135,9 +166,9 @@ def _claimable(current: str | None, lease_until: float | None, owner: str, now: 
 class StudyStore:
     """Studies and their results in one database (see the module docstring for who writes what)."""
 
-    def __init__(self, url: str):
+    def __init__(self, url: str, busy_timeout: float = BUSY_TIMEOUT):
         self.url = url
-        self.engine = make_engine(url)
+        self.engine = make_engine(url, busy_timeout=busy_timeout)
         name = self.engine.dialect.name
         if name not in ("sqlite", "postgresql"):
             raise ValueError(f"database_url: unsupported database {name!r} (SQLite or PostgreSQL)")
@@ -147,7 +178,7 @@ class StudyStore:
         # is not fsynced until the checkpoint.  A power cut may lose the last chunks, never half of one: each
         # chunk's block and its count of done points commit together, and a resumed study recomputes what is
         # missing.  Requests, cancels and states stay FULL: a 202 is on disk.
-        self._writer = (make_engine(url, synchronous="NORMAL") if self._sqlite and db and db != ":memory:"
+        self._writer = (make_engine(url, synchronous="NORMAL", busy_timeout=WRITER_BUSY_TIMEOUT) if self._sqlite and db and db != ":memory:"
                         else self.engine)
 
     def _insert(self):
@@ -158,15 +189,35 @@ class StudyStore:
         return insert(chunks).on_conflict_do_nothing(index_elements=["study_id", "start"])
 
     def migrate(self) -> None:
-        """Bring the schema to the newest Alembic revision."""
+        """Bring the schema to the newest Alembic revision, once: under an exclusive lock, so that service
+        processes starting together on a fresh store do not both create the tables (2 of 5 starts of
+        ``--workers 2`` on a fresh SQLite file failed with "table studies already exists", and that worker
+        answered 503 for life: issue 28).  SQLite: a lock file beside the database (``flock``); PostgreSQL:
+        a transaction-level advisory lock."""
         from alembic import command
         from alembic.config import Config
 
         cfg = Config()
         cfg.set_main_option("script_location", str(_MIGRATIONS))
-        with self.engine.begin() as conn:
+        with self._migration_lock(), self.engine.begin() as conn:
+            if not self._sqlite:
+                conn.execute(sa.text("SELECT pg_advisory_xact_lock(:key)"), {"key": _MIGRATION_LOCK_KEY})
             cfg.attributes["connection"] = conn
             command.upgrade(cfg, "head")
+
+    def _migration_lock(self):
+        import contextlib
+
+        db = sa.engine.make_url(self.url).database
+        if not self._sqlite or not db or db == ":memory:":
+            return contextlib.nullcontext()
+        return _file_lock(Path(db).expanduser().resolve().with_name(Path(db).name + ".migrate.lock"))
+
+    def count_active(self) -> int:
+        """Studies queued or running (the cap of ZWIDTH_STUDY_MAX_ACTIVE counts them)."""
+        with self.engine.connect() as conn:
+            return int(conn.execute(sa.select(sa.func.count()).select_from(studies)
+                                    .where(studies.c.status.in_(ACTIVE))).scalar() or 0)
 
     def dispose(self) -> None:
         self.engine.dispose()

@@ -17,7 +17,11 @@ from optim.stability.analysis import analyse_stability
 
 @pytest.mark.parametrize("kwargs,field", [
     ({"mass": 5e-324, "damping": 1.0}, "mass"),           # δ = inf
-    ({"mass": 1.0, "damping": 1.0, "sample_time": 5e-324}, "mass"),  # m/T² overflows
+    # a subnormal T is named itself (issue 29: it was blamed on the mass); past SAMPLE_TIME_MIN only the mass can
+    # take m/T² or m/T out of range
+    ({"mass": 1.0, "damping": 1.0, "sample_time": 5e-324}, "sample_time"),
+    ({"mass": 1.0, "damping": 1.0, "sample_time": 1e-101}, "sample_time"),
+    ({"mass": 1e-300, "damping": 0.0, "sample_time": 1e-30}, "mass"),
     ({"mass": 1.0, "damping": 5e-324}, "damping"),        # δ underflows to 0 with b > 0
     ({"mass": 1e-12, "damping": 1e12, "sample_time": 1.0}, "damping"),  # δ = 1e24
     ({"preset": "lhifam", "human": {"mass": 5e-324}}, "human.mass"),

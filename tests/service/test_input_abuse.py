@@ -16,7 +16,7 @@ from typing import Any, Iterator
 import pytest
 
 from service.app import create_app
-from service.body_guard import MAX_JSON_DEPTH, json_depth, lone_surrogate_at
+from service.body_guard import MAX_JSON_DEPTH, json_depth, lone_surrogate_field
 from service.errors import MAX_ECHO_CHARS
 from service.settings import Settings
 
@@ -201,12 +201,24 @@ def test_lone_surrogates_are_422_on_every_route(client, spec):
             text = json.dumps({**example, "zz": 1})[:-1] + ', "zz2": ' + s + "}"
             r = _raw(client, route, text)
             assert r.status_code == 422 and r.json()["detail"][0]["type"] == "string_unicode", (route, r.text[:200])
+            # issue 29: the 422 names the field, not a byte offset
+            assert r.json()["detail"][0]["loc"] == ["body", "zz2"] and "byte" not in r.text, r.text
+
+
+def test_a_lone_surrogate_is_named_at_its_field_however_deep(client):
+    """Issue 29: the 422 named a byte offset.  An escaped backslash before "ud800" and a surrogate pair are fine."""
+    text = r'{"device": {"preset": "lhifam", "zz": [1, {"name": "ok \\ud800 \ud83d\ude00 \udc00"}]}}'
+    r = _raw(client, "/v1/analysis/stability", text)
+    (e,) = r.json()["detail"]
+    assert r.status_code == 422 and e["loc"] == ["body", "device", "zz", 1, "name"], r.text
+    r = _raw(client, "/v1/analysis/stability", r'{"device": {"\udfff": 1}}')
+    assert r.json()["detail"][0]["loc"] == ["body", "device", "\ufffd"], r.text
 
 
 def test_surrogate_pairs_and_escaped_backslashes_are_fine():
-    assert lone_surrogate_at(b'{"a": "\\ud83d\\ude00"}') is None
-    assert lone_surrogate_at(b'{"a": "\\\\ud800"}') is None        # a backslash, then "ud800"
-    assert lone_surrogate_at(b'{"a": "\\\\\\ud800"}') == 9
+    assert lone_surrogate_field(b'{"a": "\\ud83d\\ude00"}') is None
+    assert lone_surrogate_field(b'{"a": "\\\\ud800"}') is None        # a backslash, then "ud800"
+    assert lone_surrogate_field(b'{"a": [0, "\\\\\\ud800"]}') == ("a", 1)
     assert json_depth(b'{"a": "[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[["}') <= 1
     assert json_depth(b"[" * 100 + b'"]]]\\""' + b"]" * 100) == 100
 

@@ -156,8 +156,14 @@ def test_malformed_json_is_422(client, text):
 
 
 def test_body_that_is_not_utf8_is_422(client):
-    (e,) = errors(client.post(STABILITY, content=b'\xff\xfe{"device": 1}', headers=JSON))
+    (e,) = errors(client.post(STABILITY, content=b'{"device": "\xff\xfe"}', headers=JSON))
     assert e["type"] == "json_invalid"
+
+
+def test_body_in_another_charset_is_415(client):
+    """A UTF-16 BOM (the JSON parser would read the body as UTF-16; issue 28): 415, not parsed."""
+    r = client.post(STABILITY, content=b'\xff\xfe{"device": 1}', headers=JSON)
+    assert r.status_code == 415 and "UTF-8" in r.json()["detail"]
 
 
 @pytest.mark.parametrize("content_type", ["text/plain", "application/x-www-form-urlencoded", "application/xml",
