@@ -43,10 +43,13 @@ def test_exact_record_is_recovered(dev):
     res = identify(TimeSeriesData(t, u, y + 0.01), model="rigid")
     p = res.parameters
     assert res.status == "identified", res.reason
-    # a delay at its bound 0 stops least squares a little short (seen: 7e-6 on the mass)
-    assert p["mass"].value == pytest.approx(dev.mass, rel=2e-5)
-    assert p["damping"].value == pytest.approx(dev.damping, rel=1e-3)
-    assert abs(p["delay"].value - dev.delay) <= 1e-4 * t
+    # a delay at its bound 0 is tried as active (fit._polish_at_bounds): without that, trust-region
+    # reflective stopped short of it where the OpenBLAS kernel decided (issue 29: mass 2e-5 off, delay 2.5e-4
+    # samples on Haswell, 4.5e-6 / 7.6e-5 on SkylakeX).  Reached on both kernels: ≤ 2e-13 relative on the
+    # mass and damping, ≤ 2e-12 samples on the delay (8 devices)
+    assert p["mass"].value == pytest.approx(dev.mass, rel=1e-10)
+    assert p["damping"].value == pytest.approx(dev.damping, rel=1e-9)
+    assert abs(p["delay"].value - dev.delay) <= 1e-9 * t
 
 
 @settings(max_examples=15, deadline=None, derandomize=True)
