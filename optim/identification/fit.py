@@ -20,7 +20,7 @@ from optim.identification.models import POSITIVE, ModelName
 from optim.identification.problem import Problem
 from optim.identification.starts import cable_starts, rigid_starts
 
-__all__ = ["REFINED_STARTS", "FitOutcome", "fit_model"]
+__all__ = ["REFINED_STARTS", "FitOutcome", "fit_model", "refine_friction", "refit_first_half"]
 
 #: whole-sample delay starts refined after scoring (the best by their linear-solve cost)
 REFINED_STARTS = 4
@@ -191,3 +191,33 @@ def refine_friction(out: FitOutcome, max_delay: float) -> FitOutcome:
         jac = nxt.jacobian(r.x, _bounds(nxt, dict(zip(nxt.names, r.x)), max_delay, None)[0])
         best = FitOutcome(best.model, nxt, r.x, rss, jac, best.starts + 1, None, r.x)
     return best
+
+
+def refit_first_half(out: FitOutcome, max_delay: float) -> tuple[dict[str, float], dict[str, float]] | None:
+    """The model refitted on the first half of a time series, started at the whole record's fit: (estimates,
+    standard errors) by name, or None (a frequency response, a fit that fails or leaves the domain).
+
+    The first half starts from rest like the whole record, so it is the same experiment, shorter: its fit
+    must agree with the whole one unless the data drift or the model is wrong (misspecification.py)."""
+    from optim.identification.data import TimeSeriesData
+    from optim.identification.stats import covariance
+
+    prob = out.problem
+    if out.x is None or not isinstance(prob.data, TimeSeriesData):
+        return None
+    h = len(prob.data.force) // 2
+    half = TimeSeriesData(prob.sample_time, prob.data.force[:h], prob.data.position[:h])
+    sub = Problem(prob.model, half, dict(prob.fixed), prob.friction,
+                  sign_regressor=None if prob.sign_regressor is None else prob.sign_regressor[:h])
+    try:
+        r = _polish_at_bounds(sub, _solve(sub, dict(zip(prob.names, out.x)), max_delay), max_delay)
+        if r.status <= 0 or not np.all(np.isfinite(r.x)):
+            return None
+        jac = sub.jacobian(r.x, _bounds(sub, dict(zip(sub.names, r.x)), max_delay, None)[0])
+        cov, _, _ = covariance(jac, float(r.fun @ r.fun))
+    except (ValidationError, ValueError, ArithmeticError, np.linalg.LinAlgError):
+        return None
+    finally:
+        prob.evaluations += sub.evaluations
+    se = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    return dict(zip(sub.names, map(float, r.x))), dict(zip(sub.names, map(float, se)))
