@@ -99,7 +99,7 @@ def identify(csv_file: Annotated[Path, typer.Argument(help="CSV: time,force,posi
               sample_time=sample_time, max_delay=max_delay)
     with c.client_with_status(Connection(local, url, token), "identifying…", as_json) as zw:
         r = zw.identify(data, **kw)
-        if plot is not None and r.status == "identified":
+        if plot is not None and r.status != "failed":
             fmt = "svg" if plot.suffix.lower() == ".svg" else "png"
             zw.plot_identify(data, format=fmt, **kw).save(str(plot))
 

@@ -13,33 +13,57 @@ design's own search found (and, with passivity, its least passive device).  At e
   itself (stable) and, when required, passivity (recomputed from the complex form);
 * the margin must be at least the required one: a device of the box below it contradicts the design.
 
+Corners and the design's own worst device are not the box (issue 34: a cable box whose margin dipped to
+5.9987 dB at an interior cable stiffness was confirmed).  So before anything is confirmed, an independent
+interior search looks for a device of the box where the wall is unstable at the gain the margin promises
+stable (g·K, g = 10^(GM/20)): its own sampler (a Latin hypercube drawn here, not the design's Sobol points),
+its own optimizer (scipy's bounded Nelder–Mead, not the design's pattern search) and its own criterion (the
+spectral radius of the closed-loop state matrix, optim.stability.closed_loop, not K_cr).  The device it ends on
+is checked like the others (kind ``interior``); a device that is unstable there contradicts the design.
+
 The overall verdict is ``contradicted`` if any point contradicts, else ``not_checkable`` (with the points'
 reasons) if any point cannot be decided, else ``confirmed``; every point's own verdict is listed.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
+from scipy.optimize import minimize
 
 from models.device import Device
 from models.filters import ButterworthLowPass
 from optim.robust.box import STIFFNESS_PATHS, UncertaintyBox
+from optim.stability.closed_loop import radius_excess, sampled_plant, stiffness_closed_loop
 from optim.stability.margins import critical_stiffness
 from optim.transparency.feedforward import critical_force_gain, resolve_human
-from optim.verification import Verdict, Verification, labelled, verify_critical_force_gain, verify_stiffness_design
+from optim.verification import (
+    EIG_MAX_STATES,
+    Verdict,
+    Verification,
+    labelled,
+    verify_critical_force_gain,
+    verify_stiffness_design,
+)
 
-__all__ = ["PointVerification", "verify_robust_inertia", "verify_robust_stiffness"]
+__all__ = ["InteriorSearch", "PointVerification", "interior_search", "verify_robust_inertia", "verify_robust_stiffness"]
 
-PointKind = Literal["corner", "worst", "least passive"]
+PointKind = Literal["corner", "worst", "least passive", "interior"]
 
 #: a point's margin may fall short of the requirement by the rounding of 20·log10 of a ratio (a robust design
 #: sits on its worst device: the inertia design at K_f = K_f,cr(worst)/10^(GM/20) exactly), and no more
 MARGIN_TOL_DB = 1e-9
+#: the interior search: Latin-hypercube points per uncertain parameter (plus a base), local searches from the
+#: best few, and the evaluations each may spend
+INTERIOR_SAMPLES_PER_DIM = 96
+INTERIOR_BASE_SAMPLES = 64
+INTERIOR_STARTS = 4
+INTERIOR_MAX_EVALS_PER_DIM = 60
 
 
 @dataclass(frozen=True)
@@ -101,6 +125,84 @@ def _point(device: dict, kind: PointKind, critical: float | None, gained: float,
     return PointVerification(device, kind, critical, margin, verdict, v.method, "; ".join(reasons) or None)
 
 
+@dataclass(frozen=True)
+class InteriorSearch:
+    """Where the independent interior search ended: the box's device closest to instability at g·K."""
+
+    point: np.ndarray
+    """box values (order of box.paths)."""
+    excess: float
+    """spectral radius − 1 of the closed loop at (g·K, B) there (negative: stable)."""
+    unstable: bool
+    """the closed loop there is unstable beyond the eigenvalues' rounding bound."""
+    evaluations: int
+
+
+def _excess_at(box: UncertaintyBox, x: np.ndarray, gain: float, damping: float) -> tuple[float, bool]:
+    dev = box.device_at(x)
+    m, t = dev.mass, dev.sample_time
+    plant = sampled_plant(dev)
+    if plant.e.shape[0] + 1 + plant.d + (1 if plant.f > 0 else 0) > EIG_MAX_STATES:
+        raise ValueError("delay too long for the eigenvalue search")
+    ex = radius_excess(stiffness_closed_loop(plant, gain * t * t / m, damping * t / m))
+    return ex.excess, ex.decided_unstable
+
+
+def interior_search(box: UncertaintyBox, relevant: np.ndarray, gain: float, damping: float,
+                    seed: int = 20260) -> InteriorSearch | None:
+    """The device of the box with the largest closed-loop spectral radius at the wall (gain, B), searched
+    independently of the design (module doc).  None when the box's delays are too long for eigenvalues."""
+    k = int(relevant.sum())
+    lo, hi = box.lower[relevant], box.upper[relevant]
+    base = box.nominal_point()
+    rng = np.random.default_rng(seed)
+    n = INTERIOR_BASE_SAMPLES + INTERIOR_SAMPLES_PER_DIM * k
+    # Latin hypercube: each axis cut into n strata, one point per stratum, strata shuffled per axis
+    lhs = (np.argsort(rng.random((n, k)), axis=0) + rng.random((n, k))) / n
+    evals = 0
+
+    def point(u: np.ndarray) -> np.ndarray:
+        x = base.copy()
+        x[relevant] = lo + np.clip(u, 0.0, 1.0) * (hi - lo)
+        return x
+
+    def f(u: np.ndarray) -> float:
+        nonlocal evals
+        evals += 1
+        return -_excess_at(box, point(u), gain, damping)[0]
+
+    try:
+        vals = np.array([f(u) for u in lhs])
+        order = np.argsort(vals)
+        chosen: list[int] = []
+        for i in order:
+            if len(chosen) == INTERIOR_STARTS:
+                break
+            if all(np.max(np.abs(lhs[i] - lhs[j])) > 0.1 for j in chosen):
+                chosen.append(int(i))
+        best_u, best_v = lhs[order[0]], float(vals[order[0]])
+        for i in chosen:
+            res = minimize(f, lhs[i], method="Nelder-Mead", bounds=[(0.0, 1.0)] * k,
+                           options={"maxfev": INTERIOR_MAX_EVALS_PER_DIM * k, "xatol": 1e-10, "fatol": 1e-16,
+                                    "initial_simplex": _simplex(lhs[i], 1.0 / n)})
+            if res.fun < best_v:
+                best_u, best_v = np.clip(res.x, 0.0, 1.0), float(res.fun)
+        x = point(best_u)
+        excess, unstable = _excess_at(box, x, gain, damping)
+    except ValueError:
+        return None
+    return InteriorSearch(x, excess, unstable, evals + 1)
+
+
+def _simplex(u: np.ndarray, width: float) -> np.ndarray:
+    """A start simplex of about one stratum, pointing into the unit cube."""
+    k = u.size
+    s = np.repeat(u[None, :], k + 1, axis=0)
+    for j in range(k):
+        s[j + 1, j] += width if u[j] + width <= 1.0 else -width
+    return s
+
+
 def verify_robust_stiffness(box: UncertaintyBox, stiffness: float, damping: float, min_gain_margin_db: float,
                             passivity: bool, worst: dict | None = None,
                             least_passive: dict | None = None) -> Verification:
@@ -111,14 +213,30 @@ def verify_robust_stiffness(box: UncertaintyBox, stiffness: float, damping: floa
     t0 = time.perf_counter()
     relevant = box.relevant(STIFFNESS_PATHS)
     out = []
-    for kind, x in _points(box, relevant, [("worst", worst), ("least passive", least_passive)]):
+    extra: list[tuple[PointKind, dict | None]] = [("worst", worst), ("least passive", least_passive)]
+    what = "every corner, the worst device found"
+    search = None
+    if relevant.any():
+        search = interior_search(box, relevant, stiffness * 10.0 ** (min_gain_margin_db / 20.0), damping)
+        if search is not None:
+            extra.append(("interior", box.describe(search.point)))
+            what += f" and the independent interior search's worst ({search.evaluations} closed loops)"
+        else:
+            what += " (no interior search: the delay is too long for the closed loop's eigenvalues)"
+    for kind, x in _points(box, relevant, extra):
         dev = box.device_at(x)
         kcr = critical_stiffness(dev, damping).critical_stiffness
         kcr = None if kcr is None or math.isinf(kcr) else float(kcr)
         # the critical gain of this device (not one implied by a margin): checked ± ε, K itself, passivity
         v = verify_stiffness_design(dev, stiffness, damping, None, True if passivity else None, critical=kcr)
-        out.append(_point(box.describe(x), kind, kcr, stiffness, min_gain_margin_db, v))
-    return _overall(out, t0, "every corner and the worst device found")
+        p = _point(box.describe(x), kind, kcr, stiffness, min_gain_margin_db, v)
+        if kind == "interior" and search is not None and search.unstable and p.verdict != "contradicted":
+            p = dataclasses.replace(p, verdict="contradicted", reason="; ".join(
+                [f"the closed loop is unstable at the gain the margin promises stable, g·K = "
+                 f"{stiffness * 10.0 ** (min_gain_margin_db / 20.0):.9g} N/m (|z| − 1 = {search.excess:.3g})",
+                 *([p.reason] if p.reason else [])]))
+        out.append(p)
+    return _overall(out, t0, what)
 
 
 def verify_robust_inertia(box: UncertaintyBox, force_gain: float, cutoff_hz: float, order: int,

@@ -46,7 +46,7 @@ def identification_figure(res: IdentificationResult, sample_time: float | None =
     fig = Figure(figsize=(8, 6.5), dpi=100)
     FigureCanvasAgg(fig)
     cur = res.fitted
-    if res.status != "identified" or cur is None:
+    if res.status == "failed" or cur is None:
         _message(fig, f"identification failed:\n{res.reason}")
     elif cur["kind"] == "time_series":
         ax1, ax2 = fig.subplots(2, 1, sharex=True, gridspec_kw={"height_ratios": [2, 1]})
@@ -72,7 +72,7 @@ def identification_figure(res: IdentificationResult, sample_time: float | None =
         ax3.semilogx(w[o], np.abs((h[o] - g[o]) / h[o]) * 100, ".", ms=4, color="tab:red")
         ax3.set_ylabel("|error| [%]")
         ax3.set_xlabel("ω [rad/s]")
-    if res.status == "identified" and res.fit is not None:
+    if res.status != "failed" and res.fit is not None:
         fig.suptitle(f"{identified_title(res, sample_time)}\nNRMSE {res.fit.nrmse:.3g}, Ljung–Box p = "
                      f"{res.fit.residual_whiteness['p_value']:.2g}", fontsize=10)
     fig.tight_layout()

@@ -58,8 +58,9 @@ class PointVerificationOut(Answer):
         dict[str, float], Field(description="the uncertain parameters' values at this device (path → value, SI)")
     ]
     kind: Annotated[
-        Literal["corner", "worst", "least passive"],
-        Field(description="a corner of the box, the worst device the design found, or its least passive device"),
+        Literal["corner", "worst", "least passive", "interior"],
+        Field(description="a corner of the box, the worst device the design found, its least passive device, or the worst "
+                    "device of verify's own interior search (closed-loop eigenvalues at g·K)"),
     ]
     critical_gain: Annotated[
         float | None,

@@ -42,7 +42,7 @@ class RangeOut(Answer):
 
 
 class IdentifyResponse(Answer):
-    status: Literal["identified", "failed"]
+    status: Literal["identified", "identified_with_warnings", "failed"]
     model: Literal["rigid", "cable"] | None
     reason: str
     device: Annotated[dict[str, Any] | None, Field(description="a device object every endpoint accepts")] = None

@@ -25,7 +25,16 @@ from optim.identification.data import (
     excited_band,
     warnings_for,
 )
-from optim.identification.fit import FitOutcome, fit_model, refine_friction
+from optim.identification.fit import FitOutcome, fit_model, refine_friction, refit_first_half
+from optim.identification.misspecification import (
+    EXACT_FIT,
+    PLATEAU_FRACTION,
+    WHITENESS_P,
+    Misspecification,
+    drift,
+    long_run_factor,
+    plateau,
+)
 from optim.identification.models import PARAMS, POSITIVE, ModelName
 from optim.identification.problem import Problem
 from optim.identification.result import Comparison, FitQuality, IdentificationResult, Parameter
@@ -220,15 +229,70 @@ def identify(data: TimeSeriesData | FrequencyResponseData, model: str = "auto", 
         warnings.append(f"parameters.delay: {dl.value:.6g} s is at the edge of the searched range [0, max_delay = "
                         f"{max_delay:.6g} s]: the model is probably wrong for this data (friction? the cable mode?) "
                         f"or the delay is longer (raise max_delay)")
-    if not white["white"]:
+    mis = _misspecification(out, res, white, rho, max_delay)
+    params, unc = res.parameters, res.uncertainty
+    if mis.flagged:
+        params = _widened(out, res, mis)
+        unc = {}
+        warnings.append("misspecification: " + "; ".join(mis.reasons) + f". The {chosen} model does not explain "
+                        f"these data: the intervals are widened (residual long-run variance factor "
+                        f"{mis.variance_factor:.3g}, and to hold the first half's estimates) but a model error "
+                        f"biases the values themselves, which no width computed from this fit covers; the "
+                        f"uncertainty box is withdrawn. Check the model (cable mode, delay, friction), the force "
+                        f"log (saturation) and the sensor (drift)")
+    elif not white["white"]:
         warnings.append(f"fit: the residual is not white (Ljung–Box p = {white['p_value']:.2g}): the model misses "
                         f"something in the data (friction, a mode, nonlinearity) or the noise is coloured; the "
                         f"intervals assume white noise")
     return IdentificationResult(
-        status="identified", model=chosen, reason=" ".join([reason] + notes), device=res.device,
-        parameters=res.parameters, uncertainty=res.uncertainty, fit=fit, comparison=tuple(comparison),
+        status="identified_with_warnings" if mis.flagged else "identified", model=chosen,
+        reason=" ".join([reason] + notes), device=res.device,
+        parameters=params, uncertainty=unc, fit=fit, comparison=tuple(comparison),
         warnings=tuple(warnings) + res.warnings, confidence=confidence, fitted=_fitted_curves(out),
         elapsed_ms=1e3 * (time.perf_counter() - t0))
+
+
+def _misspecification(out: FitOutcome, res: IdentificationResult, white: dict, rho, max_delay: float) -> Misspecification:
+    """The tests of optim.identification.misspecification on the chosen fit."""
+    reasons = []
+    r = out.problem.residual(out.x)
+    measured = out.problem.measured
+    # a residual at the rounding level of the data (exact records) has no noise to be white: not a misfit
+    rounding = float(np.sqrt(np.mean(r ** 2))) <= EXACT_FIT * float(np.std(measured))
+    if white["p_value"] < WHITENESS_P and not rounding:
+        reasons.append(f"the residual is far from white (Ljung–Box Q = {white['statistic']:.4g} over "
+                       f"{white['lags']} lags, p = {white['p_value']:.2g} < {WHITENESS_P:g})")
+    data = out.problem.data
+    if isinstance(data, TimeSeriesData):
+        flat = plateau(data.force)
+        if flat > PLATEAU_FRACTION:
+            reasons.append(f"the logged force sits at its extreme ±{np.max(np.abs(data.force)):.6g} N in "
+                           f"{100 * flat:.3g} % of the samples: a saturated actuator (the model is linear)")
+    half_values: dict[str, float] = {}
+    half = None if rounding else refit_first_half(out, max_delay)
+    if half is not None:
+        half_values, half_se = half
+        whole = {n: p.value for n, p in res.parameters.items()}
+        whole_se = {n: p.std_error for n, p in res.parameters.items()}
+        moved = drift([n for n in out.problem.names if n != "offset"], whole, whole_se, half_values, half_se)
+        if moved:
+            reasons.append("the first half of the record gives other parameters than the whole: " + ", ".join(moved))
+    return Misspecification(tuple(reasons), long_run_factor(np.asarray(rho)), half_values)
+
+
+def _widened(out: FitOutcome, res: IdentificationResult, mis: Misspecification) -> dict[str, Parameter]:
+    """Intervals × √F about the value, stretched to hold the first half's estimate (module misspecification)."""
+    f = math.sqrt(mis.variance_factor)
+    params: dict[str, Parameter] = {}
+    for name, p in res.parameters.items():
+        if name in out.problem.fixed:
+            params[name] = p
+            continue
+        lo, hi = p.value - f * (p.value - p.interval[0]), p.value + f * (p.interval[1] - p.value)
+        if name in mis.half_values:
+            lo, hi = min(lo, mis.half_values[name]), max(hi, mis.half_values[name])
+        params[name] = Parameter(p.value, p.std_error * f, (max(lo, 0.0), hi))
+    return params
 
 
 def _choose(model: str, comparison: list[Comparison], finished) -> tuple[str | None, str]:

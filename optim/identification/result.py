@@ -48,7 +48,9 @@ class Comparison:
 
 @dataclass(frozen=True)
 class IdentificationResult:
-    status: Literal["identified", "failed"]
+    status: Literal["identified", "identified_with_warnings", "failed"]
+    """identified_with_warnings: a misspecification test fired (optim.identification.misspecification): the
+    values are the fit's, the intervals widened, the uncertainty box withdrawn, the warnings say why"""
     model: Literal["rigid", "cable"] | None
     reason: str
     """why this model (auto: the information criteria), or why the fit failed"""

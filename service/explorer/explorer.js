@@ -688,16 +688,22 @@
         ["residual whiteness", r.fit ? escapeText(describe(r.fit.residual_whiteness)) : "—"],
         ...(r.warnings || []).map((w) => ["warning", escapeText(w)]),
         ["elapsed", withUnit(r.elapsed_ms, "ms", 4)],
-      ]) + (r.status === "identified"
-        ? "<button type=\"button\" id=\"id-use\">Use this device</button> <button type=\"button\" id=\"id-robust\">Safe wall for the whole box</button><div id=\"id-robust-result\"></div>"
+      ]) + (r.status !== "failed"
+        ? "<button type=\"button\" id=\"id-use\">Use this device</button>" + (r.status === "identified"
+          ? " <button type=\"button\" id=\"id-robust\">Safe wall for the whole box</button><div id=\"id-robust-result\"></div>"
+          : " (no uncertainty box: the model does not explain these data, see the warnings)")
         : "");
-      if (r.status === "identified") {
+      if (r.status !== "failed") {
         $("id-use").onclick = () => { fillDevice(r.device); $("preset").value = ""; scheduleBoundary(); };
+      }
+      if (r.status === "identified") {
         $("id-robust").onclick = () => runPanel($("id-robust"), $("id-robust-result"), async () => {
           const d = await api("/v1/design/stiffness", { method: "POST", body: {
             device: identified.device, requirements: { min_gain_margin_db: 6, uncertainty: identified.uncertainty } } });
           $("id-robust-result").innerHTML = table(stiffnessRows(d, "id-robust"));
         });
+      }
+      if (r.status !== "failed") {
         try {
           await showImage($("identify-plot"), await api("/v1/plots/identify?format=svg", { method: "POST", body, raw: true }));
         } catch { $("identify-plot").hidden = true; }

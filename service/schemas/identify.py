@@ -108,7 +108,7 @@ class FitOut(BaseModel):
 
 
 class IdentifyResponse(FiniteModel):
-    status: Literal["identified", "failed"]
+    status: Literal["identified", "identified_with_warnings", "failed"]
     model: Literal["rigid", "cable"] | None
     reason: str
     device: dict | None = Field(None, description="a device object every endpoint accepts")

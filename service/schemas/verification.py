@@ -34,8 +34,9 @@ class PassivityVerificationOut(BaseModel):
 
 class PointVerificationOut(BaseModel):
     device: dict[str, float] = Field(description="the uncertain parameters' values at this device (path → value, SI)")
-    kind: Literal["corner", "worst", "least passive"] = Field(
-        description="a corner of the box, the worst device the design found, or its least passive device")
+    kind: Literal["corner", "worst", "least passive", "interior"] = Field(
+        description="a corner of the box, the worst device the design found, its least passive device, or the worst "
+                    "device of verify's own interior search (closed-loop eigenvalues at g·K)")
     critical_gain: float | None = Field(description="K_cr(B) [N/m] (stiffness) or K_f,cr at the design's cutoff "
                                                     "(inertia) of this device by the exact analysis; null: every "
                                                     "gain is stable")

@@ -91,3 +91,59 @@ def test_robust_inertia_design_confirmed_and_a_larger_gain_contradicted():
     v = vr.verify_robust_inertia(box, d.force_gain * 1.1, d.filter_cutoff_hz, d.filter_order, 6.0,
                                  d.worst_case["device"])
     assert v.verdict == "contradicted" and "below the required 6 dB" in v.reason
+
+
+# issue 34: a box whose worst device is inside, not at a corner.  K_cr(B = 0.702) of this cable device falls from
+# 2.30× its minimum at the soft end of the cable stiffness to the minimum at u ≈ 0.75 of the range and rises to
+# 1.19× at the stiff end (found by a random search of cable boxes; 41-point scan).
+INTERIOR_DEVICE = Device(sample_time=0.0024969915155867756, delay=0.001542752035595106,
+                         cable={"motor_mass": 0.15247265754734599, "motor_damping": 0.0778703538763408,
+                                "body_mass": 6.0917165915008, "body_damping": 1.5176300726956218,
+                                "stiffness": 60476.333195172134, "damping": 0.5069352417881732})
+INTERIOR_RANGES = {"device.cable.stiffness": (35860.06335438216, 85092.6030359621)}
+INTERIOR_B = 0.7021722615641717
+
+
+def _interior_minimum(box) -> float:
+    """min over the box of K_cr(B): a 201-point scan refined by a bounded scalar search (scipy)."""
+    from scipy.optimize import minimize_scalar
+
+    from optim.stability.margins import critical_stiffness
+
+    def kcr(u: float) -> float:
+        return critical_stiffness(box.device_at(box.to_box([u])), INTERIOR_B).critical_stiffness
+
+    us = [i / 200 for i in range(201)]
+    i = min(range(201), key=lambda j: kcr(us[j]))
+    res = minimize_scalar(kcr, bounds=(us[max(i - 1, 0)], us[min(i + 1, 200)]), method="bounded",
+                          options={"xatol": 1e-10})
+    return float(res.fun)
+
+
+@pytest.mark.slow
+def test_a_wall_violated_only_inside_the_box_is_contradicted_with_the_device():
+    box = UncertaintyBox.from_ranges(INTERIOR_DEVICE, INTERIOR_RANGES)
+    g = 10 ** (6.0 / 20)
+    k_min = _interior_minimum(box)
+    # 1e-4 too stiff for the interior minimum, > 1.4 dB inside the margin at both corners
+    bad = vr.verify_robust_stiffness(box, k_min / g * (1 + 1e-4), INTERIOR_B, 6.0, False)
+    assert bad.verdict == "contradicted", bad.reason
+    corners = [p for p in bad.points if p.kind == "corner"]
+    assert all(p.verdict == "confirmed" and p.gain_margin_db > 7.4 for p in corners)
+    inner = [p for p in bad.points if p.kind == "interior"]
+    assert len(inner) == 1 and inner[0].verdict == "contradicted"
+    assert 0.70 < (inner[0].device["device.cable.stiffness"] - box.lower[0]) / (box.upper[0] - box.lower[0]) < 0.80
+    assert 6.0 - 1e-3 < inner[0].gain_margin_db < 6.0 - 5e-4          # 20·log10(1 + 1e-4) = 8.7e-4 dB short
+    # the same wall backed off by 1e-6 below the interior minimum is confirmed, the interior device included
+    good = vr.verify_robust_stiffness(box, k_min / g * (1 - 1e-6), INTERIOR_B, 6.0, False)
+    assert good.verdict == "confirmed", good.reason
+    assert [p.kind for p in good.points] == ["corner", "corner", "interior"]
+
+
+@pytest.mark.slow
+def test_the_worst_case_search_finds_the_interior_minimum():
+    from optim.robust.worst_case import worst_case_stiffness
+
+    box = UncertaintyBox.from_ranges(INTERIOR_DEVICE, INTERIOR_RANGES)
+    wc = worst_case_stiffness(box, 1.0, INTERIOR_B)
+    assert wc.critical_stiffness == pytest.approx(_interior_minimum(box), rel=1e-8)
