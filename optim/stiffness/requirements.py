@@ -47,7 +47,7 @@ class StiffnessRequirements(BaseModel):
     passivity: bool = Field(False, description="require passivity (delayed Colgate–Schenkel form; a fractional "
                                                "delay is rounded up to the next whole sample)")
     passive_with_quantization: bool = Field(
-        False, description="require passivity with the device's encoder and Coulomb friction too: K ≤ 2f_c/q beside "
+        default=False, description="require passivity with the device's encoder and Coulomb friction too: K ≤ 2f_c/q beside "
                            "the delayed linear condition (Abbott & Okamura 2005; needs passivity and "
                            "device.encoder_resolution; covered by the theorem only at B = 0, no delay, rigid)")
     max_damping: float | None = _limit("B ≤ max_damping [N·s/m]")
