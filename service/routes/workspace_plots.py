@@ -21,7 +21,10 @@ _IMAGE = {200: {"content": {"image/png": {}, "image/svg+xml": {}}}}
 
 
 class WorkspacePlotRequest(BaseModel):
-    model_config = STRICT
+    model_config = {**STRICT, "json_schema_extra": {"examples": [
+        {"device": {"sample_time": 0.001, "delay": 0.001, "kinematics": {"preset": "planar-2link"}}, "points": 11},
+        {"device": {"sample_time": 0.001, "kinematics": {"preset": "planar-2link"}}, "controller":
+         {"stiffness": 100.0, "damping": 0.2}, "normals": [[0.0, 1.0, 0.0]], "points": 9}]}}
     device: WorkspaceDevice
     controller: Controller | None = Field(default=None, description="B [N·s/m] of the wall")
     x_joint: int = Field(default=0, ge=0, le=63, description="joint index on the x axis")
@@ -32,7 +35,7 @@ class WorkspacePlotRequest(BaseModel):
     normals: list[list[float]] | str = Field(default="worst", description="unit normals, or \"worst\"")
 
 
-@router.post("/v1/plots/workspace", response_class=Response, responses=_IMAGE,
+@router.post("/v1/plots/workspace", response_class=Response, responses=_IMAGE, operation_id="plot_workspace",
              summary="Workspace map: K_cr over two joints, with the worst normal's direction")
 async def workspace_plot(req: WorkspacePlotRequest, compute: Compute,
                          format: FormatQuery = None) -> Response:  # noqa: A002

@@ -32,7 +32,8 @@ class StabilityRequest(BaseModel):
         """optim.domain: the wall's K and B, made dimensionless by the device (α = K·T²/m, β = B·T/m), within range
         (B may be 0).  A B of 5e-324 used to pass the schema and answer 500 (issue 28)."""
         if self.controller is not None:
-            check_controller_domain(self.controller.stiffness, self.device, "stiffness", "controller.stiffness")
+            if self.controller.stiffness is not None:   # a rendered wall may leave K out (its mass range at K_cr)
+                check_controller_domain(self.controller.stiffness, self.device, "stiffness", "controller.stiffness")
             if self.controller.damping != 0.0:
                 check_controller_domain(self.controller.damping, self.device, "damping", "controller.damping")
         return self
