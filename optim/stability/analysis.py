@@ -440,6 +440,17 @@ def _judge_wall(device: Device, stiffness: float | None, damping: float, kcr: fl
     return WallJudgement(gm, stable, pm.passive, pm.required_damping, pm.conservative)
 
 
+def _label_within_estimate(stiffness: float | None, kcr: float | None, rel_error: float | None) -> bool:
+    """Whether K is on one side of K_cr·(1 ± rel_error): an approximate rung's stable label is then its own."""
+    if stiffness is None or kcr is None or rel_error is None or not math.isfinite(rel_error):
+        return False
+    if kcr == 0.0:
+        return rel_error == 0.0          # the closed-form limit (no damping at all), exact
+    if math.isinf(kcr):
+        return False                     # "every K is stable" from a grid: no bound can say so
+    return abs(stiffness / kcr - 1.0) > rel_error
+
+
 @dataclass(frozen=True)
 class CableJudgement:
     """For a cable device: Q (eq. 22) and whether its mode moves K_cr against the rigid model's."""
@@ -503,6 +514,11 @@ def _analyse(device: Device, stiffness: float | None, damping: float, method: st
         band = stable_band(device, damping)
         reason = _band_reason(reason, band)
     wall = _judge_wall(device, stiffness, damping, kcr, band)
+    if method in ("linear", "grid") and wall.stable is not None and not _label_within_estimate(
+            stiffness, kcr, rung.error_estimate):
+        # an approximate rung labels the wall only where its own error estimate keeps K on one side of its K_cr
+        # (issue 34: past B_max the grid's unbounded K_cr labelled unstable walls stable)
+        wall = replace(wall, stable=None)
     cable = _judge_cable(device, damping, method, kcr)
     if damping > 0 and b_max is None and method == "exact":
         b_max = max_stable_damping(device)

@@ -169,3 +169,23 @@ def test_check_rung_fast_path_keeps_the_rules_verdict(method, grid_points):
     except InputError as exc:
         got = exc.field
     assert got == by_rules()
+
+
+def test_approximate_rungs_label_the_wall_only_outside_their_estimate():
+    """Issue 34: a grid or linear K_cr labels a wall stable or unstable only where its own error estimate keeps K on
+    one side; past B_max (unbounded grid estimate) it says nothing, where it used to say "stable"."""
+    from optim.stability.analysis import _label_within_estimate
+    from optim.stability.margins import max_stable_damping
+    assert _label_within_estimate(900.0, 1000.0, 0.05) and not _label_within_estimate(990.0, 1000.0, 0.05)
+    assert not _label_within_estimate(900.0, 1000.0, math.inf) and not _label_within_estimate(1.0, math.inf, 0.0)
+    dev = Device(mass=5.4, damping=3.5, delay=0.001)
+    b = 1.01 * max_stable_damping(dev)
+    exact = analyse_stability(dev, 100.0, b, "exact")
+    grid = analyse_stability(dev, 100.0, b, "grid")
+    assert exact.stable is False or exact.stable is None
+    assert grid.stable is None or grid.stable == exact.stable
+    for method in ("linear", "grid"):
+        res = analyse_stability(dev, 1000.0, 0.0, method)
+        k, e = res.critical_stiffness, res.error_estimate
+        if res.stable is not None:
+            assert e is not None and abs(1000.0 / k - 1) > e and res.stable == (1000.0 < k)
