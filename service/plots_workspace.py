@@ -16,7 +16,7 @@ import numpy as np  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 from models.errors import InputError  # noqa: E402
-from models.kinematics import KINEMATIC_PRESETS, load_kinematics  # noqa: E402
+from optim.workspace.analysis import device_kinematics  # noqa: E402
 from optim.workspace.workspace import workspace_map  # noqa: E402
 
 __all__ = ["workspace_slice_job", "workspace_figure"]
@@ -54,18 +54,7 @@ def workspace_slice_job(urdf: str | None, preset: str | None, end_effector: str 
                         damping: float, fmt: str) -> bytes:
     """K_cr on a points × points grid of two joints over their limits, the others at ``fixed`` (default the middle
     of their limits); singular poses are left blank."""
-    if preset is not None:
-        if preset not in KINEMATIC_PRESETS:
-            raise InputError("device.kinematics.preset", f"unknown kinematic preset {preset!r}")
-        urdf = urdf or KINEMATIC_PRESETS[preset]["urdf"]
-        end_effector = end_effector or KINEMATIC_PRESETS[preset]["end_effector"]
-    if urdf is None or end_effector is None:
-        raise InputError("device.kinematics", "needs `urdf` and `end_effector`, or a `preset`")
-    try:
-        model = load_kinematics(urdf, end_effector, None if armature is None else list(armature),
-                                None if joint_damping is None else list(joint_damping))
-    except InputError as exc:
-        raise exc.under("device.kinematics.") from None
+    model = device_kinematics(urdf, preset, end_effector, armature, joint_damping)
     jx, jy = joints
     for name, j in (("x_joint", jx), ("y_joint", jy)):
         if not 0 <= j < model.dof:

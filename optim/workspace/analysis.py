@@ -7,11 +7,11 @@ from dataclasses import dataclass, replace
 from typing import Literal, Sequence
 
 from models.errors import InputError
-from models.kinematics import KINEMATIC_PRESETS, load_kinematics
+from models.kinematics import KINEMATIC_PRESETS, KinematicModel, load_kinematics
 
 from .workspace import WorkspaceMap, explicit_poses, grid_poses, lhs_poses, workspace_map
 
-__all__ = ["PoseSpec", "analyse_workspace"]
+__all__ = ["PoseSpec", "analyse_workspace", "device_kinematics"]
 
 
 @dataclass(frozen=True)
@@ -24,12 +24,10 @@ class PoseSpec:
     lhs_seed: int = 0
 
 
-def analyse_workspace(urdf: str | None, preset: str | None, end_effector: str | None,
-                      armature: Sequence[float] | None, joint_damping: Sequence[float] | None, poses: PoseSpec,
-                      normals: Sequence[Sequence[float]] | Literal["worst"], sample_time: float, delay: float,
-                      damping: float = 0.0) -> tuple[WorkspaceMap, float]:
-    """The workspace map and its elapsed time [ms]; InputError fields are relative to the request body."""
-    start = time.perf_counter()
+def device_kinematics(urdf: str | None, preset: str | None, end_effector: str | None,
+                      armature: Sequence[float] | None, joint_damping: Sequence[float] | None) -> KinematicModel:
+    """The request's ``device.kinematics`` loaded (a preset's URDF and frame unless given); InputError fields are
+    relative to the request body."""
     if preset is not None:
         if preset not in KINEMATIC_PRESETS:
             raise InputError("device.kinematics.preset", f"unknown kinematic preset {preset!r}; known: "
@@ -40,10 +38,19 @@ def analyse_workspace(urdf: str | None, preset: str | None, end_effector: str | 
     if urdf is None or end_effector is None:
         raise InputError("device.kinematics", "needs `urdf` and `end_effector`, or a `preset`")
     try:
-        model = load_kinematics(urdf, end_effector, None if armature is None else list(armature),
-                                None if joint_damping is None else list(joint_damping))
+        return load_kinematics(urdf, end_effector, None if armature is None else list(armature),
+                               None if joint_damping is None else list(joint_damping))
     except InputError as exc:
         raise exc.under("device.kinematics.") from None
+
+
+def analyse_workspace(urdf: str | None, preset: str | None, end_effector: str | None,
+                      armature: Sequence[float] | None, joint_damping: Sequence[float] | None, poses: PoseSpec,
+                      normals: Sequence[Sequence[float]] | Literal["worst"], sample_time: float, delay: float,
+                      damping: float = 0.0) -> tuple[WorkspaceMap, float]:
+    """The workspace map and its elapsed time [ms]; InputError fields are relative to the request body."""
+    start = time.perf_counter()
+    model = device_kinematics(urdf, preset, end_effector, armature, joint_damping)
     if poses.explicit is not None:
         qs = explicit_poses(model, poses.explicit)
     elif poses.grid_num is not None:
