@@ -53,4 +53,4 @@ def test_worst_normal_fast():
 
 @pytest.mark.slow
 def test_worst_normal_dense():
-    assert not _check(6, 800, 9)
+    assert not _check(4, 500, 9)
