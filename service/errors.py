@@ -126,9 +126,14 @@ def _cut(text: str, limit: int) -> str:
     return text if len(text) <= limit else f"{text[:limit]}… ({len(text)} characters, cut)"
 
 
+#: Most errors listed in one 422: a list of 10k wrong items (each its own error, twice under a union) answered 1.2 MB.
+MAX_ERRORS = 50
+
+
 def _errors_body(errors: list[dict[str, Any]]) -> dict[str, Any]:
     clean = []
-    for e in errors:
+    more = len(errors) - MAX_ERRORS
+    for e in errors[:MAX_ERRORS]:
         e = _name_the_field(dict(e))
         e.pop("url", None)
         # An unknown key is echoed in loc, and a value in some messages: both are cut too.
@@ -141,6 +146,9 @@ def _errors_body(errors: list[dict[str, Any]]) -> dict[str, Any]:
             e["ctx"] = {k: (_cut(str(v), 4 * MAX_ECHO_CHARS) if isinstance(v, Exception) else _echo(v))
                         for k, v in ctx.items()}
         clean.append(e)
+    if more > 0:
+        clean.append({"type": "too_many_errors", "loc": ["body"], "msg": f"{more} more errors not listed (the first "
+                                                                         f"{MAX_ERRORS} are)"})
     return {"detail": json_safe(jsonable_encoder(clean, custom_encoder={float: lambda x: x, bytes: _bytes_echo}))}
 
 

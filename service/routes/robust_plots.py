@@ -9,6 +9,7 @@ from pydantic import ConfigDict, Field
 from optim.errors import InputError
 from optim.robust.box import UncertaintyBox
 
+from ..errors import numerics_refused
 from ..executor import Compute
 from ..jobs import hardware_plot_job, robust_slice_job
 from ..plots_robust import MEDIA_TYPES
@@ -66,6 +67,11 @@ async def hardware_plot(req: HardwareDesignRequest, compute: Compute,
         raise InputError("verify", "a plot carries no verification: use POST /v1/design/hardware")
     value_range = None if req.range is None else (req.range.min, req.range.max)
     # tens of exact designs, then the drawing: always a worker, under the budget; an InputError answers 422
-    image = await compute.arun(hardware_plot_job, req.device, hardware_target(req), req.free, req.points, format,
-                               value_range, cost_ms=None)
+    try:
+        image = await compute.arun(hardware_plot_job, req.device, hardware_target(req), req.free, req.points, format,
+                                   value_range, cost_ms=None)
+    except InputError:
+        raise
+    except ValueError as exc:   # e.g. matplotlib refusing a log axis when every value is ≤ 0: a 422, never a 500
+        raise numerics_refused(exc, "device") from None
     return Response(content=image, media_type=MEDIA_TYPES[format])

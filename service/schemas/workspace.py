@@ -74,7 +74,7 @@ class WorkspaceRequest(BaseModel):
         {"device": {"sample_time": 0.001, "delay": 0.001, "kinematics": {"preset": "planar-2link"}},
          "poses": {"explicit": [[0.3, 1.0]]}, "normals": [[0, 1, 0], [1, 0, 0]]},
         {"device": {"sample_time": 0.001, "kinematics": {"preset": "planar-2link"}},
-         "poses": {"latin_hypercube": {"samples": 20, "seed": 1}}, "normals": "worst"}]}}
+         "poses": {"latin_hypercube": {"samples": 20, "seed": 1}}, "normals": [[0.0, 1.0, 0.0]]}]}}
     device: WorkspaceDevice
     controller: Controller | None = Field(default=None, description="B [N·s/m] of the wall (its K is not used)")
     poses: Poses
