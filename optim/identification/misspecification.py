@@ -64,11 +64,20 @@ def long_run_factor(rho: np.ndarray) -> float:
     return max(1.0, 1.0 + 2.0 * float(np.sum(w * rho)))
 
 
+#: A force log with at most this many distinct levels (to 1e-9 of its peak) is a multi-level input by design (a
+#: PRBS takes ±A, a three-level signal −A, 0, +A): sitting at its extreme is then no sign of saturation.
+DESIGNED_LEVELS = 3
+
+
 def plateau(force: np.ndarray) -> float:
-    """Fraction of the samples at the force's extreme magnitude (to 1e-9 relative)."""
-    a = np.abs(np.asarray(force, float))
+    """Fraction of the samples at the force's extreme magnitude (to 1e-9 relative); 0 for a multi-level input by
+    design (≤ DESIGNED_LEVELS distinct levels: a PRBS is at its extreme by construction, not clipped)."""
+    f = np.asarray(force, float)
+    a = np.abs(f)
     top = float(np.max(a)) if a.size else 0.0
     if not top > 0:
+        return 0.0
+    if np.unique(np.round(f / (top * 1e-9))).size <= DESIGNED_LEVELS:
         return 0.0
     return float(np.mean(a >= top * (1.0 - 1e-9)))
 

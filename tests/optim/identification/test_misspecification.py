@@ -49,3 +49,27 @@ def test_long_run_factor_and_plateau():
     u = np.linspace(-1, 1, 1000)
     assert plateau(u) == pytest.approx(2e-3)
     assert plateau(np.clip(3 * u, -1, 1)) > 0.6
+
+
+def test_a_designed_multi_level_input_is_not_saturation():
+    """A PRBS (±A) or three-level input sits at its extreme by design: it is not read as a clipped actuator (a
+    clean, noise-free PRBS record was flagged identified_with_warnings before)."""
+    rng = np.random.default_rng(1)
+    prbs = np.repeat(rng.choice([-2.0, 2.0], 200), 20)
+    assert plateau(prbs) == 0.0
+    assert plateau(np.repeat(rng.choice([-1.0, 0.0, 1.0], 300), 7)) == 0.0
+    assert plateau(np.clip(3 * np.sin(np.linspace(0, 40, 4000)), -1, 1)) > 0.5      # a clipped command still is
+
+
+def test_clean_prbs_record_is_identified():
+    from scipy.signal import cont2discrete, dlsim
+
+    from optim.identification.data import TimeSeriesData
+    t, m, b = 0.001, 5.4, 3.5
+    u = np.repeat(np.random.default_rng(1).choice([-2.0, 2.0], 200), 20)
+    sysd = cont2discrete((np.array([[0.0, 1.0], [0.0, -b / m]]), np.array([[0.0], [1.0 / m]]),
+                          np.array([[1.0, 0.0]]), np.zeros((1, 1))), t, method="zoh")
+    _, y, _ = dlsim(sysd[:4] + (t,), u)
+    res = identify(TimeSeriesData(sample_time=t, force=u, position=y[:, 0]), model="rigid")
+    assert res.status == "identified", res.warnings
+    assert res.parameters["mass"].value == pytest.approx(5.4, rel=1e-9)
