@@ -9,7 +9,7 @@ Exit codes are in :mod:`clients.cli_common`.
 
 from __future__ import annotations
 
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 from rich.markup import escape
@@ -322,7 +322,8 @@ def simulate(preset: Preset = None, sets: Sets = None, device_file: DeviceFile =
 
     def human() -> None:
         v = r.verdict
-        rows = [("verdict", v.state, ""), ("decided by", v.decided_by, ""), ("why", v.reason, "")]
+        rows: list[tuple[str, Any, str]] = [("verdict", v.state, ""), ("decided by", v.decided_by, ""),
+                                            ("why", v.reason, "")]
         if v.disagreement:
             rows += [("disagreement", v.disagreement, "")]
         if v.poles is not None:

@@ -300,7 +300,8 @@ def unit_of(unit: str, device: Any) -> str:
     return _ROTARY_UNITS.get(unit, unit) if is_rotary(device) else unit
 
 
-def table(title: str, rows: Sequence[tuple[str, Any]], unit_col: bool = True, device: Any = None) -> Table:
+def table(title: str, rows: Sequence[tuple[str, Any] | tuple[str, Any, str]], unit_col: bool = True,
+          device: Any = None) -> Table:
     """A two- or three-column table of (name, value[, unit]) rows; ``device`` (the device dict of the request)
     makes the units rotary for a rotary preset."""
     t = Table(title=title, show_header=False, title_justify="left")

@@ -112,7 +112,8 @@ def results(study_id: str, url: Url = DEFAULT_URL, token: Token = None,
         raise usage_error("--out is required for parquet")
     with _client(url, token) as zw:
         if fmt == "json":
-            rows, offset = [], 0
+            rows: list = []
+            offset: int | None = 0
             while offset is not None:
                 page = zw.study_results(study_id, offset=offset, limit=10000)
                 rows += page.rows

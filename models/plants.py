@@ -37,7 +37,7 @@ def cable_tfs(device: Device) -> dict[str, TransferFunction]:
     p_r = np.array([c.motor_mass, c.motor_damping + c.damping, c.stiffness])
     p_d = np.array([c.body_mass, c.body_damping + c.damping, c.stiffness])
     link = np.array([c.damping, c.stiffness])
-    p = np.polysub(np.polymul(p_r, p_d), np.polymul(link, link))
+    p: np.ndarray = np.polysub(np.polymul(p_r, p_d), np.polymul(link, link))
     den = tuple(float(v) for v in p)
     return {
         "G_d": TransferFunction(tuple(float(v) for v in p_r), den),

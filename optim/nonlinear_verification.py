@@ -31,11 +31,11 @@ from typing import Literal
 import numpy as np
 
 from models.device import Device
-from models.simulation.friction import FrictionEventLimit, FrictionStepper
+from models.simulation.friction import FrictionEventLimit
 from models.simulation.oscillation import energy_generated
-from models.simulation.scene import Scene
-from models.simulation.sim_loop import linear_step, run_sampled_loop
-from models.simulation.simulate import loop_spec, scene_friction, scene_poles
+from models.simulation.scene import Effects, InitialState, PushProfile, Scene, WallController
+from models.simulation.sim_loop import run_sampled_loop
+from models.simulation.simulate import loop_spec, scene_friction, scene_poles, scene_stepper
 
 __all__ = ["EnergyAudit", "MeasuredCycle", "NonlinearVerification", "energy_audit", "measure_cycle", "nonlinear_effects",
            "verify_nonlinear", "probe_forces", "probe_hold", "release_start", "linear_time_constant",
@@ -72,12 +72,7 @@ def nonlinear_effects(device: Device) -> dict:
 def _run(device: Device, scene: Scene, w: np.ndarray, x0: np.ndarray, v0: float):
     """The scene's loop stepped sample by sample; returns the record and every state x[k], k = 0..n."""
     spec = loop_spec(device, scene)
-    friction = scene_friction(device, scene)
-    if friction:
-        stepper = FrictionStepper(spec.sampled, friction)
-        stepper.reset(x0)
-    else:
-        stepper = linear_step(spec.sampled)
+    stepper = scene_stepper(spec, scene_friction(device, scene) or None, x0)    # no friction force: linear
     states = [np.array(x0, dtype=float)]
 
     def step(x, ua, ub, wk):
@@ -120,8 +115,9 @@ def energy_audit(device: Device, stiffness: float, damping: float, push_force: f
     times = [0.0, t1, t2, t2 + 2 * t]
     forces = [0.0, push_force, push_force, 0.0]
     duration = t2 + 2 * t + free
-    scene = Scene(experiment="push", duration=duration, controller={"stiffness": stiffness, "damping": damping},
-                  push={"times": times, "forces": forces}, effects=nonlinear_effects(device), output_points=2)
+    scene = Scene(experiment="push", duration=duration, controller=WallController(stiffness=stiffness, damping=damping),
+                  push=PushProfile(times=times, forces=forces), effects=Effects.model_validate(nonlinear_effects(device)),
+                  output_points=2)
     n = int(round(duration / t))
     w = np.interp(np.arange(n) * t, times, forces, left=0.0)
     spec, rec, x = _run(device, scene, w, np.zeros(spec_size(device)), 0.0)
@@ -185,8 +181,9 @@ class MeasuredCycle:
 def measure_cycle(device: Device, stiffness: float, damping: float, initial: float, duration: float) -> MeasuredCycle:
     """Release the wall from ``initial`` [m] and measure what it settles into (module docstring)."""
     t = device.sample_time
-    scene = Scene(experiment="release", duration=duration, controller={"stiffness": stiffness, "damping": damping},
-                  initial={"position": initial}, effects=nonlinear_effects(device), output_points=2)
+    scene = Scene(experiment="release", duration=duration, controller=WallController(stiffness=stiffness, damping=damping),
+                  initial=InitialState(position=initial), effects=Effects.model_validate(nonlinear_effects(device)),
+                  output_points=2)
     n = int(round(duration / t))
     x0 = np.zeros(spec_size(device))
     x0[:2 if device.cable is not None else 1] = initial
@@ -247,8 +244,8 @@ def linear_time_constant(device: Device, stiffness: float, damping: float) -> fl
     """[s] 1/|γ| of the dominant closed-loop pole of the wall without its encoder and friction (how fast a
     transient dies out or grows); inf when the poles cannot be had."""
     eff = {k: v for k, v in nonlinear_effects(device).items() if k in ("delay", "cable_mode")}
-    scene = Scene(experiment="release", duration=1.0, controller={"stiffness": stiffness, "damping": damping},
-                  effects=eff, output_points=2)
+    scene = Scene(experiment="release", duration=1.0, controller=WallController(stiffness=stiffness, damping=damping),
+                  effects=Effects.model_validate(eff), output_points=2)
     poles, _ = scene_poles(device, scene)
     if poles is None or poles.dominant_modulus <= 0:
         return math.inf

@@ -57,7 +57,7 @@ def margin_verdict(device: Device, scene: Scene) -> tuple[Literal["stable", "uns
     return "unstable", f"a closed-loop pole lies outside the unit circle: {where}{why}"
 
 
-def _past_b_max(device: Device, k: float, b: float) -> tuple[str, str]:
+def _past_b_max(device: Device, k: float, b: float) -> tuple[Literal["stable", "unstable", "undetermined"], str]:
     """K_cr = 0 (B ≥ B_max), yet a band of K may be stable (optim.stability.stable_band): the closed loop at this K
     decides (eigenvalues with their rounding bound, else the argument principle), and must agree with the band."""
     band = stable_band(device, b)

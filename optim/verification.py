@@ -266,7 +266,7 @@ def _critical_stiffness_check(device: Device, damping: float, critical: float | 
     # second, larger step: still far inside any use, still below the next crossover
     wider = min(1e-3, cap)
     tries = [eps, wider] if epsilon == DEFAULT_EPSILON and wider > eps else [eps]
-    last = None
+    last: Verification | None = None
     for e in tries:
         k_lo = critical * (1.0 - e) if e < 0.5 else critical / (1.0 + e)
         k_hi = critical * (1.0 + e)
@@ -285,6 +285,7 @@ def _critical_stiffness_check(device: Device, damping: float, critical: float | 
         if lo.stable is True and hi.stable is False:
             return replace(out, verdict="confirmed", elapsed_ms=(time.perf_counter() - t0) * 1e3)
         last = replace(out, reason=lo.reason or hi.reason or "not decided")
+    assert last is not None    # tries is never empty
     return replace(last, elapsed_ms=(time.perf_counter() - t0) * 1e3)
 
 
@@ -504,7 +505,7 @@ def verify_passivity(device: Device, stiffness: float, damping: float, claimed: 
     return _passivity_record(passive, claimed, req, b, not passive)
 
 
-def _word(passive: bool) -> str:
+def _word(passive: bool) -> Literal["passive", "not passive"]:
     return "passive" if passive else "not passive"
 
 

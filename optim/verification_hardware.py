@@ -16,6 +16,7 @@ from models.device import Device
 from optim.hardware.hardware_targets import device_with
 from optim.transparency.feedforward import resolve_human
 from optim.verification import (
+    Verdict,
     Verification,
     labelled,
     not_checkable,
@@ -47,7 +48,7 @@ def verify_hardware_design(device: Device, free: str, value: float | None, contr
     if not parts:
         return not_checkable(t0, "the design states no finite margin to check")
     verdicts = [v.verdict for _, v in parts]
-    verdict = ("contradicted" if "contradicted" in verdicts else
+    verdict: Verdict = ("contradicted" if "contradicted" in verdicts else
                "not_checkable" if "not_checkable" in verdicts else "confirmed")
     reasons = [f"{name}: {v.reason}" for name, v in parts if v.reason]
     methods = "; ".join(dict.fromkeys(v.method for _, v in parts if v.method))

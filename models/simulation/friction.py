@@ -18,6 +18,7 @@ more than MAX_EVENTS_PER_SAMPLE events raises rather than returning a guess.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 from scipy.optimize import brentq
@@ -98,12 +99,13 @@ class FrictionStepper:
             hit = False
             for _ in range(m_sub):
                 x_new = e @ x + g @ p
+                fun: Callable[[float], float]    # called only in this pass: x, p are this step's
                 if mode != 0:
                     crossed = mode * x_new[self.iv] < 0.0
-                    fun = (lambda s, x=x, p=p, mode=mode: self._state(mode, x, p, s)[self.iv])
+                    fun = (lambda s: self._state(mode, x, p, s)[self.iv])
                 else:
                     crossed = abs(self._net(x_new, fm, fh)) > self.c
-                    fun = (lambda s, x=x, p=p: abs(self._net(self._state(0, x, p, s), fm, fh)) - self.c)
+                    fun = (lambda s: abs(self._net(self._state(0, x, p, s), fm, fh)) - self.c)
                 if crossed:
                     lo = fun(0.0)
                     s_ev = 0.0 if lo == 0.0 or (mode != 0 and mode * lo < 0) else \

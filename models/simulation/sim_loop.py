@@ -165,7 +165,7 @@ def closed_loop_matrices(spec: LoopSpec, x0: np.ndarray, v0: float):
     for j in range(1, nb):
         a[n + j, n + j - 1] = 1.0
     a[n + nb, ip] = 1.0
-    if nd:
+    if spec.ff_filter is not None:                # nd > 0
         ad, bd, cd, dd = spec.ff_filter
         a[n + nb + 1:n + nb + 1 + nd, n + nb + 1:n + nb + 1 + nd] = ad
         a[n + nb + 1:n + nb + 1 + nd, pl.sensor] = bd

@@ -27,6 +27,7 @@ from models.simulation.scene_poles import MAX_EXACT_STATES, ScenePoles, closed_l
 from models.simulation.sim_loop import (
     LoopSpec,
     Record,
+    Stepper,
     closed_loop_matrices,
     feedforward_filter,
     linear_part,
@@ -40,7 +41,7 @@ from models.velocity_filter import rendering
 
 __all__ = ["Trajectory", "SimulationResult", "simulate", "propagation_method", "sample_count",
            "check_cost", "SceneModelError", "loop_spec", "DIVERGENCE_FACTOR", "scene_poles", "scene_resolution",
-           "scene_friction"]
+           "scene_friction", "scene_stepper"]
 
 #: A run stops as diverged when |x_r| exceeds this factor times its free-motion scale (_scale).
 DIVERGENCE_FACTOR = 1e6
@@ -106,33 +107,43 @@ def sample_count(device: Device, scene: Scene) -> int:
     return max(1, int(round(scene.duration / device.sample_time)))
 
 
+def _given_or_device(given: float | None, device_value: float | None, effect: str, parameter: str,
+                     device_field: str) -> float:
+    """The effect's own ``parameter`` when given, else the device's ``device_field``; refused (SceneModelError
+    naming scene.effects.<effect>) when neither is there."""
+    if given is not None:
+        return given
+    if device_value is None:
+        raise SceneModelError(f"scene.effects.{effect}", f"names no {parameter} and the device has no "
+                              f"{device_field}: give one of the two")
+    return device_value
+
+
 def scene_resolution(device: Device, scene: Scene) -> float | None:
     """q [m] the scene quantises with: its own ``resolution``, else the device's ``encoder_resolution``; None
     when the scene names no quantization.  A quantization named without a resolution on a device without one
     is refused (SceneModelError naming scene.effects.quantization)."""
     eff = scene.effects.quantization
-    if eff is None:
-        return None
-    if eff.resolution is not None:
-        return eff.resolution
-    if device.encoder_resolution is None:
-        raise SceneModelError("scene.effects.quantization", "names no resolution and the device has no "
-                              "encoder_resolution: give one of the two")
-    return device.encoder_resolution
+    return None if eff is None else _given_or_device(eff.resolution, device.encoder_resolution, "quantization",
+                                                     "resolution", "encoder_resolution")
 
 
 def scene_friction(device: Device, scene: Scene) -> float | None:
     """f_c [N] of the scene's Coulomb friction: its own ``force``, else the device's ``coulomb_friction``; None
     when the scene names none.  Refused (SceneModelError) when neither gives a force."""
     eff = scene.effects.coulomb_friction
-    if eff is None:
-        return None
-    if eff.force is not None:
-        return eff.force
-    if device.coulomb_friction is None:
-        raise SceneModelError("scene.effects.coulomb_friction", "names no force and the device has no "
-                              "coulomb_friction: give one of the two")
-    return device.coulomb_friction
+    return None if eff is None else _given_or_device(eff.force, device.coulomb_friction, "coulomb_friction",
+                                                     "force", "coulomb_friction")
+
+
+def scene_stepper(spec: LoopSpec, friction: float | None, x0: np.ndarray) -> Stepper:
+    """One sample of the loop's plant: with Coulomb friction ``friction`` [N] the event integrator (started at
+    ``x0``), without (None) the exact linear step."""
+    if friction is None:
+        return linear_step(spec.sampled)
+    stepper = FrictionStepper(spec.sampled, friction)
+    stepper.reset(x0)
+    return stepper
 
 
 def check_cost(device: Device, scene: Scene) -> None:
@@ -257,10 +268,7 @@ def simulate(device: Device, scene: Scene) -> SimulationResult:
         run = int(np.argmax(bad)) if bad.any() else n
         rec = Record(y[0, :run + 1], y[1, :run + 1], y[2, :run], y[3, :run], y[4, :run], y[5, :run])
     else:
-        step = FrictionStepper(spec.sampled, scene_friction(device, scene)) \
-            if method == "event-integrator" else linear_step(spec.sampled)
-        if method == "event-integrator":
-            step.reset(x0)
+        step = scene_stepper(spec, scene_friction(device, scene), x0)    # friction ⇔ method event-integrator
         rec, run = run_sampled_loop(spec, x0, scene.initial.velocity, w, n, step, diverge_at=limit)
     diverged = run < n
     energy = energy_generated(rec, spec.stiffness)

@@ -273,7 +273,8 @@ def _matters(curve: tuple[dict, ...], target: HardwareTarget) -> tuple[bool, str
 
 def _controller(probe: Probe, q: float) -> dict:
     """The best controller at this value (stiffness part and/or force-feedforward part)."""
-    target, out = probe.target, {}
+    target = probe.target
+    out: dict[str, float | None] = {}
     if target.stiffness is not None:
         k, b, d = probe.stiffness(q)
         kt = target.stiffness

@@ -158,7 +158,7 @@ def check_response(data: FrequencyResponseData, free_parameters: int) -> None:
 
 def _clipped(name: str, v: np.ndarray) -> list[str]:
     """A signal with many distinct values but a share of samples exactly at its max or min: clipped."""
-    out = []
+    out: list[str] = []
     if len(np.unique(v)) <= 10:                 # a PRBS or steps: sitting at the extremes is its design
         return out
     for label, ext in (("maximum", np.max(v)), ("minimum", np.min(v))):

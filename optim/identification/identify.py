@@ -213,6 +213,7 @@ def identify(data: TimeSeriesData | FrequencyResponseData, model: str = "auto", 
                                     elapsed_ms=elapsed)
     out = outcomes[chosen]
     res = finished[chosen][0]
+    assert res is not None and out.x is not None    # _choose picks only a converged, identified fit
     r = out.problem.residual(out.x)
     white, rho = _whiteness(r, len(out.problem.names))
     fit = FitQuality(nrmse=nrmse(r, out.problem.measured), rmse=float(np.sqrt(np.mean(r ** 2))),

@@ -180,7 +180,8 @@ def analyse_relay_run(result: SimulationResult, loop, amplitude: float) -> tuple
                            y[win_a + i * quarter:win_a + (i + 1) * quarter], t)[1:] for i in range(4)]
     gains = [a / b for a, b in gains]
     p = _period_of(half)
-    exact, errs, pattern = None, (None, None, None), None
+    exact, pattern = None, None
+    errs: tuple[float | None, float | None, float | None] = (None, None, None)
     if p is not None:
         last = len(half) - p                         # rotate so the pattern starts with a +a half
         for start in range(last, -1, -1):

@@ -138,12 +138,14 @@ class PassivityWorst:
 
 def worst_passivity(corners: list[PassivityCorner], stiffness: float, damping: float) -> PassivityWorst:
     """The corner with the smallest passivity margin b − sup P at (K, B)."""
-    best = None
+    best: PassivityWorst | None = None
     for c in corners:
         check = passivity_margin(c.device, stiffness, damping)
         margin = c.damping - check.required_damping
         if best is None or margin < best.margin:
             best = PassivityWorst(c, check, margin)
+    if best is None:
+        raise ValueError("worst_passivity: no corners")
     return best
 
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, replace
-from typing import Annotated, Literal, get_args
+from typing import Annotated, Literal, cast, get_args
 
 import numpy as np
 from pydantic import Field, TypeAdapter, ValidationError
@@ -473,21 +473,23 @@ def _judge_cable(device: Device, damping: float, method: str, kcr: float | None)
     return CableJudgement(Q_criterion(device), mode, rigid_k)
 
 
-def check_rung(method: str, grid_points: int = DEFAULT_GRID_POINTS) -> None:
+def check_rung(method: str, grid_points: int = DEFAULT_GRID_POINTS) -> Method:
     """InputError naming ``method`` or ``grid_points`` when outside the ladder: the HTTP request's rule and message
-    (its fields are Method and GridPoints), for callers that did not come through it."""
+    (its fields are Method and GridPoints), for callers that did not come through it.  Returns ``method``, checked
+    to be one of the ladder's rungs."""
     if method in METHODS and type(grid_points) is int and MIN_GRID_POINTS <= grid_points <= MAX_GRID_POINTS:
-        return   # the rules' own verdict, without their validators (≈ 3 µs of a 40 µs analysis)
+        return cast(Method, method)   # the rules' own verdict, without their validators (≈ 3 µs of a 40 µs analysis)
     for name, rule in _RUNG_RULES:
         try:
             rule.validate_python(method if name == "method" else grid_points)
         except ValidationError as exc:
             raise from_validation(exc, prefix=name) from None
+    return cast(Method, method)
 
 
 def _analyse(device: Device, stiffness: float | None, damping: float, method: str,
              grid_points: int) -> StabilityAnalysis:
-    check_rung(method, grid_points)
+    rung_method = check_rung(method, grid_points)
     if stiffness is not None and not (math.isfinite(stiffness) and stiffness > 0):
         raise InputError("stiffness", "must be finite and > 0")
     if not (math.isfinite(damping) and damping >= 0):
@@ -531,7 +533,7 @@ def _analyse(device: Device, stiffness: float | None, damping: float, method: st
         passive=wall.passive, passivity_required_damping=wall.passivity_required_damping,
         passivity_conservative=wall.passivity_conservative, linear_estimate=lin, linear_error=lin_err,
         max_stable_damping=_finite(b_max), q_criterion=cable.q_criterion, mode_matters=cable.mode_matters,
-        rigid_critical_stiffness=_finite(cable.rigid_critical_stiffness), method=method,
+        rigid_critical_stiffness=_finite(cable.rigid_critical_stiffness), method=rung_method,
         elapsed_ms=(time.perf_counter() - t0) * 1e3, error_estimate=rung.error_estimate,
         error_source=rung.error_source, reason=reason,
         stable_band=band.band if band is not None and band.status == "band" else None)
@@ -566,7 +568,7 @@ def _rendered_rung(device: Device, damping: float, rendering: Rendering) -> Rung
 
 def _analyse_rendered(device: Device, stiffness: float | None, damping: float, method: str, grid_points: int,
                       rendering: Rendering) -> StabilityAnalysis:
-    check_rung(method, grid_points)
+    rung_method = check_rung(method, grid_points)
     if stiffness is not None and not (math.isfinite(stiffness) and stiffness > 0):
         raise InputError("stiffness", "must be finite and > 0")
     if not (math.isfinite(damping) and damping >= 0):
@@ -610,5 +612,5 @@ def _analyse_rendered(device: Device, stiffness: float | None, damping: float, m
         passivity_required_damping=required, passivity_conservative=conservative, linear_estimate=lin,
         linear_error=lin_err, max_stable_damping=_finite(b_max), q_criterion=cable.q_criterion,
         mode_matters=cable.mode_matters, rigid_critical_stiffness=_finite(cable.rigid_critical_stiffness),
-        method=method, elapsed_ms=(time.perf_counter() - t0) * 1e3, error_estimate=rung.error_estimate,
+        method=rung_method, elapsed_ms=(time.perf_counter() - t0) * 1e3, error_estimate=rung.error_estimate,
         error_source=rung.error_source, reason=reason, mass_range=mass)

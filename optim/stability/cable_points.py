@@ -136,7 +136,7 @@ class Point:
         zm1 = expm1j(t)
         z = zm1 + 1.0
         self.t = t
-        self._base = None
+        self._base: tuple[float, float, float, float] | None = None
         self.dist = [abs(zm1 - f.w) for f in loop.factors]
         self.sin = [(z * f.c.conjugate()).imag for f in loop.factors]
 

@@ -9,7 +9,7 @@ machine code, only compiled again by every process that uses it (≈ 3 s, during
 
 from __future__ import annotations
 
-from typing import Callable, TypeVar
+from typing import Callable, TypeVar, cast
 
 from numba import njit
 
@@ -21,6 +21,6 @@ F = TypeVar("F", bound=Callable)
 def kernel(fn: F) -> F:
     """``njit(cache=True)(fn)``, or ``njit(fn)`` where no cache directory is writable."""
     try:
-        return njit(cache=True)(fn)
+        return cast(F, njit(cache=True)(fn))    # a Dispatcher, called as fn is
     except RuntimeError:   # "cannot cache function …: no locator available for file …"
-        return njit(fn)
+        return cast(F, njit(fn))

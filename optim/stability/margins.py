@@ -409,7 +409,7 @@ def _crossover_tuple(pairs: list[tuple[float, float]], sample_time: float = 1.0,
     """Crossover(θ/T, α·scale) of each dimensionless pair (θ, α), built without the frozen dataclass's __init__ (one
     object.__setattr__ per field, ≈ 0.9 µs a crossover: a long delay's list holds hundreds): equal instances."""
     new = object.__new__
-    out = []
+    out: list[Crossover] = []
     append = out.append
     for th, a in pairs:
         c = new(Crossover)

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 from functools import lru_cache
+from typing import Any
 
 import mpmath as mp
 import numpy as np
@@ -52,7 +53,7 @@ def b_max_sensitivity(device: Device, b_max: float) -> float:
     never below B_MAX_SENSITIVITY.  A cable measured 266 where rigid devices give ≈ 2."""
     from optim.stability.margins import max_stable_damping
 
-    base = device.model_dump(exclude_none=True)
+    base: dict[str, Any] = device.model_dump(exclude_none=True)
     keys: list[tuple[str, ...]] = [("sample_time",), ("delay",)]
     keys += [("cable", k) for k in base["cable"]] if "cable" in base else [("mass",), ("damping",)]
     total = 0.0

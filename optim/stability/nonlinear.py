@@ -213,7 +213,8 @@ def predict_limit_cycle(device: Device, stiffness: float, damping: float) -> tup
     amps = np.geomspace(lo * (1 + 1e-9), hi, max(_GRID, int(_PER_DECADE * math.log10(hi / lo))))
     g = [balance(device, stiffness, damping, float(a)).excess for a in amps] + [g_far]
     amps = np.append(amps, math.inf)
-    stable, unstable = [], []
+    stable: list[float] = []
+    unstable: list[float] = []
     for i in range(len(amps) - 1):
         if (g[i] > 0) != (g[i + 1] > 0):
             a = _root(device, stiffness, damping, float(amps[i]), float(amps[i + 1])) \

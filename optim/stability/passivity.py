@@ -199,7 +199,8 @@ def _best_of_rows(d: int, hk: float, damping: float, grid: np.ndarray, vals: np.
     last = grid.size - 1
     cand_t = [float(grid[i]) for i in top]
     cand_v = [float(vals[i]) for i in top]
-    refined_t, refined_v = [], []
+    refined_t: list[float] = []
+    refined_v: list[float] = []
     for row, i in enumerate(top):   # three rows: plain floats beat array bookkeeping
         i_lo, i_hi = max(i - 1, 0), min(i + 1, last)
         lo, hi = float(grid[i_lo]), float(grid[i_hi])

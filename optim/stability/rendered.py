@@ -147,7 +147,7 @@ def real_crossings(h, grid: np.ndarray) -> list[Passage]:
     # a near-tangency's two crossings (optim.stability.crossovers.tangential_pairs) move their poles opposite ways;
     # their order along θ tells which: Im h rises through the first one when it was negative between samples
     for sign in (1.0, -1.0):
-        pair = tangential_pairs(lambda t, s=sign: s * h(t), grid, sign * values)
+        pair = tangential_pairs(lambda t: sign * h(t), grid, sign * values)    # called here, not kept
         for j in range(0, len(pair) - 1, 2):
             first, second = pair[j], pair[j + 1]
             mid = complex(h(np.array([0.5 * (first.angle + second.angle)]))[0]).imag

@@ -90,7 +90,7 @@ def _perturbed(device: Device, parameter: str) -> tuple[float, Device] | str:
     h = _step_size(device, parameter)
     value = getattr(device, parameter)
     whole, frac = split_delay(device.delay_samples)
-    signs = (1.0, -1.0)
+    signs: tuple[float, ...] = (1.0, -1.0)
     why = []
     if device.delay > 0 and frac == 0.0 and parameter in ("delay", "sample_time"):
         signs = (1.0,) if parameter == "delay" else (-1.0,)

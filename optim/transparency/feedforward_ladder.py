@@ -249,6 +249,7 @@ def analyse_force_feedforward(device: Device, filt: ButterworthLowPass | None = 
     hm, source = resolve_human(device, human)
     worst = worst_case_force_gain(device, hm)
     reason = None
+    crossovers: tuple[ForceCrossover, ...]
     if method == "linear":
         kcr, w, crossovers = worst, None, ()
         err = linear_force_gain_error(device, hm, filt)
