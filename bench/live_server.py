@@ -75,6 +75,10 @@ class LiveServer:
     The server runs in its own process group, so :meth:`kill` (SIGKILL) takes its worker processes with it,
     as a crash of the machine would.  Its output goes to ``log`` (appended) or to a temporary file that is
     quoted when the server does not start.
+
+    Its study store is ``env``'s ``ZWIDTH_DATABASE_URL`` when that names one, else a fresh temporary SQLite file
+    (:attr:`database_url`, removed by :meth:`stop` and :meth:`kill`): a benchmark or a test never opens the user's
+    store (~/.local/share/zwidth/studies.db), which a server started with the user's environment would (issue 29).
     """
 
     def __init__(self, env: dict[str, str | None] | None = None, workers: int = 1, timeout: float = 60.0,
@@ -82,7 +86,14 @@ class LiveServer:
                  app: str = "service.app:app") -> None:
         self.port = free_port()
         self.url = f"http://127.0.0.1:{self.port}"
-        merged = {**os.environ, "PYTHONPATH": str(ROOT), "ZWIDTH_ACCESS_LOG": "false", **(env or {})}
+        self._store_dir: tempfile.TemporaryDirectory[str] | None = None
+        store: dict[str, str | None] = {}
+        if "ZWIDTH_DATABASE_URL" not in (env or {}):
+            self._store_dir = tempfile.TemporaryDirectory(prefix="zwidth-live-store-", ignore_cleanup_errors=True)
+            store["ZWIDTH_DATABASE_URL"] = f"sqlite:///{Path(self._store_dir.name) / 'studies.db'}"
+        merged = {**os.environ, "PYTHONPATH": str(ROOT), "ZWIDTH_ACCESS_LOG": "false", **store, **(env or {})}
+        self.database_url: str | None = merged.get("ZWIDTH_DATABASE_URL")
+        """the server's study store (None: the server's own default, asked for with ``ZWIDTH_DATABASE_URL: None``)"""
         full_env = {k: v for k, v in merged.items() if v is not None}       # None removes a variable
         self._out: IO[bytes] = open(log, "a+b") if log is not None else tempfile.TemporaryFile()
         self.proc = subprocess.Popen(
@@ -139,6 +150,7 @@ class LiveServer:
             except ProcessLookupError:
                 pass
         self._out.close()
+        self._remove_store()
 
     def stop(self) -> None:
         if self.proc.poll() is None:
@@ -150,3 +162,9 @@ class LiveServer:
                 self.proc.wait(10)
         if not self._out.closed:
             self._out.close()
+        self._remove_store()
+
+    def _remove_store(self) -> None:
+        if self._store_dir is not None:
+            self._store_dir.cleanup()
+            self._store_dir = None

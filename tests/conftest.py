@@ -69,10 +69,12 @@ def user_stores(environ=os.environ) -> list[Path]:
 
 
 def fingerprint(path: Path) -> tuple | None:
-    """(size, mtime_ns) of the store, and the size of its write-ahead log (a reader opening the store touches the
-    log's mtime, a writer grows it); None when neither exists."""
+    """(size, mtime_ns) of the store, and the size of its write-ahead log and shared-memory index, when they exist
+    (SQLite creates both when it opens a WAL store and removes them at the last close: one left behind, or a
+    new one, is an opening; a reader touches the log's mtime, a writer grows it); None when none exists."""
     parts: list[tuple] = []
-    for p, stamp in ((path, True), (path.with_name(path.name + "-wal"), False)):
+    for p, stamp in ((path, True), (path.with_name(path.name + "-wal"), False),
+                     (path.with_name(path.name + "-shm"), False)):
         try:
             st = p.stat()
         except FileNotFoundError:
