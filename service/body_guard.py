@@ -5,8 +5,9 @@ deadline and checks what no schema can:
 
 * **slow bodies**: a client that declares a ``Content-Length`` and sends less would hold the
   connection (and a task) open for as long as it likes; past ``ZWIDTH_BODY_TIMEOUT`` seconds the
-  answer is 408 and the connection is closed.  (A chunked body is read, under the same deadline, by
-  service.middleware.BodyLimitMiddleware before it gets here.)
+  answer is 408 and the connection is closed.  In the app the body is read once, by
+  service.middleware.BodyLimitMiddleware (:func:`read_body`: the deadline and the size limit), and
+  handed here in the scope (:data:`BODY_KEY`); this middleware reads it itself only when used alone.
 * **charsets**: the JSON parser under FastAPI reads bytes as UTF-8, UTF-16 or UTF-32 by their first
   bytes; a UTF-16 body put every ``"`` byte out of step with a byte scan, and 300-deep nesting went
   through.  Anything but UTF-8 (declared ``charset=`` or detected) is a 415.
@@ -35,12 +36,13 @@ from __future__ import annotations
 import asyncio
 import json
 import re
-from typing import Any, Awaitable, Callable
+from typing import Any, Awaitable, Callable, Literal
 
 import anyio.to_thread
 import numpy as np
 
-__all__ = ["BodyGuardMiddleware", "MAX_JSON_DEPTH", "json_depth", "lone_surrogate_field", "body_charset"]
+__all__ = ["BodyGuardMiddleware", "MAX_JSON_DEPTH", "json_depth", "lone_surrogate_field", "body_charset", "BODY_KEY",
+           "read_body", "replaying", "body_timeout_answer"]
 
 Message = dict[str, Any]
 Receive = Callable[[], Awaitable[Message]]
@@ -172,9 +174,56 @@ def _header(scope: dict[str, Any], name: bytes) -> bytes | None:
     return None
 
 
+#: The scope key under which the body's reader (service.middleware.BodyLimitMiddleware) leaves the bytes it read.
+BODY_KEY = "zwidth.body"
+
+
+async def read_body(receive: Receive, timeout: float,
+                    limit: int | None = None) -> bytes | Literal["timeout", "too large", "gone"]:
+    """The whole request body, all of it received within ``timeout`` seconds of the call; counted as it streams
+    and cut at the chunk that takes it past ``limit`` bytes (``"too large"``: the rest is never read).
+    ``"timeout"`` when it did not arrive in time, ``"gone"`` when the client went away while sending."""
+    deadline = asyncio.get_running_loop().time() + timeout
+    chunks: list[bytes] = []
+    total = 0
+    while True:
+        try:
+            # asyncio.timeout_at, not wait_for: wait_for wraps receive() in a task (a loop round trip per chunk,
+            # ~5 % of a fast analysis); the deadline is the same
+            async with asyncio.timeout_at(deadline):
+                message = await receive()
+        except TimeoutError:
+            return "timeout"
+        if message["type"] != "http.request":
+            return "gone"
+        chunk = message.get("body", b"")
+        total += len(chunk)
+        if limit is not None and total > limit:
+            return "too large"
+        chunks.append(chunk)
+        if not message.get("more_body", False):
+            return b"".join(chunks)
+
+
+def replaying(body: bytes, receive: Receive) -> Receive:
+    """A ``receive`` that gives the app ``body`` (read already) as one message, then whatever ``receive`` gives
+    (the disconnect)."""
+    replayed = False
+
+    async def replay() -> Message:
+        nonlocal replayed
+        if not replayed:
+            replayed = True
+            return {"type": "http.request", "body": body, "more_body": False}
+        return await receive()
+
+    return replay
+
+
 class BodyGuardMiddleware:
-    """Read the body within ``timeout`` seconds (else 408), refuse other charsets (415), deep nesting and lone
-    surrogates (422)."""
+    """Refuse other charsets (415), deep nesting and lone surrogates (422) in the body the reader in front of it
+    left in the scope (:data:`BODY_KEY`, the app's ``receive`` replaying it); alone, read the body within
+    ``timeout`` seconds (else 408)."""
 
     def __init__(self, app: Callable[..., Awaitable[None]], timeout: float, max_depth: int = MAX_JSON_DEPTH) -> None:
         self.app = app
@@ -186,25 +235,16 @@ class BodyGuardMiddleware:
                                               for k, _ in scope.get("headers", ())):
             await self.app(scope, receive, send)
             return
-        loop = asyncio.get_running_loop()
-        deadline = loop.time() + self.timeout
-        chunks: list[bytes] = []
-        while True:
-            try:
-                # asyncio.timeout_at, not wait_for: wait_for wraps receive() in a task (a loop round trip per
-                # chunk, ~5 % of a fast analysis); the deadline is the same
-                async with asyncio.timeout_at(deadline):
-                    message = await receive()
-            except TimeoutError:
+        body = scope.get(BODY_KEY)
+        if body is None:        # used without the body's reader in front of it: read it here
+            body = await read_body(receive, self.timeout)
+            if body == "timeout":
                 for m in body_timeout_answer(self.timeout):
                     await send(m)
                 return
-            if message["type"] != "http.request":
+            if not isinstance(body, bytes):
                 return  # the client went away while sending
-            chunks.append(message.get("body", b""))
-            if not message.get("more_body", False):
-                break
-        body = b"".join(chunks)
+            receive = replaying(body, receive)
         content_type = _header(scope, b"content-type")
         if len(body) > _THREAD_ABOVE:
             refusal = await anyio.to_thread.run_sync(self._refusal, body, content_type)
@@ -214,16 +254,7 @@ class BodyGuardMiddleware:
             for m in refusal:
                 await send(m)
             return
-        replayed = False
-
-        async def replay() -> Message:
-            nonlocal replayed
-            if not replayed:
-                replayed = True
-                return {"type": "http.request", "body": body, "more_body": False}
-            return await receive()
-
-        await self.app(scope, replay, send)
+        await self.app(scope, receive, send)
 
     def _refusal(self, body: bytes, content_type: bytes | None = None) -> tuple[Message, Message] | None:
         charset = body_charset(body, content_type)

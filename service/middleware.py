@@ -6,7 +6,6 @@ never buffer a response.
 
 from __future__ import annotations
 
-import asyncio
 import json
 import logging
 import re
@@ -14,6 +13,7 @@ import time
 import uuid
 from typing import Any, Awaitable, Callable
 
+from .body_guard import BODY_KEY, body_timeout_answer, read_body, replaying
 from .logs import request_id_var
 
 __all__ = ["RequestContextMiddleware", "BodyLimitMiddleware", "REQUEST_ID_HEADER"]
@@ -97,16 +97,18 @@ async def _too_large(send: Send, limit: int) -> None:
 
 
 class BodyLimitMiddleware:
-    """Answer 413 to a body above ``max_body_bytes`` without reading it all.
+    """The request body's one reader: answer 413 to a body above ``max_body_bytes`` without reading it all, 408
+    to one that does not arrive in time, and hand the bytes to the body guard.
 
     A declared ``Content-Length`` above the limit is refused before any byte of
     the body is read.  A body without one (chunked) is counted as it streams and
-    refused as soon as the count passes the limit; below the limit it is
-    buffered (at most ``max_body_bytes``) and replayed to the app.  The whole
-    chunked body must arrive within ``timeout`` seconds of the headers (else 408
-    and the connection is closed), as a body with a length must in the body
-    guard: 50 chunked bodies that started and stalled used to be held open for
-    good (issue 28).
+    refused as soon as the count passes the limit.  The whole body must arrive
+    within ``timeout`` seconds of the headers (else 408 and the connection is
+    closed): 50 chunked bodies that started and stalled used to be held open for
+    good (issue 28), as did a body shorter than its Content-Length.  Below the
+    limit it is buffered (at most ``max_body_bytes``), left in the scope for
+    service.body_guard (:data:`~service.body_guard.BODY_KEY`) and replayed to
+    the app (service.body_guard.read_body, replaying).
     """
 
     def __init__(self, app: ASGIApp, max_body_bytes: int, timeout: float = 10.0) -> None:
@@ -127,39 +129,16 @@ class BodyLimitMiddleware:
             if size > self.limit:
                 await _too_large(send, self.limit)
                 return
-            # The server delivers at most Content-Length bytes: nothing to count.
-            await self.app(scope, receive, send)
+        # (with a Content-Length the server delivers at most that many bytes: the count never trips)
+        body = await read_body(receive, self.timeout, self.limit)
+        if body == "too large":
+            await _too_large(send, self.limit)
             return
-        chunks: list[bytes] = []
-        total = 0
-        deadline = asyncio.get_running_loop().time() + self.timeout
-        while True:
-            try:
-                async with asyncio.timeout_at(deadline):
-                    message = await receive()
-            except TimeoutError:
-                from .body_guard import body_timeout_answer
-
-                for m in body_timeout_answer(self.timeout):
-                    await send(m)
-                return
-            if message["type"] != "http.request":
-                return  # client went away while sending
-            chunk = message.get("body", b"")
-            total += len(chunk)
-            if total > self.limit:
-                await _too_large(send, self.limit)
-                return
-            chunks.append(chunk)
-            if not message.get("more_body", False):
-                break
-        replayed = False
-
-        async def replay() -> Message:
-            nonlocal replayed
-            if not replayed:
-                replayed = True
-                return {"type": "http.request", "body": b"".join(chunks), "more_body": False}
-            return await receive()
-
-        await self.app(scope, replay, send)
+        if body == "timeout":
+            for m in body_timeout_answer(self.timeout):
+                await send(m)
+            return
+        if not isinstance(body, bytes):
+            return  # client went away while sending
+        scope[BODY_KEY] = body   # the body guard (service.body_guard) inside checks these bytes: read once
+        await self.app(scope, replaying(body, receive), send)

@@ -145,7 +145,7 @@ def worst_passivity(corners: list[PassivityCorner], stiffness: float, damping: f
         if best is None or margin < best.margin:
             best = PassivityWorst(c, check, margin)
     if best is None:
-        raise ValueError("worst_passivity: no corners")
+        raise ValueError("worst_passivity needs at least one corner")
     return best
 
 
