@@ -764,7 +764,7 @@
     tr.dataset.study = s.id;
     const running = s.status === "running" || s.status === "queued";
     tr.innerHTML = `<td><code>${escapeText(s.id.slice(0, 8))}</code>${s.name ? ` ${escapeText(s.name)}` : ""}</td>
-      <td>${escapeText(s.problem)}</td><td>${statusBadge(s.status)}</td>
+      ${window.zwidthStudies.problemCell(s.problem)}<td>${statusBadge(s.status)}</td>
       <td><progress max="${s.total}" value="${s.done}" aria-label="progress"></progress>
         <span class="progress-text">${s.done}/${s.total}</span></td>
       <td>${num(s.rate, 4)}</td><td>${running ? num(s.eta_s, 3) : "—"}</td><td class="actions"></td>`;

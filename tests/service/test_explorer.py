@@ -140,6 +140,9 @@ def test_explorer_end_to_end(tmp_path):
                 page.click("#sd-run")
                 expect(page.locator("#study-table tbody tr").first.locator(".progress-text")).to_have_text(
                     "16/16", timeout=120_000)
+                problem = page.locator("#study-table tbody tr").first.locator("td.problem")   # readable, id kept
+                expect(problem).to_contain_text("critical stiffness K_cr")
+                assert problem.get_attribute("title") == "critical_stiffness"
                 page.locator("#study-table tbody tr").first.get_by_role("button", name="heatmap").click()
                 expect(page.locator("#study-plot")).to_be_visible(timeout=60_000)
 
