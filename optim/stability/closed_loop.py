@@ -33,6 +33,7 @@ __all__ = [
     "UnstableCount",
     "count_outside",
     "discretise",
+    "plant_response",
     "radius_excess",
     "sampled_plant",
     "stiffness_closed_loop",
@@ -234,15 +235,21 @@ def circle_poles(device: Device) -> tuple[int, tuple[float, ...]]:
     return _circle_poles(device)
 
 
-def _return_difference(plant: SampledPlant, alpha: float, beta: float, theta: np.ndarray) -> np.ndarray:
-    """F(e^{iθ}) = 1 + C(z)·G(z), G = z^{−d}·c((z − 1)I − E)⁻¹(Γ0 + Γ1 z⁻¹), z − 1 computed without cancellation."""
+def plant_response(plant: SampledPlant, theta: np.ndarray) -> np.ndarray:
+    """G(e^{iθ}) = z^{−d}·c((z − 1)I − E)⁻¹(Γ0 + Γ1 z⁻¹) at each θ [rad/sample], z − 1 computed without
+    cancellation."""
     n = plant.e.shape[0]
     zm1 = -2.0 * np.sin(theta / 2) ** 2 + 1j * np.sin(theta)
     zinv = np.exp(-1j * theta)
     mats = zm1[:, None, None] * np.eye(n) - plant.e[None, :, :]
     rhs = plant.g0[None, :] + plant.g1[None, :] * zinv[:, None]
     x = np.linalg.solve(mats, rhs[:, :, None])[:, :, 0]
-    g = (x @ plant.c) * np.exp(-1j * plant.d * theta)
+    return (x @ plant.c) * np.exp(-1j * plant.d * theta)
+
+
+def _return_difference(plant: SampledPlant, alpha: float, beta: float, theta: np.ndarray) -> np.ndarray:
+    """F(e^{iθ}) = 1 + C(z)·G(z), G the plant's response (:func:`plant_response`)."""
+    g = plant_response(plant, theta)
     ctrl = alpha + beta * (-np.expm1(-1j * theta))
     return 1.0 + ctrl * g
 

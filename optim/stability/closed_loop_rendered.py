@@ -19,7 +19,7 @@ import numpy as np
 from scipy import signal
 
 from models.velocity_filter import BackwardDifference, LowPass, MovingAverage, TransferFunctionFilter
-from optim.stability.closed_loop import SampledPlant, add_delay_chain, add_plant_rows
+from optim.stability.closed_loop import SampledPlant, add_delay_chain, add_plant_rows, plant_response
 
 __all__ = ["filter_polynomials", "rendered_closed_loop", "rendered_states", "rendered_return_difference",
            "filter_poles"]
@@ -102,12 +102,7 @@ def rendered_return_difference(plant: SampledPlant, spec, sample_time: float, al
                                mu: float, theta: np.ndarray) -> np.ndarray:
     """F(e^{jθ}) = 1 + C(z)·G(z), C from the difference equation's polynomials (argument principle)."""
     p, den = _controller(spec, sample_time, alpha, beta, mu)
-    n = plant.e.shape[0]
-    zm1 = -2.0 * np.sin(theta / 2) ** 2 + 1j * np.sin(theta)
+    g = plant_response(plant, theta)
     zinv = np.exp(-1j * theta)
-    mats = zm1[:, None, None] * np.eye(n) - plant.e[None, :, :]
-    rhs = plant.g0[None, :] + plant.g1[None, :] * zinv[:, None]
-    x = np.linalg.solve(mats, rhs[:, :, None])[:, :, 0]
-    g = (x @ plant.c) * np.exp(-1j * plant.d * theta)
     ctrl = np.polyval(p[::-1], zinv) / np.polyval(den[::-1], zinv)
     return 1.0 + ctrl * g

@@ -47,7 +47,8 @@ from optim.stability.undamped_cable import (
 )
 from optim.stability.undamped_cable import refuse as undamped_refusal
 
-__all__ = ["NO_DAMPING_REASON", "Crossover", "CriticalStiffness", "critical_stiffness", "scan_critical_stiffness", "max_stable_damping",
+__all__ = ["NO_DAMPING_REASON", "Crossover", "CriticalStiffness", "critical_stiffness", "scan_critical_stiffness",
+           "critical_from_crossings", "max_stable_damping",
            "linear_estimate", "gain_margin_db", "loop_plant"]
 
 #: Why K_cr = 0 without any damping (δ = β = 0), on every rung: the limit of the linear condition, and the double
@@ -467,6 +468,13 @@ def scan_critical_stiffness(device: Device, damping: float = 0.0, *, b_max: floa
         return -plant.inverse_response(theta) + beta * np.expm1(-1j * theta)
 
     found = positive_real_crossings(h, _grid(device, plant, beta))
+    return critical_from_crossings(device, found, damping, b_max)
+
+
+def critical_from_crossings(device: Device, found: list[Crossing], damping: float,
+                            b_max: float | None) -> CriticalStiffness:
+    """K_cr(B) from the positive-real crossings (θ, α) of the loop's h: every one a Crossover (θ/T [rad/s],
+    α·stiffness_scale [N/m]), the least of them K_cr; ∞ without one."""
     scale, t = device.stiffness_scale, device.sample_time
     crossovers = tuple(Crossover(frequency=c.angle / t, stiffness=c.value * scale) for c in found)
     if not crossovers:

@@ -333,14 +333,19 @@ def _no_lobe_above(device: Device, damping: float, theta: np.ndarray, ratio, upp
         if not k_new < upper:
             break
         upper, upper_t = k_new, t_new
-    lo, hi = 0.0, upper
-    for _ in range(64):
-        mid = 0.5 * (lo + hi)
+    return _bisect_passive(device, damping, 0.0, upper, 64), upper_t   # proven passive (the lower end)
+
+
+def _bisect_passive(device: Device, damping: float, good: float, bad: float, steps: int) -> float:
+    """``steps`` halvings of [good, bad] [N/m] on passivity_margin's proof (good proven passive or 0, bad not: the
+    passive K are an interval); the last proven-passive end."""
+    for _ in range(steps):
+        mid = 0.5 * (good + bad)
         if passivity_margin(device, mid, damping).passive:
-            lo = mid
+            good = mid
         else:
-            hi = mid
-    return lo, upper_t   # proven passive (the bisection's lower end)
+            bad = mid
+    return good
 
 
 def _proven_passive(device: Device, damping: float, upper: float) -> float:
@@ -357,23 +362,9 @@ def _proven_passive(device: Device, damping: float, upper: float) -> float:
         if not k > 0.0:
             break
         if passivity_margin(device, k, damping).passive:
-            good = k
-            for _ in range(20):
-                mid = 0.5 * (good + bad)
-                if passivity_margin(device, mid, damping).passive:
-                    good = mid
-                else:
-                    bad = mid
-            return good
+            return _bisect_passive(device, damping, k, bad, 20)
         bad = k
-    good = 0.0
-    for _ in range(64):
-        mid = 0.5 * (good + bad)
-        if passivity_margin(device, mid, damping).passive:
-            good = mid
-        else:
-            bad = mid
-    return good
+    return _bisect_passive(device, damping, 0.0, bad, 64)
 
 
 def max_passive_stiffness(device: Device, damping: float) -> float:

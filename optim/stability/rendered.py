@@ -51,7 +51,7 @@ from optim.stability.crossovers import (
     tangential_pairs,
     theta_min,
 )
-from optim.stability.margins import NO_DAMPING_REASON, CriticalStiffness, Crossover, loop_plant
+from optim.stability.margins import NO_DAMPING_REASON, CriticalStiffness, critical_from_crossings, loop_plant
 from optim.stability.undamped_cable import is_undamped_cable
 
 __all__ = ["MassRange", "rendered_critical_stiffness", "rendered_max_stable_damping", "rendered_mass_range",
@@ -273,13 +273,7 @@ def rendered_critical_stiffness(device: Device, damping: float, rendering: Rende
             "unstable already as K → 0⁺: no positive stiffness is stable"))
     h = k_loop(device, rendering, beta, mu)
     found = positive_real_crossings(h, _grid(device, rendering, beta))
-    scale, t = device.stiffness_scale, device.sample_time
-    crossovers = tuple(Crossover(frequency=c.angle / t, stiffness=c.value * scale) for c in found)
-    if not crossovers:
-        return CriticalStiffness(math.inf, None, (), damping, b_max,
-                                 reason="no phase crossover: every positive stiffness is stable")
-    best = min(crossovers, key=lambda c: c.stiffness)
-    return CriticalStiffness(best.stiffness, best.frequency, crossovers, damping, b_max)
+    return critical_from_crossings(device, found, damping, b_max)
 
 
 def rendered_mass_range(device: Device, stiffness: float, damping: float, rendering: Rendering) -> MassRange | None:
