@@ -225,8 +225,8 @@ def verify_robust_stiffness(box: UncertaintyBox, stiffness: float, damping: floa
             what += " (no interior search: the delay is too long for the closed loop's eigenvalues)"
     for kind, x in _points(box, relevant, extra):
         dev = box.device_at(x)
-        kcr = critical_stiffness(dev, damping).critical_stiffness
-        kcr = None if kcr is None or math.isinf(kcr) else float(kcr)
+        found = critical_stiffness(dev, damping).critical_stiffness
+        kcr = None if found is None or math.isinf(found) else float(found)
         # the critical gain of this device (not one implied by a margin): checked ± ε, K itself, passivity
         v = verify_stiffness_design(dev, stiffness, damping, None, True if passivity else None, critical=kcr)
         p = _point(box.describe(x), kind, kcr, stiffness, min_gain_margin_db, v)

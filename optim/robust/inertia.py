@@ -130,7 +130,8 @@ def robust_design_inertia(nominal: Device, req: InertiaRequirements, box: Uncert
     points = [box.nominal_point()] + [c for c in box.corners()]
     points = list(np.unique(np.array(points), axis=0))
     objective = "target_apparent_mass" if req.target_apparent_mass is not None else "min_apparent_mass"
-    evals, stats, step = 0, {}, None
+    evals, step = 0, None
+    stats: dict = {}
     for it in range(1, _MAX_OUTER + 1):
         loop = _ScenarioLoop(box.devices(np.array(points)), req.filter_order, t_ref)
         out = _design(loop, req, rho, lo_hz, hi_hz, t_of, nominal.mass, objective)

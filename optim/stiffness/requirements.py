@@ -42,10 +42,10 @@ class StiffnessRequirements(BaseModel):
     # Lax for internal callers (as models.device.Device); the service validates JSON numbers strictly.
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False, frozen=True)
 
-    min_gain_margin_db: float = Field(6.0, ge=0, le=120, description="gain margin on stiffness [dB], "
-                                                                     "20·log10(K_cr/K)")
-    passivity: bool = Field(False, description="require passivity (delayed Colgate–Schenkel form; a fractional "
-                                               "delay is rounded up to the next whole sample)")
+    min_gain_margin_db: float = Field(default=6.0, ge=0, le=120, description="gain margin on stiffness [dB], "
+                                                                             "20·log10(K_cr/K)")
+    passivity: bool = Field(default=False, description="require passivity (delayed Colgate–Schenkel form; a fractional "
+                                                       "delay is rounded up to the next whole sample)")
     passive_with_quantization: bool = Field(
         default=False, description="require passivity with the device's encoder and Coulomb friction too: K ≤ 2f_c/q beside "
                            "the delayed linear condition (Abbott & Okamura 2005; needs passivity and "
