@@ -85,33 +85,56 @@ def _polys(plant: RigidZOH, rendering: Rendering, loop: int, alpha: float, beta:
         p1, dg, r, d, omw = np.abs(p1), np.abs(dg), np.abs(r), np.abs(d), np.abs(omw)
         alpha, beta, mu = abs(alpha), abs(beta), abs(mu)
     cv = np.convolve
-    r_q = r
-    butter = len(r) == 3 and r[1] == 2.0 * r[0] and r[2] == r[0] and r[0] != 0.0
     if loop == LOOP_K:
         ctrl = beta * np.array([1.0, 0.0]) + mu * omw
         a1 = cv(cv(omw, p1), d)
         a2 = cv(cv(cv(dg, omw), ctrl), r)
         P = _add(a1, a2) if absolute else _add(-a1, -a2)
         return P, cv(dg, d)
-    if butter:
-        r_q = np.array([0.0, r[0]])          # r₀(1 + w)² → r₀·w: the same sign of Im
+    if butter_form(rendering.velocity.r):
+        r_q, p_mul = np.array([0.0, r[0]]), np.ones(1)       # r₀(1 + w)² → r₀·w: the same sign of Im
+    elif rendering.velocity.kind == "moving_average":
+        r_q, p_mul = _average_q(len(r), absolute)
     elif _circle_zeros(rendering.velocity.r):
-        return None                          # a zero of R on the circle (a moving average): a pole of h there
+        return None                          # a zero of R on the circle: a pole of h there
+    else:
+        r_q, p_mul = r, np.ones(1)
     if loop == LOOP_B:
         a1 = cv(p1, d)
         a2 = mu * cv(cv(dg, omw), r)
         P = _add(a1, a2) if absolute else _add(-a1, -a2)
-        return P, cv(dg, r_q)
+        return cv(P, p_mul), cv(dg, r_q)
     a1 = cv(p1, d)
     a3 = beta * cv(dg, r)
     if alpha == 0.0:
         P = _add(a1, a3) if absolute else _add(-a1, -a3)
-        return P, cv(cv(dg, omw), r_q)
+        return cv(P, p_mul), cv(cv(dg, omw), r_q)
     a1 = cv(omw, a1)
     a2 = alpha * cv(dg, d)
     a3 = cv(omw, a3)
     P = _add(_add(a1, a2), a3) if absolute else _add(_add(-a1, -a2), -a3)
-    return P, cv(cv(dg, np.array([0.0, 1.0]) if absolute else np.array([0.0, -1.0])), r_q)
+    return cv(P, p_mul), cv(cv(dg, np.array([0.0, 1.0]) if absolute else np.array([0.0, -1.0])), r_q)
+
+
+def butter_form(r: tuple[float, ...]) -> bool:
+    """R = r₀(1 + w)² exactly (scipy's second-order Butterworth numerator)."""
+    return len(r) == 3 and r[1] == 2.0 * r[0] and r[2] == r[0] and r[0] != 0.0
+
+
+def _average_q(n: int, absolute: bool) -> tuple[np.ndarray, np.ndarray]:
+    """(Q's replacement for R, P's multiplier) of an n-sample moving average, R = (1 + w + … + w^{n−1})/n: for even
+    n, R = (1 + w)·R'(w) with R' = (1 + w² + … + w^{n−2})/n, and P·(1 + w) over R'·(1 + w)² has Im of the same sign
+    as P over R; (1 + w)² → w as for Butterworth.  The other zeros, e^{2πjk/n}, stay (their pieces are dropped)."""
+    if n % 2:
+        return np.full(n, 1.0 / n), np.ones(1)
+    rp = np.zeros(n - 1)
+    rp[::2] = 1.0 / n
+    return np.concatenate([[0.0], rp]), np.ones(2)
+
+
+def average_zero_angles(n: int) -> tuple[float, ...]:
+    """θ ∈ (0, π) of an n-sample average's zeros on the circle, 2πk/n (π, for even n, is divided out)."""
+    return tuple(2.0 * math.pi * k / n for k in range(1, (n + 1) // 2))
 
 
 def _add(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -227,13 +250,16 @@ def _isolate(dk, err, out, max_pieces):
                 continue
         if rho <= 1e-16 or top + 2 > stack.shape[0]:
             return -3
-        pm = _clenshaw(dk[0], m)
+        # split a little off the centre: a root at a symmetric point (x = 0: the average's e^{±jπ/2}) would sit on
+        # both halves' ends, where |p| ≤ E never certifies
+        xs = x1 + 0.4812 * (x2 - x1)
+        pm = _clenshaw(dk[0], xs)
         # the half nearer x = 1 (lower θ) last: it comes off the stack first
         stack[top, 0] = x1
-        stack[top, 1] = m
+        stack[top, 1] = xs
         stack[top, 2] = p1
         stack[top, 3] = pm
-        stack[top + 1, 0] = m
+        stack[top + 1, 0] = xs
         stack[top + 1, 1] = x2
         stack[top + 1, 2] = pm
         stack[top + 1, 3] = p2
@@ -379,6 +405,18 @@ def rigid_real_crossings(plant: RigidZOH, rendering: Rendering, loop: int, alpha
     count = _isolate(dk, err, out, MAX_PIECES)
     if count < 0:
         return None
+    if loop != LOOP_K and rendering.velocity.kind == "moving_average":
+        # a zero of R on the circle is a pole of h_B, h_M: its piece (the one root there is that pole) is dropped
+        keep = []
+        for i in range(count):
+            t1, t2 = out[i, 0], out[i, 1]
+            inside = [q for q in average_zero_angles(len(rendering.velocity.r)) if t1 <= q <= t2]
+            if any(abs(q - t1) <= 1e-12 * q or abs(t2 - q) <= 1e-12 * q for q in inside):
+                return None
+            if not inside:
+                keep.append(i)
+        out = out[keep]
+        count = len(keep)
     nums = _numbers(plant)
     r = np.asarray(rendering.velocity.r, dtype=float)
     dd = np.asarray(rendering.velocity.d, dtype=float)

@@ -64,7 +64,7 @@ def test_certified_crossings_match_the_scan():
                 assert tf == pytest.approx(ts, rel=1e-9, abs=1e-12), where
                 assert vf == pytest.approx(vs, rel=1e-8, abs=1e-12 * max(1.0, abs(vs))), where
                 assert of == os_, where
-    assert certified >= 0.6 * total, (certified, total)
+    assert certified >= 0.9 * total, (certified, total)   # 594 of 600 when written
 
 
 def test_k_cr_by_the_certified_path_equals_the_scan_and_is_fast():
