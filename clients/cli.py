@@ -233,7 +233,7 @@ def boundary(preset: Preset = None, sets: Sets = None, device_file: DeviceFile =
 
     def human() -> None:
         o = r.optimum
-        rows = [("largest stable damping B_max", r.max_stable_damping, "N·s/m"),
+        rows: list[tuple] = [("largest stable damping B_max", r.max_stable_damping, "N·s/m"),
                 ("optimum damping", o.damping, "N·s/m"), ("best K_cr", o.critical_stiffness, "N/m"),
                 ("  its crossover", o.crossover_frequency, "rad/s"), ("points", len(r.points), ""),
                 ("method", r.method, ""), ("elapsed", r.elapsed_ms, "ms")]
