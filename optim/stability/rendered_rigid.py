@@ -138,8 +138,11 @@ def average_zero_angles(n: int) -> tuple[float, ...]:
 
 
 def _add(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    n = max(a.size, b.size)
-    return np.pad(a, (0, n - a.size)) + np.pad(b, (0, n - b.size))
+    if a.size < b.size:
+        a, b = b, a
+    out = a.copy()
+    out[:b.size] += b
+    return out
 
 
 def _circle_zeros(r: tuple[float, ...]) -> bool:
@@ -161,7 +164,8 @@ def _sine_coefficients(P: np.ndarray, Q: np.ndarray, absolute: bool) -> np.ndarr
     return c
 
 
-def _chebyshev_t(c: np.ndarray) -> np.ndarray:
+@kernel
+def _chebyshev_t(c):
     """a_j with Σ c_k U_{k−1}(x) = Σ a_j T_j(x): U_m = 2(T_m + T_{m−2} + …) (+ T₀ once for m even)."""
     n = c.size
     a = np.zeros(max(n, 1))
@@ -174,6 +178,25 @@ def _chebyshev_t(c: np.ndarray) -> np.ndarray:
         if m % 2 == 0:
             a[0] += c[k - 1]
     return a
+
+
+@kernel
+def _taylor_table(a):
+    """Row k: the Chebyshev series of p^{(k)}/k! (p = Σ a_j T_j), by c'_j = c'_{j+2} + 2(j + 1)c_{j+1}, c'_0 halved
+    (numpy.polynomial.chebyshev.chebder's recurrence), divided by k."""
+    n = a.size
+    dk = np.zeros((n, n))
+    dk[0, :] = a
+    for k in range(1, n):
+        prev = dk[k - 1]
+        m = n - k                        # the derivative's length
+        for j in range(m - 1, -1, -1):
+            nxt = dk[k, j + 2] if j + 2 < m else 0.0
+            dk[k, j] = nxt + 2.0 * (j + 1) * prev[j + 1]
+        dk[k, 0] *= 0.5
+        for j in range(m):
+            dk[k, j] /= k
+    return dk
 
 
 # ---------------------------------------------------------------- compiled kernels
@@ -386,17 +409,8 @@ def rigid_real_crossings(plant: RigidZOH, rendering: Rendering, loop: int, alpha
     big = float(np.sum(aabs))
     if not (big > 0.0 and math.isfinite(big)) or n > MAX_DEGREE:
         return None
-    dk = np.zeros((n, n))
-    dkabs = np.zeros((n, n))
-    cur, curabs = a.copy(), aabs.copy()
-    for k in range(n):
-        dk[k, :cur.size] = cur
-        dkabs[k, :curabs.size] = curabs
-        if cur.size > 1:
-            cur = np.polynomial.chebyshev.chebder(cur) / (k + 1)
-            curabs = np.polynomial.chebyshev.chebder(curabs) / (k + 1)
-        else:
-            cur, curabs = np.zeros(1), np.zeros(1)
+    dk = _taylor_table(a)
+    dkabs = _taylor_table(aabs)          # every term positive: a bound of each |coefficient|
     err = 16.0 * (n + 8) ** 2 * _EPS * np.sum(dkabs, axis=1)
     err[0] += _EPS * float(np.sum(dkabs[1]))       # x = cos θ rounded: |p'|·ε
     if not np.all(np.isfinite(err)):
