@@ -205,7 +205,7 @@ def main() -> None:
         "trade for four cutoffs (rigid model).  The ideal cutoff of a force-noise-limited design (Chawda, Celik & "
         "O'Malley 2015) sits where the two meet; designing it is `requirements.velocity_filter` with "
         "`design: true` (the section \"Designed cutoff\").  The M-width column: the filtered wall tolerates a far "
-        "larger virtual mass before it goes unstable, and about as much negative mass (inertia compensation).",
+        "larger positive virtual mass before it goes unstable, and less inertia compensation (negative M).",
         "",
         "![K_cr(B) for four cutoffs](virtual_environment.png)",
         "",
