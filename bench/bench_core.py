@@ -483,8 +483,8 @@ def render_filtered(rows: list[FilteredRow], load: tuple[float, float] | None = 
                      f"{statistics.median(r.exact_ms):.3f} | {_p95(r.exact_ms):.3f} | {today:.3f} | "
                      f"{statistics.median(r.exact_ms) / today:.1f} | {r.ctrl:.6g}{' **wrong**' if wd else ''} | "
                      f"{r.ctrl_min:.6g}{' **wrong**' if wm else ''} | {statistics.median(r.ctrl_ms):.2f} | "
-                     f"{ratio:.3f} |")
-    lines += ["", f"Median time ratio zwidth/python-control on filtered walls: {statistics.median(ratios):.3f} "
+                     f"{ratio:.2g} |")
+    lines += ["", f"Median time ratio zwidth/python-control on filtered walls: {statistics.median(ratios):.2g} "
                   f"(max {max(ratios):.3f}).", FILTERED_END, ""]
     return "\n".join(lines)
 
