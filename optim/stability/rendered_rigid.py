@@ -397,6 +397,7 @@ def rigid_real_crossings(plant: RigidZOH, rendering: Rendering, loop: int, alpha
     certificate does not close (the caller scans).  The Nyquist point is listed when h(π) is finite and non-zero."""
     if plant.delta == 0.0:
         return None                                   # M̃ vanishes at w = −1: a pole of h at π
+    alpha, beta, mu = float(alpha), float(beta), float(mu)   # one compiled signature
     polys = _polys(plant, rendering, loop, alpha, beta, mu, absolute=False)
     if polys is None:
         return None
