@@ -69,7 +69,9 @@ def test_cutoff_and_mass_sweep_rows_are_the_analysis(client):
     assert all(by[(20.0, m)] < by[(200.0, m)] for m in (-1.0, 0.0, 2.0))
 
 
+@pytest.mark.slow
 def test_critical_stiffness_study_sweeps_the_mass_without_a_base_controller(client):
+    """≈ 20 s at load 16 alone (the study worker's start and kernels), ≈ 0.3 s after the other study."""
     body = {"problem": "critical_stiffness", "base": {"device": LHIFAM_RIGID, "requirements": {"damping": 20.0}},
             "sweep": {"controller.mass": [0.0, 1.0]}}
     rows = _run(client, body)
