@@ -20,6 +20,7 @@ def client(tmp_path_factory):
     mp = pytest.MonkeyPatch()
     mp.setenv("ZWIDTH_STUDY_WORKERS", "1")
     mp.setenv("ZWIDTH_STUDY_CHUNK_SIZE", "4")
+    mp.setenv("ZWIDTH_PRESTART_WORKERS", "false")     # the 422 cases need no worker: none started up front
     with TestClient(create_app(Settings(database_url=f"sqlite:///{db}"))) as c:
         yield c
     mp.undo()
