@@ -10,6 +10,9 @@ cutoffs into docs/virtual_environment.png and writes docs/virtual_environment.md
 from __future__ import annotations
 
 import math
+import os
+import statistics
+import time
 from pathlib import Path
 
 import numpy as np
@@ -18,6 +21,8 @@ from models.device import Device
 from models.velocity_filter import LowPass, rendering
 from optim.stability.analysis import analyse_stability
 from optim.stability.boundary import stability_boundary
+from optim.stability.margins import critical_stiffness
+from optim.stability.rendered import clear_caches, rendered_critical_stiffness
 from optim.verification import verify_analysis, verify_critical_stiffness
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
@@ -32,6 +37,21 @@ def _step_peak(spec, t: float) -> float:
         return 1.0 / t
     a = math.exp(-2 * math.pi * spec.cutoff_hz * t)
     return (1.0 - a) / t          # s_k = (1 − a)·a^k / T: the first sample
+
+
+def _cost(dev: Device, damping: float, spec) -> tuple[float, float]:
+    """(median ms of a filtered exact K_cr with its caches cleared, median ms of today's exact K_cr), same run."""
+    r = rendering(spec, 0.0, dev.sample_time)
+    filtered, today = [], []
+    for _ in range(15):
+        clear_caches()
+        t0 = time.perf_counter()
+        rendered_critical_stiffness(dev, damping, r)
+        filtered.append(time.perf_counter() - t0)
+        t0 = time.perf_counter()
+        critical_stiffness(dev, damping)
+        today.append(time.perf_counter() - t0)
+    return 1e3 * statistics.median(filtered), 1e3 * statistics.median(today)
 
 
 def main() -> None:
@@ -49,6 +69,8 @@ def main() -> None:
             a = analyse_stability(dev, k, b_opt, "exact", rendering=r)
             v = verify_analysis(dev, a, (spec, 0.0))
             rows.append((name, label, bd, a, v))
+    load = os.getloadavg()[0]
+    costs = {name: _cost(dev, 50.0, spec50) for name, dev in (("rigid", rigid), ("cable", cable))}
     lines = [
         "# The rendered virtual environment: velocity filters and virtual mass",
         "",
@@ -82,19 +104,29 @@ def main() -> None:
         "| `POST /v1/simulate` | `scene.controller.mass`, `scene.controller.velocity_filter`: the wall as one "
         "difference equation in the exact recursion and the per-sample loop; the verdict's closed-loop poles include "
         "the filter's states |",
-        "| clients | `zwidth analyze --velocity-filter low_pass:50:1 --virtual-mass -1`; the Python client's "
-        "`StabilityResponse.mass_range` |",
+        "| `POST /v1/studies` | `base.controller: {mass, velocity_filter}` for the `stability` and "
+        "`critical_stiffness` problems; sweep `controller.mass`, `controller.velocity_filter.cutoff_hz` (and "
+        "`.order`, `.samples`); each row is the exact analysis of its point, with `mass_range.min`/`.max` |",
+        "| clients | `zwidth analyze` and `zwidth boundary` with `--velocity-filter low_pass:50:1` "
+        "(kind:cutoff_hz:order; `backward_difference`, `moving_average:N`) and `--virtual-mass M`; the Python "
+        "client's `stability(device, controller)` and `boundary(device, controller)`, `StabilityResponse.mass_range`; "
+        "MATLAB: the controller struct with `mass` and `velocity_filter` in `zwidth_analyze` and "
+        "`zwidth_boundary` (opts.controller), clients/matlab/example_lhifam_filter.m |",
+        "| explorer | the boundary tab's rendered-wall block (kind, cutoff, order, samples, virtual mass): the "
+        "boundary of today's wall and of the chosen one overlaid, B_max and the optimum with the filter, the M-width "
+        "at the optimum's B with half its K_cr |",
         "",
-        "Not yet: designs (`requirements.velocity_filter`, the cutoff designed in CasADi, the noise rules "
-        "`max_force_noise_rms`), studies sweeping `controller.velocity_filter.cutoff_hz` or `controller.mass`, "
-        "MATLAB and the explorer.  Cost: a filtered K_cr takes the scan of h_K plus the K → 0⁺ loop's crossings "
-        "(≈ 6–40 ms on the loaded test machine, docs/bench_core.md), well above today's compiled rigid path.",
+        "Designs (`requirements.velocity_filter`, the cutoff designed in CasADi, the noise rules "
+        "`max_force_noise_rms`) are the design part of issue 30.  Cost, measured by this script (load average "
+        f"{load:.1f} on {os.cpu_count()} shared cores; docs/bench_core.md has the same-run table against "
+        "python-control): at B = 50 N·s/m with the 50 Hz filter, a filtered exact K_cr with its caches cleared takes "
+        f"{costs['rigid'][0]:.2f} ms on the rigid model (today's exact K_cr {costs['rigid'][1]:.3f} ms) and "
+        f"{costs['cable'][0]:.2f} ms on the cable model (today's {costs['cable'][1]:.3f} ms).",
         "",
         "## How it is exact",
         "",
         "Each gain enters the closed loop 1 + C·G = 0 affinely, so at a pole z = e^{jθ}: K = −1/G − B·V − M·A, "
-        "B = (−1/G − M·A)/V, M = (−1/G − K − B·V)/A.  K_cr is the smallest positive real value of the first "
-        "(the adaptive crossover scan of optim.stability.crossovers, every bracket refined to 4 ulp), provided the "
+        "B = (−1/G − M·A)/V, M = (−1/G − K − B·V)/A.  K_cr is the smallest positive real value of the first, provided the "
         "loop with K → 0⁺ is stable: z = 1 is a pole of it for every filter (V(1) = 0) and moves inwards with K, the "
         "other poles are counted along a path of (B, M) from (0, 0), across each real value of the second and third "
         "functions, each crossing's direction given by the sign of d Im/dθ (optim/stability/rendered.py).  The "
@@ -102,6 +134,18 @@ def main() -> None:
         "loop again as a difference equation with the filter's past positions and forces as states "
         "(optim/stability/closed_loop_rendered.py) and checks K_cr·(1 ∓ 1e-6) by its eigenvalues: "
         "docs/properties_filter.md has the property run.",
+        "",
+        "How every real value is found.  On a rigid device each of the three functions is a ratio of polynomials in "
+        "z⁻¹ (the ZOH plant's closed form, the filter's R and D), so Im h = 0 on (0, π) exactly where a polynomial "
+        "p(cos θ) vanishes (Im h·|Q|² = Σ c_k sin kθ = sin θ·p(cos θ)).  optim/stability/rendered_rigid.py isolates "
+        "p's roots with a certificate: [−1, 1] is cut until each piece is either root-free (|p(m)| exceeds the exact "
+        "Taylor bound Σ (|p⁽ᵏ⁾(m)|/k! + rounding)·ρᵏ of the rest) or holds exactly one root (a sign change, and p' "
+        "certified of one sign by the same bound); each root's piece then brackets the accurate h (the expm1 forms), "
+        "whose signs at both ends must agree, and is refined to 4 ulp.  Where no certificate closes (a tangency, a "
+        "crossing at θ → 0⁺ below the rounding bound, a frictionless device, a cable) the adaptive crossover scan of "
+        "optim.stability.crossovers answers instead, every bracket refined to 4 ulp.  "
+        "tests/optim/stability/test_rendered_rigid.py holds the two against each other on 600 random loops "
+        "(594 certified, every crossing and direction equal).",
         "",
         "Passivity: b > (T/2)·max over θ of Re{(1 − e^{−jθ})·e^{−jdθ}·C(e^{jθ})}/(1 − cos θ) with d whole samples of "
         "delay (a fraction rounded up).  With a first-order filter mapped by backward differences, no delay and "
@@ -131,7 +175,9 @@ def main() -> None:
         r = rendering(spec, 0.0, t)
         res = analyse_stability(rigid, None, b, "exact", rendering=r)
         ok = verify_critical_stiffness(rigid, b, res.critical_stiffness, render=(spec, 0.0)).verdict
-        fixed[label] = (b, res.critical_stiffness, ok)
+        wall = analyse_stability(rigid, 0.5 * res.critical_stiffness, b, "exact", rendering=r)
+        wall_ok = verify_analysis(rigid, wall, (spec, 0.0)).verdict
+        fixed[label] = (b, res.critical_stiffness, ok, wall, wall_ok)
     lines += [
         "",
         "The filter's phase lag lowers the boundary's optimum (the best K_cr above, at a smaller B) and moves its "
@@ -142,18 +188,24 @@ def main() -> None:
         f"first-order filter it is (1 − a)/T = {1 - a:.4f}/T (a = e^(−2π·50·T) = {a:.4f}).  With a "
         f"{FORCE_STEP:g} N limit on that step:",
         "",
-        "| velocity | largest B [N·s/m] | K_cr at that B, rigid model [N/m] | verify |",
-        "|---|---|---|---|",
+        "| velocity | largest B [N·s/m] | K_cr at that B, rigid model [N/m] | B_max [N·s/m] | verify | "
+        "wall K = K_cr/2 [N/m] | passivity needs b > [N·s/m] | passive (b = 3.5) | M-width at the wall [kg] | "
+        "verify the wall |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
-    for label, (b, k, ok) in fixed.items():
-        lines.append(f"| {label} | {b:.6g} | {k:.6g} | {ok} |")
+    for label, (b, k, ok, wall, wall_ok) in fixed.items():
+        mr = wall.mass_range
+        lines.append(f"| {label} | {b:.6g} | {k:.6g} | {wall.max_stable_damping:.6g} | {ok} | {wall.stiffness:.6g} | "
+                     f"{wall.passivity_required_damping:.6g} | {wall.passive} | [{mr.min:.4g}, {mr.max:.4g}] | "
+                     f"{wall_ok} |")
     lines += [
         "",
         "So the filter lets the lab use a damper the encoder's noise would forbid, and that damper raises K_cr far "
         "more than the filter's lag lowers it.  Too low a cutoff and the lag wins: the boundary below shows the "
         "trade for four cutoffs (rigid model).  The ideal cutoff of a force-noise-limited design (Chawda, Celik & "
-        "O'Malley 2015) sits where the two meet; designing it (`requirements.velocity_filter` with `design: true`) "
-        "is not built yet.",
+        "O'Malley 2015) sits where the two meet; designing it is `requirements.velocity_filter` with "
+        "`design: true` (the section \"Designed cutoff\").  The M-width column: the filtered wall tolerates a far "
+        "larger positive virtual mass before it goes unstable, and less inertia compensation (negative M).",
         "",
         "![K_cr(B) for four cutoffs](virtual_environment.png)",
         "",
@@ -169,7 +221,7 @@ def main() -> None:
         lines.append(f"| {label} | {bd.max_stable_damping:.6g} | {bd.optimum.damping:.6g} | "
                      f"{bd.optimum.critical_stiffness:.6g} |")
     _plot(curves)
-    lines.append("")
+    lines += ["", "## Designed cutoff", ""]
     (DOCS / "virtual_environment.md").write_text("\n".join(lines))
     print("\n".join(lines))
 

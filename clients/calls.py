@@ -151,8 +151,10 @@ def stability(device: DeviceLike, controller: PartLike | None = None, *,
               grid_points: int | None = None, verify: bool = False) -> Call[StabilityResponse]:
     """``POST /v1/analysis/stability``: K_cr(B) [N/m], every crossover, margin and passivity of a wall.
 
-    ``controller`` is ``{"stiffness": K [N/m], "damping": B [N·s/m]}``; without it
-    the analysis is at B = 0 and has no margin.  ``method`` is the rung of the
+    ``controller`` is ``{"stiffness": K [N/m], "damping": B [N·s/m]}``, optionally with the rendered wall's
+    ``"mass": M [kg]`` and ``"velocity_filter": {"kind": "low_pass", "cutoff_hz": f, "order": 1 | 2}`` (or
+    ``moving_average`` with ``samples``, ``transfer_function``; then ``.mass_range`` answers the stable M); without
+    it the analysis is at B = 0 and has no margin.  ``method`` is the rung of the
     accuracy ladder (server default ``exact``).  ``verify=True`` adds ``.verification``:
     the closed loop just below and above the answer, checked independently (docs/verification.md).
     """
@@ -173,11 +175,15 @@ def workspace(device: Mapping[str, Any], poses: Mapping[str, Any], normals: list
                 json=_body(device=device, poses=poses, normals=normals, controller=controller))
 
 
-def boundary(device: DeviceLike, *, damping_max: float | None = None,
+def boundary(device: DeviceLike, controller: PartLike | None = None, *, damping_max: float | None = None,
              points: int | None = None, verify: bool = False) -> Call[BoundaryResponse]:
-    """``POST /v1/analysis/boundary``: K_cr(B) [N/m] from B = 0 to ``damping_max`` [N·s/m] and its optimum."""
+    """``POST /v1/analysis/boundary``: K_cr(B) [N/m] from B = 0 to ``damping_max`` [N·s/m] and its optimum.
+
+    ``controller`` is the rendered wall on the boundary, ``{"mass": M [kg], "velocity_filter": {"kind": "low_pass",
+    "cutoff_hz": f, "order": 1}}`` (either optional; default today's wall)."""
     return Call("POST", "/v1/analysis/boundary", "analysis", _model(BoundaryResponse),
-                json=_body(device=device, damping_max=damping_max, points=points, verify=verify or None))
+                json=_body(device=device, controller=controller, damping_max=damping_max, points=points,
+                           verify=verify or None))
 
 
 def force_feedforward(device: DeviceLike, filter: PartLike | None = None, *,  # noqa: A002

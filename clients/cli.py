@@ -209,6 +209,47 @@ def analyze(preset: Annotated[str | None, typer.Argument(help="preset name, or '
         raise typer.Exit(c.EXIT_NO)
 
 
+# ------------------------------------------------------------------------------------------------ boundary
+@app.command()
+@handle_errors
+def boundary(preset: Preset = None, sets: Sets = None, device_file: DeviceFile = None,
+             damping_max: Annotated[float | None, typer.Option(help="largest B [N·s/m]; default B_max")] = None,
+             points: Annotated[int | None, typer.Option(help="values of B on the curve")] = None,
+             velocity_filter: Annotated[str | None, typer.Option(
+                 help="the velocity the damper sees: backward_difference | low_pass:F_HZ[:ORDER] | "
+                      "moving_average:N")] = None,
+             virtual_mass: Annotated[float | None, typer.Option(help="virtual mass M of the walls [kg]")] = None,
+             verify: c.Verify = False, local: Local = False, url: Url = DEFAULT_URL, token: Token = None,
+             as_json: AsJson = False) -> None:
+    """The stability boundary K_cr(B) from B = 0 to B_max and its optimum (POST /v1/analysis/boundary), for
+    today's wall or the rendered one (--velocity-filter, --virtual-mass)."""
+    controller = None
+    if velocity_filter is not None or virtual_mass is not None:
+        controller = {**({"mass": virtual_mass} if virtual_mass is not None else {}),
+                      **({"velocity_filter": parse_velocity_filter(velocity_filter)} if velocity_filter else {})}
+    body = c.assemble({"device": c.device_root(preset, device_file, sets), "controller": controller}, sets)
+    with c.client_with_status(Connection(local, url, token), "computing the boundary…", as_json) as zw:
+        r = zw.boundary(body["device"], body.get("controller"), damping_max=damping_max, points=points, verify=verify)
+
+    def human() -> None:
+        o = r.optimum
+        rows: list[tuple] = [("largest stable damping B_max", r.max_stable_damping, "N·s/m"),
+                ("optimum damping", o.damping, "N·s/m"), ("best K_cr", o.critical_stiffness, "N/m"),
+                ("  its crossover", o.crossover_frequency, "rad/s"), ("points", len(r.points), ""),
+                ("method", r.method, ""), ("elapsed", r.elapsed_ms, "ms")]
+        out.print(c.table(f"stability boundary of {preset or 'the device'}", rows + c.verification_rows(r.verification),
+                          device=body["device"]))
+        t = Table(title="K_cr(B)", title_justify="left")
+        for col in ("B [N·s/m]", "K_cr [N/m]", "ω_cr [rad/s]"):
+            t.add_column(Text(col), justify="right")
+        for p in r.points:
+            t.add_row(c.fmt(p.damping), c.fmt(p.critical_stiffness), c.fmt(p.crossover_frequency, 5))
+        out.print(t)
+
+    emit(r, as_json, human)
+    c.exit_if_contradicted(r.verification)
+
+
 # ------------------------------------------------------------------------------------------------ feedforward
 @app.command()
 @handle_errors

@@ -8,7 +8,12 @@ function r = zwidth_analyze(device, controller, opts)
 %   DEVICE is a struct with the HTTP API's device fields in SI units (preset,
 %   mass [kg], damping [N*s/m], sample_time [s], delay [s], cable, human,
 %   force_sensor).  CONTROLLER is the wall K [N/m], B [N*s/m] to check ([] for
-%   K_cr at B = 0).  OPTS takes method ('linear', 'grid', 'exact', 'reference')
+%   K_cr at B = 0), optionally the rendered wall's virtual mass and velocity filter:
+%     struct('stiffness', 2e4, 'damping', 50, 'mass', -1, ...
+%            'velocity_filter', struct('kind', 'low_pass', 'cutoff_hz', 50, 'order', 1))
+%   (kinds: backward_difference, low_pass with cutoff_hz and order 1|2, moving_average with
+%   samples, transfer_function with numerator and denominator); then r.mass_range.min/max [kg]
+%   is the stable virtual mass at (K, B).  OPTS takes method ('linear', 'grid', 'exact', 'reference')
 %   and the connection options of ZWIDTH_REQUEST.
 %
 %   r.critical_stiffness [N/m], r.crossover_frequency [rad/s], r.gain_margin_db [dB],

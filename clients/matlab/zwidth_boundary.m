@@ -4,8 +4,13 @@ function r = zwidth_boundary(device, opts)
 %   r = zwidth_boundary(struct('preset', 'lhifam'))
 %   r = zwidth_boundary(device, struct('points', 80, 'damping_max', 150))
 %
+%   r = zwidth_boundary(device, struct('controller', struct('mass', 1, 'velocity_filter', ...
+%                         struct('kind', 'low_pass', 'cutoff_hz', 50, 'order', 1))))
+%
 %   OPTS takes points (values of B on the curve, default 50), damping_max
-%   [N*s/m] (default B_max) and the connection options of ZWIDTH_REQUEST.
+%   [N*s/m] (default B_max), controller (the rendered wall on the boundary: its
+%   virtual mass [kg] and velocity_filter, as in ZWIDTH_ANALYZE; default today's
+%   wall) and the connection options of ZWIDTH_REQUEST.
 %
 %   r.points is a struct array with fields damping [N*s/m], critical_stiffness
 %   [N/m], crossover_frequency [rad/s] and linear_estimate [N/m]; r.optimum is
@@ -17,5 +22,6 @@ function r = zwidth_boundary(device, opts)
   body = struct('device', device);
   if isfield(opts, 'points'), body.points = opts.points; end
   if isfield(opts, 'damping_max'), body.damping_max = opts.damping_max; end
+  if isfield(opts, 'controller') && ~isempty(opts.controller), body.controller = opts.controller; end
   r = zwidth_request('POST', '/v1/analysis/boundary', body, opts);
 end

@@ -41,9 +41,11 @@ from typing import Literal
 import numpy as np
 
 from models.device import Device
+from models.discretize import RigidZOH
 from models.velocity_filter import Rendering
 from optim.errors import InputError
 from optim.stability.crossovers import (
+    Crossing,
     positive_real_crossings,
     refine_grid,
     scan_grid,
@@ -52,6 +54,7 @@ from optim.stability.crossovers import (
     theta_min,
 )
 from optim.stability.margins import NO_DAMPING_REASON, CriticalStiffness, critical_from_crossings, loop_plant
+from optim.stability.rendered_rigid import LOOP_B, LOOP_K, LOOP_M, rigid_real_crossings
 from optim.stability.undamped_cable import is_undamped_cable
 
 __all__ = ["MassRange", "rendered_critical_stiffness", "rendered_max_stable_damping", "rendered_mass_range",
@@ -178,15 +181,35 @@ def _walk(passages, start: float, end: float, unstable: int | None) -> int | Non
     return unstable if unstable >= 0 else None
 
 
+def _certified(device: Device, rendering: Rendering, loop: int, alpha: float, beta: float,
+               mu: float) -> list[Passage] | None:
+    """The real values of a rigid loop's h by optim.stability.rendered_rigid's certified isolation (no scan), or None
+    where its certificate does not close (a cable device, a tangency, a zero of the estimate on the circle)."""
+    plant = loop_plant(device)
+    if not isinstance(plant, RigidZOH):
+        return None
+    try:
+        found = rigid_real_crossings(plant, rendering, loop, alpha, beta, mu)
+    except (ZeroDivisionError, FloatingPointError, ValueError, np.linalg.LinAlgError):
+        return None
+    return None if found is None else [Passage(t, v, o) for t, v, o in found]
+
+
 @lru_cache(maxsize=1024)
 def _mass_crossings(device: Device, rendering: Rendering, beta: float) -> tuple[Passage, ...]:
     """μ values (dimensionless) where the K = 0⁺ loop at β gets a pole on the circle."""
+    fast = _certified(device, rendering, LOOP_M, 0.0, beta, 0.0)
+    if fast is not None:
+        return tuple(fast)
     return tuple(real_crossings(_m_loop(device, rendering, 0.0, beta), _grid(device, rendering, beta)))
 
 
 @lru_cache(maxsize=1024)
 def _damper_crossings(device: Device, rendering: Rendering, mu: float) -> tuple[Passage, ...]:
     """β values (dimensionless) where the K = 0⁺ loop at μ gets a pole on the circle."""
+    fast = _certified(device, rendering, LOOP_B, 0.0, 0.0, mu)
+    if fast is not None:
+        return tuple(fast)
     return tuple(real_crossings(_b_loop(device, rendering, mu), _grid(device, rendering, 0.0)))
 
 
@@ -271,8 +294,11 @@ def rendered_critical_stiffness(device: Device, damping: float, rendering: Rende
         return CriticalStiffness(0.0, None, (), damping, b_max, reason=(
             f"with B = {damping:.6g} N·s/m, M = {rendering.mass:.6g} kg and this velocity filter the loop is "
             "unstable already as K → 0⁺: no positive stiffness is stable"))
-    h = k_loop(device, rendering, beta, mu)
-    found = positive_real_crossings(h, _grid(device, rendering, beta))
+    fast = _certified(device, rendering, LOOP_K, 0.0, beta, mu)
+    if fast is not None:
+        found = [Crossing(c.angle, c.value) for c in fast if c.value > 0.0]
+    else:
+        found = positive_real_crossings(k_loop(device, rendering, beta, mu), _grid(device, rendering, beta))
     return critical_from_crossings(device, found, damping, b_max)
 
 
@@ -284,8 +310,10 @@ def rendered_mass_range(device: Device, stiffness: float, damping: float, render
         return None
     alpha, beta = stiffness / device.stiffness_scale, damping / device.damping_scale
     mu = rendering.mass / device.mass
-    h = _m_loop(device, rendering, alpha, beta)
-    values = [c.value for c in real_crossings(h, _grid(device, rendering, beta)) if c.outward != 0]
+    passages = _certified(device, rendering, LOOP_M, alpha, beta, mu)
+    if passages is None:
+        passages = real_crossings(_m_loop(device, rendering, alpha, beta), _grid(device, rendering, beta))
+    values = [c.value for c in passages if c.outward != 0]
     lo = max((v for v in values if v < mu), default=-math.inf)
     hi = min((v for v in values if v > mu), default=math.inf)
     return MassRange(lo * device.mass, hi * device.mass)

@@ -69,7 +69,9 @@ def evaluate_batch(devices: Sequence[Device], requirements: Sequence[Mapping[str
     The requirements must already be valid (optim.studies.problems checks each point's).  When the batch
     raises, it is split in halves down to the point that raises, so that only that point fails.
     """
-    return by_delay_class(devices, requirements, _evaluate_same_class)
+    from optim.studies.rendered_study import split_rendered
+    return split_rendered("critical_stiffness", devices, requirements,
+                          lambda d, r: by_delay_class(d, r, _evaluate_same_class))
 
 
 Batch = Callable[[Sequence[Device], Sequence[Mapping[str, Any]]], list[tuple[dict | None, str | None]]]

@@ -136,6 +136,10 @@ def _is_finite_number(value: Any) -> bool:
 
 def _check_stability_requirements(req: Mapping[str, Any]) -> None:
     for key, value in req.items():
+        if key == "controller":                # the rendered wall (plan_study's ``controller``)
+            from optim.studies.rendered_study import check_controller
+            check_controller(value)
+            continue
         if key not in _STABILITY_REQUIREMENTS:
             raise InputError(key, f"unknown requirement of the stability problem "
                              f"(known: {', '.join(_STABILITY_REQUIREMENTS)})")
@@ -314,7 +318,7 @@ def _axis(path: str, kind: str, spec: Any, design: str) -> Axis:
 
 
 def _set(tree: dict, path: str, value: Any) -> None:
-    keys = path.split(".")
+    keys = _keys(path)
     node = tree
     for key in keys[:-1]:
         child = node.get(key)
@@ -384,6 +388,12 @@ class StudyPlan:
 _LHS_CACHE: dict[tuple, np.ndarray] = {}
 
 
+def _keys(path: str) -> list[str]:
+    """The keys of a swept path in the point's tree: ``controller.…`` lives in the requirements (plan_study)."""
+    keys = path.split(".")
+    return ["requirements", *keys] if keys[0] == "controller" else keys
+
+
 def point_builder(device: Mapping[str, Any], requirements: Mapping[str, Any], axes: Sequence[tuple[str, str]]
                   ) -> Callable[[Sequence[float]], tuple[dict, dict]]:
     """values -> (device dict, requirements dict) of one point, without a deep copy per point.
@@ -391,7 +401,7 @@ def point_builder(device: Mapping[str, Any], requirements: Mapping[str, Any], ax
     The base is deep-copied once; each point gets fresh dicts only along its swept paths and shares
     every other (never mutated) branch with the base: the device validator copies what it changes."""
     base = {"device": copy.deepcopy(dict(device)), "requirements": copy.deepcopy(dict(requirements))}
-    steps = [(path.split("."), kind == "int") for path, kind in axes]
+    steps = [(_keys(path), kind == "int") for path, kind in axes]
 
     def build(values: Sequence[float]) -> tuple[dict, dict]:
         tree = {"device": dict(base["device"]), "requirements": dict(base["requirements"])}
@@ -416,13 +426,25 @@ def point_builder(device: Mapping[str, Any], requirements: Mapping[str, Any], ax
 
 def plan_study(problem: str, device: Mapping[str, Any], requirements: Mapping[str, Any] | None,
                sweep: Mapping[str, Any], sampling: Mapping[str, Any] | None = None,
-               max_points: int = MAX_STUDY_POINTS) -> StudyPlan:
+               max_points: int = MAX_STUDY_POINTS, controller: Mapping[str, Any] | None = None) -> StudyPlan:
     """Validate a study request and plan its points; ``StudyInputError`` names the bad field.
 
     ``max_points`` bounds the study's total (grid product or samples; a deployment may raise it, each axis
-    stays within MAX_STUDY_POINTS values)."""
+    stays within MAX_STUDY_POINTS values).  ``controller``: the wall's rendering {mass?, velocity_filter?}
+    (the stability problems only), kept in the requirements as ``controller`` (optim.studies.rendered_study)."""
+    from optim.studies.rendered_study import CONTROLLER_PATHS, RENDERED_PROBLEMS
     prob = get_problem(problem)
     requirements = dict(requirements or {})
+    if "controller" in requirements:
+        raise StudyInputError("base.requirements.controller", "the controller is base.controller")
+    rendered = problem in RENDERED_PROBLEMS
+    if controller is not None:
+        if not rendered:
+            raise StudyInputError("base.controller", f"only the {' and '.join(RENDERED_PROBLEMS)} problems take a "
+                                                     "controller (a design's filter is its requirements')")
+        requirements["controller"] = copy.deepcopy(controller) if isinstance(controller, Mapping) else controller
+    elif rendered and any(str(p).startswith("controller.") for p in (sweep if isinstance(sweep, Mapping) else ())):
+        requirements["controller"] = {}
     sampling = dict(sampling or {})
     design = sampling.get("design", "grid")
     if design not in DESIGNS:
@@ -445,10 +467,13 @@ def plan_study(problem: str, device: Mapping[str, Any], requirements: Mapping[st
     for path, spec in sweep.items():
         if path in dev_paths:
             kind = dev_paths[path]
+        elif rendered and path in CONTROLLER_PATHS:
+            kind = CONTROLLER_PATHS[path]
         elif path.startswith("requirements.") and path.removeprefix("requirements.") in prob.requirement_kinds:
             kind = prob.requirement_kinds[path.removeprefix("requirements.")]
         else:
-            known = sorted(dev_paths) + [f"requirements.{k}" for k in prob.requirement_kinds]
+            known = (sorted(dev_paths) + [f"requirements.{k}" for k in prob.requirement_kinds]
+                     + (list(CONTROLLER_PATHS) if rendered else []))
             raise StudyInputError(f"sweep.{path}", f"unknown parameter path; known: {', '.join(known)}")
         axes.append(_axis(path, kind, spec, design))
     if design == "grid":
@@ -480,8 +505,10 @@ def _check_base_and_extremes(plan: StudyPlan, prob: Problem) -> None:
                                   "use /v1/analysis/stability")
     try:
         prob.check_requirements(plan.requirements)
+        _check_rendering(plan.device, plan.requirements)
     except InputError as exc:
-        raise StudyInputError(f"base.requirements.{exc.field}", exc.rule) from None
+        where = "base" if exc.field.startswith("controller") else "base.requirements"
+        raise StudyInputError(f"{where}.{exc.field}", exc.rule) from None
     except ValueError as exc:
         raise StudyInputError("base.requirements", str(exc)) from None
     for axis in plan.axes:
@@ -492,8 +519,17 @@ def _check_base_and_extremes(plan: StudyPlan, prob: Problem) -> None:
             try:
                 Device.model_validate(tree["device"])
                 prob.check_requirements(tree["requirements"])
+                _check_rendering(tree["device"], tree["requirements"])
             except ValueError as exc:
                 raise StudyInputError(f"sweep.{axis.path}", f"value {v:g}: {_first_error(exc)}") from None
+
+
+def _check_rendering(device: Mapping[str, Any], requirements: Mapping[str, Any]) -> None:
+    """A controller's filter at the device's sample time (a cutoff at or above Nyquist: InputError on its field)."""
+    controller = requirements.get("controller")
+    if controller:
+        from optim.studies.rendered_study import controller_rendering
+        controller_rendering(controller, Device.model_validate(dict(device)))
 
 
 def _first_error_at(exc: ValueError) -> tuple[str, str]:

@@ -33,8 +33,10 @@ __all__ = ["evaluate_batch", "evaluate_one"]
 
 def evaluate_batch(devices: Sequence[Device], requirements: Sequence[Mapping[str, Any]]
                    ) -> list[tuple[dict | None, str | None]]:
-    """(results, None) or (None, reason) per (device, requirements), in order; requirements already valid."""
-    return by_delay_class(devices, requirements, _same_class)
+    """(results, None) or (None, reason) per (device, requirements), in order; requirements already valid (a point
+    with a ``controller``: optim.studies.rendered_study)."""
+    from optim.studies.rendered_study import split_rendered
+    return split_rendered("stability", devices, requirements, lambda d, r: by_delay_class(d, r, _same_class))
 
 
 def evaluate_one(device: Device, requirements: Mapping[str, Any]) -> dict[str, Any]:

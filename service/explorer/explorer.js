@@ -871,5 +871,6 @@
     await refreshBoundary();
   }
 
+  window.zwidthExplorer = { readDevice, api, lineChart, num };   // for explorer_<topic>.js (the rendered wall, …)
   document.addEventListener("DOMContentLoaded", start);
 })();

@@ -42,6 +42,11 @@ class StudyBase(BaseModel):
     requirements: dict[str, Any] = Field(
         default_factory=dict,
         description="stability, critical_stiffness: {stiffness?, damping?} of the wall; stiffness/inertia: the design's requirements")
+    controller: dict[str, Any] | None = Field(
+        default=None,
+        description="stability, critical_stiffness: the wall's rendering {mass? [kg], velocity_filter?} "
+                    "(ARCHITECTURE.md, 'The rendered virtual environment'); swept as controller.mass, "
+                    "controller.velocity_filter.cutoff_hz (and .order, .samples)")
 
 
 class StudyRequest(BaseModel):
@@ -51,11 +56,16 @@ class StudyRequest(BaseModel):
         {"problem": "stability", "base": {"device": {"preset": "lhifam"}},
          "sweep": {"device.cable.stiffness": {"start": 2e4, "stop": 2e5, "scale": "log"},
                    "device.delay": {"start": 0, "stop": 0.002}},
-         "sampling": {"design": "latin_hypercube", "samples": 500, "seed": 1}}]}}
+         "sampling": {"design": "latin_hypercube", "samples": 500, "seed": 1}},
+        {"problem": "stability", "base": {"device": LHIFAM_RIGID, "requirements": {"stiffness": 2000, "damping": 20},
+                                          "controller": {"velocity_filter": {"kind": "low_pass", "cutoff_hz": 50}}},
+         "sweep": {"controller.velocity_filter.cutoff_hz": {"start": 5, "stop": 400, "num": 20, "scale": "log"},
+                   "controller.mass": [-1, 0, 1]}}]}}
     problem: Literal["stability", "critical_stiffness", "stiffness", "inertia"]
     base: StudyBase
     sweep: dict[str, ValueList | RangeSpec] = Field(
-        description="dotted path (device.delay, device.cable.stiffness, requirements.damping, …) -> "
+        description="dotted path (device.delay, device.cable.stiffness, requirements.damping, controller.mass, "
+                    "controller.velocity_filter.cutoff_hz, …) -> "
                     f"values or a range; at most {MAX_STUDY_POINTS} points per study")
     sampling: Sampling = Field(default_factory=Sampling)
     name: str | None = Field(default=None, max_length=200, description="a label for listings")

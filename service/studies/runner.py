@@ -54,7 +54,8 @@ MIN_CHUNK_SECONDS = 0.02
 def plan_from_request(request: dict[str, Any]) -> StudyPlan:
     base = request.get("base") or {}
     return plan_study(request["problem"], base.get("device") or {}, base.get("requirements") or {},
-                      request.get("sweep") or {}, request.get("sampling"), max_points=StudySettings().max_points)
+                      request.get("sweep") or {}, request.get("sampling"), max_points=StudySettings().max_points,
+                      controller=base.get("controller"))
 
 
 class StudyRunner:

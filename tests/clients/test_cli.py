@@ -119,6 +119,20 @@ def test_analyze_a_filtered_wall_with_a_virtual_mass():
     assert "controller.velocity_filter.cutoff_hz" in r.stderr
 
 
+def test_boundary_of_a_filtered_wall_with_a_virtual_mass():
+    args = ("boundary", "lhifam", "--set", "device.cable=null", "--points", "6")
+    plain = local_equals_remote(*args)
+    r = local_equals_remote(*args, "--velocity-filter", "low_pass:50:1", "--virtual-mass", "1")
+    # the filter's lag lowers the boundary's optimum; the same answer as the analysis at the optimum's B
+    assert 0 < r["optimum"]["critical_stiffness"] < plain["optimum"]["critical_stiffness"]
+    one = run_json("analyze", "lhifam", "--set", "device.cable=null", "--damping", str(r["optimum"]["damping"]),
+                   "--velocity-filter", "low_pass:50:1", "--virtual-mass", "1")
+    assert one["critical_stiffness"] == pytest.approx(r["optimum"]["critical_stiffness"], rel=1e-12)
+    text = run(*args, "--velocity-filter", "backward_difference").stdout
+    assert "best K_cr" in text and "K_cr(B)" in text
+    run(*args, "--velocity-filter", "moving_average:x", code=2)
+
+
 def test_a_422_exits_2_naming_the_field():
     r = run("analyze", "lhifam", "--set", "device.delay=-1", code=2)
     assert "device.delay" in r.stderr and "greater than or equal to 0" in r.stderr

@@ -171,3 +171,18 @@ def test_workspace_decodes_the_same_numbers_as_the_python_client(server, tmp_pat
     with ZwidthClient(server.url) as zw:
         want = zw.workspace(dev, {"explicit": [[0.3, 1.0]]}, [[0, 1, 0]])
     assert same_doubles(numbers(p.stdout), [want.minimum_critical_stiffness, want.worst.effective_mass])
+
+
+def test_filter_example_prints_the_python_clients_numbers(server, tmp_path):
+    """example_lhifam_filter: the rendered wall (controller struct with velocity_filter and mass) through
+    zwidth_analyze and zwidth_boundary, the same numbers as the Python client."""
+    p = octave(f"figure_file = '{tmp_path / 'filter.svg'}';\nexample_lhifam_filter", tmp_path, server.url)
+    dev = {"mass": 5.4, "damping": 3.5, "sample_time": 1e-3}
+    lp = {"kind": "low_pass", "cutoff_hz": 50, "order": 1}
+    with ZwidthClient(server.url) as zw:
+        f = zw.stability(dev, {"stiffness": 2e4, "damping": 50, "mass": 0.5, "velocity_filter": lp})
+        b1 = zw.boundary(dev, {"velocity_filter": lp}, points=60)
+    assert (f"low-pass 50 Hz:      K_cr = {f.critical_stiffness:.1f} N/m, B_max = {f.max_stable_damping:.1f} N*s/m, "
+            f"M-width [{f.mass_range.min:.4g}, {f.mass_range.max:.4g}] kg") in p.stdout
+    assert f"{b1.optimum.critical_stiffness:.1f} N/m at B = {b1.optimum.damping:.1f} (50 Hz)" in p.stdout
+    assert (tmp_path / "filter.svg").exists()

@@ -30,7 +30,8 @@ def test_page_and_assets_are_served_and_nothing_else(client):
     page = client.get("/")
     assert page.status_code == 200 and page.headers["content-type"].startswith("text/html")
     assert "default-src 'self'" in page.headers["content-security-policy"]
-    for asset, kind in (("explorer.js", "text/javascript"), ("explorer.css", "text/css")):
+    for asset, kind in (("explorer.js", "text/javascript"), ("explorer.css", "text/css"),
+                        ("explorer_filter.js", "text/javascript")):
         r = client.get(f"/explorer/{asset}")
         assert r.status_code == 200 and r.headers["content-type"].startswith(kind), asset
         text = r.text.replace("http://www.w3.org/2000/svg", "")        # the SVG namespace is a name, not a fetch
@@ -309,6 +310,53 @@ def test_simulate_names_the_device_effects_and_every_robust_error_is_readable(tm
                 assert {"/v1/simulate", "/v1/plots/simulation", "/v1/analysis/stability", "/v1/design/stiffness"} <= paths
                 strays = {q for q in paths if q not in ALLOWED_PATHS and not q.startswith(("/v1/", "/explorer/"))}
                 assert not strays, strays
+            finally:
+                b.close()
+    finally:
+        server.stop()
+
+
+@pytest.mark.e2e
+@pytest.mark.slow
+def test_explorer_filter_block_overlays_the_boundaries_and_reads_the_m_width(tmp_path):
+    """The rendered-wall block (service/explorer/explorer_filter.js): the rigid LHifAM with a 50 Hz first-order
+    filter; its optimum and M-width are the API's (POST /v1/analysis/boundary and /stability, the same request in
+    the in-process client), both boundaries drawn, a cutoff above Nyquist shows the API's field error."""
+    import httpx
+
+    sync_api = _require_browser()
+    expect = sync_api.expect
+    dev = {"mass": 5.4, "damping": 3.5, "sample_time": 0.001, "delay": 0.0}
+    lp = {"kind": "low_pass", "cutoff_hz": 50.0, "order": 1}
+    server = start_live_server({"ZWIDTH_PRESTART_WORKERS": "false",
+                                "ZWIDTH_DATABASE_URL": f"sqlite:///{tmp_path / 'studies.db'}"})
+    try:
+        bd = httpx.post(server.url + "/v1/analysis/boundary", timeout=120,
+                        json={"device": dev, "points": 60, "controller": {"mass": 0.0, "velocity_filter": lp}}).json()
+        with sync_api.sync_playwright() as p:
+            b = _Browser(p, server.url)
+            try:
+                page = b.page
+                page.goto(server.url + "/")
+                page.select_option("#preset", "lhifam")
+                page.check("#model-rigid")
+                page.fill("#mass", "5.4")
+                page.fill("#damping", "3.5")
+                page.fill("#sample_time_ms", "1")
+                page.fill("#delay_ms", "0")
+                k = page.evaluate("(x) => window.zwidthExplorer.num(x)", bd["optimum"]["critical_stiffness"])
+                expect(page.locator("#filter-optimum")).to_contain_text(f"K_cr {k} N/m", timeout=60_000)
+                expect(page.locator("#filter-mwidth")).to_contain_text("kg", timeout=60_000)
+                assert page.locator("#filter-chart svg path").count() >= 2
+                page.fill("#vf-cutoff", "600")
+                expect(page.locator("#filter-error")).to_contain_text("velocity_filter.cutoff_hz", timeout=60_000)
+                page.select_option("#vf-kind", "moving_average")
+                expect(page.locator("#vf-samples")).to_be_visible()
+                expect(page.locator("#filter-error")).to_be_empty(timeout=60_000)
+                assert not b.errors, b.errors
+                assert b.api_paths() <= {*ALLOWED_PATHS, "/explorer/explorer.js", "/explorer/explorer.css",
+                                         "/explorer/explorer_filter.js", "/v1/presets", "/v1/analysis/stability",
+                                         "/v1/analysis/boundary"}, b.api_paths()
             finally:
                 b.close()
     finally:

@@ -1,0 +1,456 @@
+"""Every real value of a rendered rigid wall's h (optim.stability.rendered) without a scan: the crossings isolated with
+a certificate on a trigonometric polynomial, then refined on the accurate h (issue 30, speed).
+
+For a rigid plant 1/G_n = (1 − w)(1 − p w)/(w^{d+1}·M̃(w)), w = z⁻¹, with M̃ = a + (a + c)w (whole-sample delay:
+optim.stability.fast_rigid's N = a(z + 1) + c) or A + Bw + Cw² (a fraction f: z·N = Az² + Bz + C), and the velocity
+estimate V_n = (1 − w)R(w)/D(w), each of rendered.py's three functions is a ratio of polynomials in w:
+
+    h_K = [−(1 − w)P₁D − Dg(1 − w)(β + μ(1 − w))R] / (Dg·D)
+    h_B = [−P₁D − μ·Dg(1 − w)R] / (Dg·R)
+    h_M = [−(1 − w)P₁D − α·Dg·D − β·Dg(1 − w)R] / (Dg·(1 − w)²·R)    (α = 0: one factor 1 − w cancels)
+
+with P₁ = 1 − p w and Dg = w^{d+1}M̃.  With h = P/Q, Im h·|Q|² = Im(P(w)·Q(w̄)) = Σ_{k≥1} c_k sin kθ (real
+coefficients: c_k = r_{−k} − r_k, r the correlation of P with Q), so Im h = 0 on (0, π) exactly where
+
+    f(θ) = Σ c_k sin kθ / sin θ = Σ c_k U_{k−1}(cos θ) = p(cos θ),
+
+a polynomial p of degree n − 1 in cos θ, written here in Chebyshev-T form (a_j).  (1 − w̄)² = −4 sin²(θ/2)·w̄, so
+Q's factor (1 − w)² is replaced by −w (the same sign of Im); Butterworth's R = r₀(1 + w)² likewise by r₀·w
+((1 + w̄)² = 4 cos²(θ/2)·w̄).
+
+Completeness (why no crossing is missed): [0, π] is bisected until every piece is either
+
+* free of roots: |f(θ₁)| + |f(θ₂)| − 2E > L₁·(θ₂ − θ₁), L₁ a bound of |f'| on the piece, or
+* holds exactly one: f changes sign (|f| > E at both ends) and f' is certified of one sign there
+  (|f'(θ₁)| + |f'(θ₂)| − 2E' > L₂·(θ₂ − θ₁), f'(θ₁)f'(θ₂) > 0).
+
+The bounds: f is a cosine polynomial of degree n − 1 with |f| ≤ Σ|a_j| = A, so |f'| ≤ (n − 1)·A (Bernstein) and
+|f''| ≤ (n − 1)²·A; near 0 and π, f' = −sin θ·p'(cos θ) with |p'| ≤ Σ j²|a_j| and |p''| ≤ Σ j²(j² − 1)/3·|a_j|
+(Markov) give the smaller |f'| ≤ sin θ·Σ j²|a_j| and |f''| ≤ Σ j²|a_j| + sin²θ·Σ j²(j² − 1)/3·|a_j|; each piece takes
+the smaller bound.  E bounds the rounding of the coefficients (the convolutions of rounded inputs) and of the
+evaluation (Clenshaw, x = cos θ rounded): 16(n + 8)²·ε·Σ (the same sums on absolute values) + ε·Σ j²|a_j|.
+Where no piece certifies within the budget (a tangency, a crossing at θ → 0⁺ or at π, a root of Q on the circle,
+|f| below the rounding bound everywhere near a root) the answer is None and the caller scans (optim.stability.
+crossovers): never a guess.
+
+Each certified root's piece is then a bracket of the accurate h (the expm1 forms of models.discretize.RigidZOH and
+models.velocity_filter, compiled), whose sign at both ends must agree with f's (else None); Illinois' regula falsi
+refines it to 4 ulp, as optim.stability.crossovers.solve_brackets does.  The direction of the poles at a crossing
+(rendered.Passage.outward) is the sign of f' there, certified above; at θ = π it is the sign of f(π) = p(−1).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from models.discretize import RigidZOH
+from models.velocity_filter import Rendering
+from optim.stability.compiled import kernel
+
+__all__ = ["LOOP_K", "LOOP_B", "LOOP_M", "rigid_real_crossings", "compile_kernels", "MAX_PIECES", "MAX_DEGREE"]
+
+LOOP_K, LOOP_B, LOOP_M = 0, 1, 2
+_EPS = 2.220446049250313e-16
+#: pieces of [0, π] examined at most before the certificate gives up (the caller scans)
+MAX_PIECES = 4_000
+#: p's degree at most (a delay of ~40 samples): beyond it the scan, which is then faster (each piece's Taylor bounds
+#: cost O(n²) and a long delay's loop has O(n) crossings: 84 ms certified against 17 ms scanned at 119 samples)
+MAX_DEGREE = 48
+
+
+# ---------------------------------------------------------------- the polynomials (numpy, once per call)
+
+def _plant_parts(plant: RigidZOH) -> tuple[np.ndarray, np.ndarray]:
+    """(P₁ = [1, −p], Dg = w^{d+1}·M̃) of the module docstring."""
+    omp, phi12, g0p, g0v, g1p, g1v, _ = plant.coefficients()
+    p = 1.0 - omp
+    if plant.f == 0.0:
+        a, c = plant.f0_numerator()
+        mt = np.array([a, a + c])
+    else:
+        mt = np.array([g0p, g1p - p * g0p + phi12 * g0v, phi12 * g1v - p * g1p])
+    dg = np.concatenate([np.zeros(plant.d + 1), mt])
+    return np.array([1.0, -p]), dg
+
+
+def _polys(plant: RigidZOH, rendering: Rendering, loop: int, alpha: float, beta: float, mu: float,
+           absolute: bool) -> tuple[np.ndarray, np.ndarray] | None:
+    """(P, Q_s) of the loop: Q_s has Q's sign of Im (module docstring); with ``absolute`` every coefficient and every
+    term taken positive (the sums that bound the rounding)."""
+    p1, dg = _plant_parts(plant)
+    r, d = np.asarray(rendering.velocity.r), np.asarray(rendering.velocity.d)
+    omw = np.array([1.0, -1.0])
+    if absolute:
+        p1, dg, r, d, omw = np.abs(p1), np.abs(dg), np.abs(r), np.abs(d), np.abs(omw)
+        alpha, beta, mu = abs(alpha), abs(beta), abs(mu)
+    cv = np.convolve
+    if loop == LOOP_K:
+        ctrl = beta * np.array([1.0, 0.0]) + mu * omw
+        a1 = cv(cv(omw, p1), d)
+        a2 = cv(cv(cv(dg, omw), ctrl), r)
+        P = _add(a1, a2) if absolute else _add(-a1, -a2)
+        return P, cv(dg, d)
+    if butter_form(rendering.velocity.r):
+        r_q, p_mul = np.array([0.0, r[0]]), np.ones(1)       # r₀(1 + w)² → r₀·w: the same sign of Im
+    elif rendering.velocity.kind == "moving_average":
+        r_q, p_mul = _average_q(len(r), absolute)
+    elif _circle_zeros(rendering.velocity.r):
+        return None                          # a zero of R on the circle: a pole of h there
+    else:
+        r_q, p_mul = r, np.ones(1)
+    if loop == LOOP_B:
+        a1 = cv(p1, d)
+        a2 = mu * cv(cv(dg, omw), r)
+        P = _add(a1, a2) if absolute else _add(-a1, -a2)
+        return cv(P, p_mul), cv(dg, r_q)
+    a1 = cv(p1, d)
+    a3 = beta * cv(dg, r)
+    if alpha == 0.0:
+        P = _add(a1, a3) if absolute else _add(-a1, -a3)
+        return cv(P, p_mul), cv(cv(dg, omw), r_q)
+    a1 = cv(omw, a1)
+    a2 = alpha * cv(dg, d)
+    a3 = cv(omw, a3)
+    P = _add(_add(a1, a2), a3) if absolute else _add(_add(-a1, -a2), -a3)
+    return cv(P, p_mul), cv(cv(dg, np.array([0.0, 1.0]) if absolute else np.array([0.0, -1.0])), r_q)
+
+
+def butter_form(r: tuple[float, ...]) -> bool:
+    """R = r₀(1 + w)² exactly (scipy's second-order Butterworth numerator)."""
+    return len(r) == 3 and r[1] == 2.0 * r[0] and r[2] == r[0] and r[0] != 0.0
+
+
+def _average_q(n: int, absolute: bool) -> tuple[np.ndarray, np.ndarray]:
+    """(Q's replacement for R, P's multiplier) of an n-sample moving average, R = (1 + w + … + w^{n−1})/n: for even
+    n, R = (1 + w)·R'(w) with R' = (1 + w² + … + w^{n−2})/n, and P·(1 + w) over R'·(1 + w)² has Im of the same sign
+    as P over R; (1 + w)² → w as for Butterworth.  The other zeros, e^{2πjk/n}, stay (their pieces are dropped)."""
+    if n % 2:
+        return np.full(n, 1.0 / n), np.ones(1)
+    rp = np.zeros(n - 1)
+    rp[::2] = 1.0 / n
+    return np.concatenate([[0.0], rp]), np.ones(2)
+
+
+def average_zero_angles(n: int) -> tuple[float, ...]:
+    """θ ∈ (0, π) of an n-sample average's zeros on the circle, 2πk/n (π, for even n, is divided out)."""
+    return tuple(2.0 * math.pi * k / n for k in range(1, (n + 1) // 2))
+
+
+def _add(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    if a.size < b.size:
+        a, b = b, a
+    out = a.copy()
+    out[:b.size] += b
+    return out
+
+
+def _circle_zeros(r: tuple[float, ...]) -> bool:
+    if len(r) < 2:
+        return False
+    return bool(np.any(np.abs(np.abs(np.roots(np.asarray(r[::-1]))) - 1.0) < 1e-6))
+
+
+def _sine_coefficients(P: np.ndarray, Q: np.ndarray, absolute: bool) -> np.ndarray:
+    """c_1..c_n: Im(P(w)·Q(w̄)) = Σ c_k sin kθ, w = e^{−jθ} (|c|'s bound with ``absolute``)."""
+    r = np.convolve(P, Q[::-1])          # r[i] is the coefficient of w^(i − (len(Q) − 1))
+    zero = Q.size - 1
+    n = max(zero, r.size - 1 - zero)
+    pos = np.zeros(n + 1)
+    neg = np.zeros(n + 1)
+    pos[:r.size - zero] = r[zero:]
+    neg[:zero + 1] = r[zero::-1]
+    c = neg[1:] + pos[1:] if absolute else neg[1:] - pos[1:]
+    return c
+
+
+@kernel
+def _chebyshev_t(c):
+    """a_j with Σ c_k U_{k−1}(x) = Σ a_j T_j(x): U_m = 2(T_m + T_{m−2} + …) (+ T₀ once for m even)."""
+    n = c.size
+    a = np.zeros(max(n, 1))
+    for k in range(1, n + 1):
+        m = k - 1
+        j = m
+        while j > 0:
+            a[j] += 2.0 * c[k - 1]
+            j -= 2
+        if m % 2 == 0:
+            a[0] += c[k - 1]
+    return a
+
+
+@kernel
+def _taylor_table(a):
+    """Row k: the Chebyshev series of p^{(k)}/k! (p = Σ a_j T_j), by c'_j = c'_{j+2} + 2(j + 1)c_{j+1}, c'_0 halved
+    (numpy.polynomial.chebyshev.chebder's recurrence), divided by k."""
+    n = a.size
+    dk = np.zeros((n, n))
+    dk[0, :] = a
+    for k in range(1, n):
+        prev = dk[k - 1]
+        m = n - k                        # the derivative's length
+        for j in range(m - 1, -1, -1):
+            nxt = dk[k, j + 2] if j + 2 < m else 0.0
+            dk[k, j] = nxt + 2.0 * (j + 1) * prev[j + 1]
+        dk[k, 0] *= 0.5
+        for j in range(m):
+            dk[k, j] /= k
+    return dk
+
+
+# ---------------------------------------------------------------- compiled kernels
+
+@kernel
+def _clenshaw(a, x):
+    """Σ a_j T_j(x)."""
+    b1 = 0.0
+    b2 = 0.0
+    for j in range(a.size - 1, 0, -1):
+        b0 = 2.0 * x * b1 - b2 + a[j]
+        b2 = b1
+        b1 = b0
+    return x * b1 - b2 + a[0]
+
+
+@kernel
+def _isolate(dk, err, out, max_pieces):
+    """Certified isolation of the real roots of p on [−1, 1] (module docstring): the pieces holding exactly one root
+    written to ``out`` (rows θ₁ < θ₂ = acos of the piece's ends, p at θ₁ and θ₂, p' at the centre), from θ = 0
+    up; −1 where the certificate fails.  dk[k] is the Chebyshev series of p^{(k)}/k!, err[k] bounds its rounding:
+    on a piece of centre m and half-width ρ, |p(x) − p(m)| ≤ Σ_{k≥1} (|t_k| + err_k)ρ^k (t_k = p^{(k)}(m)/k!,
+    exact: p is a polynomial), and likewise for p'."""
+    n = dk.shape[0]
+    stack = np.empty((400, 4))
+    t = np.empty(n)
+    stack[0, 0] = -1.0
+    stack[0, 1] = 1.0
+    stack[0, 2] = _clenshaw(dk[0], -1.0)
+    stack[0, 3] = _clenshaw(dk[0], 1.0)
+    e0 = err[0]
+    if not (abs(stack[0, 2]) > e0 and abs(stack[0, 3]) > e0):
+        return -1
+    top = 1
+    found = 0
+    pieces = 0
+    while top > 0:
+        top -= 1
+        x1 = stack[top, 0]
+        x2 = stack[top, 1]
+        p1 = stack[top, 2]
+        p2 = stack[top, 3]
+        pieces += 1
+        if pieces > max_pieces:
+            return -2
+        m = 0.5 * (x1 + x2)
+        rho = 0.5 * (x2 - x1)
+        for k in range(n):
+            t[k] = _clenshaw(dk[k], m)
+        # zero-free?
+        bound = 0.0
+        rk = 1.0
+        for k in range(1, n):
+            rk *= rho
+            bound += (abs(t[k]) + err[k]) * rk
+        if abs(t[0]) - e0 > bound:
+            continue
+        # a root's piece never touches θ = 0 or π (h there is 0 or the Nyquist value): bisect it off the ends
+        if p1 * p2 < 0.0 and abs(p1) > e0 and abs(p2) > e0 and n > 1 and x1 > -1.0 and x2 < 1.0:
+            dbound = 0.0
+            rk = 1.0
+            for k in range(2, n):
+                rk *= rho
+                dbound += k * (abs(t[k]) + err[k]) * rk
+            if abs(t[1]) - err[1] > dbound:
+                if found >= out.shape[0]:
+                    return -1
+                out[found, 0] = math.acos(x2)
+                out[found, 1] = math.acos(x1)
+                out[found, 2] = p2
+                out[found, 3] = p1
+                out[found, 4] = t[1]
+                found += 1
+                continue
+        if rho <= 1e-16 or top + 2 > stack.shape[0]:
+            return -3
+        # split a little off the centre: a root at a symmetric point (x = 0: the average's e^{±jπ/2}) would sit on
+        # both halves' ends, where |p| ≤ E never certifies
+        xs = x1 + 0.4812 * (x2 - x1)
+        pm = _clenshaw(dk[0], xs)
+        # the half nearer x = 1 (lower θ) last: it comes off the stack first
+        stack[top, 0] = x1
+        stack[top, 1] = xs
+        stack[top, 2] = p1
+        stack[top, 3] = pm
+        stack[top + 1, 0] = xs
+        stack[top + 1, 1] = x2
+        stack[top + 1, 2] = pm
+        stack[top + 1, 3] = p2
+        top += 2
+    return found
+
+
+@kernel
+def _poly_w(c, w):
+    out = complex(c[c.size - 1], 0.0)
+    for i in range(c.size - 2, -1, -1):
+        out = out * w + c[i]
+    return out
+
+
+@kernel
+def _h(theta, loop, nums, r, dd, alpha, beta, mu):
+    """The loop's h(θ), accurate (models.discretize.RigidZOH.inverse_response, models.velocity_filter):
+    nums = (1 − p, a, c, Φ₁₂, Γ0p, Γ0v, Γ1p, Γ1v, d, fractional, has Nyquist value, the value)."""
+    omp = nums[0]
+    s = math.sin(0.5 * theta)
+    ch = math.cos(0.5 * theta)
+    st = math.sin(theta)
+    ct = math.cos(theta)
+    zm1 = complex(-2.0 * s * s, st)
+    den = zm1 * (zm1 + omp)
+    if nums[9] == 0.0:
+        num = nums[1] * complex(2.0 * ch * ch, st) + nums[2]
+    else:
+        zinv = complex(ct, -st)
+        num = (nums[4] + nums[6] * zinv) * (zm1 + omp) + nums[3] * (nums[5] + nums[7] * zinv)
+    dth = nums[8] * theta
+    inv = den * complex(math.cos(dth), math.sin(dth)) / num
+    if theta == math.pi and nums[10] != 0.0:
+        inv = complex(nums[11], 0.0)
+    w = complex(ct, -st)
+    omw = complex(2.0 * s * s, st)
+    v = omw * _poly_w(r, w) / _poly_w(dd, w)
+    acc = v * omw
+    if loop == 0:
+        return -inv - beta * v - mu * acc
+    if loop == 1:
+        return (-inv - mu * acc) / v
+    return (-inv - alpha - beta * v) / acc
+
+
+@kernel
+def _refine(pieces, count, loop, nums, r, dd, alpha, beta, mu, out):
+    """Each piece's root of Im h to 4 ulp (Illinois, a bisection every 4th step): rows θ, Re h; False where the
+    accurate h's sign at an end disagrees with f's."""
+    eps = 2.220446049250313e-16
+    for i in range(count):
+        a = pieces[i, 0]
+        b = pieces[i, 1]
+        fa = _h(a, loop, nums, r, dd, alpha, beta, mu).imag
+        fb = _h(b, loop, nums, r, dd, alpha, beta, mu).imag
+        if not (fa * pieces[i, 2] > 0.0 and fb * pieces[i, 3] > 0.0):
+            return False
+        side = 0
+        for it in range(200):
+            if abs(b - a) <= 4.0 * eps * max(abs(a), abs(b)):
+                break
+            lo = min(a, b)
+            hi = max(a, b)
+            mid = 0.5 * (a + b)
+            x = b - fb * (b - a) / (fb - fa) if fb != fa else mid
+            m = 2.0 * eps * hi
+            if not (lo <= x <= hi) or it % 4 == 3:
+                x = mid
+            elif x - lo < m:
+                x = min(lo + m, mid)
+            elif hi - x < m:
+                x = max(hi - m, mid)
+            fx = _h(x, loop, nums, r, dd, alpha, beta, mu).imag
+            if fx == 0.0:
+                a = x
+                b = x
+                fa = 0.0
+                fb = 0.0
+                break
+            if (fx > 0.0) == (fa > 0.0):
+                if side == 1:
+                    fb = fb / 2.0
+                a = x
+                fa = fx
+                side = 1
+            else:
+                if side == -1:
+                    fa = fa / 2.0
+                b = x
+                fb = fx
+                side = -1
+        t = a if abs(fa) <= abs(fb) else b
+        out[i, 0] = t
+        out[i, 1] = _h(t, loop, nums, r, dd, alpha, beta, mu).real
+    return True
+
+
+def _numbers(plant: RigidZOH) -> np.ndarray:
+    omp, phi12, g0p, g0v, g1p, g1v, _ = plant.coefficients()
+    a, c = plant.f0_numerator()
+    nyq = plant.inverse_at_nyquist()
+    return np.array([omp, a, c, phi12, g0p, g0v, g1p, g1v, float(plant.d), 1.0 if plant.f > 0.0 else 0.0,
+                     0.0 if nyq is None else 1.0, 0.0 if nyq is None else nyq])
+
+
+def rigid_real_crossings(plant: RigidZOH, rendering: Rendering, loop: int, alpha: float, beta: float,
+                         mu: float) -> list[tuple[float, float, int]] | None:
+    """Every θ ∈ (0, π] where the loop's h is real (module docstring), as (θ, h(θ), outward) by θ: outward +2/−2 for
+    a pair leaving/entering as the moving gain rises (the sign of d Im h/dθ), ±1 at θ = π; None where the
+    certificate does not close (the caller scans).  The Nyquist point is listed when h(π) is finite and non-zero."""
+    if plant.delta == 0.0:
+        return None                                   # M̃ vanishes at w = −1: a pole of h at π
+    alpha, beta, mu = float(alpha), float(beta), float(mu)   # one compiled signature
+    polys = _polys(plant, rendering, loop, alpha, beta, mu, absolute=False)
+    if polys is None:
+        return None
+    pabs = _polys(plant, rendering, loop, alpha, beta, mu, absolute=True)
+    assert pabs is not None
+    c = _sine_coefficients(*polys, absolute=False)
+    cabs = _sine_coefficients(*pabs, absolute=True)
+    a = _chebyshev_t(c)
+    aabs = _chebyshev_t(cabs)
+    n = a.size
+    big = float(np.sum(aabs))
+    if not (big > 0.0 and math.isfinite(big)) or n > MAX_DEGREE:
+        return None
+    dk = _taylor_table(a)
+    dkabs = _taylor_table(aabs)          # every term positive: a bound of each |coefficient|
+    err = 16.0 * (n + 8) ** 2 * _EPS * np.sum(dkabs, axis=1)
+    err[0] += _EPS * float(np.sum(dkabs[1]))       # x = cos θ rounded: |p'|·ε
+    if not np.all(np.isfinite(err)):
+        return None
+    out = np.empty((n + 2, 5))
+    count = _isolate(dk, err, out, MAX_PIECES)
+    if count < 0:
+        return None
+    if loop != LOOP_K and rendering.velocity.kind == "moving_average":
+        # a zero of R on the circle is a pole of h_B, h_M: its piece (the one root there is that pole) is dropped
+        keep = []
+        for i in range(count):
+            t1, t2 = out[i, 0], out[i, 1]
+            inside = [q for q in average_zero_angles(len(rendering.velocity.r)) if t1 <= q <= t2]
+            if any(abs(q - t1) <= 1e-12 * q or abs(t2 - q) <= 1e-12 * q for q in inside):
+                return None
+            if not inside:
+                keep.append(i)
+        out = out[keep]
+        count = len(keep)
+    nums = _numbers(plant)
+    r = np.asarray(rendering.velocity.r, dtype=float)
+    dd = np.asarray(rendering.velocity.d, dtype=float)
+    roots = np.empty((max(count, 1), 2))
+    if count and not _refine(out, count, loop, nums, r, dd, alpha, beta, mu, roots):
+        return None
+    # f'(θ) = −sin θ·p'(cos θ): Im h rises through the root where p' < 0
+    found = [(float(roots[i, 0]), float(roots[i, 1]), 2 if out[i, 4] < 0.0 else -2) for i in range(count)]
+    try:
+        v_pi = complex(_h(math.pi, loop, nums, r, dd, alpha, beta, mu)).real
+    except ZeroDivisionError:          # V(π) = 0 (a Butterworth, an even moving average): h_B, h_M infinite there
+        v_pi = math.inf
+    if math.isfinite(v_pi) and v_pi != 0.0:
+        found.append((math.pi, v_pi, 1 if _clenshaw(a, -1.0) < 0.0 else -1))
+    return [x for x in found if math.isfinite(x[1]) and abs(x[1]) < 1e250 and x[1] != 0.0]
+
+
+def compile_kernels() -> None:
+    """Compile (or load from numba's cache) this module's kernels: one call on a small loop."""
+    from models.velocity_filter import DEFAULT_VELOCITY
+    rigid_real_crossings(RigidZOH(delta=1e-3, d=1), Rendering(DEFAULT_VELOCITY, 0.0), LOOP_K, 0.0, 0.1, 0.0)
