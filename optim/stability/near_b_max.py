@@ -106,9 +106,17 @@ def refine_cable_crossover(device: Device, damping: float, theta: float, digits:
         r_c, d_c = ([mp.mpf(c) for c in velocity[0]], [mp.mpf(c) for c in velocity[1]]) if velocity else ([1], [1])
         mu_mp = mp.mpf(mu)
 
+        def poly(coeffs, w):                 # Σ c_k w^k by Horner, ascending coefficients
+            out = mp.mpf(0)
+            for c in reversed(coeffs):
+                out = out * w + c
+            return out
+
         def h(t):
             w = 1 / mp.expj(t)
-            v = (1 - w) * mp.polyval(r_c[::-1], w) / mp.polyval(d_c[::-1], w)
+            if velocity is None and mu == 0.0:
+                return h0(t) - beta * (1 - w)
+            v = (1 - w) * poly(r_c, w) / poly(d_c, w)
             return h0(t) - beta * v - mu_mp * v * (1 - w)
 
         th = mp.mpf(theta)
