@@ -11,10 +11,10 @@ import numpy as np
 from optim.stability.analysis import analyse_stability
 from optim.stability.margins import max_stable_damping
 from optim.stability.stable_band import crossings_at
-from tests.optim.independent import spectral_radius
+from tests.optim.independent import radius_excess_mp, spectral_radius
 from tests.optim.stability.random_cables import random_cable
 
-#: the independent double loop decides a side only beyond this (else the case is said unresolved)
+#: the independent double loop decides a side only beyond this (closer, the same loop in 50-digit mpmath)
 DOUBLE_MARGIN = 1e-9
 
 
@@ -41,7 +41,9 @@ def one_case(seed: int, i: int) -> dict:
 
     def side(k: float) -> bool | None:
         x = spectral_radius(dev, k * t * t / m, b * t / m) - 1.0
-        return None if abs(x) <= DOUBLE_MARGIN else x < 0.0
+        if abs(x) <= DOUBLE_MARGIN:
+            x = float(radius_excess_mp(dev, k, b))        # the same loop in 50-digit mpmath
+        return None if x == 0.0 else x < 0.0
 
     band = a.stable_band
     out["band"] = band
