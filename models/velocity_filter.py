@@ -22,7 +22,7 @@ V'(1)·T = R(1)/D(1) = 1 (a velocity, in m/s per m/s).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Annotated, Literal, Union
 
 import numpy as np
@@ -32,7 +32,7 @@ from scipy import signal
 from models.errors import InputError
 
 __all__ = ["BackwardDifference", "LowPass", "MovingAverage", "TransferFunctionFilter", "VelocityFilter",
-           "VelocityTransfer", "Rendering", "velocity_transfer", "rendering", "DEFAULT_RENDERING",
+           "VelocityTransfer", "Rendering", "velocity_transfer", "rendering", "filter_spec", "DEFAULT_RENDERING",
            "MAX_FILTER_COEFFICIENTS", "MAX_AVERAGE_SAMPLES", "GAIN_RTOL", "POLE_MARGIN", "MAX_VIRTUAL_MASS"]
 
 #: Coefficients of a transfer_function's numerator or denominator, at most.
@@ -218,6 +218,10 @@ class Rendering:
     velocity: VelocityTransfer = DEFAULT_VELOCITY
     mass: float = 0.0
     """M [kg or kg·m²]; negative compensates the device's inertia."""
+    spec: BackwardDifference | LowPass | MovingAverage | TransferFunctionFilter | None = field(default=None,
+                                                                                             compare=False)
+    """the filter's specification it was built from (the closed loop realises it again, optim.verification); None:
+    not known (:func:`filter_spec` then writes the transfer function's coefficients out)."""
 
     @property
     def is_default(self) -> bool:
@@ -242,4 +246,16 @@ def rendering(velocity_filter: BackwardDifference | LowPass | MovingAverage | Tr
     ``velocity_filter.…`` or ``mass``)."""
     if not (math.isfinite(mass) and abs(mass) <= MAX_VIRTUAL_MASS):
         raise InputError("mass", f"must be finite with |M| ≤ {MAX_VIRTUAL_MASS:g}")
-    return Rendering(velocity_transfer(velocity_filter, sample_time), float(mass))
+    return Rendering(velocity_transfer(velocity_filter, sample_time), float(mass), velocity_filter)
+
+
+def filter_spec(r: Rendering, sample_time: float) -> BackwardDifference | LowPass | MovingAverage | TransferFunctionFilter:
+    """The specification of ``r``'s velocity filter: the one it was built from, else its V(z) as a transfer function
+    (N = (1 − w)·R/T, D; built without the request's validation, whose coefficient count a long average exceeds)."""
+    if r.spec is not None:
+        return r.spec
+    if r.velocity.is_backward_difference:
+        return BackwardDifference()
+    return TransferFunctionFilter.model_construct(kind="transfer_function",
+                                                  numerator=list(r.velocity.numerator(sample_time)),
+                                                  denominator=list(r.velocity.d))

@@ -3,7 +3,8 @@
 models/simulation/scene_poles.py decides a linear scene from its closed-loop poles up to 600 states.  A longer
 delay line (up to the device's 10 000 samples) is still decided exactly when the scene's loop is the
 one optim.stability.margins analyses: the wall K + B(1 - z⁻¹)/T on the rigid or cable device with its delay, no
-human, force sensor or feedforward.  Then the loop is stable iff 0 < K < K_cr(B) (with B < B_max;
+human, force sensor or feedforward; a rendered wall K + B·V(z) + M·A(z) (a velocity filter, a virtual mass) by
+optim.stability.rendered.  Then the loop is stable iff 0 < K < K_cr(B) (with B < B_max;
 optim/stability/margins.py says why), a different method from the poles: the crossover scan.  K within
 MARGIN_AMBIGUITY of K_cr is a pole on the circle: undetermined.
 
@@ -21,10 +22,12 @@ from models.device import Device
 from models.simulation.scene import Scene
 from models.simulation.simulate import SimulationResult
 from models.simulation.verdict import decide_exact
+from models.velocity_filter import Rendering, filter_spec, rendering
+from optim.errors import InputError
 from optim.stability.closed_loop import sampled_plant
 from optim.stability.margins import critical_stiffness
+from optim.stability.rendered import rendered_critical_stiffness
 from optim.stability.stable_band import stable_band
-from optim.stability.undamped_cable import is_undamped_cable
 from optim.verification import check_point
 
 __all__ = ["MARGIN_AMBIGUITY", "with_margin_verdict", "margin_verdict"]
@@ -43,12 +46,27 @@ def margin_verdict(device: Device, scene: Scene) -> tuple[Literal["stable", "uns
         return None
     dev = device if eff.cable_mode is not None and device.cable is not None else device.rigid()
     dev = dev.model_copy(update={"delay": device.delay if eff.delay is not None else 0.0})
-    k, b = scene.controller.stiffness, scene.controller.damping
-    crit = critical_stiffness(dev, b)
+    c = scene.controller
+    k, b = c.stiffness, c.damping
+    wall = None
+    if {"mass", "velocity_filter"} & c.model_fields_set:
+        wall = rendering(c.velocity_filter, c.mass, device.sample_time)
+        if wall.is_default:
+            wall = None
+    if wall is not None:
+        # the rendered wall C = K + B·V + M·A: its own K_cr (optim.stability.rendered), never today's wall's
+        try:
+            crit = rendered_critical_stiffness(dev, b, wall)
+        except InputError:
+            return None
+        source = "optim.stability.rendered, the rendered wall's crossover scan"
+    else:
+        crit = critical_stiffness(dev, b)
+        source = "optim.stability.margins, the crossover scan"
     k_cr = crit.critical_stiffness
-    if k_cr == 0.0 and b > 0.0 and not is_undamped_cable(dev):
-        return _past_b_max(dev, k, b)
-    where = f"K = {k:.9g} N/m against K_cr(B = {b:.6g}) = {k_cr:.9g} N/m (optim.stability.margins, the crossover scan)"
+    if k_cr == 0.0 and dev.damping + b > 0.0 and (wall is not None or b > 0.0):   # B ≥ B_max
+        return _past_b_max(dev, k, b, wall)
+    where = f"K = {k:.9g} N/m against K_cr(B = {b:.6g}) = {k_cr:.9g} N/m ({source})"
     if abs(k - k_cr) <= MARGIN_AMBIGUITY * k_cr:
         return "undetermined", f"{where}: a pole on the unit circle within K_cr's accuracy"
     if k < k_cr:
@@ -57,12 +75,15 @@ def margin_verdict(device: Device, scene: Scene) -> tuple[Literal["stable", "uns
     return "unstable", f"a closed-loop pole lies outside the unit circle: {where}{why}"
 
 
-def _past_b_max(device: Device, k: float, b: float) -> tuple[Literal["stable", "unstable", "undetermined"], str]:
+def _past_b_max(device: Device, k: float, b: float,
+                wall: Rendering | None = None) -> tuple[Literal["stable", "unstable", "undetermined"], str]:
     """K_cr = 0 (B ≥ B_max), yet a band of K may be stable (optim.stability.stable_band): the closed loop at this K
-    decides (eigenvalues with their rounding bound, else the argument principle), and must agree with the band."""
-    band = stable_band(device, b)
+    decides (eigenvalues with their rounding bound, else the argument principle), and must agree with the band.
+    ``wall``: a rendered wall's filter and virtual mass (the closed loop then carries their states)."""
+    band = stable_band(device, b, wall)
     m, t = device.mass, device.sample_time
-    point = check_point(device, sampled_plant(device), k * t * t / m, b * t / m)
+    render = (filter_spec(wall, t), wall.mass) if wall is not None else None
+    point = check_point(device, sampled_plant(device), k * t * t / m, b * t / m, render)
     where = f"K = {k:.9g} N/m at B = {b:.6g} N·s/m past B_max (K_cr = 0), by the closed loop ({point.method})"
     if point.stable is None:
         return "undetermined", f"{where}: {point.reason}"

@@ -1,5 +1,5 @@
-"""``verify`` for a robust design: the design checked on the closed loop at every corner of its box and at the
-worst device it found.
+"""``verify`` for a robust design: the design checked on the closed loop at every corner of its box, at the worst
+device it found and at the worst device of an independent interior search.
 
 A robust design claims that its controller keeps the required margin (and, when asked, passivity) for every
 device of the box.  Finitely many devices can be checked: every corner of the box (over the parameters that
@@ -18,7 +18,8 @@ Corners and the design's own worst device are not the box (issue 34: a cable box
 interior search looks for a device of the box where the wall is unstable at the gain the margin promises
 stable (g·K, g = 10^(GM/20)): its own sampler (a Latin hypercube drawn here, not the design's Sobol points),
 its own optimizer (scipy's bounded Nelder–Mead, not the design's pattern search) and its own criterion (the
-spectral radius of the closed-loop state matrix, optim.stability.closed_loop, not K_cr).  The device it ends on
+spectral radius of the closed-loop state matrix, optim.stability.closed_loop, not K_cr; for the inertia design the
+force-feedforward loop's, optim.transparency.closed_loop_feedforward, not K_f,cr).  The device it ends on
 is checked like the others (kind ``interior``); a device that is unstable there contradicts the design.
 
 The overall verdict is ``contradicted`` if any point contradicts, else ``not_checkable`` (with the points'
@@ -51,7 +52,8 @@ from optim.verification import (
     verify_stiffness_design,
 )
 
-__all__ = ["InteriorSearch", "PointVerification", "interior_search", "verify_robust_inertia", "verify_robust_stiffness"]
+__all__ = ["InteriorSearch", "PointVerification", "interior_search", "interior_search_inertia", "verify_robust_inertia",
+           "verify_robust_stiffness"]
 
 PointKind = Literal["corner", "worst", "least passive", "interior"]
 
@@ -148,10 +150,38 @@ def _excess_at(box: UncertaintyBox, x: np.ndarray, gain: float, damping: float) 
     return ex.excess, ex.decided_unstable
 
 
+def _ff_excess_at(box: UncertaintyBox, x: np.ndarray, gain: float, order: int,
+                  cutoff_hz: float) -> tuple[float, bool]:
+    """Spectral radius − 1 of the force-feedforward loop 1 + K_f·D·G_1 at K_f = ``gain`` on the box's device at x
+    (optim.transparency.closed_loop_feedforward: its own state matrix, the filter's states, not the K_f,cr scan)."""
+    from optim.transparency.closed_loop_feedforward import feedforward_closed_loop, feedforward_loop
+
+    dev = box.device_at(x)
+    human, _ = resolve_human(dev)
+    loop = feedforward_loop(dev, human, order, cutoff_hz)
+    if loop.states > EIG_MAX_STATES:
+        raise ValueError("delay too long for the eigenvalue search")
+    ex = radius_excess(feedforward_closed_loop(loop, gain))
+    return ex.excess, ex.decided_unstable
+
+
 def interior_search(box: UncertaintyBox, relevant: np.ndarray, gain: float, damping: float,
                     seed: int = 20260) -> InteriorSearch | None:
     """The device of the box with the largest closed-loop spectral radius at the wall (gain, B), searched
     independently of the design (module doc).  None when the box's delays are too long for eigenvalues."""
+    return _search(box, relevant, lambda x: _excess_at(box, x, gain, damping), seed)
+
+
+def interior_search_inertia(box: UncertaintyBox, relevant: np.ndarray, gain: float, order: int, cutoff_hz: float,
+                            seed: int = 20260) -> InteriorSearch | None:
+    """The device of the box with the largest spectral radius of the force-feedforward loop at K_f = ``gain`` (the
+    designed gain times 10^(GM/20): the gain the margin promises stable), searched as :func:`interior_search`."""
+    return _search(box, relevant, lambda x: _ff_excess_at(box, x, gain, order, cutoff_hz), seed)
+
+
+def _search(box: UncertaintyBox, relevant: np.ndarray, excess_at, seed: int) -> InteriorSearch | None:
+    """The Latin hypercube and the bounded Nelder–Mead searches of the module doc on ``excess_at(x)`` → (spectral
+    radius − 1, decided unstable); None when it raises ValueError (the delay too long for eigenvalues)."""
     k = int(relevant.sum())
     lo, hi = box.lower[relevant], box.upper[relevant]
     base = box.nominal_point()
@@ -169,7 +199,7 @@ def interior_search(box: UncertaintyBox, relevant: np.ndarray, gain: float, damp
     def f(u: np.ndarray) -> float:
         nonlocal evals
         evals += 1
-        return -_excess_at(box, point(u), gain, damping)[0]
+        return -excess_at(point(u))[0]
 
     try:
         vals = np.array([f(u) for u in lhs])
@@ -188,7 +218,7 @@ def interior_search(box: UncertaintyBox, relevant: np.ndarray, gain: float, damp
             if res.fun < best_v:
                 best_u, best_v = np.clip(res.x, 0.0, 1.0), float(res.fun)
         x = point(best_u)
-        excess, unstable = _excess_at(box, x, gain, damping)
+        excess, unstable = excess_at(x)
     except ValueError:
         return None
     return InteriorSearch(x, excess, unstable, evals + 1)
@@ -241,15 +271,32 @@ def verify_robust_stiffness(box: UncertaintyBox, stiffness: float, damping: floa
 
 def verify_robust_inertia(box: UncertaintyBox, force_gain: float, cutoff_hz: float, order: int,
                           min_gain_margin_db: float, worst: dict | None = None) -> Verification:
-    """Check a robust force-feedforward design (K_f, cutoff) at every corner of its box and its worst device."""
+    """Check a robust force-feedforward design (K_f, cutoff) at every corner of its box, its worst device and the
+    independent interior search's worst (the force-feedforward loop's spectral radius at the gain the margin promises
+    stable, g·K_f, over the box: as for the stiffness design)."""
     t0 = time.perf_counter()
     out = []
-    for kind, x in _points(box, np.ones(box.dim, bool), [("worst", worst)]):
+    relevant = np.ones(box.dim, bool)
+    extra: list[tuple[PointKind, dict | None]] = [("worst", worst)]
+    what = "every corner, the worst device found"
+    gained = force_gain * 10.0 ** (min_gain_margin_db / 20.0)
+    search = interior_search_inertia(box, relevant, gained, order, cutoff_hz) if box.dim else None
+    if search is not None:
+        extra.append(("interior", box.describe(search.point)))
+        what += f" and the independent interior search's worst ({search.evaluations} closed loops)"
+    elif box.dim:
+        what += " (no interior search: the delay is too long for the closed loop's eigenvalues)"
+    for kind, x in _points(box, relevant, extra):
         dev: Device = box.device_at(x)
         human, _ = resolve_human(dev)
         filt = ButterworthLowPass(order=order, cutoff_hz=cutoff_hz, sample_time=dev.sample_time)
         kcr = float(critical_force_gain(dev, filt, human).critical_force_gain)
         kcr_or_none = None if math.isinf(kcr) else kcr
         v = verify_critical_force_gain(dev, human, kcr_or_none, order, cutoff_hz, design_gain=force_gain)
-        out.append(_point(box.describe(x), kind, kcr_or_none, force_gain, min_gain_margin_db, v))
-    return _overall(out, t0, "every corner and the worst device found")
+        p = _point(box.describe(x), kind, kcr_or_none, force_gain, min_gain_margin_db, v)
+        if kind == "interior" and search is not None and search.unstable and p.verdict != "contradicted":
+            p = dataclasses.replace(p, verdict="contradicted", reason="; ".join(
+                [f"the closed loop is unstable at the gain the margin promises stable, g·K_f = {gained:.9g} "
+                 f"(|z| − 1 = {search.excess:.3g})", *([p.reason] if p.reason else [])]))
+        out.append(p)
+    return _overall(out, t0, what)

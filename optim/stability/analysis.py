@@ -34,17 +34,18 @@ from optim.stability.margins import (
 from optim.stability.near_b_max import (
     B_MAX_SENSITIVITY,
     MEASURE_WITHIN,
+    RHO_REFINE,
     ROUNDING,
     b_max_sensitivity,
     cancellation_ratio,
     input_conditioning,
+    refine_cable_crossover,
 )
 from optim.stability.passivity import passivity_margin
 from optim.stability.passivity_rendered import rendered_passivity
-from optim.stability.reference import reference_critical_stiffness
+from optim.stability.reference import REFERENCE_STIFFNESS_MAX_DELAY_SAMPLES, reference_critical_stiffness
 from optim.stability.rendered import MassRange, rendered_critical_stiffness, rendered_mass_range
 from optim.stability.stable_band import StableBand, stable_band
-from optim.stability.undamped_cable import is_undamped_cable
 
 __all__ = ["Method", "METHODS", "GridPoints", "MIN_GRID_POINTS", "check_rung", "StabilityAnalysis", "analyse_stability", "linear_error_estimate",
            "grid_critical_stiffness", "grid_blind_spot", "DEFAULT_GRID_POINTS", "MAX_GRID_POINTS", "EXACT_REL_ERROR",
@@ -423,7 +424,12 @@ BAND_EDGE_RTOL = 1e-9
 
 
 def _judge_wall(device: Device, stiffness: float | None, damping: float, kcr: float | None,
-                band: StableBand | None = None) -> WallJudgement:
+                band: StableBand | None = None, estimate: float | None = None,
+                rendering: Rendering | None = None) -> WallJudgement:
+    """The wall against the rung's K_cr.  ``band``: the stable set past B_max (K_cr = 0); ``estimate``: an approximate
+    rung's relative error estimate of K_cr (linear, grid), whose stable label is its own only where K lies outside
+    K_cr·(1 ± estimate) (issue 34: past B_max the grid's unbounded K_cr labelled unstable walls stable); None for the
+    exact rungs.  ``rendering``: a rendered wall's filter and virtual mass (its own passivity condition)."""
     if stiffness is None:
         return WallJudgement()
     stable: bool | None = bool(kcr is not None and stiffness < kcr)
@@ -436,7 +442,10 @@ def _judge_wall(device: Device, stiffness: float | None, damping: float, kcr: fl
             lo, hi = band.band
             near = any(abs(stiffness / e - 1.0) <= BAND_EDGE_RTOL for e in (lo, hi) if math.isfinite(e))
             stable = None if near else lo < stiffness < hi
-    pm = passivity_margin(device, stiffness, damping)
+    if estimate is not None and stable is not None and not _label_within_estimate(stiffness, kcr, estimate):
+        stable = None
+    pm = (passivity_margin(device, stiffness, damping) if rendering is None else
+          rendered_passivity(device, stiffness, damping, rendering))
     return WallJudgement(gm, stable, pm.passive, pm.required_damping, pm.conservative)
 
 
@@ -511,16 +520,12 @@ def _analyse(device: Device, stiffness: float | None, damping: float, method: st
         rung = _reference_rung(device, damping)
     kcr, reason, b_max = rung.critical_stiffness, rung.reason, rung.max_stable_damping
     band = None
-    if kcr == 0 and damping > 0 and method in ("exact", "reference") and not is_undamped_cable(device):
+    if kcr == 0 and damping > 0 and method in ("exact", "reference"):
         # K_cr = 0 past B_max: the closed loop decides whether some K > 0 is stable all the same
         band = stable_band(device, damping)
         reason = _band_reason(reason, band)
-    wall = _judge_wall(device, stiffness, damping, kcr, band)
-    if method in ("linear", "grid") and wall.stable is not None and not _label_within_estimate(
-            stiffness, kcr, rung.error_estimate):
-        # an approximate rung labels the wall only where its own error estimate keeps K on one side of its K_cr
-        # (issue 34: past B_max the grid's unbounded K_cr labelled unstable walls stable)
-        wall = replace(wall, stable=None)
+    wall = _judge_wall(device, stiffness, damping, kcr, band,
+                       rung.error_estimate if method in ("linear", "grid") else None)
     cable = _judge_cable(device, damping, method, kcr)
     if damping > 0 and b_max is None and method == "exact":
         b_max = max_stable_damping(device)
@@ -559,11 +564,69 @@ RENDERED_RUNGS = ("only the exact rung analyses a velocity filter or a virtual m
 def _rendered_rung(device: Device, damping: float, rendering: Rendering) -> RungAnswer:
     """Every crossover of h_K = −1/G_n − βV_n − μA_n bracketed and refined (optim.stability.rendered)."""
     res = rendered_critical_stiffness(device, damping, rendering)
-    return RungAnswer(res.critical_stiffness, res.crossover_frequency, tuple(res.crossovers), EXACT_REL_ERROR,
-                      "every crossover of the rendered wall C(z) = K + B·V(z) + M·A(z) bracketed and refined to 4 ulp "
-                      "in ω (the adaptive scan, the filter's poles and zeros among its clusters); the K → 0⁺ loop "
-                      "decided by the crossings of B and M along two paths; confirmed by closed-loop eigenvalues "
-                      "with the filter's states (docs/properties_filter.md)", res.reason, res.max_stable_damping)
+    source = ("every crossover of the rendered wall C(z) = K + B·V(z) + M·A(z) bracketed and refined to 4 ulp "
+              "in ω (the adaptive scan, the filter's poles and zeros among its clusters); the K → 0⁺ loop "
+              "decided by the crossings of B and M along two paths; confirmed by closed-loop eigenvalues "
+              "with the filter's states (docs/properties_filter.md)")
+    kcr, w, crossovers, err, why = _rendered_estimate(device, damping, rendering, res)
+    return RungAnswer(kcr, w, crossovers, err, source + (f"; {why}" if why else ""), res.reason,
+                      res.max_stable_damping)
+
+
+def _rendered_estimate(device: Device, damping: float, rendering: Rendering, res
+                       ) -> tuple[float, float | None, tuple[Crossover, ...], float, str | None]:
+    """(K_cr, ω, crossovers, error estimate, why) of the rendered rung near B_max (issue 34), as today's wall's
+    (``_near_b_max``): K = Re h_K at the crossover is a difference of terms ρ times larger, each evaluated to a few ulp
+    (the plant's 1/G_n; the filter's V_n by Horner, whose rounding grows with Σ|coefficients|/|polynomial|), and the
+    inputs' rounding moves it by the conditioning near B_max.  A cable whose ρ exceeds RHO_REFINE (its modal 1/G_n is
+    not good to a few ulp there) has its binding crossover re-solved in 40 digits with the filter
+    (optim.stability.near_b_max.refine_cable_crossover); where that does not settle no bound is claimed."""
+    kcr, w, b_max = res.critical_stiffness, res.crossover_frequency, res.max_stable_damping
+    crossovers = tuple(res.crossovers)
+    if not (damping > 0.0 and w is not None and math.isfinite(kcr) and kcr > 0.0):
+        return kcr, w, crossovers, EXACT_REL_ERROR, None
+    t = device.sample_time
+    theta = np.array([w * t])
+    alpha, beta, mu = kcr / device.stiffness_scale, damping / device.damping_scale, rendering.mass / device.mass
+    vel = rendering.velocity
+    inv = abs(complex(loop_plant(device).inverse_response(theta)[0]))
+    v = abs(complex(vel.response(theta)[0]))
+    zinv = complex(np.exp(-1j * theta[0]))
+    r_at = abs(sum(c * zinv ** k for k, c in enumerate(vel.r)))
+    d_at = abs(sum(c * zinv ** k for k, c in enumerate(vel.d)))
+    horner = 2.0 * (len(vel.r) * sum(map(abs, vel.r)) / max(r_at, 1e-300)
+                    + len(vel.d) * sum(map(abs, vel.d)) / max(d_at, 1e-300))
+    terms = beta * v + abs(mu) * v * abs(complex(np.expm1(-1j * theta[0])))
+    rho = (inv + terms) / alpha
+    rounding = ROUNDING * (8.0 * inv + (8.0 + horner) * terms) / alpha
+    cond = input_conditioning(damping, b_max, B_MAX_SENSITIVITY + len(vel.r) + len(vel.d))
+    err = max(EXACT_REL_ERROR, rounding, cond)
+    if device.cable is not None and rho > RHO_REFINE:
+        got = None
+        if device.delay_samples <= REFERENCE_STIFFNESS_MAX_DELAY_SAMPLES:
+            got = refine_cable_crossover(device, damping, w * t, velocity=(vel.r, vel.d), mu=mu)
+        if got is None or not got[1] > 0.0:
+            return kcr, w, crossovers, math.inf, (
+                f"near B_max K_cr is a difference of terms {rho:.3g}× larger, beyond the double evaluation of the "
+                "cable's 1/G_n, and its 40-digit re-solve did not settle (or gave K ≤ 0, or the delay is past the "
+                "reference rung's cap): no error bound is claimed")
+        new_k, new_w = got[1] * device.stiffness_scale, got[0] / t
+        crossovers = tuple(Crossover(new_w, new_k) if c.frequency == w and c.stiffness == kcr else c
+                           for c in crossovers)
+        if new_k > min(c.stiffness for c in crossovers):
+            return kcr, w, tuple(res.crossovers), math.inf, (
+                "near B_max the binding crossover re-solved in 40 digits is no longer the least: no error bound is "
+                "claimed")
+        return new_k, new_w, crossovers, max(EXACT_REL_ERROR, cond), (
+            f"near B_max (K_cr a difference of terms {rho:.3g}× larger, beyond the double evaluation of the cable's "
+            "1/G_n) the binding crossover is re-solved in 40-digit arithmetic with the filter and the virtual mass "
+            "(the reference rung's discretisation)"
+            + (f"; the inputs' rounding moves it by {cond:.2g} relative" if cond > EXACT_REL_ERROR else ""))
+    if err > EXACT_REL_ERROR:
+        return kcr, w, crossovers, err, (
+            f"near B_max: K_cr is a difference of terms {rho:.3g}× larger (their rounding, the filter's evaluation "
+            f"included) and the inputs' rounding moves it by {cond:.2g} relative: the estimate carries both")
+    return kcr, w, crossovers, err, None
 
 
 def _analyse_rendered(device: Device, stiffness: float | None, damping: float, method: str, grid_points: int,
@@ -586,18 +649,16 @@ def _analyse_rendered(device: Device, stiffness: float | None, damping: float, m
     lin = linear_estimate(device, damping)
     rung = _rendered_rung(device, damping, rendering)
     kcr, reason, b_max = rung.critical_stiffness, rung.reason, rung.max_stable_damping
-    gm = stable = passive = required = None
-    conservative = False
+    band = None
+    if kcr == 0 and device.damping + damping > 0:
+        # "no positive stiffness is stable" is the rung's K → 0⁺ walk: the closed loop with the filter's states and
+        # the virtual mass decides whether some K > 0 is stable all the same, as for today's wall
+        band = stable_band(device, damping, rendering)
+        reason = _band_reason(reason, band)
+    wall = _judge_wall(device, stiffness, damping, kcr, band, rendering=rendering)
     mass = None
-    if stiffness is not None:
-        stable = bool(kcr is not None and stiffness < kcr)
-        gm = gain_margin_db(kcr, stiffness) if kcr and math.isfinite(kcr) else None
-        if kcr == 0:
-            gm, stable = None, False
-        pm = rendered_passivity(device, stiffness, damping, rendering)
-        passive, required, conservative = pm.passive, pm.required_damping, pm.conservative
-        if stable:
-            mass = rendered_mass_range(device, stiffness, damping, rendering)
+    if stiffness is not None and wall.stable and kcr:
+        mass = rendered_mass_range(device, stiffness, damping, rendering)
     cable = CableJudgement()
     if device.cable is not None:
         rigid_k = rendered_critical_stiffness(device.rigid(), damping, rendering).critical_stiffness
@@ -608,9 +669,11 @@ def _analyse_rendered(device: Device, stiffness: float | None, damping: float, m
     lin_err = abs(lin / kcr - 1) if kcr and math.isfinite(kcr) else None
     return StabilityAnalysis(
         critical_stiffness=_finite(kcr), crossover_frequency=rung.crossover_frequency, crossovers=rung.crossovers,
-        damping=damping, stiffness=stiffness, gain_margin_db=gm, stable=stable, passive=passive,
-        passivity_required_damping=required, passivity_conservative=conservative, linear_estimate=lin,
+        damping=damping, stiffness=stiffness, gain_margin_db=wall.gain_margin_db, stable=wall.stable,
+        passive=wall.passive, passivity_required_damping=wall.passivity_required_damping,
+        passivity_conservative=wall.passivity_conservative, linear_estimate=lin,
         linear_error=lin_err, max_stable_damping=_finite(b_max), q_criterion=cable.q_criterion,
         mode_matters=cable.mode_matters, rigid_critical_stiffness=_finite(cable.rigid_critical_stiffness),
         method=rung_method, elapsed_ms=(time.perf_counter() - t0) * 1e3, error_estimate=rung.error_estimate,
-        error_source=rung.error_source, reason=reason, mass_range=mass)
+        error_source=rung.error_source, reason=reason, mass_range=mass,
+        stable_band=band.band if band is not None and band.status == "band" else None)

@@ -94,16 +94,31 @@ def _damperless_h(device: Device, digits: int):
         return cable_h(device, d, mp.mpf(f), mp.mpf(0))
 
 
-def refine_cable_crossover(device: Device, damping: float, theta: float, digits: int = 40
+def refine_cable_crossover(device: Device, damping: float, theta: float, digits: int = 40,
+                           velocity: tuple[tuple[float, ...], tuple[float, ...]] | None = None, mu: float = 0.0
                            ) -> tuple[float, float] | None:
     """(θ, α) of the crossover near θ in ``digits`` digits (Newton on Im H of the reference discretisation), or None
-    when Newton does not settle within 1e-9 of θ."""
+    when Newton does not settle within 1e-9 of θ.  ``velocity`` = (R, D) and ``mu`` = M/m: a rendered wall's filter
+    (models.velocity_filter.VelocityTransfer's coefficients, taken as exact) and virtual mass: H = −1/G_n − β·V_n −
+    μ·V_n·(1 − w), V_n = (1 − w)·R(w)/D(w), w = e^{−jθ}, all in ``digits`` digits."""
     with mp.workdps(digits + 10):
         beta = mp.mpf(damping) * mp.mpf(device.sample_time) / mp.mpf(device.mass)
         h0 = _damperless_h(device, digits)
+        r_c, d_c = ([mp.mpf(c) for c in velocity[0]], [mp.mpf(c) for c in velocity[1]]) if velocity else ([1], [1])
+        mu_mp = mp.mpf(mu)
+
+        def poly(coeffs, w):                 # Σ c_k w^k by Horner, ascending coefficients
+            out = mp.mpf(0)
+            for c in reversed(coeffs):
+                out = out * w + c
+            return out
 
         def h(t):
-            return h0(t) - beta * (1 - 1 / mp.expj(t))
+            w = 1 / mp.expj(t)
+            if velocity is None and mu == 0.0:
+                return h0(t) - beta * (1 - w)
+            v = (1 - w) * poly(r_c, w) / poly(d_c, w)
+            return h0(t) - beta * v - mu_mp * v * (1 - w)
 
         th = mp.mpf(theta)
         step = mp.mpf(10) ** (-(digits // 2))

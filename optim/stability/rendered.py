@@ -58,7 +58,7 @@ from optim.stability.rendered_rigid import LOOP_B, LOOP_K, LOOP_M, rigid_real_cr
 from optim.stability.undamped_cable import is_undamped_cable
 
 __all__ = ["MassRange", "rendered_critical_stiffness", "rendered_max_stable_damping", "rendered_mass_range",
-           "real_crossings", "k_loop", "Decision", "Passage", "clear_caches"]
+           "real_crossings", "k_loop", "Decision", "Passage", "clear_caches", "band_crossings"]
 
 Decision = Literal["stable", "unstable", "undecided"]
 #: |V_n| or |A_n| below this counts as a zero of the estimate on the circle (a moving average's 2πk/n)
@@ -300,6 +300,15 @@ def rendered_critical_stiffness(device: Device, damping: float, rendering: Rende
     else:
         found = positive_real_crossings(k_loop(device, rendering, beta, mu), _grid(device, rendering, beta))
     return critical_from_crossings(device, found, damping, b_max)
+
+
+def band_crossings(device: Device, rendering: Rendering, beta: float) -> list[tuple[float, float, int]]:
+    """(α, θ, change of the unstable count) of every K > 0 crossover of h_K at β and this filter and M, sorted by α
+    (optim.stability.stable_band's input past B_max): the real crossings of h_K with their poles' direction (0: a
+    crossing whose direction is not resolved)."""
+    h = k_loop(device, rendering, beta, rendering.mass / device.mass)
+    found = real_crossings(h, _grid(device, rendering, beta))
+    return sorted((c.value, c.angle, c.outward) for c in found if c.value > 0.0)
 
 
 def rendered_mass_range(device: Device, stiffness: float, damping: float, rendering: Rendering) -> MassRange | None:

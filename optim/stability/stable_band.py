@@ -31,6 +31,7 @@ from typing import Literal
 import numpy as np
 
 from models.device import Device
+from models.velocity_filter import Rendering, filter_spec
 
 __all__ = ["StableBand", "stable_band", "crossings_at", "EDGE_STEPS", "ALL_INTERVALS_MAX"]
 
@@ -61,6 +62,7 @@ def crossings_at(device: Device, beta: float) -> list[tuple[float, float, int]]:
     """(α, θ, change of the unstable count) of every K > 0 crossover at β, by the scan, sorted by α."""
     from optim.stability.crossovers import positive_real_crossings, scan_grid, theta_min
     from optim.stability.margins import loop_plant
+    from optim.stability.undamped_cable import is_undamped_cable, true_crossings
 
     plant = loop_plant(device)
     hints = tuple(plant.pole_angles()) + tuple(plant.zero_angles())
@@ -71,6 +73,10 @@ def crossings_at(device: Device, beta: float) -> list[tuple[float, float, int]]:
         return -plant.inverse_response(theta) + beta * np.expm1(-1j * theta)
 
     found = positive_real_crossings(h, grid)
+    if is_undamped_cable(device):
+        # a lossless cable: the scan's roots of Im H at poles of H (a zero of G on the circle, a locus's K → ∞ end)
+        # are no crossings (optim.stability.undamped_cable)
+        found = true_crossings(h, found)
     out = []
     for c in found:
         th = c.angle
@@ -106,20 +112,31 @@ def _refined_edge(device: Device, damping: float, beta: float, alpha: float, cro
     return got[1]
 
 
-def stable_band(device: Device, damping: float) -> StableBand:
-    """The stable set in K of the wall with virtual damping ``damping`` [N·s/m] at or above B_max (module docstring)."""
+def stable_band(device: Device, damping: float, rendering: Rendering | None = None) -> StableBand:
+    """The stable set in K of the wall with virtual damping ``damping`` [N·s/m] at or above B_max (module docstring).
+
+    ``rendering``: the wall's velocity filter and virtual mass (models.velocity_filter): the crossovers are then those
+    of the rendered wall's h_K (optim.stability.rendered.band_crossings) and the closed loop carries the filter's
+    states and the virtual mass (optim.verification's rendered point); None or the default: today's wall."""
     from optim.stability.closed_loop import sampled_plant
     from optim.verification import check_point
 
     m, t = device.mass, device.sample_time
     to_alpha, beta = t * t / m, damping * t / m
     scale = 1.0 / to_alpha
-    cross = crossings_at(device, beta)
-    # merge crossovers at the same K (to 1e-12): their changes add
+    render = None
+    if rendering is not None and not rendering.is_default:
+        from optim.stability.rendered import band_crossings
+
+        render = (filter_spec(rendering, t), rendering.mass)
+        cross = band_crossings(device, rendering, beta)
+    else:
+        cross = crossings_at(device, beta)
+    # merge crossovers at the same K (to 1e-12): their changes add (an unresolved one, 0, leaves the sum unknown: 0)
     edges: list[list] = []
     for a, _, ch in cross:
         if edges and a <= edges[-1][0] * (1.0 + 1e-12):
-            edges[-1][1] += ch
+            edges[-1][1] = 0 if 0 in (ch, edges[-1][1]) else edges[-1][1] + ch
         else:
             edges.append([a, ch])
     plant = sampled_plant(device)
@@ -128,7 +145,7 @@ def stable_band(device: Device, damping: float) -> StableBand:
     def decide(alpha: float) -> bool | None:
         nonlocal checked
         checked += 1
-        return check_point(device, plant, alpha, beta).stable
+        return check_point(device, plant, alpha, beta, render).stable
 
     ks = [e[0] for e in edges]
     # test points: inside each interval (0, k1), (k1, k2), …, (kn, ∞)
@@ -139,15 +156,19 @@ def stable_band(device: Device, damping: float) -> StableBand:
     if first is None:
         return StableBand("undetermined", None, 0, checked, "the closed loop cannot decide the loop at a small K "
                           "(a pole within rounding of the unit circle)")
-    predicted = [0 if first else 2]
+    # a crossing whose direction is not resolved (a rendered wall's tangency: change 0) leaves the prediction unknown
+    # from there on: those intervals are all counted by the closed loop
+    predicted: list[int | None] = [0 if first else 2]
     for _, ch in edges:
-        predicted.append(max(predicted[-1] + ch, 0))
+        last = predicted[-1]
+        predicted.append(None if last is None or ch == 0 else max(last + ch, 0))
     verdicts: list[bool | None] = [first]
     for i, alpha in enumerate(tests[1:], start=1):
-        if len(tests) <= ALL_INTERVALS_MAX or predicted[i] <= 2:
+        guess = predicted[i]
+        if len(tests) <= ALL_INTERVALS_MAX or guess is None or guess <= 2:
             verdicts.append(decide(alpha))
         else:
-            verdicts.append(False if predicted[i] > 2 else None)
+            verdicts.append(False)          # guess > 2: a pair or more outside, by the directions
     if any(v is None for v in verdicts):
         j = verdicts.index(None)
         lo = 0.0 if j == 0 else ks[j - 1] * scale
@@ -176,7 +197,7 @@ def stable_band(device: Device, damping: float) -> StableBand:
     # digits for a cable, as K_cr is below B_max (optim.stability.near_b_max; the double edge was 2e-6 off at 5e-9
     # past B_max in the property run)
     refined = {}
-    if device.cable is not None:
+    if device.cable is not None and render is None:
         for edge in (lo_a, hi_a):
             got = _refined_edge(device, damping, beta, edge, cross)
             if got is False:

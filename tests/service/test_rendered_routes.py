@@ -90,3 +90,22 @@ def test_other_rungs_refuse_a_filter_naming_method(client):
                                          "controller": {"stiffness": 1000, "velocity_filter": LOW_PASS_50}})
         assert r.status_code == 422
         assert r.json()["detail"][0]["loc"] == ["body", "method"]
+
+
+def test_rendered_stable_band_past_b_max_reaches_the_answer_and_verify_confirms_it(client):
+    """Issue 34 on the rendered wall: a moving average and a virtual mass past the rendered B_max; the band comes
+    from the closed loop with the filter's states, and verify (that closed loop at K) confirms the wall's label."""
+    import math
+
+    from tests.optim.stability.test_rendered_band import BANDS
+
+    raw, spec, mass, b, (lo, hi) = BANDS[0]
+    k = math.sqrt(lo * hi)
+    r = client.post(STABILITY, json={
+        "device": raw, "verify": True,
+        "controller": {"stiffness": k, "damping": b, "mass": mass, "velocity_filter": spec.model_dump()}})
+    assert r.status_code == 200, r.text
+    body = r.json()
+    assert body["critical_stiffness"] == 0.0 and body["stable"] is True
+    assert body["stable_band"][0] < k < body["stable_band"][1]
+    assert body["verification"]["verdict"] == "confirmed", body["verification"]

@@ -147,3 +147,50 @@ def test_the_worst_case_search_finds_the_interior_minimum():
     box = UncertaintyBox.from_ranges(INTERIOR_DEVICE, INTERIOR_RANGES)
     wc = worst_case_stiffness(box, 1.0, INTERIOR_B)
     assert wc.critical_stiffness == pytest.approx(_interior_minimum(box), rel=1e-8)
+
+
+# issue 34, the inertia design: K_f,cr at an 80 Hz second-order cutoff of the LHIfAM cable over its cable stiffness
+# 0.1-0.8 × 79,500 N/m falls from 1.94 at the soft end to its minimum ≈ 1.208 at u ≈ 0.29 and rises to 2.11 at the
+# stiff end (29-point scan): the worst device is inside the box, and the corners alone are > 4 dB clear of it.
+INERTIA_DEVICE = Device(preset="lhifam")
+INERTIA_RANGES = {"device.cable.stiffness": (7950.0, 63600.0)}
+INERTIA_CUTOFF = 80.0
+
+
+def _interior_force_gain_minimum(box) -> float:
+    """min over the box of K_f,cr at the cutoff: a 41-point scan refined by a bounded scalar search (scipy)."""
+    from scipy.optimize import minimize_scalar
+
+    from models.filters import ButterworthLowPass
+    from optim.transparency.feedforward import critical_force_gain, resolve_human
+
+    def kcr(u: float) -> float:
+        d = box.device_at(box.to_box([u]))
+        f = ButterworthLowPass(order=2, cutoff_hz=INERTIA_CUTOFF, sample_time=d.sample_time)
+        return float(critical_force_gain(d, f, resolve_human(d)[0]).critical_force_gain)
+
+    us = [i / 40 for i in range(41)]
+    i = min(range(41), key=lambda j: kcr(us[j]))
+    res = minimize_scalar(kcr, bounds=(us[max(i - 1, 0)], us[min(i + 1, 40)]), method="bounded",
+                          options={"xatol": 1e-10})
+    return float(res.fun)
+
+
+@pytest.mark.slow
+def test_an_inertia_design_violated_only_inside_the_box_is_contradicted_with_the_device():
+    box = UncertaintyBox.from_ranges(INERTIA_DEVICE, INERTIA_RANGES)
+    g = 10 ** (6.0 / 20)
+    k_min = _interior_force_gain_minimum(box)
+    bad = vr.verify_robust_inertia(box, k_min / g * (1 + 1e-4), INERTIA_CUTOFF, 2, 6.0)
+    assert bad.verdict == "contradicted", bad.reason
+    corners = [p for p in bad.points if p.kind == "corner"]
+    assert all(p.verdict == "confirmed" and p.gain_margin_db > 10.0 for p in corners)
+    inner = [p for p in bad.points if p.kind == "interior"]
+    assert len(inner) == 1 and inner[0].verdict == "contradicted"
+    u = (inner[0].device["device.cable.stiffness"] - box.lower[0]) / (box.upper[0] - box.lower[0])
+    assert 0.2 < u < 0.4
+    assert 6.0 - 1e-3 < inner[0].gain_margin_db < 6.0 - 5e-4          # 20·log10(1 + 1e-4) = 8.7e-4 dB short
+    assert "interior search" in bad.reason
+    good = vr.verify_robust_inertia(box, k_min / g * (1 - 1e-6), INERTIA_CUTOFF, 2, 6.0)
+    assert good.verdict == "confirmed", good.reason
+    assert [p.kind for p in good.points] == ["corner", "corner", "interior"]

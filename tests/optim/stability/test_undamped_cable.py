@@ -135,3 +135,33 @@ def test_analysis_refuses_with_the_field_or_answers():
         assert e.field == "device.cable"
     else:
         _holds(dev, a.damping, a.critical_stiffness if a.critical_stiffness is not None else math.inf)
+
+
+# issue 34: a cable with every damping 0 past its B_max (random_cable(default_rng([34, 32]), 32, top=12, undamped=…),
+# B 20 % or so above B_max): the scan's "no positive stiffness is stable" was false; the band analysis (the scan's
+# true crossings, each interval counted by the closed loop) reports a band, which the independent closed loop holds
+UNDAMPED_BAND = {"mass": 0.013212882726801545, "damping": 0.0, "sample_time": 0.001, "delay": 0.003596900373757159,
+                 "cable": {"motor_mass": 0.009959895922005543, "motor_damping": 0.0,
+                           "body_mass": 0.003252986804796002, "body_damping": 0.0,
+                           "stiffness": 2524.489818085512, "damping": 0.0}}
+UNDAMPED_BAND_B = 0.18251129511810674
+
+
+def test_undamped_cable_past_b_max_reports_its_stable_band():
+    from tests.optim.independent import spectral_radius
+
+    dev = Device(**UNDAMPED_BAND)
+    assert UNDAMPED_BAND_B > max_stable_damping(dev)
+    a = analyse_stability(dev, None, UNDAMPED_BAND_B)
+    assert a.critical_stiffness == 0.0 and a.stable_band is not None
+    lo, hi = a.stable_band
+    assert lo == pytest.approx(12.09111202611472, rel=1e-6) and hi == pytest.approx(43.363986733657605, rel=1e-6)
+    t, m = dev.sample_time, dev.mass
+
+    def excess(k: float) -> float:
+        return spectral_radius(dev, k * t * t / m, UNDAMPED_BAND_B * t / m) - 1.0
+
+    assert excess(math.sqrt(lo * hi)) < 0.0
+    assert excess(lo * (1 - 1e-4)) > 0.0 and excess(lo * (1 + 1e-4)) < 0.0
+    assert excess(hi * (1 - 1e-4)) < 0.0 and excess(hi * (1 + 1e-4)) > 0.0
+    assert analyse_stability(dev, math.sqrt(lo * hi), UNDAMPED_BAND_B).stable is True
