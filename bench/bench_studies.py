@@ -62,6 +62,21 @@ def grid_study(problem: str, points: int) -> dict:
                       "device.delay": [i * 0.001 for i in range(21)]}}
 
 
+def fractional_study(problem: str, points: int, seed: int = 0) -> dict:
+    """Issue 32's study: 400 random masses (0.5 … 10 kg) × fractional delays (0 … 20 ms at T = 1 ms: points/400 of
+    them evenly spaced, nearly all a fraction of a sample), the wall of grid_study."""
+    n_mass = min(400, max(1, points))
+    masses = [float(x) for x in np.random.default_rng(seed).uniform(0.5, 10.0, n_mass)]
+    return {"problem": problem,
+            "base": {"device": {"mass": 5.4, "damping": 3.5, "sample_time": 0.001},
+                     "requirements": {"stiffness": 1500.0, "damping": 2.0}},
+            "sweep": {"device.mass": masses,
+                      "device.delay": {"start": 0.0, "stop": 0.02, "num": max(1, points // n_mass)}}}
+
+
+GRIDS = {"whole": grid_study, "fractional": fractional_study}
+
+
 def stiffness_study(points: int) -> dict:
     """Stiffness design (optim.stiffness, when in this build) over delay × gain margin."""
     n_delay = max(1, points // 2)
@@ -224,6 +239,8 @@ class HttpRow:
     chunk: int
     cpu: float | None = None
     """CPU time of the service, its pool or the Dask workers during the study [s]."""
+    grid: str = "whole"
+    """the study's grid (GRIDS): integer delays (grid_study) or fractional ones (fractional_study)."""
 
     @property
     def rate(self) -> float:
@@ -283,7 +300,7 @@ def _submit_and_wait(client, srv, study: dict, timeout: float) -> tuple[dict, in
 
 
 def http_study(problem: str, points: int, dask_address: str | None = None, timeout: float = 3600.0,
-               max_points: int | None = None) -> HttpRow:
+               max_points: int | None = None, grid: str = "whole", port: int | None = None) -> HttpRow:
     """One study through a live server's HTTP contract (warmed by a small study first)."""
     import httpx
 
@@ -294,12 +311,12 @@ def http_study(problem: str, points: int, dask_address: str | None = None, timeo
     with tempfile.TemporaryDirectory() as tmp:
         env = {"ZWIDTH_DATABASE_URL": f"sqlite:///{tmp}/studies.db", "ZWIDTH_STUDY_WORKERS": "2",
                "ZWIDTH_DASK_SCHEDULER": dask_address, "ZWIDTH_STUDY_MAX_POINTS": str(max_points or 1_000_000)}
-        srv = LiveServer(env, ready_path="/v1/studies", timeout=180)
+        srv = LiveServer(env, ready_path="/v1/studies", timeout=180, port=port)
         try:
             with httpx.Client(base_url=srv.url, timeout=120) as client:
                 _submit_and_wait(client, srv, grid_study(problem, 2100), timeout)     # pool or cluster warm
                 c0 = _cpu_seconds(srv, dask_address)
-                st, peak = _submit_and_wait(client, srv, grid_study(problem, points), timeout)
+                st, peak = _submit_and_wait(client, srv, GRIDS[grid](problem, points), timeout)
                 cpu = _cpu_seconds(srv, dask_address) - c0
                 hwm = _peak_kib(srv.pid)
         finally:
@@ -310,7 +327,7 @@ def http_study(problem: str, points: int, dask_address: str | None = None, timeo
     return HttpRow(problem, label, st["total"], st["finished_at"] - st["started_at"], st["failed"], hwm / 1024,
                    None if dask_address else peak / 1024,
                    StudySettings().chunk_size * VECTOR_CHUNK_FACTOR * (DaskExecutor.task_scale if dask_address else 1),
-                   cpu)
+                   cpu, grid)
 
 
 def measure_http(points: int, dask: bool = True) -> list[HttpRow]:
