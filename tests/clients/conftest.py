@@ -88,8 +88,14 @@ def without_timings(value):
 
 
 @functools.lru_cache(maxsize=None)
-def has_route(path: str) -> bool:
-    """Whether this build of the service has an endpoint (some land on other branches first)."""
+def _routes() -> frozenset[str]:
+    """The service's paths, from one app and one OpenAPI document (each costs about a second: test modules ask at
+    collection time, so the fast loop paid it once per question)."""
     from service.app import create_app
 
-    return path in create_app().openapi()["paths"]
+    return frozenset(create_app().openapi()["paths"])
+
+
+def has_route(path: str) -> bool:
+    """Whether this build of the service has an endpoint (some land on other branches first)."""
+    return path in _routes()
