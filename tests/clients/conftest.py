@@ -88,12 +88,24 @@ def without_timings(value):
 
 
 @functools.lru_cache(maxsize=None)
-def _routes() -> frozenset[str]:
-    """The service's paths, from one app and one OpenAPI document (each costs about a second: test modules ask at
-    collection time, so the fast loop paid it once per question)."""
+def _openapi() -> dict:
+    """The current app's OpenAPI document, built once per session (an app and its document cost about a second:
+    test modules ask for routes at collection time, and the fast loop paid it once per question)."""
     from service.app import create_app
 
-    return frozenset(create_app().openapi()["paths"])
+    return create_app().openapi()
+
+
+def openapi_document() -> dict:
+    """A copy of the session's OpenAPI document (tests may not change the shared one)."""
+    import copy
+
+    return copy.deepcopy(_openapi())
+
+
+@functools.lru_cache(maxsize=None)
+def _routes() -> frozenset[str]:
+    return frozenset(_openapi()["paths"])
 
 
 def has_route(path: str) -> bool:
