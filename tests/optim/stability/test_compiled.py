@@ -44,6 +44,7 @@ def test_numba_alone_would_refuse_to_cache_here(tmp_path):
     assert _run("import cached_mod", no_locator=False, path=tmp_path).returncode == 0
 
 
+@pytest.mark.slow     # a fresh interpreter compiles every kernel without a cache (the fast loop's largest test)
 def test_kernels_compile_without_a_cache_directory_and_answer_the_same():
     out = _run(_ANALYSIS)
     assert out.returncode == 0, out.stderr[-2000:]
