@@ -62,6 +62,21 @@ def grid_study(problem: str, points: int) -> dict:
                       "device.delay": [i * 0.001 for i in range(21)]}}
 
 
+def fractional_study(problem: str, points: int, seed: int = 0) -> dict:
+    """Issue 32's study: 400 random masses (0.5 … 10 kg) × fractional delays (0 … 20 ms at T = 1 ms: points/400 of
+    them evenly spaced, nearly all a fraction of a sample), the wall of grid_study."""
+    n_mass = min(400, max(1, points))
+    masses = [float(x) for x in np.random.default_rng(seed).uniform(0.5, 10.0, n_mass)]
+    return {"problem": problem,
+            "base": {"device": {"mass": 5.4, "damping": 3.5, "sample_time": 0.001},
+                     "requirements": {"stiffness": 1500.0, "damping": 2.0}},
+            "sweep": {"device.mass": masses,
+                      "device.delay": {"start": 0.0, "stop": 0.02, "num": max(1, points // n_mass)}}}
+
+
+GRIDS = {"whole": grid_study, "fractional": fractional_study}
+
+
 def stiffness_study(points: int) -> dict:
     """Stiffness design (optim.stiffness, when in this build) over delay × gain margin."""
     n_delay = max(1, points // 2)
@@ -224,6 +239,8 @@ class HttpRow:
     chunk: int
     cpu: float | None = None
     """CPU time of the service, its pool or the Dask workers during the study [s]."""
+    grid: str = "whole"
+    """the study's grid (GRIDS): integer delays (grid_study) or fractional ones (fractional_study)."""
 
     @property
     def rate(self) -> float:
@@ -283,7 +300,7 @@ def _submit_and_wait(client, srv, study: dict, timeout: float) -> tuple[dict, in
 
 
 def http_study(problem: str, points: int, dask_address: str | None = None, timeout: float = 3600.0,
-               max_points: int | None = None) -> HttpRow:
+               max_points: int | None = None, grid: str = "whole", port: int | None = None) -> HttpRow:
     """One study through a live server's HTTP contract (warmed by a small study first)."""
     import httpx
 
@@ -294,12 +311,12 @@ def http_study(problem: str, points: int, dask_address: str | None = None, timeo
     with tempfile.TemporaryDirectory() as tmp:
         env = {"ZWIDTH_DATABASE_URL": f"sqlite:///{tmp}/studies.db", "ZWIDTH_STUDY_WORKERS": "2",
                "ZWIDTH_DASK_SCHEDULER": dask_address, "ZWIDTH_STUDY_MAX_POINTS": str(max_points or 1_000_000)}
-        srv = LiveServer(env, ready_path="/v1/studies", timeout=180)
+        srv = LiveServer(env, ready_path="/v1/studies", timeout=180, port=port)
         try:
             with httpx.Client(base_url=srv.url, timeout=120) as client:
                 _submit_and_wait(client, srv, grid_study(problem, 2100), timeout)     # pool or cluster warm
                 c0 = _cpu_seconds(srv, dask_address)
-                st, peak = _submit_and_wait(client, srv, grid_study(problem, points), timeout)
+                st, peak = _submit_and_wait(client, srv, GRIDS[grid](problem, points), timeout)
                 cpu = _cpu_seconds(srv, dask_address) - c0
                 hwm = _peak_kib(srv.pid)
         finally:
@@ -310,13 +327,14 @@ def http_study(problem: str, points: int, dask_address: str | None = None, timeo
     return HttpRow(problem, label, st["total"], st["finished_at"] - st["started_at"], st["failed"], hwm / 1024,
                    None if dask_address else peak / 1024,
                    StudySettings().chunk_size * VECTOR_CHUNK_FACTOR * (DaskExecutor.task_scale if dask_address else 1),
-                   cpu)
+                   cpu, grid)
 
 
-def measure_http(points: int, dask: bool = True) -> list[HttpRow]:
+def measure_http(points: int, dask: bool = True, port: int | None = None) -> list[HttpRow]:
     rows = []
     for problem in ("critical_stiffness", "stability"):
-        rows.append(http_study(problem, points))
+        rows.append(http_study(problem, points, port=port))
+        rows.append(http_study(problem, points, grid="fractional", port=port))     # issue 32: any grid
         if dask:
             from bench.dask_cluster import local_dask_cluster
 
@@ -340,19 +358,29 @@ def render_http(rows: list[HttpRow]) -> str:
              "server and its pool, or the server and the Dask workers): on a loaded machine the workers (nice 10) get "
              "a fraction of the cores, so this, times the 2 cores, is what two free cores would give.",
              "",
-             "| problem | executor | points | started → finished [s] | points/s | target | points per CPU-s | failed "
-             "| service peak RSS [MiB] | with pool [MiB] | largest chunk |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+             "",
+             "*Grid*: `whole` is that mass × delay grid; `fractional` (issue 32) is 400 random masses (0.5 … 10 kg) × "
+             "delays evenly spaced on 0 … 20 ms (2,500 of them for 1M points: nearly every delay a fraction of a "
+             "sample, so every plant has the two-zero numerator of a fractional delay), the same wall.",
+             "",
+             "| problem | grid | executor | points | started → finished [s] | points/s | target | points per CPU-s "
+             "| failed | service peak RSS [MiB] | with pool [MiB] | largest chunk |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         pool = f"{r.all_peak_mib:.0f}" if r.all_peak_mib is not None else "—"
         goal = HTTP_GOALS.get(r.problem)
         cpu = f"{r.cpu_rate:.0f}" if r.cpu_rate else "—"
-        lines.append(f"| {r.problem} | {r.executor} | {r.points} | {r.seconds:.2f} | {r.rate:.0f} | "
+        lines.append(f"| {r.problem} | {r.grid} | {r.executor} | {r.points} | {r.seconds:.2f} | {r.rate:.0f} | "
                      f"{'≥ %d' % goal if goal else '—'} | {cpu} | {r.failed} | {r.service_peak_mib:.0f} | {pool} | "
                      f"{r.chunk} |")
     for prob in HTTP_GOALS:
-        local = [r for r in rows if r.problem == prob and r.all_peak_mib is not None]
-        dask = [r for r in rows if r.problem == prob and r.all_peak_mib is None]
+        whole = [r for r in rows if r.problem == prob and r.grid == "whole" and r.cpu_rate and r.all_peak_mib]
+        frac = [r for r in rows if r.problem == prob and r.grid == "fractional" and r.cpu_rate and r.all_peak_mib]
+        if whole and frac:
+            lines += ["", f"{prob}: the fractional grid at {frac[0].cpu_rate / whole[0].cpu_rate:.2f} × the whole "
+                      "grid's points per CPU-s (local pool, same run)."]
+        local = [r for r in rows if r.problem == prob and r.all_peak_mib is not None and r.grid == "whole"]
+        dask = [r for r in rows if r.problem == prob and r.all_peak_mib is None and r.grid == "whole"]
         if local and dask:
             lines += ["", f"{prob}: Dask at {dask[0].rate / local[0].rate:.2f} × local (target within 25 %: "
                       f"{'met' if dask[0].rate >= 0.75 * local[0].rate else 'not met'})."]
@@ -388,7 +416,7 @@ def render(rows: list[Row], note: str = "", load: tuple[float, float] | None = N
     base = {r.problem: r.rate for r in rows if r.chunk is None}
     for r in rows:
         cpu = f"{r.cpu_rate:.0f}" if r.cpu_rate else "—"
-        lines.append(f"| {r.problem} | {r.executor} | {r.points} | {r.median:.3f} | {r.p95:.3f} | {r.rate:.0f} | "
+        lines.append(f"| {r.problem} | {r.grid} | {r.executor} | {r.points} | {r.median:.3f} | {r.p95:.3f} | {r.rate:.0f} | "
                      f"{r.rate / base[r.problem]:.2f} | {cpu} | {r.failed} | {r.chunk or '—'} |")
     goals = []
     for prob, goal in GOALS.items():
@@ -425,6 +453,7 @@ def main() -> None:
     ap.add_argument("--http-points", type=int, default=210_000,
                     help="points of the mass × delay studies through the HTTP contract (0: skip that table)")
     ap.add_argument("--no-runner", action="store_true", help="skip the in-process runner table")
+    ap.add_argument("--port", type=int, default=None, help="the live server's loopback port (default: a free one)")
     ap.add_argument("--huge", type=int, nargs="?", const=10_000_000, default=None,
                     help="also a study of this many points (default 10 million) on a local Dask cluster, peak RSS "
                          "printed")
@@ -439,7 +468,7 @@ def main() -> None:
         text = render(rows, load=(before, os.getloadavg()[0]))
     if args.http_points:
         before = os.getloadavg()[0]
-        http_rows = measure_http(args.http_points, dask=not args.no_dask)
+        http_rows = measure_http(args.http_points, dask=not args.no_dask, port=args.port)
         if args.huge:
             from bench.dask_cluster import local_dask_cluster
 
@@ -450,6 +479,9 @@ def main() -> None:
                   f"{huge.service_peak_mib:.0f} MiB (bound 1024 MiB: {'met' if huge.service_peak_mib <= 1024 else 'not met'})")
         text += render_http(http_rows) + (f"\nLoad average (1 min) {before:.1f} before and {os.getloadavg()[0]:.1f} "
                                           "after the HTTP runs.\n")
+    if args.no_runner and Path(args.out).exists():    # keep the runner table already in the file
+        old = Path(args.out).read_text()
+        text = old.split("\n## Through the HTTP contract", 1)[0].rstrip("\n") + "\n" + text
     Path(args.out).write_text(text)
     print(text)
 

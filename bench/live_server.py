@@ -83,8 +83,8 @@ class LiveServer:
 
     def __init__(self, env: dict[str, str | None] | None = None, workers: int = 1, timeout: float = 60.0,
                  args: tuple[str, ...] = (), log: Path | None = None, ready_path: str = "/healthz",
-                 app: str = "service.app:app") -> None:
-        self.port = free_port()
+                 app: str = "service.app:app", port: int | None = None) -> None:
+        self.port = port or free_port()
         self.url = f"http://127.0.0.1:{self.port}"
         self._store_dir: tempfile.TemporaryDirectory[str] | None = None
         store: dict[str, str | None] = {}

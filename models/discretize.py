@@ -235,14 +235,16 @@ def rigid_coefficients(delta: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, ..
     s0 = 1.0 - f
     one_minus_p = -np.expm1(-delta)
     phi12 = _phi_array("phi1", delta)
+    # each φ once (the same values as evaluating it where it appears: elementwise, deterministic)
+    phi1_s0, phi1_f = _phi_array("phi1", delta * s0), _phi_array("phi1", delta * f)
     g0p = s0 * s0 * _phi_array("phi2", delta * s0)
-    g0v = s0 * _phi_array("phi1", delta * s0)
-    g1p = f * f * _phi_array("phi2", delta * f) + s0 * _phi_array("phi1", delta * s0) * f * _phi_array("phi1", delta * f)
-    g1v = np.exp(-delta * s0) * f * _phi_array("phi1", delta * f)
+    g0v = s0 * phi1_s0
+    g1p = f * f * _phi_array("phi2", delta * f) + s0 * phi1_s0 * f * phi1_f
+    g1v = np.exp(-delta * s0) * f * phi1_f
     a0 = _phi_array("phi2", delta)
     small = delta < 1.0
     p = np.exp(-delta)
-    c_big = _phi_array("phi1", delta) ** 2 - (1.0 + p) * a0
+    c_big = phi12 ** 2 - (1.0 + p) * a0
     c0 = np.where(small, _horner_array(_series("rigid_c"), np.where(small, delta, 0.0)), c_big)
     return one_minus_p, phi12, g0p, g0v, g1p, g1v, s0, a0, c0
 

@@ -238,12 +238,14 @@ def fast_rigid_batch(delta: np.ndarray, delay_samples: np.ndarray, betas: np.nda
         t = theta[i]
         step = 64.0 * _EPS * t
         with np.errstate(all="ignore"):
-            f0, f1 = h(t).imag, h(t + step).imag
+            h0 = h(t)
+            f0, f1 = h0.imag, h(t + step).imag
             t1 = t - f0 * step / (f1 - f0)
             t1 = np.where(np.isfinite(t1), t1, t)
+            h1 = h(t1)
             take = ((f1 != f0) & (f0 != 0.0) & (np.abs(t1 - t) <= 8.0 * _EPS * t) & (t1 < math.pi)
-                    & (np.abs(h(t1).imag) < np.abs(f0)) & (t < math.pi))
-        t = np.where(take, t1, t)
-        theta[i] = t
-        alpha[i] = h(t).real       # K = Re H at the root (optim.stability.rigid_kernel.re_h says why)
+                    & (np.abs(h1.imag) < np.abs(f0)) & (t < math.pi))
+        theta[i] = np.where(take, t1, t)
+        # K = Re H at the root (optim.stability.rigid_kernel.re_h says why): H there was computed above
+        alpha[i] = np.where(take, h1.real, h0.real)
     return FastBatch(ok, alpha, theta, bmax)

@@ -3,7 +3,9 @@
 The ``stability`` problem (optim.studies.stability_study) adds passivity, Q and the rigid comparison to every
 point.  A sweep that only needs the stability boundary gets it here from
 ``optim.robust.batch.batch_critical_stiffness``, which scans every device of the chunk in the same
-numpy arrays (grouped by plant structure inside it: rigid, cable, …).  Same mathematics as
+numpy arrays (grouped by plant structure inside it: rigid, cable, …), except damped cables: their points are
+grouped by everything but the delay and each group goes to one function (optim.studies.cable_chunks, the swap
+point for a batch cable K_cr).  Same mathematics as
 ``optim.stability.margins.critical_stiffness`` (every crossover bracketed and refined to double precision),
 different arithmetic order: the values agree to ~1e-15 relative, not bit for bit.
 
@@ -21,8 +23,8 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 
 from models.device import Device
-from optim.robust.batch import batch_critical_stiffness
 from optim.stability.margins import gain_margin_db, linear_estimate
+from optim.studies.cable_chunks import critical_arrays, is_grouped_cable
 
 __all__ = ["evaluate_batch", "evaluate_one", "by_delay_class", "one_point", "row", "finite_or_none"]
 
@@ -90,7 +92,8 @@ def by_delay_class(devices: Sequence[Device], requirements: Sequence[Mapping[str
     for i, dev in enumerate(devices):
         # rigid devices take the fast exact path (no grid): one batch whatever their delays; the few rows it
         # leaves to the scan get row-own grids (optim.robust.batch._grids), so a row never depends on the batch
-        key = -1 if dev.cable is None else int(math.log2(1.0 + dev.delay_samples))
+        # damped cables: one class, grouped inside by everything but the delay (optim.studies.cable_chunks)
+        key = -1 if dev.cable is None else -2 if is_grouped_cable(dev) else int(math.log2(1.0 + dev.delay_samples))
         classes.setdefault(key, []).append(i)
     out: list[tuple[dict | None, str | None]] = [(None, None)] * len(devices)
     for idx in classes.values():
@@ -116,7 +119,7 @@ def _bisecting(same_class: Batch, devices: Sequence[Device], requirements: Seque
 def _evaluate_same_class(devices: Sequence[Device], requirements: Sequence[Mapping[str, Any]]
                          ) -> list[tuple[dict | None, str | None]]:
     b = np.array([float(r.get("damping") or 0.0) for r in requirements])
-    res = batch_critical_stiffness(devices, b)
+    res = critical_arrays(devices, b)
     return [row(dev, req, float(k), float(a), float(bm))
             for dev, req, k, a, bm in zip(devices, requirements, res.critical_stiffness, res.crossover_angle,
                                           res.max_stable_damping)]

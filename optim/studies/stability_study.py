@@ -26,6 +26,7 @@ from models.plants import Q_criterion
 from optim.robust.batch import batch_critical_stiffness
 from optim.stability.analysis import EXACT_REL_ERROR, MODE_MATTERS_RTOL
 from optim.stability.passivity import batch_required_damping, passivity_samples
+from optim.studies.cable_chunks import critical_arrays
 from optim.studies.critical_study import by_delay_class, finite_or_none, one_point, row
 
 __all__ = ["evaluate_batch", "evaluate_one"]
@@ -48,7 +49,7 @@ def _same_class(devices: Sequence[Device], requirements: Sequence[Mapping[str, A
                 ) -> list[tuple[dict | None, str | None]]:
     n = len(devices)
     b = np.array([float(r.get("damping") or 0.0) for r in requirements])
-    res = batch_critical_stiffness(devices, b)
+    res = critical_arrays(devices, b)
     rigid = np.full(n, np.nan)
     cable = [i for i, d in enumerate(devices) if d.cable is not None]
     if cable:

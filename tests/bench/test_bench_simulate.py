@@ -3,7 +3,10 @@
 import importlib.util
 from pathlib import Path
 
+import pytest
 
+
+@pytest.mark.slow     # a benchmark's smoke run (≈ 1 s): CI runs it, the fast loop does not
 def test_bench_simulate_quick(tmp_path):
     path = Path(__file__).resolve().parents[2] / "bench" / "bench_simulate.py"
     spec = importlib.util.spec_from_file_location("bench_simulate", path)

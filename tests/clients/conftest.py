@@ -88,8 +88,26 @@ def without_timings(value):
 
 
 @functools.lru_cache(maxsize=None)
-def has_route(path: str) -> bool:
-    """Whether this build of the service has an endpoint (some land on other branches first)."""
+def _openapi() -> dict:
+    """The current app's OpenAPI document, built once per session (an app and its document cost about a second:
+    test modules ask for routes at collection time, and the fast loop paid it once per question)."""
     from service.app import create_app
 
-    return path in create_app().openapi()["paths"]
+    return create_app().openapi()
+
+
+def openapi_document() -> dict:
+    """A copy of the session's OpenAPI document (tests may not change the shared one)."""
+    import copy
+
+    return copy.deepcopy(_openapi())
+
+
+@functools.lru_cache(maxsize=None)
+def _routes() -> frozenset[str]:
+    return frozenset(_openapi()["paths"])
+
+
+def has_route(path: str) -> bool:
+    """Whether this build of the service has an endpoint (some land on other branches first)."""
+    return path in _routes()

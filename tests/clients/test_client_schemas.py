@@ -16,14 +16,15 @@ import pytest
 from pydantic import BaseModel
 
 from clients import calls, schemas
-from service.app import create_app
+
+from .conftest import openapi_document
 
 REGENERATE = "update clients/schemas (regenerate as its __init__ says)"
 
 
 @pytest.fixture(scope="module")
 def openapi() -> dict[str, Any]:
-    return create_app().openapi()
+    return openapi_document()
 
 
 # ------------------------------------------------------------------------------------------------ the client side

@@ -30,8 +30,9 @@ from service.settings import Settings
 
 pytestmark = pytest.mark.slow
 
-#: Generated requests per operation and phase; ≥ 1000 requests in all across the operations.
-MAX_EXAMPLES = 50
+#: Generated requests per operation and phase; ≥ 1000 requests in all across the operations (50 until issue 32: the
+#: suite's largest test, ≈ 20 % of its time; the coverage phase's aimed cases are all kept).
+MAX_EXAMPLES = 25
 
 BUDGET_S = 1.0
 #: Studies the fuzzer creates go to a throw-away store, not the working directory's zwidth.db.

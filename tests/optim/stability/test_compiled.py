@@ -10,6 +10,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from models.device import Device
 from optim.stability.analysis import analyse_stability
 
@@ -32,6 +34,7 @@ def _run(code: str, no_locator: bool = True, path: Path = ROOT) -> subprocess.Co
                           timeout=300)
 
 
+@pytest.mark.slow     # two fresh interpreters importing numba (≈ 2 s): not the fast loop's
 def test_numba_alone_would_refuse_to_cache_here(tmp_path):
     """The premise: with no locator, numba's cache=True raises at import (what compiled.kernel catches); with
     numba's default locators the same module imports."""
@@ -41,6 +44,7 @@ def test_numba_alone_would_refuse_to_cache_here(tmp_path):
     assert _run("import cached_mod", no_locator=False, path=tmp_path).returncode == 0
 
 
+@pytest.mark.slow     # a fresh interpreter compiles every kernel without a cache (the fast loop's largest test)
 def test_kernels_compile_without_a_cache_directory_and_answer_the_same():
     out = _run(_ANALYSIS)
     assert out.returncode == 0, out.stderr[-2000:]

@@ -111,7 +111,7 @@ def test_invalid_points_fail_alone():
 
 def test_a_point_that_raises_fails_alone(monkeypatch):
     """The batch is split down to the device that raises; its neighbours keep their exact answers."""
-    real = critical_study.batch_critical_stiffness
+    real = critical_study.critical_arrays
     poison = 0.0011
 
     def flaky(devices, damping):
@@ -119,7 +119,7 @@ def test_a_point_that_raises_fails_alone(monkeypatch):
             raise FloatingPointError("overflow in the scan")
         return real(devices, damping)
 
-    monkeypatch.setattr(critical_study, "batch_critical_stiffness", flaky)
+    monkeypatch.setattr(critical_study, "critical_arrays", flaky)
     delays = [0.0, 0.0005, poison, 0.0015, 0.0002]
     devices = [Device(**RIGID, delay=d) for d in delays]
     out = critical_study.evaluate_batch(devices, [{}] * len(devices))

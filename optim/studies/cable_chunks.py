@@ -1,0 +1,94 @@
+"""Damped cable points of a study chunk, grouped so that each group shares everything but the delay (issue 32).
+
+A cable study sweeps e.g. ``device.cable.stiffness`` × ``device.delay`` × ``requirements.damping``: consecutive
+points of a chunk are the same cable at many delays and virtual dampings.  This module groups a chunk's damped
+cable points by their device without its delay (mass, damping, cable, sample time: what a cable's modal factoring
+depends on) and hands each group to ONE function, :func:`cable_group_critical`, with the group's base device, the
+delays [s] and the virtual dampings B [N·s/m] of its points.  That function is the swap point for a batch cable
+K_cr (``cable_critical_stiffness_batch``, written beside optim.stability's cable numerics): it must return, for
+every point, what optim.stability.margins answers for that device alone (K_cr, the binding crossover's angle ωT and
+B_max), so a study's rows never depend on the chunk they are in.
+
+Until the batch function lands, :func:`cable_group_critical` takes each point through the per-device path that
+optim.robust.batch already used for damped cables (``max_stable_damping`` then ``critical_stiffness`` with that
+B_max when B > 0): the same numbers, bit for bit, as before this module (tests/optim/studies/test_cable_chunks.py).
+
+Undamped cables (every cable damping 0) are not grouped here: they stay with optim.robust.batch's scan.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Callable, Sequence
+
+import numpy as np
+
+from models.device import Device
+from optim.robust.batch import BatchCritical, batch_critical_stiffness
+from optim.stability.margins import critical_stiffness, max_stable_damping
+from optim.stability.undamped_cable import is_undamped_cable
+
+__all__ = ["GroupCritical", "cable_group_critical", "is_grouped_cable", "group_key", "critical_arrays"]
+
+#: (base device, delays [s], virtual dampings B [N·s/m]) -> (K_cr [N/m], crossover angle ωT [rad], B_max [N·s/m])
+GroupCritical = Callable[[Device, np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]]
+
+
+def is_grouped_cable(device: Device) -> bool:
+    """A cable with some damping: its points go through :func:`cable_group_critical`."""
+    return device.cable is not None and not is_undamped_cable(device)
+
+
+def group_key(device: Device) -> tuple:
+    """What the points of one group share: the device without its delay (hashable, exact values)."""
+    return tuple(sorted((k, repr(v)) for k, v in device.model_dump(exclude={"delay"}).items()))
+
+
+def cable_group_critical(base: Device, delays: np.ndarray, damping: np.ndarray
+                         ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """K_cr [N/m], crossover angle ωT [rad] (nan when K_cr is 0 or inf) and B_max [N·s/m] of the damped cable
+    ``base`` at each (delay [s], B [N·s/m]) pair: each point as optim.stability.margins answers it alone.
+
+    The swap point for a batch cable K_cr: today device by device (the plant and B_max of a device are cached
+    with it, so the points of one delay at many B find them once)."""
+    n = len(delays)
+    kcr, ang, bmax = np.full(n, np.inf), np.full(n, np.nan), np.full(n, np.inf)
+    for j in range(n):
+        dev = base.model_copy(update={"delay": float(delays[j])})
+        b = float(damping[j])
+        if dev.cable is None or is_undamped_cable(dev):
+            raise ValueError("cable_group_critical takes damped cable devices only")
+        bm = max_stable_damping(dev)
+        res = critical_stiffness(dev, b, b_max=bm if b > 0.0 else None)
+        bmax[j] = bm
+        kcr[j] = res.critical_stiffness
+        w = res.crossover_frequency
+        ang[j] = math.nan if w is None else w * dev.sample_time
+    return kcr, ang, bmax
+
+
+def critical_arrays(devices: Sequence[Device], damping: np.ndarray,
+                    group_critical: GroupCritical | None = None) -> BatchCritical:
+    """optim.robust.batch.batch_critical_stiffness of a chunk, its damped cables taken group by group (the points
+    sharing everything but the delay) through ``group_critical`` (default :func:`cable_group_critical`)."""
+    fn = group_critical or cable_group_critical
+    n = len(devices)
+    b = np.broadcast_to(np.asarray(damping, float), (n,)).copy()
+    kcr, ang, bmax = np.full(n, np.inf), np.full(n, np.nan), np.full(n, np.inf)
+    groups: dict[tuple, list[int]] = {}
+    rest = []
+    for i, dev in enumerate(devices):
+        if is_grouped_cable(dev):
+            groups.setdefault(group_key(dev), []).append(i)
+        else:
+            rest.append(i)
+    scanned = 0
+    if rest:
+        sub = batch_critical_stiffness([devices[i] for i in rest], b[rest])
+        kcr[rest], ang[rest], bmax[rest] = sub.critical_stiffness, sub.crossover_angle, sub.max_stable_damping
+        scanned = sub.scanned
+    for idx in groups.values():
+        delays = np.array([devices[i].delay for i in idx])
+        k, a, bm = fn(devices[idx[0]], delays, b[idx])
+        kcr[idx], ang[idx], bmax[idx] = k, a, bm
+    return BatchCritical(kcr, ang, bmax, scanned)
