@@ -91,7 +91,6 @@ def cable_critical_stiffness_batch(devices: Sequence[Device], damping: float | n
         devs = [devices[i] for i in rows]
         bs = np.array([d.damping_scale for d in devs])
         ks = np.array([d.stiffness_scale for d in devs])
-        ts = np.array([d.sample_time for d in devs])
         delta = np.array([d.delta for d in devs])
         ds = np.array([d.delay_samples for d in devs])
         betas = bvec[idx] / bs
