@@ -48,7 +48,7 @@ class CableBatch:
     critical_stiffness: np.ndarray
     """K_cr [N/m]; 0 when B ≥ B_max (or no damping at all), inf when every K > 0 is stable."""
     crossover_angle: np.ndarray
-    """θ = ωT [rad/sample] of the binding crossover; NaN when K_cr is 0 or inf."""
+    """ωT [rad/sample] of the binding crossover (ω = margins' crossover_frequency); NaN when K_cr is 0 or inf."""
     max_stable_damping: np.ndarray
     """B_max [N·s/m] of each device (computed for every row, B = 0 included)."""
     path: tuple[str, ...]
@@ -118,7 +118,8 @@ def cable_critical_stiffness_batch(devices: Sequence[Device], damping: float | n
                 kcr[i] = math.inf
             else:
                 kcr[i] = float(al_k[j]) * float(ks[j])
-                ang[i] = float(th_k[j])
+                t = devices[i].sample_time
+                ang[i] = float(th_k[j]) / t * t          # ω·T as margins' ω = θ/T gives it
     for i in sorted(handoff):
         dev, b = devices[i], float(bvec[i])
         bm = bmax[i] if math.isfinite(bmax[i]) else max_stable_damping(dev)

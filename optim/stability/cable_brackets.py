@@ -64,8 +64,11 @@ __all__ = ["CableLoop", "cable_loop", "cable_min_crossing", "clear_memo", "MAX_P
 
 _EPS = 2.220446049250313e-16
 _TWO_PI = 2.0 * math.pi
-#: pieces examined before giving up (the caller then scans)
-MAX_PIECES = 400
+#: pieces examined before giving up (the caller then scans).  20,000 (was 400, issue 32): near B_max with a long
+#: delay R ≈ β over a wide band, no piece is pruned, and each of F's levels takes pieces of its own (8 of
+#: bench_core's 1,000 random cables, 50–200 samples, fell back to the bounded scan at 400; they need up to 19,292;
+#: compiled (optim.stability.cable_kernel) a piece costs ≈ 1 µs)
+MAX_PIECES = 20_000
 _PAD = 1e-9          # relative padding of every bound (the factors are known to ~cond·ε ≤ 1e-12)
 
 

@@ -35,7 +35,7 @@ _TWO_PI = 2.0 * math.pi
 _HALF_PI = 0.5 * math.pi
 _PI = math.pi
 #: pieces examined before giving up (cable_brackets.MAX_PIECES)
-MAX_PIECES = 400
+MAX_PIECES = 20_000
 _PAD = 1e-9
 _NOSKIP = -(1 << 62)
 
@@ -588,6 +588,14 @@ def _first_root(fr, fc, modal, nums, beta, damper, cslope, level0, a, b, fa, fb,
 # ---------------------------------------------------------------------------------------------------- the pieces
 
 @kernel
+def _grown(x):
+    """``x`` copied into an array twice as long."""
+    out = np.empty(2 * x.shape[0], dtype=x.dtype)
+    out[:x.shape[0]] = x
+    return out
+
+
+@kernel
 def min_crossing(fr, fc, modal, nums, splits, beta, theta_lo, damper):
     """cable_brackets.cable_min_crossing, compiled: (status, θ, α, pieces), status 0 not resolved (the caller
     scans), 1 no K > 0 crossover, 2 the crossover (θ, α) of least α.  ``damper``: the damper-only loop (β = 0)."""
@@ -603,17 +611,19 @@ def min_crossing(fr, fc, modal, nums, splits, beta, theta_lo, damper):
     else:
         nyq = (-inv_pi + beta * _expm1j(-math.pi)).real
     best = nyq if nyq > 0.0 else math.inf
-    cap = 2 * MAX_PIECES + splits.shape[0] + 8
+    # the stack of pieces and the roots found, grown by doubling (most calls need a few dozen)
+    cap = 64 + splits.shape[0]
     st_a = np.empty(cap)
     st_b = np.empty(cap)
     st_above = np.zeros(cap, dtype=np.bool_)
     st_skip = np.empty(cap, dtype=np.int64)
-    fd_t = np.empty(MAX_PIECES + 2)
-    fd_v = np.empty(MAX_PIECES + 2)
-    fd_a = np.empty(MAX_PIECES + 2)
-    fd_b = np.empty(MAX_PIECES + 2)
-    fd_lev = np.empty(MAX_PIECES + 2)
-    fd_up = np.zeros(MAX_PIECES + 2, dtype=np.bool_)
+    fcap = 32
+    fd_t = np.empty(fcap)
+    fd_v = np.empty(fcap)
+    fd_a = np.empty(fcap)
+    fd_b = np.empty(fcap)
+    fd_lev = np.empty(fcap)
+    fd_up = np.zeros(fcap, dtype=np.bool_)
     nfound = 0
     cuts = np.empty(splits.shape[0] + 2)
     cuts[0] = theta_lo
@@ -636,6 +646,9 @@ def min_crossing(fr, fc, modal, nums, splits, beta, theta_lo, damper):
     pieces = 0
     log_beta = math.log(beta) if beta > 0.0 else -math.inf
     while top > 0:
+        if top + 3 > st_a.shape[0]:
+            st_a, st_b, st_skip = _grown(st_a), _grown(st_b), _grown(st_skip)
+            st_above = _grown(st_above)
         top -= 1
         a, b, above, skip = st_a[top], st_b[top], st_above[top], st_skip[top]
         pieces += 1
@@ -698,6 +711,10 @@ def min_crossing(fr, fc, modal, nums, splits, beta, theta_lo, damper):
                     continue
                 if status == 2:
                     if v > 0.0:
+                        if nfound == fd_t.shape[0]:
+                            fd_t, fd_v, fd_a, fd_b, fd_lev = _grown(fd_t), _grown(fd_v), _grown(fd_a), _grown(fd_b), \
+                                _grown(fd_lev)
+                            fd_up = _grown(fd_up)
                         fd_t[nfound], fd_v[nfound], fd_a[nfound], fd_b[nfound] = t, v, a, b
                         fd_lev[nfound], fd_up[nfound] = level0 + _TWO_PI * k, dlo > 0.0
                         nfound += 1
