@@ -4,7 +4,8 @@
 optim.stability.margins.critical_stiffness(device, B, b_max=max_stable_damping(device)) gives (its K_cr, binding
 crossover and B_max, to the bit, and the same ``path``), for the robust box searches (optim.robust.batch) and the
 studies.  Each device is sampled and factored once (optim.stability.margins.loop_plant, cable_loop: cached with
-the plant; ≈ 0.3 ms for a device not seen before, most of a row's cost), then one compiled call
+the plant; ≈ 0.3 ms for a device not seen before, most of a row's cost; devices that differ only in their whole
+delay share it: a study's delay axis), then one compiled call
 (optim.stability.cable_kernel.batch_rows) solves every row's damper-only loop (β_max) and K loop (K_cr at β) by
 the cable brackets, ≈ 10–30 µs a row.
 
@@ -28,7 +29,7 @@ import numpy as np
 from models.device import Device
 from optim.errors import InputError
 from optim.stability.cable_kernel import batch_rows
-from optim.stability.cable_loop import cable_loop
+from optim.stability.cable_loop import CableLoop, cable_loop
 from optim.stability.crossovers import theta_min
 from optim.stability.margins import (
     NEAR_B_MAX,
@@ -75,17 +76,32 @@ def cable_critical_stiffness_batch(devices: Sequence[Device], damping: float | n
     bmax = np.full(n, math.nan)
     paths = ["fast"] * n
     rows: list[int] = []
-    loops = []
+    arrays = []
+    # devices that differ only in their whole delay share the factored loop (its numbers s and d aside)
+    shared: dict[tuple, CableLoop | None] = {}
+    # rows of one sampled plant (at several B) solve its damper-only loop once: the first such row's index
+    seen: dict[tuple, int] = {}
+    same: list[int] = []
     for i, dev in enumerate(devices):
         if dev.cable is None:
             raise InputError("devices", f"device {i} has no cable: rigid devices take optim.stability.fast_batch")
+        if is_undamped_cable(dev) or dev.damping + bvec[i] <= 0.0:
+            continue
         plant = loop_plant(dev)
-        loop = None if is_undamped_cable(dev) or dev.damping + bvec[i] <= 0.0 else cable_loop(plant)
-        if loop is None or mode_gap(plant) < NEAR_LOSSLESS_GAP:
+        key = (plant.a.tobytes(), plant.b.tobytes(), plant.c.tobytes(), plant.f)
+        if key not in shared:
+            loop = cable_loop(plant)
+            shared[key] = loop if loop is not None and mode_gap(plant) >= NEAR_LOSSLESS_GAP else None
+        got = shared[key]
+        if got is None:
             continue
         rows.append(i)
-        loops.append(loop)
-    handoff = [i for i in range(n) if i not in set(rows)]
+        first = seen.setdefault((key, plant.d), len(arrays))
+        arrays.append(arrays[first] if first < len(arrays) else
+                      got.arrays if got.d == plant.d else _with_whole_delay(got, plant.d))
+        same.append(first)
+    taken = set(rows)
+    handoff = [i for i in range(n) if i not in taken]
     if rows:
         idx = np.array(rows)
         devs = [devices[i] for i in rows]
@@ -94,10 +110,12 @@ def cable_critical_stiffness_batch(devices: Sequence[Device], damping: float | n
         delta = np.array([d.delta for d in devs])
         ds = np.array([d.delay_samples for d in devs])
         betas = bvec[idx] / bs
-        lo_b = np.array([theta_min(float(x), float(y)) for x, y in zip(delta, ds)])
-        lo_k = np.array([theta_min(float(x + b), float(y)) for x, b, y in zip(delta, betas, ds)])
-        fr, fc, modal, nums, splits, f_off, s_off = _stack(loops)
-        st_b, th_b, al_b, st_k, th_k, al_k = batch_rows(fr, fc, modal, nums, splits, f_off, s_off, betas, lo_b, lo_k)
+        # crossovers.theta_min's array form: the scalar form's bits, elementwise (as margins._theta_min's δ + β)
+        lo_b = np.atleast_1d(theta_min(delta, ds))
+        lo_k = np.atleast_1d(theta_min(delta + betas, ds))
+        fr, fc, modal, nums, splits, f_off, s_off = _stack(arrays)
+        st_b, th_b, al_b, st_k, th_k, al_k = batch_rows(fr, fc, modal, nums, splits, f_off, s_off, betas, lo_b, lo_k,
+                                                        np.array(same, dtype=np.int64))
         for j, i in enumerate(rows):
             b = float(bvec[i])
             if st_b[j] != 2:
@@ -132,13 +150,23 @@ def cable_critical_stiffness_batch(devices: Sequence[Device], damping: float | n
     return CableBatch(kcr, ang, bmax, tuple(paths), len(handoff))
 
 
-def _stack(loops) -> tuple[np.ndarray, ...]:
+def _with_whole_delay(loop: CableLoop, d: int) -> tuple:
+    """The arrays of ``loop`` (cable_loop.loop_arrays) for the same plant with d whole samples of delay: only the
+    numbers s = d + m + 1 and d differ (the modal form, its factors and splits depend on the fractional part alone)."""
+    fr, fc, modal, nums, splits = loop.arrays
+    nums = nums.copy()
+    nums[0] = float(d + (loop.s - loop.d))          # N_S: d + m + 1
+    nums[3] = float(d)                               # N_D
+    return fr, fc, modal, nums, splits
+
+
+def _stack(arrays) -> tuple[np.ndarray, ...]:
     """The loops' arrays (cable_loop.loop_arrays) stacked for the kernel: factors' rows and splits concatenated with
     their offsets; the modal forms and numbers one row each."""
-    frs, fcs, modals, nums, splits = zip(*(lp.arrays for lp in loops))
-    f_off = np.zeros(len(loops) + 1, dtype=np.int64)
+    frs, fcs, modals, nums, splits = zip(*arrays)
+    f_off = np.zeros(len(arrays) + 1, dtype=np.int64)
     f_off[1:] = np.cumsum([x.shape[0] for x in frs])
-    s_off = np.zeros(len(loops) + 1, dtype=np.int64)
+    s_off = np.zeros(len(arrays) + 1, dtype=np.int64)
     s_off[1:] = np.cumsum([x.shape[0] for x in splits])
     return (np.concatenate(frs), np.concatenate(fcs), np.stack(modals), np.stack(nums),
             np.concatenate(splits) if s_off[-1] else np.zeros(0), f_off, s_off)

@@ -751,9 +751,10 @@ def min_crossing(fr, fc, modal, nums, splits, beta, theta_lo, damper):
 
 
 @kernel
-def batch_rows(fr_all, fc_all, modal_all, nums_all, splits_all, f_off, s_off, betas, lo_b, lo_k):
+def batch_rows(fr_all, fc_all, modal_all, nums_all, splits_all, f_off, s_off, betas, lo_b, lo_k, same):
     """min_crossing on every row (optim.stability.cable_batch): the damper-only loop from lo_b, then the K loop at
-    betas from lo_k; (status, θ, value) of each, as min_crossing's."""
+    betas from lo_k; (status, θ, value) of each, as min_crossing's.  ``same[i]`` < i: row i's loop is row same[i]'s
+    (one plant at several B), whose damper-only loop's answer it takes."""
     n = betas.shape[0]
     st_b = np.zeros(n, dtype=np.int64)
     st_k = np.zeros(n, dtype=np.int64)
@@ -765,7 +766,11 @@ def batch_rows(fr_all, fc_all, modal_all, nums_all, splits_all, f_off, s_off, be
         fr = fr_all[f_off[i]:f_off[i + 1]]
         fc = fc_all[f_off[i]:f_off[i + 1]]
         splits = splits_all[s_off[i]:s_off[i + 1]]
-        s, t, v, _p = min_crossing(fr, fc, modal_all[i], nums_all[i], splits, 0.0, lo_b[i], True)
+        j = same[i]
+        if j < i:
+            s, t, v = st_b[j], th_b[j], al_b[j]
+        else:
+            s, t, v, _p = min_crossing(fr, fc, modal_all[i], nums_all[i], splits, 0.0, lo_b[i], True)
         st_b[i], th_b[i], al_b[i] = s, t, v
         if s == 2 and betas[i] >= v:
             continue                       # β ≥ β_max: no K loop to solve
@@ -797,4 +802,4 @@ def compile_kernels() -> None:
         fr, fc, modal, nums, splits = loop.arrays
         off = np.array([0, fr.shape[0]], dtype=np.int64)
         batch_rows(fr, fc, modal[None, :], nums[None, :], splits, off, np.array([0, splits.shape[0]], dtype=np.int64),
-                   np.array([1e-3]), np.array([1e-6]), np.array([1e-6]))
+                   np.array([1e-3]), np.array([1e-6]), np.array([1e-6]), np.zeros(1, dtype=np.int64))

@@ -60,3 +60,18 @@ def test_batch_refuses_rigid_devices_and_bad_damping():
         cable_critical_stiffness_batch([Device(mass=1.0, damping=1.0)], 0.0)
     with pytest.raises(InputError):
         cable_critical_stiffness_batch([Device(preset="lhifam")], -1.0)
+
+
+def test_a_whole_delay_axis_shares_the_factoring_and_answers_as_margins():
+    """A study's delay axis: one cable at whole delays (and one fractional part) shares one factored loop; every row
+    is still margins' own answer."""
+    base = dict(motor_mass=0.3, body_mass=5.1, motor_damping=2.0, body_damping=1.5, stiffness=79500.0, damping=3.0)
+    devs = [Device(cable=base, sample_time=1e-3, delay=(d + f) * 1e-3) for d in range(0, 40, 3) for f in (0.0, 0.25)]
+    b = np.array([0.0 if i % 3 == 0 else 0.2 * d.damping for i, d in enumerate(devs)])
+    got = cable_critical_stiffness_batch(devs, b)
+    for i, (dev, bi) in enumerate(zip(devs, b)):
+        bm = max_stable_damping(dev)
+        want = critical_stiffness(dev, float(bi), b_max=bm if bi > 0 else None)
+        assert got.critical_stiffness[i] == want.critical_stiffness, (i, dev, bi)
+        assert got.max_stable_damping[i] == bm
+        assert got.path[i] == want.path
