@@ -76,7 +76,7 @@ def cable_critical_stiffness_batch(devices: Sequence[Device], damping: float | n
     bmax = np.full(n, math.nan)
     paths = ["fast"] * n
     rows: list[int] = []
-    arrays = []
+    arrays: list[tuple] = []
     # devices that differ only in their whole delay share the factored loop (its numbers s and d aside)
     shared: dict[tuple, CableLoop | None] = {}
     # rows of one sampled plant (at several B) solve its damper-only loop once: the first such row's index
