@@ -524,6 +524,9 @@ def main(argv: list[str] | None = None) -> str:
         Path(args.out).write_text(text)
         print(text)
         return text
+    from optim.stability.kernels import compile_kernels
+
+    compile_kernels()           # as the server's warm-up does: no timing below pays numba's compilation
     rows = measure(repeats=args.repeats)
     batch = measure_batch(args.batch) if args.batch else None
     cables = measure_cable_fallbacks(args.cables) if args.cables else None

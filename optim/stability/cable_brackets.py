@@ -39,6 +39,10 @@ within 1e-9 of the unit circle: an undamped cable, a sampling zero at −1) or t
 a budget, ``None`` is returned and the caller runs the bounded scan (optim.stability.fast_cable), saying so in
 the answer's ``path``.  The evaluations (F at one angle, the Newton solve, the polish on Im H, the device's β-free
 work kept between calls) are optim.stability.cable_points'.
+
+optim.stability.margins runs the compiled form of this module (optim.stability.cable_kernel, issue 32: the same
+operations in the same order, ≈ 10× faster); this Python stays its twin and oracle, held to it bit for bit by
+tests/optim/stability/test_cable_kernel.py.
 """
 
 from __future__ import annotations
