@@ -18,9 +18,9 @@ How it stays exact:
   found by minimising the signed arg over each interval where |arg H| dips below 0.05;
 * each bracket is refined by the vectorised Illinois solver of optim.stability.crossovers.
 
-Damped cable devices (with a modal form) are not scanned here: each takes optim.stability.margins' own answer
-(max_stable_damping and critical_stiffness: the cable brackets, else the bounded scan), device by device.  Their
-B_max stays with the device's cached plant, so the rows of one device at many B solve it once.  Measured (issue
+Damped cable devices (with a modal form) are not scanned here: they take optim.stability.cable_batch (issue 32: the
+compiled cable brackets over every row at once, B_max included; margins' own answer, to the bit, and margins itself
+for the rows the brackets do not answer alone).  Measured (issue
 20, loaded machine, 24 random damped cables, half at B > 0): delays up to 200 samples 53–73 → 13–16 ms a device;
 up to 20 samples 6–8 → 10 ms (the batched scan shares numpy's overhead across devices there; with B swept on
 one device the cable's B_max is found once: 6 cables × 8 B up to 20 samples, 6.8 → 2.0 ms a point).
@@ -42,6 +42,7 @@ from models.discretize import RigidZOH, StateSpaceZOH
 from models.plants import stiffness_loop_plant
 from optim.errors import InputError
 from optim.golden import golden_minimum
+from optim.stability.cable_batch import cable_critical_stiffness_batch
 from optim.stability.crossovers import (
     CLUSTER_GEOM,
     CLUSTER_HALF_WIDTH,
@@ -55,7 +56,6 @@ from optim.stability.crossovers import (
 )
 from optim.stability.crossovers import theta_min as scan_theta_min
 from optim.stability.fast_batch import fast_rigid_batch
-from optim.stability.margins import critical_stiffness, max_stable_damping
 from optim.stability.undamped_cable import is_undamped_cable
 
 __all__ = ["BatchCritical", "batch_critical_stiffness", "rigid_critical_stiffness"]
@@ -367,18 +367,14 @@ def _damped_cable(device: Device, plant) -> bool:
 
 
 def _cable_rows(devices, bvec, idx, kcr, ang, bmax) -> None:
-    """Damped cables (results written in place) by optim.stability.margins, device by device: B_max
-    (max_stable_damping: the bounded scan of the damper-only loop, kept with the device's cached plant, so rows of
-    one device at many B find it once) and K_cr(B) (critical_stiffness: the cable brackets, else its bounded
-    scan).  The single-device answers themselves: a row depends on its own device alone."""
-    for dev, i in zip(devices, idx):
-        b = float(bvec[i])
-        bm = max_stable_damping(dev)
-        res = critical_stiffness(dev, b, b_max=bm if b > 0.0 else None)
-        bmax[i] = bm
-        kcr[i] = res.critical_stiffness
-        w = res.crossover_frequency
-        ang[i] = math.nan if w is None else w * dev.sample_time
+    """Damped cables (results written in place) by optim.stability.cable_batch (issue 32): every row's B_max and
+    K_cr(B) by the compiled cable brackets in one call, the rows they do not answer alone by optim.stability.margins
+    device by device (the bounded scan, the 40-digit re-solve near B_max).  margins' own answers, to the bit: a row
+    depends on its own device alone."""
+    res = cable_critical_stiffness_batch(devices, bvec[idx])
+    kcr[idx] = res.critical_stiffness
+    ang[idx] = res.crossover_angle
+    bmax[idx] = res.max_stable_damping
 
 
 def _fast_rigid_rows(devices, bvec, idx, kcr, ang, bmax) -> list[int]:

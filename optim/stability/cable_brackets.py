@@ -39,6 +39,10 @@ within 1e-9 of the unit circle: an undamped cable, a sampling zero at −1) or t
 a budget, ``None`` is returned and the caller runs the bounded scan (optim.stability.fast_cable), saying so in
 the answer's ``path``.  The evaluations (F at one angle, the Newton solve, the polish on Im H, the device's β-free
 work kept between calls) are optim.stability.cable_points'.
+
+optim.stability.margins runs the compiled form of this module (optim.stability.cable_kernel, issue 32: the same
+operations in the same order, ≈ 10× faster); this Python stays its twin and oracle, held to it bit for bit by
+tests/optim/stability/test_cable_kernel.py.
 """
 
 from __future__ import annotations
@@ -64,8 +68,11 @@ __all__ = ["CableLoop", "cable_loop", "cable_min_crossing", "clear_memo", "MAX_P
 
 _EPS = 2.220446049250313e-16
 _TWO_PI = 2.0 * math.pi
-#: pieces examined before giving up (the caller then scans)
-MAX_PIECES = 400
+#: pieces examined before giving up (the caller then scans).  20,000 (was 400, issue 32): near B_max with a long
+#: delay R ≈ β over a wide band, no piece is pruned, and each of F's levels takes pieces of its own (8 of
+#: bench_core's 1,000 random cables, 50–200 samples, fell back to the bounded scan at 400; they need up to 19,292;
+#: compiled (optim.stability.cable_kernel) a piece costs ≈ 1 µs)
+MAX_PIECES = 20_000
 _PAD = 1e-9          # relative padding of every bound (the factors are known to ~cond·ε ≤ 1e-12)
 
 

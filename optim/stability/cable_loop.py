@@ -13,12 +13,12 @@ from __future__ import annotations
 
 import cmath
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.polynomial import polynomial as P
 
-__all__ = ["CableLoop", "cable_loop", "MIN_CIRCLE_GAP", "MIN_MODE_GAP", "Factor", "expm1j", "inverse_response_at"]
+__all__ = ["CableLoop", "cable_loop", "loop_arrays", "MIN_CIRCLE_GAP", "MIN_MODE_GAP", "Factor", "expm1j", "inverse_response_at"]
 
 _EPS = 2.220446049250313e-16
 _TWO_PI = 2.0 * math.pi
@@ -28,6 +28,15 @@ MIN_CIRCLE_GAP = 1e-9
 #: too high on a cable whose resonance pole sat 2.4e-11 from the circle (δ = 1e-9; design property run of
 #: 2026-12-01, seed 17 case 2741, at B = 0.35·B_max; the scan and the closed loop agree on the lower K_cr)
 MIN_MODE_GAP = 1e-8
+
+
+def _mode_gap_floor(f: Factor) -> float:
+    """The least distance to the unit circle a pole of G may have for the brackets: MIN_MODE_GAP for a resonance;
+    for the real slow pole 1 − δ' (δ' ≈ δ, the device's absolute damping) only its own error (and > 0): it sits at
+    θ = 0, below every piece (θ ≥ θ_min), where |e^{jθ} − c| ≥ θ·cos(θ/2) ≫ its error.  With the blanket 1e-8 rule
+    every cable with δ < 1e-8 took the bounded scan (210 of bench_core's 235 fallbacks in 1,000 random cables,
+    issue 32); tests/optim/stability/test_cable_slow_pole.py holds them to the scan."""
+    return MIN_MODE_GAP if f.w.imag != 0.0 else 0.0
 
 
 def _angles_in(base: float) -> float | None:
@@ -78,6 +87,8 @@ class CableLoop:
     den: tuple = ()
     num_w: tuple = ()              # the w of num and of den alone
     den_w: tuple = ()
+    # the loop as the compiled brackets read it (optim.stability.cable_kernel; loop_arrays)
+    arrays: tuple = field(default=(), compare=False, repr=False)
 
 
 def _factor(w: complex, sign: int, err: float) -> Factor:
@@ -93,26 +104,40 @@ def _factor(w: complex, sign: int, err: float) -> Factor:
                    _angles_in(psi - 0.5 * math.pi))
 
 
+def _pmul(a: list, b: list) -> list:
+    """The product of two polynomials (ascending coefficients, Python numbers)."""
+    out = [0j] * (len(a) + len(b) - 1)
+    for i, x in enumerate(a):
+        for j, y in enumerate(b):
+            out[i + j] += x * y
+    return out
+
+
 def _numerator_w(modal, fractional: bool) -> np.ndarray:
-    """Coefficients (ascending, in w) of z^m·G_n·z^d·w·Π(w − λ): the modal form's numerator."""
+    """Coefficients (ascending, in w) of z^m·G_n·z^d·w·Π(w − λ): the modal form's numerator (real: its imaginary
+    parts, rounding, dropped).  In Python numbers (numpy's polynomial helpers cost ~50 µs a product on these
+    degree-≤ 5 polynomials: most of a new device's factoring, issue 32)."""
     lam, c1, c2v, e12v, r0, r1, g0_1, g1_1 = modal
-    one_w = np.array([1.0, 1.0])                      # z = 1 + w
-    prod = np.array([1.0 + 0j])
+    lam = [complex(v) for v in lam]
+    c1, g0_1, g1_1 = complex(c1), complex(g0_1), complex(g1_1)
+    prod = [1.0 + 0j]
     for lk in lam:
-        prod = P.polymul(prod, np.array([-lk, 1.0]))
+        prod = _pmul(prod, [-lk, 1.0 + 0j])
     if fractional:
-        out = P.polymul(c1 * (g0_1 * one_w + np.array([g1_1, 0.0])), prod)
+        out = _pmul([c1 * (g0_1 + g1_1), c1 * g0_1], prod)       # c1·(g0₁·(1 + w) + g1₁)
     else:
-        out = c1 * g0_1 * prod
-    for i, li in enumerate(lam):
-        rest = np.array([1.0 + 0j])
+        out = [c1 * g0_1 * v for v in prod]
+    for i in range(len(lam)):
+        rest = [1.0 + 0j]
         for k, lk in enumerate(lam):
             if k != i:
-                rest = P.polymul(rest, np.array([-lk, 1.0]))
-        inp = r0[i] * one_w + np.array([r1[i], 0.0]) if fractional else np.array([r0[i]])
-        term = P.polymul(P.polymul(inp, np.array([c1 * e12v[i], c2v[i]])), rest)
-        out = P.polyadd(out, term)
-    return np.real_if_close(out, tol=1e6).real if np.iscomplexobj(out) else out
+                rest = _pmul(rest, [-lk, 1.0 + 0j])
+        ri0, ri1 = complex(r0[i]), complex(r1[i])
+        inp = [ri0 + ri1, ri0] if fractional else [ri0]
+        term = _pmul(_pmul(inp, [c1 * complex(e12v[i]), complex(c2v[i])]), rest)
+        out = [x + y for x, y in zip(out, term)] + out[len(term):] if len(out) >= len(term) else \
+            [x + y for x, y in zip(out, term)] + term[len(out):]
+    return np.array([v.real for v in out])
 
 
 def cable_loop(plant) -> CableLoop | None:
@@ -143,8 +168,8 @@ def _build(plant) -> CableLoop | None:
     factors = tuple(_factor(complex(v), 1, 0.0) for v in lam) + \
         tuple(_factor(complex(v), -1, e) for v, e in zip(wz, errs))
     # a pole of G (or a zero of Q) this near the unit circle: H (nearly) infinite or zero there; scan instead
-    if any(f.gap < (MIN_CIRCLE_GAP if f.sign < 0 else max(MIN_MODE_GAP, 1e3 * f.err)) or f.gap < 1e3 * f.err
-           for f in factors):
+    if any(f.gap < (MIN_CIRCLE_GAP if f.sign < 0 else max(_mode_gap_floor(f), 1e3 * f.err)) or f.gap < 1e3 * f.err
+           or not f.gap > 0.0 for f in factors):
         return None
     lead = float(coef[-1])
     hot = [(f.w, f.inside, f.base, f.inv_neg_c, f.om2, f.c.real, f.c.imag) for f in factors]
@@ -159,7 +184,26 @@ def _build(plant) -> CableLoop | None:
         ref = inverse_response_at(loop.modal, plant.d, t) / (-expm1j(-t))
         if not abs(q / ref - 1.0) < 1e-9:
             return None
-    return loop
+    return replace(loop, arrays=loop_arrays(loop))
+
+
+def _nan(x: float | None) -> float:
+    return math.nan if x is None else x
+
+
+def loop_arrays(loop: CableLoop) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(reals, complex, modal, numbers, splits) of ``loop``, as optim.stability.cable_kernel reads them: per factor
+    (Q's numerator's c_k, then its denominator's ζ_i) a row of reals (sign, |c|, gap, err, inside, arg(−c), the two
+    bounds of (1 − |c|²)/2, the four angles t_near, t_far, t_smax, t_smin, NaN where None) and a row of complex (w,
+    c, 1/(−c)); the modal form's 3 modes (λ, r0, r1, e12, c2) then c1, g0₁, g1₁; the numbers s, arg L, |L|, d; and
+    the split angles."""
+    fr = np.array([[float(f.sign), f.mag, f.gap, f.err, 1.0 if f.inside else 0.0, f.base, f.om_lo, f.om_hi,
+                    _nan(f.t_near), _nan(f.t_far), _nan(f.t_smax), _nan(f.t_smin)] for f in loop.factors])
+    fc = np.array([[f.w, f.c, f.inv_neg_c] for f in loop.factors], dtype=complex)
+    modes, c1, g0_1, g1_1 = loop.modal
+    modal = np.array([v for mode in modes for v in mode] + [c1, g0_1, g1_1], dtype=complex)
+    nums = np.array([float(loop.s), loop.lead_arg, loop.lead_abs, float(loop.d)])
+    return fr, fc, modal, nums, np.array(loop.splits, dtype=float)
 
 
 def expm1j(t: float) -> complex:

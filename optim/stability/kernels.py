@@ -1,9 +1,9 @@
 """Every compiled (numba) kernel of the numerics, compiled at once: optim.stability.rigid_kernel (the rigid fast
-path's crossovers), optim.stability.rigid_tail (its proof that the tail holds none) and
-optim.stability.passivity_kernel (the delayed passivity bound) and optim.stability.rendered_rigid (a rendered
-rigid wall's certified crossings)."""
+path's crossovers), optim.stability.rigid_tail (its proof that the tail holds none),
+optim.stability.passivity_kernel (the delayed passivity bound), optim.stability.rendered_rigid (a rendered rigid
+wall's certified crossings) and optim.stability.cable_kernel (the cable brackets)."""
 
-from optim.stability import passivity_kernel, rendered_rigid, rigid_kernel, rigid_tail
+from optim.stability import cable_kernel, passivity_kernel, rendered_rigid, rigid_kernel, rigid_tail
 
 __all__ = ["compile_kernels"]
 
@@ -15,3 +15,4 @@ def compile_kernels() -> None:
     rigid_tail.compile_kernels()
     passivity_kernel.compile_kernels()
     rendered_rigid.compile_kernels()
+    cable_kernel.compile_kernels()

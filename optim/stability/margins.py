@@ -27,7 +27,8 @@ from models.device import Device
 from models.discretize import RigidZOH, StateSpaceZOH
 from models.plants import stiffness_loop_plant
 from optim.errors import InputError
-from optim.stability.cable_brackets import cable_loop, cable_min_crossing
+from optim.stability.cable_kernel import cable_min_crossing_compiled as cable_min_crossing
+from optim.stability.cable_loop import cable_loop, expm1j, inverse_response_at
 from optim.stability.crossovers import Crossing, positive_real_crossings, scan_grid, theta_min
 from optim.stability.fast_cable import bounded_min_crossing
 from optim.stability.fast_rigid import fast_beta_max, fast_rigid, rigid_loop
@@ -177,10 +178,18 @@ def _cable_b_max(device: Device, plant: StateSpaceZOH) -> tuple[float, Path]:
 
 
 def _cable_b_max_uncached(device: Device, plant: StateSpaceZOH) -> tuple[float, Path]:
-    # The bounded scan (optim.stability.fast_cable): the scan's brackets, only the binding one(s) solved.  The
-    # cable brackets on the damper loop (cable_min_crossing(..., damper=True)) answered B_max 3e-7 too high on a
-    # cable with δ = 1e-9 (design property run, seed 17 case 2741: K_cr = 0 there by the 40-digit reference and
-    # the closed loop), so B_max, computed once per device and cached, keeps the scan's path.
+    # The cable brackets on the damper loop (optim.stability.cable_kernel, compiled; issue 32), where the factored
+    # loop is trusted; else, or where they do not close or find no crossover, the bounded scan
+    # (optim.stability.fast_cable: the scan's brackets, only the binding one(s) solved), said in the path.  (They
+    # answered B_max 3e-7 too high on a cable with δ = 1e-9 before cable_loop refused resonances within
+    # MIN_MODE_GAP of the unit circle: design property run, seed 17 case 2741, now the bounded scan's;
+    # tests/optim/stability/test_cable_near_b_max.py.)
+    loop = cable_loop(plant)
+    if loop is not None:
+        got = cable_min_crossing(loop, 0.0, _theta_min(device, 0.0), damper=True)
+        if got is not None and got[0] is not None:
+            return got[0][1] * device.damping_scale, "fast"
+
     def h(theta: np.ndarray) -> np.ndarray:
         return -plant.inverse_response(theta) / (-np.expm1(-1j * theta))
     best = bounded_min_crossing(h, plant.modal_form(), plant.d, 0.0, _grid(device, plant, 0.0), damper=True)
@@ -233,7 +242,15 @@ def _refined_near_b_max(device: Device, plant: StateSpaceZOH, damping: float, re
             and math.isfinite(k) and k > 0.0):
         return res
     t, scale = device.sample_time, device.stiffness_scale
-    rho = cancellation_ratio(plant, damping / device.damping_scale, w * t, k / scale)
+    beta, theta, alpha = damping / device.damping_scale, w * t, k / scale
+    loop = cable_loop(plant)
+    if loop is not None:
+        # a screen in Python numbers (≈ 2 µs; numpy's evaluation ≈ 20 µs): the ratio agrees with
+        # cancellation_ratio's to ~1e-14, so one at most half the threshold is not refined either way
+        quick = (abs(inverse_response_at(loop.modal, loop.d, theta)) + beta * abs(expm1j(-theta))) / alpha
+        if quick <= 0.5 * RHO_REFINE:
+            return res
+    rho = cancellation_ratio(plant, beta, theta, alpha)
     if rho <= RHO_REFINE:
         return res
     got = None

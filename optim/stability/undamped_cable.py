@@ -119,11 +119,16 @@ def confirm_or_refuse(device: Device, damping: float, critical: float, next_cros
 
 def mode_gap(plant) -> float:
     """The least 1 − |p| over the plant's oscillatory sampled poles p = 1 + λ (λ of its modal form's E = Φ − I, never
-    Φ − I by subtraction); inf without a modal form or an oscillatory pole."""
+    Φ − I by subtraction); inf without a modal form or an oscillatory pole.  Kept with the plant (its _cache)."""
+    cache = getattr(plant, "_cache", None)
+    if cache is not None and "mode_gap" in cache:
+        return cache["mode_gap"]
     modal = plant.modal_form()
-    if modal is None:
-        return math.inf
-    return min((-(abs(1.0 + lam) - 1.0) for lam in modal[0] if lam.imag != 0.0), default=math.inf)
+    gap = math.inf if modal is None else \
+        min((-(abs(1.0 + lam) - 1.0) for lam in modal[0] if lam.imag != 0.0), default=math.inf)
+    if cache is not None:
+        cache["mode_gap"] = gap
+    return gap
 
 
 def confirm_near_lossless(device: Device, damping: float, critical: float) -> str | None:

@@ -1,0 +1,172 @@
+"""Exact K_cr(B) and B_max of many damped cable devices at once: the compiled cable brackets over rows (issue 32).
+
+``cable_critical_stiffness_batch(devices, damping)`` gives, for each device and its virtual damping B, what
+optim.stability.margins.critical_stiffness(device, B, b_max=max_stable_damping(device)) gives (its K_cr, binding
+crossover and B_max, to the bit, and the same ``path``), for the robust box searches (optim.robust.batch) and the
+studies.  Each device is sampled and factored once (optim.stability.margins.loop_plant, cable_loop: cached with
+the plant; ≈ 0.3 ms for a device not seen before, most of a row's cost; devices that differ only in their whole
+delay share it: a study's delay axis), then one compiled call
+(optim.stability.cable_kernel.batch_rows) solves every row's damper-only loop (β_max) and K loop (K_cr at β) by
+the cable brackets, ≈ 10–30 µs a row.
+
+A row is handed to margins.critical_stiffness itself, device by device, wherever the brackets do not answer it
+alone: the factored loop is not trusted (cable_loop None: an undamped cable, a mode within MIN_MODE_GAP of the unit
+circle), the pieces do not resolve, B > 0 with no crossover found, B within NEAR_B_MAX of B_max (the bounded scan's
+band), B above half of B_max (where K_cr may be a cancellation that the 40-digit re-solve settles:
+optim.stability.near_b_max) or a mode within NEAR_LOSSLESS_GAP of the circle.  Those rows say their path
+(``"bounded-scan"``, ``"scan"``) as margins does, and ``handed_off`` counts them.  Rigid devices are not taken here
+(optim.stability.fast_batch); a device without a cable raises.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from models.device import Device
+from optim.errors import InputError
+from optim.stability.cable_kernel import batch_rows
+from optim.stability.cable_loop import CableLoop, cable_loop
+from optim.stability.crossovers import theta_min
+from optim.stability.margins import (
+    NEAR_B_MAX,
+    critical_stiffness,
+    loop_plant,
+    max_stable_damping,
+)
+from optim.stability.undamped_cable import NEAR_LOSSLESS_GAP, is_undamped_cable, mode_gap
+
+__all__ = ["CableBatch", "cable_critical_stiffness_batch"]
+
+
+@dataclass(frozen=True)
+class CableBatch:
+    """Per device (the order given): K_cr, its crossover and B_max, as margins.critical_stiffness answers them."""
+
+    critical_stiffness: np.ndarray
+    """K_cr [N/m]; 0 when B ≥ B_max (or no damping at all), inf when every K > 0 is stable."""
+    crossover_angle: np.ndarray
+    """ωT [rad/sample] of the binding crossover (ω = margins' crossover_frequency); NaN when K_cr is 0 or inf."""
+    max_stable_damping: np.ndarray
+    """B_max [N·s/m] of each device (computed for every row, B = 0 included)."""
+    path: tuple[str, ...]
+    """Each row's path: "fast" (the compiled brackets), else margins' own ("bounded-scan", "scan")."""
+    handed_off: int
+    """Rows answered by margins.critical_stiffness device by device (module docstring)."""
+
+
+def _as_vector(damping: float | np.ndarray, n: int) -> np.ndarray:
+    b = np.broadcast_to(np.asarray(damping, dtype=float), (n,)).astype(float)
+    if not np.all(np.isfinite(b) & (b >= 0.0)):
+        raise InputError("damping", "virtual damping B must be finite and ≥ 0")
+    return b
+
+
+def cable_critical_stiffness_batch(devices: Sequence[Device], damping: float | np.ndarray = 0.0) -> CableBatch:
+    """K_cr(B), θ and B_max of every cable device in ``devices`` at its virtual damping (a scalar, or one per device)
+    [N·s/m]: margins.critical_stiffness's answers, rows solved together by the compiled cable brackets where they
+    answer alone, the rest handed to margins device by device (module docstring)."""
+    n = len(devices)
+    bvec = _as_vector(damping, n)
+    kcr = np.full(n, math.nan)
+    ang = np.full(n, math.nan)
+    bmax = np.full(n, math.nan)
+    paths = ["fast"] * n
+    rows: list[int] = []
+    arrays: list[tuple] = []
+    # devices that differ only in their whole delay share the factored loop (its numbers s and d aside)
+    shared: dict[tuple, CableLoop | None] = {}
+    # rows of one sampled plant (at several B) solve its damper-only loop once: the first such row's index
+    seen: dict[tuple, int] = {}
+    same: list[int] = []
+    for i, dev in enumerate(devices):
+        if dev.cable is None:
+            raise InputError("devices", f"device {i} has no cable: rigid devices take optim.stability.fast_batch")
+        if is_undamped_cable(dev) or dev.damping + bvec[i] <= 0.0:
+            continue
+        plant = loop_plant(dev)
+        key = (plant.a.tobytes(), plant.b.tobytes(), plant.c.tobytes(), plant.f)
+        if key not in shared:
+            loop = cable_loop(plant)
+            shared[key] = loop if loop is not None and mode_gap(plant) >= NEAR_LOSSLESS_GAP else None
+        got = shared[key]
+        if got is None:
+            continue
+        rows.append(i)
+        first = seen.setdefault((key, plant.d), len(arrays))
+        arrays.append(arrays[first] if first < len(arrays) else
+                      got.arrays if got.d == plant.d else _with_whole_delay(got, plant.d))
+        same.append(first)
+    taken = set(rows)
+    handoff = [i for i in range(n) if i not in taken]
+    if rows:
+        idx = np.array(rows)
+        devs = [devices[i] for i in rows]
+        bs = np.array([d.damping_scale for d in devs])
+        ks = np.array([d.stiffness_scale for d in devs])
+        delta = np.array([d.delta for d in devs])
+        ds = np.array([d.delay_samples for d in devs])
+        betas = bvec[idx] / bs
+        # crossovers.theta_min's array form: the scalar form's bits, elementwise (as margins._theta_min's δ + β)
+        lo_b = np.atleast_1d(theta_min(delta, ds))
+        lo_k = np.atleast_1d(theta_min(delta + betas, ds))
+        fr, fc, modal, nums, splits, f_off, s_off = _stack(arrays)
+        st_b, th_b, al_b, st_k, th_k, al_k = batch_rows(fr, fc, modal, nums, splits, f_off, s_off, betas, lo_b, lo_k,
+                                                        np.array(same, dtype=np.int64))
+        for j, i in enumerate(rows):
+            b = float(bvec[i])
+            if st_b[j] != 2:
+                handoff.append(i)                 # B_max: the bounded scan's (margins)
+                continue
+            bm = float(al_b[j]) * float(bs[j])
+            if b > 0.0 and b >= bm:
+                kcr[i], ang[i], bmax[i] = 0.0, math.nan, bm
+                continue
+            if b > 0.0 and (b >= bm * (1.0 - NEAR_B_MAX) or b > 0.5 * bm or st_k[j] != 2):
+                handoff.append(i)                 # near B_max, or no crossover found at B > 0: margins decides
+                continue
+            if st_k[j] == 0:
+                handoff.append(i)
+                continue
+            bmax[i] = bm
+            if st_k[j] == 1:
+                kcr[i] = math.inf
+            else:
+                kcr[i] = float(al_k[j]) * float(ks[j])
+                t = devices[i].sample_time
+                ang[i] = float(th_k[j]) / t * t          # ω·T as margins' ω = θ/T gives it
+    for i in sorted(handoff):
+        dev, b = devices[i], float(bvec[i])
+        bm = bmax[i] if math.isfinite(bmax[i]) else max_stable_damping(dev)
+        res = critical_stiffness(dev, b, b_max=bm if b > 0.0 else None)
+        kcr[i] = res.critical_stiffness
+        w = res.crossover_frequency
+        ang[i] = math.nan if w is None else w * dev.sample_time
+        bmax[i] = bm
+        paths[i] = res.path
+    return CableBatch(kcr, ang, bmax, tuple(paths), len(handoff))
+
+
+def _with_whole_delay(loop: CableLoop, d: int) -> tuple:
+    """The arrays of ``loop`` (cable_loop.loop_arrays) for the same plant with d whole samples of delay: only the
+    numbers s = d + m + 1 and d differ (the modal form, its factors and splits depend on the fractional part alone)."""
+    fr, fc, modal, nums, splits = loop.arrays
+    nums = nums.copy()
+    nums[0] = float(d + (loop.s - loop.d))          # N_S: d + m + 1
+    nums[3] = float(d)                               # N_D
+    return fr, fc, modal, nums, splits
+
+
+def _stack(arrays) -> tuple[np.ndarray, ...]:
+    """The loops' arrays (cable_loop.loop_arrays) stacked for the kernel: factors' rows and splits concatenated with
+    their offsets; the modal forms and numbers one row each."""
+    frs, fcs, modals, nums, splits = zip(*arrays)
+    f_off = np.zeros(len(arrays) + 1, dtype=np.int64)
+    f_off[1:] = np.cumsum([x.shape[0] for x in frs])
+    s_off = np.zeros(len(arrays) + 1, dtype=np.int64)
+    s_off[1:] = np.cumsum([x.shape[0] for x in splits])
+    return (np.concatenate(frs), np.concatenate(fcs), np.stack(modals), np.stack(nums),
+            np.concatenate(splits) if s_off[-1] else np.zeros(0), f_off, s_off)
