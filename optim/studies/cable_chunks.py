@@ -9,23 +9,21 @@ K_cr (``cable_critical_stiffness_batch``, written beside optim.stability's cable
 every point, what optim.stability.margins answers for that device alone (K_cr, the binding crossover's angle ωT and
 B_max), so a study's rows never depend on the chunk they are in.
 
-Until the batch function lands, :func:`cable_group_critical` takes each point through the per-device path that
-optim.robust.batch already used for damped cables (``max_stable_damping`` then ``critical_stiffness`` with that
-B_max when B > 0): the same numbers, bit for bit, as before this module (tests/optim/studies/test_cable_chunks.py).
+:func:`cable_group_critical` answers a group by optim.stability.cable_batch.cable_critical_stiffness_batch, which
+holds its rows to margins' per-device answers (tests/optim/studies/test_cable_chunks.py compares them).
 
 Undamped cables (every cable damping 0) are not grouped here: they stay with optim.robust.batch's scan.
 """
 
 from __future__ import annotations
 
-import math
 from typing import Callable, Sequence
 
 import numpy as np
 
 from models.device import Device
 from optim.robust.batch import BatchCritical, batch_critical_stiffness
-from optim.stability.margins import critical_stiffness, max_stable_damping
+from optim.stability.cable_batch import cable_critical_stiffness_batch
 from optim.stability.undamped_cable import is_undamped_cable
 
 __all__ = ["GroupCritical", "cable_group_critical", "is_grouped_cable", "group_key", "critical_arrays"]
@@ -49,22 +47,13 @@ def cable_group_critical(base: Device, delays: np.ndarray, damping: np.ndarray
     """K_cr [N/m], crossover angle ωT [rad] (nan when K_cr is 0 or inf) and B_max [N·s/m] of the damped cable
     ``base`` at each (delay [s], B [N·s/m]) pair: each point as optim.stability.margins answers it alone.
 
-    The swap point for a batch cable K_cr: today device by device (the plant and B_max of a device are cached
-    with it, so the points of one delay at many B find them once)."""
-    n = len(delays)
-    kcr, ang, bmax = np.full(n, np.inf), np.full(n, np.nan), np.full(n, np.inf)
-    for j in range(n):
-        dev = base.model_copy(update={"delay": float(delays[j])})
-        b = float(damping[j])
-        if dev.cable is None or is_undamped_cable(dev):
-            raise ValueError("cable_group_critical takes damped cable devices only")
-        bm = max_stable_damping(dev)
-        res = critical_stiffness(dev, b, b_max=bm if b > 0.0 else None)
-        bmax[j] = bm
-        kcr[j] = res.critical_stiffness
-        w = res.crossover_frequency
-        ang[j] = math.nan if w is None else w * dev.sample_time
-    return kcr, ang, bmax
+    By optim.stability.cable_batch.cable_critical_stiffness_batch: one compiled call for the group's rows (the
+    factored loop shared by the whole delays), margins' own answers for the rows it hands off."""
+    devices = [base.model_copy(update={"delay": float(d)}) for d in delays]
+    if base.cable is None or is_undamped_cable(base):
+        raise ValueError("cable_group_critical takes damped cable devices only")
+    got = cable_critical_stiffness_batch(devices, np.asarray(damping, dtype=float))
+    return got.critical_stiffness, got.crossover_angle, got.max_stable_damping
 
 
 def critical_arrays(devices: Sequence[Device], damping: np.ndarray,
