@@ -171,3 +171,30 @@ def test_workspace_decodes_the_same_numbers_as_the_python_client(server, tmp_pat
     with ZwidthClient(server.url) as zw:
         want = zw.workspace(dev, {"explicit": [[0.3, 1.0]]}, [[0, 1, 0]])
     assert same_doubles(numbers(p.stdout), [want.minimum_critical_stiffness, want.worst.effective_mass])
+
+
+def test_the_encoder_and_friction_travel_in_the_device_struct(tmp_path):
+    """Issue 31: encoder_resolution / coulomb_friction / travel go out in the device struct, and the hardware
+    design's free parameter as asked (a mock transport sees the body)."""
+    p = octave("function resp = mock(req)\n"
+               "  printf('BODY %s\\n', req.body);\n"
+               "  resp = struct('status', 200, 'body', '{\"status\": \"optimal\", \"value\": 1e-05, "
+               "\"quantisation\": {\"counts_over_travel\": 10000}}', 'message', '', 'refused', false);\n"
+               "end\n"
+               "dev = struct('mass', 0.2, 'damping', 25, 'encoder_resolution', 1e-5, 'coulomb_friction', 0.1, "
+               "'travel', 0.1);\n"
+               "h = zwidth_design_hardware(dev, struct('stiffness', 2e4), 'encoder_resolution', "
+               "struct('transport', @mock));\n"
+               "printf('ANSWER %.17g %.17g\\n', h.value, h.quantisation.counts_over_travel);", tmp_path)
+    lines = p.stdout.strip().splitlines()
+    body = json.loads(next(x for x in lines if x.startswith("BODY "))[5:])
+    assert body == {"device": {"mass": 0.2, "damping": 25, "encoder_resolution": 1e-5, "coulomb_friction": 0.1,
+                               "travel": 0.1}, "target": {"stiffness": 20000}, "free": "encoder_resolution"}
+    assert lines[-1] == "ANSWER 1.0000000000000001e-05 10000"
+
+
+def test_example_encoder_friction_answers_the_encoder_20_kn_per_m_needs(server, tmp_path):
+    p = octave("example_encoder_friction", tmp_path, server.url)
+    # 2f_c/q = 2·0.1/1e-5 = 20 kN/m ≥ 15 kN/m and 2b/T = 50 kN/m: passive (Abbott & Okamura); q* = 2f_c/K_t = 10 µm
+    assert "K = 15 kN/m: regime passive" in p.stdout
+    assert "20 kN/m needs q <= 1e-05 m per count: 10000 counts over the 0.10 m travel (checked: 1)" in p.stdout
