@@ -121,8 +121,10 @@ def energy_audit(device: Device, stiffness: float, damping: float, push_force: f
     times = [0.0, t1, t2, t2 + 2 * t]
     forces = [0.0, push_force, push_force, 0.0]
     duration = t2 + 2 * t + free
-    scene = Scene(experiment="push", duration=duration, controller=_controller(stiffness, damping, wall),
-                  push={"times": times, "forces": forces}, effects=nonlinear_effects(device), output_points=2)
+    scene = Scene.model_validate(dict(experiment="push", duration=duration,
+                                      controller=_controller(stiffness, damping, wall),
+                                      push={"times": times, "forces": forces}, effects=nonlinear_effects(device),
+                                      output_points=2))
     n = int(round(duration / t))
     w = np.interp(np.arange(n) * t, times, forces, left=0.0)
     spec, rec, x = _run(device, scene, w, np.zeros(spec_size(device)), 0.0)
@@ -192,8 +194,10 @@ def measure_cycle(device: Device, stiffness: float, damping: float, initial: flo
                   wall: dict | None = None) -> MeasuredCycle:
     """Release the wall from ``initial`` [m] and measure what it settles into (module docstring)."""
     t = device.sample_time
-    scene = Scene(experiment="release", duration=duration, controller=_controller(stiffness, damping, wall),
-                  initial={"position": initial}, effects=nonlinear_effects(device), output_points=2)
+    scene = Scene.model_validate(dict(experiment="release", duration=duration,
+                                      controller=_controller(stiffness, damping, wall),
+                                      initial={"position": initial}, effects=nonlinear_effects(device),
+                                      output_points=2))
     n = int(round(duration / t))
     x0 = np.zeros(spec_size(device))
     x0[:2 if device.cable is not None else 1] = initial
@@ -254,8 +258,9 @@ def linear_time_constant(device: Device, stiffness: float, damping: float, wall:
     """[s] 1/|γ| of the dominant closed-loop pole of the wall without its encoder and friction (how fast a
     transient dies out or grows); inf when the poles cannot be had."""
     eff = {k: v for k, v in nonlinear_effects(device).items() if k in ("delay", "cable_mode")}
-    scene = Scene(experiment="release", duration=1.0, controller=_controller(stiffness, damping, wall),
-                  effects=eff, output_points=2)
+    scene = Scene.model_validate(dict(experiment="release", duration=1.0,
+                                      controller=_controller(stiffness, damping, wall), effects=eff,
+                                      output_points=2))
     poles, _ = scene_poles(device, scene)
     if poles is None or poles.dominant_modulus <= 0:
         return math.inf
