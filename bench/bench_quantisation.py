@@ -317,7 +317,8 @@ def diolaiti_table(rows: list[dict]) -> list[str]:
     for d in (0, 1):
         out += ["", f"Slice d = {d} sample{'s' if d != 1 else ''} of delay (m = 0.2 kg, T = 1 ms, K = 1000 N/m, "
                 "q = 10 µm; β = b/(KT), σ = f_c/(Kq)). Each cell: predicted regime (P passive, S stable not passive, "
-                "C limit cycle, U unstable) / simulated release from 1.5× the cycle, 3× the growth threshold or 20 counts "
+                "C limit cycle, U unstable) / simulated release from the larger of 30× the growth threshold and 200 counts "
+                "(U), 1.5× the cycle (C), or 20 counts "
                 "(s settled, c cycle, u growing, d still decaying) / for U with friction, a release from 0.3× the "
                 "threshold.", "",
                 "| β \\ σ | " + " | ".join(f"{s:g}" for s in DIOLAITI_SIGMAS) + " |",
