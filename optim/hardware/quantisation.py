@@ -37,6 +37,8 @@ __all__ = ["QUANTISATION_FREE", "QuantisationCheck", "QuantisationDesign", "desi
 #: free parameter → (direction that loosens the hardware, unit)
 QUANTISATION_FREE: dict[str, tuple[str, str]] = {"encoder_resolution": ("max", "m"), "coulomb_friction": ("min", "N")}
 _LOOSER = 0.01
+#: [m] the largest encoder resolution a device takes (models.device: encoder_resolution ≤ 1000)
+_Q_MAX = 1000.0
 _RTOL = 1e-12
 
 
@@ -138,10 +140,12 @@ def design_quantisation(device: Device, stiffness: float, free: str) -> Quantisa
         value = 2 * f_c / stiffness
         if 2 * f_c / value < stiffness:          # the rounding of the quotient: the edge kept on the passive side
             value = math.nextafter(value, 0.0)
-        if device.travel is not None and value > device.travel:
-            value = device.travel
-            reason = (f"2f_c/K_t = {2 * f_c / stiffness:.6g} m is coarser than the travel {device.travel:g} m: any "
-                      "encoder with a count within the travel keeps K_t passive")
+        cap = device.travel if device.travel is not None else _Q_MAX
+        if value > cap:
+            value = cap
+            what = f"the travel {cap:g} m" if device.travel is not None else f"the largest resolution taken, {cap:g} m"
+            reason = (f"2f_c/K_t = {2 * f_c / stiffness:.6g} m is coarser than {what}: any encoder up to it keeps "
+                      "K_t passive")
         else:
             reason = f"q ≤ 2f_c/K_t = {value:.6g} m per count keeps K_t = {stiffness:.6g} N/m passive"
         looser_value = value * (1 + _LOOSER)
@@ -153,10 +157,10 @@ def design_quantisation(device: Device, stiffness: float, free: str) -> Quantisa
         reason = f"f_c ≥ K_t·q/2 = {value:.6g} N keeps K_t = {stiffness:.6g} N/m passive"
         looser_value = value * (1 - _LOOSER)
     at, _ = _check(device, free, value, stiffness)
-    confirmed = at.regime == "passive" and abs(at.passive_stiffness_limit - stiffness) <= _RTOL * stiffness \
-        if value != device.travel else at.regime == "passive"
+    capped = free == "encoder_resolution" and value < 2 * f_c / stiffness * (1 - 1e-15)
+    confirmed = at.regime == "passive" and (capped or abs(at.passive_stiffness_limit - stiffness) <= _RTOL * stiffness)
     looser = None
-    if free == "coulomb_friction" or device.travel is None or looser_value <= device.travel:
+    if not capped:
         looser, _ = _check(device, free, looser_value, stiffness)
         confirmed = confirmed and looser.regime != "passive"
     reason += f" ({limit.source})"

@@ -83,3 +83,11 @@ def test_nan_is_refused(client):
                     '"target": {"stiffness": 20000}, "free": "encoder_resolution"}',
                     headers={"content-type": "application/json"})
     assert r.status_code == 422 and "coulomb_friction" in r.text
+
+
+def test_an_encoder_coarser_than_the_travel_is_capped_at_it(client):
+    # 2f_c/K_t = 100 µm > the 1 µm travel: any encoder with a count within the travel keeps the wall passive
+    body = _design(client, {**DEV, "coulomb_friction": 0.1, "travel": 1e-6}, "encoder_resolution", {"stiffness": 2000}).json()
+    assert body["status"] == "optimal" and body["value"] == 1e-6
+    assert body["quantisation"]["counts_over_travel"] == 1.0 and body["quantisation"]["confirmed"] is True
+    assert body["quantisation"]["looser"] is None and "travel" in body["reason"]
