@@ -126,17 +126,19 @@ def _filtered(rendering: Rendering | None, damping: float) -> bool:
 
 def _rendered_passive_limit(device: Device, damping: float, rendering: Rendering, start: float) -> float:
     """[N/m] the largest K that optim.stability.passivity_rendered calls passive at (B, M, filter): bracketed by
-    doubling from ``start`` and bisected to 1e-9 relative (0 when no K > 0 is passive)."""
+    doubling from ``start`` and bisected to 1e-7 relative (0 when not even 1e-6 of ``start`` is passive)."""
     def ok(k: float) -> bool:
         return rendered_passivity(device, k, damping, rendering).passive
     lo, hi = 0.0, max(start, 1e-9 * device.stiffness_scale)
+    if not ok(hi) and not ok(1e-6 * hi):
+        return 0.0
     for _ in range(200):
         if not ok(hi):
             break
         lo, hi = hi, 2 * hi
     else:
         return math.inf
-    while hi - lo > 1e-9 * hi:
+    while hi - lo > 1e-7 * hi:
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if ok(mid) else (lo, mid)
     return lo
