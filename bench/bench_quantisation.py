@@ -152,11 +152,20 @@ def cycle_case(case: CycleCase) -> dict:
     predict_ms = 1e3 * (time.perf_counter() - t0)
     start = release_start(dev, k, nl.limit_cycle)
     duration = release_duration(dev, k, bb, 3.0, 30.0)
+    threshold_state = small_state = None
     try:
         meas = measure_cycle(dev, k, bb, start, duration)
+        if meas.state == "decaying":   # a transient still dying out: run 3× longer before judging
+            duration = min(3 * duration, 90.0)
+            meas = measure_cycle(dev, k, bb, start, duration)
+        th = nl.limit_cycle.threshold_amplitude
+        if th is not None and 3 * th < start:   # the DF's growth threshold, checked apart from the regime
+            threshold_state = measure_cycle(dev, k, bb, 3 * th, duration).state
+        if th is not None and nl.limit_cycle.exists:   # a small cycle under the threshold, checked apart too
+            small_state = measure_cycle(dev, k, bb, 1.5 * nl.limit_cycle.amplitude, duration).state
     except FrictionEventLimit:
         meas = MeasuredCycle("refused", math.nan, None, 0)
-    expected = {"limit_cycle": "cycle", "unstable": "growing"}.get(nl.regime, "settled")
+    expected = {"limit_cycle": "cycle", "unstable": "growing", "undetermined": "undetermined"}.get(nl.regime, "settled")
     agree = meas.state == expected
     a_err = f_err = None
     if agree and expected == "cycle":
@@ -164,12 +173,15 @@ def cycle_case(case: CycleCase) -> dict:
         f_err = None if meas.frequency_hz is None else meas.frequency_hz / nl.limit_cycle.frequency_hz - 1
     return dict(case=case, regime=nl.regime, expected=expected, measured=meas, agree=agree, start=start,
                 predicted_a=nl.limit_cycle.amplitude, predicted_f=nl.limit_cycle.frequency_hz, a_err=a_err, f_err=f_err,
-                threshold=nl.limit_cycle.threshold_amplitude, duration=duration, predict_ms=predict_ms)
+                threshold=nl.limit_cycle.threshold_amplitude, duration=duration, predict_ms=predict_ms,
+                threshold_state=threshold_state, small_state=small_state, method=nl.limit_cycle.method.split(" (")[0])
 
 
 def cause(r: dict) -> str:
     c, meas = r["case"], r["measured"]
     dev = c.device
+    if r["regime"] == "undetermined":
+        return "undetermined (counted apart)"
     if meas.state == "refused":
         return "the event integrator refused (more than 50 stick-slip events in one piece of a sample)"
     if meas.state == "decaying":
@@ -179,10 +191,11 @@ def cause(r: dict) -> str:
                 "counts is far from a sinusoid".format(r["predicted_a"] / dev.encoder_resolution)
                 if dev.encoder_resolution else "predicted cycle not reached")
     if r["expected"] == "settled" and meas.state == "cycle":
-        return (f"a cycle of {meas.amplitude:.3g} m at {meas.frequency_hz} Hz the describing function misses "
+        return (f"a cycle of {meas.amplitude:.3g} m at {meas.frequency_hz} Hz neither the orbit search nor the describing function finds "
                 f"(K/K_cr = {c.kcr_factor:.3f}, σ = {(dev.coulomb_friction or 0) / (c.stiffness * (dev.encoder_resolution or 1)):.3g})")
     if r["expected"] == "growing":
-        return f"release from 3× the predicted threshold {r['threshold']} m did not grow ({meas.state})"
+        return (f"release from {r['start']:.3g} m (≥ 3× the predicted threshold {r['threshold']:.3g} m) did not grow "
+                f"({meas.state})")
     return f"{r['expected']} predicted, {meas.state} measured"
 
 
@@ -195,7 +208,30 @@ def run_cycles(pool, n: int, seed: int) -> list[dict]:
 def cycles_table(rows: list[dict]) -> list[str]:
     n = len(rows)
     agree = sum(r["agree"] for r in rows)
-    out = [f"{agree} of {n} walls ({100 * agree / n:.1f} %) settle, cycle or grow as predicted.", "",
+    refused = sum(r["measured"].state == "refused" for r in rows)
+    und = [r for r in rows if r["regime"] == "undetermined"]
+    undetermined = len(und)
+    checked = n - refused - sum(r["measured"].state != "refused" for r in und)
+    smalls = [r for r in rows if r.get("small_state") is not None]
+    ths = [r for r in rows if r.get("threshold_state") is not None]
+    by_method: dict[str, list[dict]] = {}
+    for r in rows:
+        by_method.setdefault(r["method"], []).append(r)
+    out = [f"{agree} of {checked} decided and checkable walls ({100 * agree / max(checked, 1):.1f} %) settle, cycle "
+           f"or grow as predicted ({agree} of all {n}: {100 * agree / n:.1f} %); {refused} not checkable (the "
+           f"simulator refused); {undetermined} of {n} ({100 * undetermined / n:.1f} %) answered undetermined "
+           "(the simulation showed: " + (", ".join(f"{st} {sum(r['measured'].state == st for r in und)}"
+                                                   for st in ("cycle", "settled", "decaying", "growing", "refused"))
+                                         if und else "none") + ").", "",
+           "Unstable walls with a stable cycle predicted under the growth threshold (a release from 1.5× the cycle): "
+           + (", ".join(f"{st} {sum(r['small_state'] == st for r in smalls)}"
+                        for st in ("cycle", "settled", "decaying", "growing")) if smalls else "none") + ".", "",
+           "By the method that decided the cycle: " + "; ".join(
+               f"{m}: {sum(r['agree'] for r in rs)}/{len(rs)} agree" for m, rs in sorted(by_method.items())) + ".", "",
+           "The describing function's growth threshold, checked apart (a release from 3× it, where that is below the "
+           f"regime's release): {sum(r['threshold_state'] == 'growing' for r in ths)} of {len(ths)} grew; the "
+           "others: " + (", ".join(f"{st} {sum(r['threshold_state'] == st for r in ths)}"
+                                   for st in ("cycle", "settled", "decaying")) if ths else "none") + ".", "",
            "| kind | walls | agree | predicted cycle | predicted unstable | predicted settled |", "|---|---|---|---|---|---|"]
     for label, sel in (("rigid", lambda r: r["case"].device.cable is None),
                        ("cable", lambda r: r["case"].device.cable is not None),
@@ -216,10 +252,19 @@ def cycles_table(rows: list[dict]) -> list[str]:
                 f"{int(np.sum(ae <= AMPLITUDE_RTOL))}/{len(ae)}. |frequency error|: median "
                 f"{np.median(fe) if fe.size else float('nan'):.3f}, max {fe.max() if fe.size else float('nan'):.3f}; "
                 f"within ±{FREQUENCY_RTOL:g}: {int(np.sum(fe <= FREQUENCY_RTOL))}/{len(fe)}."]
-    bad = [r for r in rows if not r["agree"]]
-    out += ["", "Every disagreement and its cause:", "",
-            "| # | device | delay [samples] | K/K_cr | B | q | f_c | predicted | measured | cause |",
-            "|---|---|---|---|---|---|---|---|---|---|"]
+    bad = [r for r in rows if not r["agree"] and r["regime"] != "undetermined"]
+    listed = [("Every disagreement and its cause (the refused ones are not checkable, outside the rate):", bad),
+              ("The walls answered undetermined, beside what the simulation showed:", und)]
+    for title, sel in listed:
+        out += ["", title, "",
+                "| # | device | delay [samples] | K/K_cr | B | q | f_c | predicted | measured | cause |",
+                "|---|---|---|---|---|---|---|---|---|---|"]
+        out += _rows(sel)
+    return out
+
+
+def _rows(bad: list[dict]) -> list[str]:
+    out = []
     for i, r in enumerate(bad):
         c = r["case"]
         dev = c.device
@@ -272,7 +317,8 @@ def diolaiti_table(rows: list[dict]) -> list[str]:
     for d in (0, 1):
         out += ["", f"Slice d = {d} sample{'s' if d != 1 else ''} of delay (m = 0.2 kg, T = 1 ms, K = 1000 N/m, "
                 "q = 10 µm; β = b/(KT), σ = f_c/(Kq)). Each cell: predicted regime (P passive, S stable not passive, "
-                "C limit cycle, U unstable) / simulated release from 1.5× the cycle, 3× the growth threshold or 20 counts "
+                "C limit cycle, U unstable) / simulated release from the larger of 30× the growth threshold and 200 counts "
+                "(U), 1.5× the cycle (C), or 20 counts "
                 "(s settled, c cycle, u growing, d still decaying) / for U with friction, a release from 0.3× the "
                 "threshold.", "",
                 "| β \\ σ | " + " | ".join(f"{s:g}" for s in DIOLAITI_SIGMAS) + " |",

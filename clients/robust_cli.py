@@ -35,7 +35,7 @@ Ranges = Annotated[list[str] | None, typer.Option(
 Rigid = Annotated[bool, typer.Option("--rigid", help="the rigid model of the preset (device.cable=null)")]
 Margin = Annotated[float | None, typer.Option("--margin", help="required gain margin [dB]")]
 Free = Annotated[str | None, typer.Option("--free", help="hardware design: the free parameter (sample_time | "
-                                                         "delay | damping | mass | cable.stiffness)")]
+                                                         "delay | damping | mass | cable.stiffness | encoder_resolution | coulomb_friction)")]
 
 
 def parse_range(text: str) -> tuple[str, dict[str, float]]:
@@ -167,7 +167,8 @@ def hardware(preset: Preset = None, sets: Sets = None, device_file: DeviceFile =
     """The loosest value of one hardware parameter that still renders the target(s)."""
     value_range = _scan_range(scan)
     if free is None:
-        raise c.usage_error("--free is required: sample_time | delay | damping | mass | cable.stiffness")
+        raise c.usage_error("--free is required: sample_time | delay | damping | mass | cable.stiffness | "
+                            "encoder_resolution | coulomb_friction")
     body = c.assemble({"device": _device(preset, device_file, sets, rigid)}, sets)
     with c.client_with_status(Connection(local, url, token), "scanning the hardware…", as_json) as zw:
         r = zw.design_hardware(body["device"], free, **_targets(stiffness, force_gain, apparent_mass, margin,

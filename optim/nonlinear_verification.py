@@ -33,14 +33,15 @@ import numpy as np
 from models.device import Device
 from models.simulation.friction import FrictionEventLimit
 from models.simulation.oscillation import energy_generated
-from models.simulation.scene import Effects, InitialState, PushProfile, Scene, WallController
+from models.simulation.scene import Scene
 from models.simulation.sim_loop import run_sampled_loop
 from models.simulation.simulate import loop_spec, scene_friction, scene_poles, scene_stepper
 
 __all__ = ["EnergyAudit", "MeasuredCycle", "NonlinearVerification", "energy_audit", "measure_cycle", "nonlinear_effects",
            "verify_nonlinear", "probe_forces", "probe_hold", "release_start", "linear_time_constant",
            "release_duration", "AMPLITUDE_RTOL", "FREQUENCY_RTOL",
-           "CYCLE_MIN_COUNTS", "CHATTER_COUNTS", "GROWTH_RATIO"]
+           "CYCLE_MIN_COUNTS", "CHATTER_COUNTS", "GROWTH_RATIO", "UNSTABLE_RELEASE_COUNTS",
+           "UNSTABLE_RELEASE_THRESHOLDS"]
 
 _EPS = float(np.finfo(float).eps)
 #: A sustained motion counts as a cycle when its half peak-to-peak is at least this many encoder counts
@@ -107,7 +108,7 @@ class EnergyAudit:
 
 
 def energy_audit(device: Device, stiffness: float, damping: float, push_force: float, *, ramp: float = 0.2,
-                 hold: float = 2.0, free: float = 1.0) -> EnergyAudit:
+                 hold: float = 2.0, free: float = 1.0, wall: dict | None = None) -> EnergyAudit:
     """Push (ramp to ``push_force`` [N] over ``ramp`` [s]), hold for ``hold`` [s], release (ramp down over
     2 samples), then ``free`` [s] without force; the audit of the module docstring."""
     t = device.sample_time
@@ -115,9 +116,10 @@ def energy_audit(device: Device, stiffness: float, damping: float, push_force: f
     times = [0.0, t1, t2, t2 + 2 * t]
     forces = [0.0, push_force, push_force, 0.0]
     duration = t2 + 2 * t + free
-    scene = Scene(experiment="push", duration=duration, controller=WallController(stiffness=stiffness, damping=damping),
-                  push=PushProfile(times=times, forces=forces), effects=Effects.model_validate(nonlinear_effects(device)),
-                  output_points=2)
+    scene = Scene.model_validate(dict(experiment="push", duration=duration,
+                                      controller=_controller(stiffness, damping, wall),
+                                      push={"times": times, "forces": forces}, effects=nonlinear_effects(device),
+                                      output_points=2))
     n = int(round(duration / t))
     w = np.interp(np.arange(n) * t, times, forces, left=0.0)
     spec, rec, x = _run(device, scene, w, np.zeros(spec_size(device)), 0.0)
@@ -160,6 +162,11 @@ def energy_audit(device: Device, stiffness: float, damping: float, push_force: f
     return EnergyAudit(net, port, last, bound, instability or chatter, mode, counts, push_force, m)
 
 
+def _controller(stiffness: float, damping: float, wall: dict | None) -> dict:
+    """The scene's controller: K, B and the request's velocity filter and virtual mass (``wall``)."""
+    return {"stiffness": stiffness, "damping": damping, **(wall or {})}
+
+
 def spec_size(device: Device) -> int:
     return 4 if device.cable is not None else 2
 
@@ -178,12 +185,14 @@ class MeasuredCycle:
     samples: int
 
 
-def measure_cycle(device: Device, stiffness: float, damping: float, initial: float, duration: float) -> MeasuredCycle:
+def measure_cycle(device: Device, stiffness: float, damping: float, initial: float, duration: float,
+                  wall: dict | None = None) -> MeasuredCycle:
     """Release the wall from ``initial`` [m] and measure what it settles into (module docstring)."""
     t = device.sample_time
-    scene = Scene(experiment="release", duration=duration, controller=WallController(stiffness=stiffness, damping=damping),
-                  initial=InitialState(position=initial), effects=Effects.model_validate(nonlinear_effects(device)),
-                  output_points=2)
+    scene = Scene.model_validate(dict(experiment="release", duration=duration,
+                                      controller=_controller(stiffness, damping, wall),
+                                      initial={"position": initial}, effects=nonlinear_effects(device),
+                                      output_points=2))
     n = int(round(duration / t))
     x0 = np.zeros(spec_size(device))
     x0[:2 if device.cable is not None else 1] = initial
@@ -240,12 +249,13 @@ def probe_forces(device: Device, stiffness: float, threshold: float | None) -> t
     return soft, stiffness * depth
 
 
-def linear_time_constant(device: Device, stiffness: float, damping: float) -> float:
+def linear_time_constant(device: Device, stiffness: float, damping: float, wall: dict | None = None) -> float:
     """[s] 1/|γ| of the dominant closed-loop pole of the wall without its encoder and friction (how fast a
     transient dies out or grows); inf when the poles cannot be had."""
     eff = {k: v for k, v in nonlinear_effects(device).items() if k in ("delay", "cable_mode")}
-    scene = Scene(experiment="release", duration=1.0, controller=WallController(stiffness=stiffness, damping=damping),
-                  effects=Effects.model_validate(eff), output_points=2)
+    scene = Scene.model_validate(dict(experiment="release", duration=1.0,
+                                      controller=_controller(stiffness, damping, wall), effects=eff,
+                                      output_points=2))
     poles, _ = scene_poles(device, scene)
     if poles is None or poles.dominant_modulus <= 0:
         return math.inf
@@ -253,9 +263,10 @@ def linear_time_constant(device: Device, stiffness: float, damping: float) -> fl
     return math.inf if rate == 0 else 1.0 / rate
 
 
-def release_duration(device: Device, stiffness: float, damping: float, lo: float = 2.0, hi: float = 5.0) -> float:
+def release_duration(device: Device, stiffness: float, damping: float, lo: float = 2.0, hi: float = 5.0,
+                     wall: dict | None = None) -> float:
     """[s] a release long enough for ten linear time constants, within [lo, hi]."""
-    return min(max(lo, 10 * linear_time_constant(device, stiffness, damping)), hi)
+    return min(max(lo, 10 * linear_time_constant(device, stiffness, damping, wall)), hi)
 
 
 def probe_hold(device: Device) -> float:
@@ -264,28 +275,40 @@ def probe_hold(device: Device) -> float:
     return min(max(1.0, 20 * device.mass / max(device.damping, 1e-300)), 5.0)
 
 
+#: A wall predicted unstable is released from at least this many counts (or f_c/K without an encoder): the regime
+#: says large motions grow (K > K_cr); the threshold below which friction or the dead band holds a motion is the
+#: describing function's estimate, checked apart (docs/quantisation_runs.md), not the regime's claim.
+UNSTABLE_RELEASE_COUNTS = 200.0
+#: … and from this many times the threshold (the DF's friction damping 4f_c/(πAω) there is 1/30 of its value at the
+#: threshold: the loop is then within a few percent of the linear one)
+UNSTABLE_RELEASE_THRESHOLDS = 30.0
+
+
 def release_start(device: Device, stiffness: float, cycle) -> float:
-    """[m] where the measured release starts: 1.5× a predicted cycle, 3× a threshold, else 20 counts (or
-    20 f_c/K without an encoder)."""
+    """[m] where the measured release starts: for a wall with a growth threshold (K > K_cr: the regime says large
+    motions grow) the larger of 30× the threshold and UNSTABLE_RELEASE_COUNTS counts; else 1.5× a predicted
+    cycle; else 20 counts (or 20 f_c/K without an encoder)."""
+    q = device.encoder_resolution
+    scale = q if q is not None else (device.coulomb_friction or 0.0) / stiffness
+    if cycle.threshold_amplitude is not None:
+        return max(UNSTABLE_RELEASE_THRESHOLDS * cycle.threshold_amplitude, UNSTABLE_RELEASE_COUNTS * scale)
     if cycle.exists:
         return 1.5 * cycle.amplitude
-    if cycle.threshold_amplitude is not None:
-        return 3 * cycle.threshold_amplitude
-    q = device.encoder_resolution
-    return 20 * q if q is not None else 20 * (device.coulomb_friction or 0.0) / stiffness
+    return 20 * scale
 
 
-def verify_nonlinear(device: Device, stiffness: float, damping: float, analysis, duration: float | None = None) \
-        -> NonlinearVerification:
-    """The audit and the measured cycle beside ``analysis`` (optim.stability.nonlinear.NonlinearAnalysis)."""
+def verify_nonlinear(device: Device, stiffness: float, damping: float, analysis, duration: float | None = None,
+                     wall: dict | None = None) -> NonlinearVerification:
+    """The audit and the measured cycle beside ``analysis`` (optim.stability.nonlinear.NonlinearAnalysis);
+    ``wall``: the controller's ``velocity_filter`` and ``mass`` as the request gave them (simulated with the wall)."""
     cycle = analysis.limit_cycle
     soft_f, hard_f = probe_forces(device, stiffness, cycle.threshold_amplitude)
     start = release_start(device, stiffness, cycle)
-    duration = duration if duration is not None else release_duration(device, stiffness, damping)
+    duration = duration if duration is not None else release_duration(device, stiffness, damping, wall=wall)
     try:
-        soft = energy_audit(device, stiffness, damping, soft_f, ramp=0.2, hold=probe_hold(device), free=0.2)
-        hard = energy_audit(device, stiffness, damping, hard_f, ramp=0.02, hold=0.3, free=4.0)
-        measured = measure_cycle(device, stiffness, damping, start, duration)
+        soft = energy_audit(device, stiffness, damping, soft_f, ramp=0.2, hold=probe_hold(device), free=0.2, wall=wall)
+        hard = energy_audit(device, stiffness, damping, hard_f, ramp=0.02, hold=0.3, free=4.0, wall=wall)
+        measured = measure_cycle(device, stiffness, damping, start, duration, wall)
     except FrictionEventLimit as exc:
         return NonlinearVerification("not_checkable", f"the simulator refused: {exc}", None, None, None, start,
                                      cycle.amplitude, cycle.frequency_hz)
@@ -298,6 +321,9 @@ def verify_nonlinear(device: Device, stiffness: float, damping: float, analysis,
     if measured.state == "decaying":
         return NonlinearVerification("not_checkable", f"the release from {start:.3g} m was still decaying after "
                                      f"{duration:g} s", *args)
+    if regime == "undetermined":
+        return NonlinearVerification("not_checkable", f"the regime is undetermined (the analysis makes no call to "
+                                     f"check); the release from {start:.3g} m is {measured.state}", *args)
     expected = {"limit_cycle": "cycle", "unstable": "growing"}.get(regime, "settled")
     if measured.state != expected:
         return NonlinearVerification("contradicted", f"regime {regime} predicts the release from {start:.3g} m "

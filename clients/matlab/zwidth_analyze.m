@@ -7,7 +7,9 @@ function r = zwidth_analyze(device, controller, opts)
 %
 %   DEVICE is a struct with the HTTP API's device fields in SI units (preset,
 %   mass [kg], damping [N*s/m], sample_time [s], delay [s], cable, human,
-%   force_sensor).  CONTROLLER is the wall K [N/m], B [N*s/m] to check ([] for
+%   force_sensor, encoder_resolution [m per count], coulomb_friction [N], travel [m]).
+%   With encoder_resolution or coulomb_friction the answer has r.nonlinear: the passive
+%   limit min(2b/T, 2f_c/q), the predicted limit cycle and the regime.  CONTROLLER is the wall K [N/m], B [N*s/m] to check ([] for
 %   K_cr at B = 0), optionally the rendered wall's virtual mass and velocity filter:
 %     struct('stiffness', 2e4, 'damping', 50, 'mass', -1, ...
 %            'velocity_filter', struct('kind', 'low_pass', 'cutoff_hz', 50, 'order', 1))

@@ -109,7 +109,7 @@ class NonlinearOut(Answer):
     source: str
     covered: bool
     limit_cycle: LimitCycleOut
-    regime: Literal["passive", "stable_not_passive", "limit_cycle", "unstable"] | None
+    regime: Literal["passive", "stable_not_passive", "limit_cycle", "unstable", "undetermined"] | None
     reason: str
     verification: NonlinearVerificationOut | None = None
 

@@ -188,6 +188,16 @@ class HardwareDesignResponse(Answer):
         common.VerificationOut | None,
         Field(description="present when verify was true: the target controller checked at the answer's value"),
     ] = None
+    quantisation: Annotated[
+        dict[str, Any] | None,
+        Field(
+            description=(
+                "free = encoder_resolution | coulomb_friction: the passive limit's terms, the counts over"
+                " device.travel, and the nonlinear analysis at the answer and 1 % looser"
+                " (optim/hardware/quantisation.py)"
+            )
+        ),
+    ] = None
 
 
 class InertiaResponse(Answer):

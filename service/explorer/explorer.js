@@ -141,6 +141,7 @@
     "cable.stiffness": ["cable_stiffness", 1], "cable.damping": ["cable_damping", 1],
     "human.mass": ["human_mass", 1], "human.damping": ["human_damping", 1], "human.stiffness": ["human_stiffness", 1],
     "force_sensor.time_constant": ["sensor_tc_ms", 1e-3],
+    encoder_resolution: ["encoder_um", 1e-6], coulomb_friction: ["coulomb_friction", 1], travel: ["travel_mm", 1e-3],
   };
   let presets = {};
 
@@ -340,6 +341,7 @@
       $("optimum").textContent = `K_cr ${withUnit(bd.optimum.critical_stiffness, "N/m")} at B ${withUnit(bd.optimum.damping, "N·s/m")}`;
       $("boundary-elapsed").textContent = `${num(st.elapsed_ms, 3)} ms + ${num(bd.elapsed_ms, 3)} ms`;
       drawBoundary(bd);
+      if (window.zwidthQuant) window.zwidthQuant.boundary($("boundary-chart"), bd, device, api);   // explorer_quant.js
     } catch (err) {
       if (err.name === "AbortError") return;
       clearFieldErrors();
@@ -515,6 +517,7 @@
         r.note ? ["note", escapeText(r.note)] : null,
         ["elapsed", withUnit(r.elapsed_ms, "ms", 4)],
       ]);
+      if (window.zwidthQuant) window.zwidthQuant.hardware($("hardware-result"), r);            // explorer_quant.js
       const curve = (r.curve || []).map((p) => [p.value, p.achievable_stiffness]);
       if (curve.some(([, k]) => Number.isFinite(k))) {
         lineChart($("hardware-chart"), {

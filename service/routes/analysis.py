@@ -126,13 +126,17 @@ async def stability(req: Annotated[StabilityRequest, Body(openapi_examples=_STAB
     out = _shallow(res)   # non-finite numbers answer null (FiniteModel)
     if req.device.nonlinear:
         try:
-            nl = await compute.arun(analyse_nonlinear, req.device, k, b, cost_ms=nonlinear_cost_ms(req.device, b))
+            nl = await compute.arun(analyse_nonlinear, req.device, k, b, rendered,
+                                    cost_ms=nonlinear_cost_ms(req.device, b)
+                                    * (1 if rendered is None else RENDERED_COST_FACTOR))
         except ValueError as exc:
             raise field_error(exc) from exc
         out["nonlinear"] = nonlinear_out(nl)
         if req.verify and k is not None:
             try:
-                v = await compute.arun(verify_nonlinear, req.device, k, b, nl,
+                wall = None if rendered is None else req.controller.model_dump(include={"velocity_filter", "mass"},
+                                                                               exclude_unset=True)
+                v = await compute.arun(verify_nonlinear, req.device, k, b, nl, None, wall,
                                        cost_ms=nonlinear_verify_cost_ms(req.device))
             except ValueError as exc:
                 raise field_error(exc) from exc

@@ -13,6 +13,7 @@ from optim.hardware.design import HardwareDesign, HardwareTarget, design_hardwar
 from optim.verification_hardware import verify_hardware_design
 from service.errors import solver_trouble
 from service.executor import BoundedExecutor, Compute
+from service.routes.design_quantisation import QUANTISATION_FREE, quantisation_answer
 from service.schemas.design_hardware import HardwareDesignRequest, HardwareDesignResponse
 from service.schemas.verification import verification_out
 
@@ -35,6 +36,8 @@ async def run_hardware(request: HardwareDesignRequest, compute: BoundedExecutor)
 @router.post("/v1/design/hardware", response_model=HardwareDesignResponse, tags=["design"])
 async def design_hardware_route(request: HardwareDesignRequest, compute: Compute) -> HardwareDesignResponse:
     t0 = time.perf_counter()
+    if request.free in QUANTISATION_FREE:
+        return await quantisation_answer(request, compute)
     try:
         design = await run_hardware(request, compute)
     except InputError:

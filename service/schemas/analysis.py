@@ -88,8 +88,8 @@ class NonlinearOut(FiniteModel):
     covered: bool = Field(description="true only where the published theorem covers this wall (B = 0, no delay, "
                                       "rigid device); false: an extension without proof")
     limit_cycle: LimitCycleOut
-    regime: Literal["passive", "stable_not_passive", "limit_cycle", "unstable"] | None = Field(
-        description="passive | stable_not_passive | limit_cycle | unstable; null when no stiffness was given")
+    regime: Literal["passive", "stable_not_passive", "limit_cycle", "unstable", "undetermined"] | None = Field(
+        description="passive | stable_not_passive | limit_cycle | unstable | undetermined (the describing function's known error makes the call unsure: the reason says why); null when no stiffness was given")
     reason: str
     verification: NonlinearVerificationOut | None = Field(
         None, description="present when verify was true and a stiffness given: the energy audit and the measured "

@@ -9,6 +9,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 from optim.domain import check_controller_domain, check_cutoff_domain
 from optim.hardware.hardware_range import check_range
 from optim.hardware.hardware_targets import HardwareTarget
+from optim.hardware.quantisation import QUANTISATION_FREE, check_quantisation_request
 
 from .common import Device  # the numerics' validated domain (optim.domain) applies
 from .finite import FiniteModel
@@ -50,8 +51,11 @@ class HardwareDesignRequest(BaseModel):
 
     device: Device
     target: HardwareTargetIn
-    free: Literal["sample_time", "delay", "damping", "mass", "cable.stiffness"] = Field(
-        description="the hardware parameter to find (the others are the device's)")
+    free: Literal["sample_time", "delay", "damping", "mass", "cable.stiffness", "encoder_resolution",
+                  "coulomb_friction"] = Field(
+        description="the hardware parameter to find (the others are the device's); encoder_resolution (the "
+                    "coarsest q) and coulomb_friction (the least f_c) keep target.stiffness passive as a virtual "
+                    "spring (optim/hardware/quantisation.py)")
     points: int = Field(41, ge=9, le=201, description="points of the trade-off curve")
     range: ValueRangeIn | None = Field(None, description="scan exactly this range of the free parameter [SI]; by "
                                                          "default value/30 … value·30 (delay 0 … 30 samples), "
@@ -63,6 +67,8 @@ class HardwareDesignRequest(BaseModel):
         """The target's rules (optim.hardware.hardware_targets) and optim.domain: the target K, the cap on B and the lowest
         cutoff, made dimensionless by the device, within range."""
         t = self.target    # its own rules held when it was validated (optim's model); this one needs the device
+        if self.free in QUANTISATION_FREE:
+            check_quantisation_request(t.core(), self.range is not None)
         t.check(self.device, self.free)
         if t.stiffness is not None:
             check_controller_domain(t.stiffness, self.device, "stiffness", "target.stiffness")
@@ -142,3 +148,7 @@ class HardwareDesignResponse(FiniteModel):
     elapsed_ms: float
     verification: VerificationOut | None = Field(None, description="present when verify was true: the target "
                                                                    "controller checked at the answer's value")
+    quantisation: dict | None = Field(None, description="free = encoder_resolution | coulomb_friction: the passive "
+                                                        "limit's terms, the counts over device.travel, and the "
+                                                        "nonlinear analysis at the answer and 1 % looser "
+                                                        "(optim/hardware/quantisation.py)")

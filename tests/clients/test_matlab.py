@@ -186,3 +186,30 @@ def test_filter_example_prints_the_python_clients_numbers(server, tmp_path):
             f"M-width [{f.mass_range.min:.4g}, {f.mass_range.max:.4g}] kg") in p.stdout
     assert f"{b1.optimum.critical_stiffness:.1f} N/m at B = {b1.optimum.damping:.1f} (50 Hz)" in p.stdout
     assert (tmp_path / "filter.svg").exists()
+
+
+def test_the_encoder_and_friction_travel_in_the_device_struct(tmp_path):
+    """Issue 31: encoder_resolution / coulomb_friction / travel go out in the device struct, and the hardware
+    design's free parameter as asked (a mock transport sees the body)."""
+    p = octave("function resp = mock(req)\n"
+               "  printf('BODY %s\\n', req.body);\n"
+               "  resp = struct('status', 200, 'body', '{\"status\": \"optimal\", \"value\": 1e-05, "
+               "\"quantisation\": {\"counts_over_travel\": 10000}}', 'message', '', 'refused', false);\n"
+               "end\n"
+               "dev = struct('mass', 0.2, 'damping', 25, 'encoder_resolution', 1e-5, 'coulomb_friction', 0.1, "
+               "'travel', 0.1);\n"
+               "h = zwidth_design_hardware(dev, struct('stiffness', 2e4), 'encoder_resolution', "
+               "struct('transport', @mock));\n"
+               "printf('ANSWER %.17g %.17g\\n', h.value, h.quantisation.counts_over_travel);", tmp_path)
+    lines = p.stdout.strip().splitlines()
+    body = json.loads(next(x for x in lines if x.startswith("BODY "))[5:])
+    assert body == {"device": {"mass": 0.2, "damping": 25, "encoder_resolution": 1e-5, "coulomb_friction": 0.1,
+                               "travel": 0.1}, "target": {"stiffness": 20000}, "free": "encoder_resolution"}
+    assert lines[-1] == "ANSWER 1.0000000000000001e-05 10000"
+
+
+def test_example_encoder_friction_answers_the_encoder_20_kn_per_m_needs(server, tmp_path):
+    p = octave("example_encoder_friction", tmp_path, server.url)
+    # 2f_c/q = 2·0.1/1e-5 = 20 kN/m ≥ 15 kN/m and 2b/T = 50 kN/m: passive (Abbott & Okamura); q* = 2f_c/K_t = 10 µm
+    assert "K = 15 kN/m: regime passive" in p.stdout
+    assert "20 kN/m needs q <= 1e-05 m per count: 10000 counts over the 0.10 m travel (checked: 1)" in p.stdout

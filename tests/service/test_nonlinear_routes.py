@@ -150,3 +150,15 @@ def test_without_a_wall_only_the_limit_is_answered(client):
 def test_presets_list_no_issue31_nulls(client):
     body = client.get("/v1/presets").json()
     assert all("encoder_resolution" not in d and "travel" not in d for d in body.values())
+
+
+def test_the_velocity_filter_is_in_the_nonlinear_block(client):
+    dev = {**SMALL, "encoder_resolution": 1e-5, "coulomb_friction": 0.004}
+    ctl = {"stiffness": 300, "damping": 0.2, "velocity_filter": {"kind": "low_pass", "cutoff_hz": 50}}
+    r = _post(client, "/v1/analysis/stability", {"device": dev, "controller": ctl})
+    assert r.status_code == 200, r.text
+    nl = r.json()["nonlinear"]
+    assert nl["covered"] is False and "velocity filter" in nl["reason"] + nl["source"]
+    plain = _post(client, "/v1/analysis/stability", {"device": dev, "controller": {"stiffness": 300, "damping": 0.2}})
+    # the filtered wall's passive limit is its own (optim.stability.passivity_rendered), not the backward difference's
+    assert nl["sampling_term"] != plain.json()["nonlinear"]["sampling_term"]
