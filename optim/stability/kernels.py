@@ -1,6 +1,7 @@
 """Every compiled (numba) kernel of the numerics, compiled at once: optim.stability.rigid_kernel (the rigid fast
-path's crossovers), optim.stability.rigid_tail (its proof that the tail holds none) and
-optim.stability.passivity_kernel (the delayed passivity bound)."""
+path's crossovers), optim.stability.rigid_tail (its proof that the tail holds none),
+optim.stability.passivity_kernel (the delayed passivity bound) and optim.workspace.normal_kernel (the worst-normal
+search's inner loop)."""
 
 from optim.stability import passivity_kernel, rigid_kernel, rigid_tail
 
@@ -13,3 +14,6 @@ def compile_kernels() -> None:
     rigid_kernel.compile_kernels()
     rigid_tail.compile_kernels()
     passivity_kernel.compile_kernels()
+    from optim.workspace import normal_kernel  # the workspace's worst-normal loop
+
+    normal_kernel.compile_kernels()

@@ -19,16 +19,19 @@ import scipy.optimize
 from models.discretize import RigidZOH, split_delay
 from optim.stability.crossovers import scan_grid, theta_min
 
+from .normal_kernel import critical_kernel, mode_numbers
+
 __all__ = ["worst_normal"]
 
 _CIRCLE = 180
 _SPHERE = 1200
 _SECANT_STEPS = 8
+_SAMPLE_STEPS = 3    # secant steps of the sphere's sampling (it ranks the starts)
 _STARTS = 3          # the best samples polished
 _STENCIL = 7         # a 7 × 7 stencil of (polar, azimuth) offsets per level
 _ZOOM = 2.5          # the stencil shrinks by this each level (it spans ±1 step: neighbours overlap)
 _STEP_MIN = 1e-11    # [rad]
-_STEP_SETTLED = 1e-6  # [rad]: the zoom may stop early only below this step
+_STEP_SETTLED = 1e-4  # [rad]: the zoom may stop early only below this step
 
 
 class _PoseLoop:
@@ -47,6 +50,7 @@ class _PoseLoop:
         self.grid = scan_grid(theta_min(float(max(damp, 0.0)), float(delay / sample_time)), delay / sample_time, (),
                               width_hint=max(min(deltas), 1e-6))
         self.r_grid = np.stack([p.response(self.grid) for p in self.plants])     # modes × G
+        self.modes = mode_numbers(self.plants)
 
     def k_of(self, g_sum: np.ndarray, theta: np.ndarray) -> np.ndarray:
         """K(θ) [N/m] from Σ c_i R_i(θ)."""
@@ -57,9 +61,23 @@ class _PoseLoop:
         r = np.stack([p.response(theta) for p in self.plants], axis=1)       # rows × modes
         return self.k_of(np.sum(c_rows * r, axis=1), theta)
 
-    def critical(self, normals: np.ndarray, window: tuple[int, int] | None = None) -> np.ndarray:
+    def critical(self, normals: np.ndarray, window: tuple[int, int] | None = None, steps: int = _SECANT_STEPS
+                 ) -> np.ndarray:
         """The smallest positive crossover K of each normal (inf where none), from the grid and secant steps;
-        ``window`` (grid indices) looks only there (the polish: the binding crossover moves little)."""
+        ``window`` (grid indices) looks only there (the polish: the binding crossover moves little).  Compiled
+        (optim.workspace.normal_kernel); ``critical_python`` is its twin."""
+        c = (normals @ self.w) ** 2
+        lo, hi = (0, len(self.grid)) if window is None else window
+        best, col = critical_kernel(np.ascontiguousarray(c), np.ascontiguousarray(self.r_grid[:, lo:hi]),
+                                    np.ascontiguousarray(self.grid[lo:hi]), self.modes, self.t, self.b, steps,
+                                    hi >= len(self.grid))
+        if window is None and len(normals) > 1 and col >= 0:
+            self.binding = int(col) + lo
+        return best
+
+    def critical_python(self, normals: np.ndarray, window: tuple[int, int] | None = None,
+                        steps: int = _SECANT_STEPS) -> np.ndarray:
+        """critical's Python twin (numpy): the oracle of the compiled kernel."""
         c = (normals @ self.w) ** 2                                           # N × modes
         lo, hi = (0, len(self.grid)) if window is None else window
         grid = self.grid[lo:hi]
@@ -71,7 +89,7 @@ class _PoseLoop:
             a, b = grid[cols], grid[cols + 1]
             fa, fb = im[rows, cols], im[rows, cols + 1]
             cr = c[rows]
-            for _ in range(_SECANT_STEPS):
+            for _ in range(steps):
                 x = b - fb * (b - a) / (fb - fa)
                 x = np.clip(x, np.minimum(a, b), np.maximum(a, b))
                 fx = self._at(cr, x).imag
@@ -125,10 +143,10 @@ def worst_normal(mass: np.ndarray, jac: np.ndarray, damping_q: np.ndarray, rank:
 
     k = np.arange(_SPHERE) + 0.5
     starts = np.stack([np.arccos(1.0 - k / _SPHERE), (math.pi * (1.0 + 5.0 ** 0.5) * k) % (2 * math.pi)], axis=1)
-    vals = loop.critical(sphere(starts))
+    vals = loop.critical(sphere(starts), steps=_SAMPLE_STEPS)   # a ranking only: each start is re-evaluated
     win = loop.near_binding()
     best = starts[np.argsort(vals)[:_STARTS]]
-    best_v = np.sort(vals)[:_STARTS]
+    best_v = np.full(len(best), math.inf)      # the first level (its stencil holds each start) sets the values
     # a zooming stencil around each of the best samples, all of them in one vectorised call per level: the
     # stencil's centre is kept, so each start's value never rises
     step = math.sqrt(4.0 * math.pi / _SPHERE)
