@@ -41,35 +41,32 @@ def mode_numbers(plants: list[RigidZOH]) -> np.ndarray:
 
 
 @kernel
-def _response(v, theta):
-    """RigidZOH.response(θ) of one mode (its numbers ``v``)."""
-    if theta == math.pi and not math.isnan(v[AT_NYQ]):
-        return complex(1.0, 0.0) / complex(v[AT_NYQ], 0.0)
-    cs, sn = math.cos(theta), math.sin(theta)
-    z = complex(cs, sn)
+def _k(crow, modes, theta, t, b):
+    """K(θ) = −1/(T²·Σ c_i R_i(θ)) − B(1 − e^{−jθ})/T of one normal (weights ``crow``), each R_i as
+    RigidZOH.response(θ) (the modes share the delay, so z, z − 1 and the delay's phase are computed once)."""
+    sn = math.sin(theta)
+    z = complex(math.cos(theta), sn)
     sh = math.sin(0.5 * theta)
     zm1 = complex(-2.0 * sh * sh, sn)
-    den = zm1 * (zm1 + v[AT_OMP])
-    dt = v[AT_D] * theta
+    dt = modes[0, AT_D] * theta
     lead = complex(math.cos(dt), math.sin(dt))
-    if v[AT_FRAC] == 0.0:
-        num = v[AT_A] * (z + 1.0) + v[AT_C]
-    else:
-        zinv = 1.0 / z
-        gpos = v[AT_G0P] + v[AT_G1P] * zinv
-        gvel = v[AT_G0V] + v[AT_G1V] * zinv
-        num = gpos * ((z - 1.0) + v[AT_OMP]) + v[AT_PHI12] * gvel
-    return 1.0 / (den * lead / num)
-
-
-@kernel
-def _k(crow, modes, theta, t, b):
-    """K(θ) = −1/(T²·Σ c_i R_i(θ)) − B(1 − e^{−jθ})/T of one normal (weights ``crow``)."""
+    zinv = 1.0 / z
     g = complex(0.0, 0.0)
     for i in range(modes.shape[0]):
-        g += crow[i] * _response(modes[i], theta)
-    sh = math.sin(0.5 * theta)
-    one_minus = complex(2.0 * sh * sh, math.sin(theta))        # 1 − e^{−jθ}
+        v = modes[i]
+        if theta == math.pi and not math.isnan(v[AT_NYQ]):
+            r = complex(1.0, 0.0) / complex(v[AT_NYQ], 0.0)
+        else:
+            den = zm1 * (zm1 + v[AT_OMP])
+            if v[AT_FRAC] == 0.0:
+                num = v[AT_A] * (z + 1.0) + v[AT_C]
+            else:
+                gpos = v[AT_G0P] + v[AT_G1P] * zinv
+                gvel = v[AT_G0V] + v[AT_G1V] * zinv
+                num = gpos * ((z - 1.0) + v[AT_OMP]) + v[AT_PHI12] * gvel
+            r = 1.0 / (den * lead / num)
+        g += crow[i] * r
+    one_minus = complex(2.0 * sh * sh, sn)        # 1 − e^{−jθ}
     return -1.0 / (t * t * g) - b * one_minus / t
 
 

@@ -52,7 +52,7 @@ class StudyRequest(BaseModel):
          "sweep": {"device.cable.stiffness": {"start": 2e4, "stop": 2e5, "scale": "log"},
                    "device.delay": {"start": 0, "stop": 0.002}},
          "sampling": {"design": "latin_hypercube", "samples": 500, "seed": 1}}]}}
-    problem: Literal["stability", "critical_stiffness", "stiffness", "inertia"]
+    problem: Literal["stability", "critical_stiffness", "stiffness", "inertia", "workspace_critical_stiffness"]
     base: StudyBase
     sweep: dict[str, ValueList | RangeSpec] = Field(
         description="dotted path (device.delay, device.cable.stiffness, requirements.damping, …) -> "
