@@ -132,7 +132,9 @@ def worst_normal(mass: np.ndarray, jac: np.ndarray, damping_q: np.ndarray, rank:
         i = int(np.argmin(vals))
         step = math.pi / _CIRCLE
         win = loop.near_binding()
-        res = scipy.optimize.minimize_scalar(lambda p: float(loop.critical(normals(np.array([p])), win)[0]),
+        # a normal without a crossover in the window reads 1e30 (finite: Brent's parabolic steps stay real)
+        res = scipy.optimize.minimize_scalar(lambda p: min(float(loop.critical(normals(np.array([p])), win)[0]),
+                                                           1e30),
                                              bounds=(phis[i] - step, phis[i] + step), method="bounded",
                                              options={"xatol": 1e-11})
         return normals(np.array([res.x if res.fun <= vals[i] else phis[i]]))[0]

@@ -1,0 +1,157 @@
+"""One wall (K, B) stable at every pose and normal of a multi-DOF device's workspace: the exchange method.
+
+The design maximises K = g·min over (pose, normal) of K_cr(pose, normal; B) over B, g = 10^(−GM/20) the gain
+margin asked for.  The minimum runs over an active set of worst cases only:
+
+1. with the active set S, B* = argmax over B ∈ [0, B_cap] of min over S of K_cr(B) (a grid of B, then a bounded
+   Brent polish; B_cap the smallest B_max of S, where K_cr falls to 0);
+2. the workspace map at B* over every design pose (each pose's worst normal, or the given normals): if some
+   (pose, normal) has K_cr below min over S (beyond 1e-9), it joins S and step 1 runs again;
+3. otherwise K = g·min over S at B*, which every design (pose, normal) meets: its K_cr at B* is at least that.
+
+Then the verification: the map at (K, B*) over a denser set of poses (a Latin hypercube of ``verify_factor`` ×
+the design poses, different seed, plus the design poses) and its worst margin K_cr/K − 1.  ``verified`` only if
+that margin is ≥ 0; otherwise the answer says where the design is not stable.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal, Sequence
+
+import numpy as np
+
+from models.errors import InputError
+from models.kinematics import KinematicModel
+
+from .wall_plant import WallModes, _max_stable_damping, wall_critical_stiffness, wall_modes
+from .workspace import GRAVITY_NOTE, WorkspacePoint, lhs_poses, workspace_map
+
+__all__ = ["WorkspaceCase", "WorkspaceDesign", "design_workspace_stiffness"]
+
+_MAX_EXCHANGES = 25
+_B_GRID = 24
+_RTOL = 1e-9
+
+
+@dataclass(frozen=True)
+class WorkspaceCase:
+    """A worst case of the exchange: pose [rad or m], unit normal, its K_cr at the design's B [N/m]."""
+
+    pose: tuple[float, ...]
+    normal: tuple[float, float, float]
+    critical_stiffness: float
+
+
+@dataclass(frozen=True)
+class WorkspaceDesign:
+    """K [N/m] and B [N·s/m] stable at every design pose and normal; the exchange's worst cases; the denser set's
+    verification (its worst point at B and margin K_cr/K − 1)."""
+
+    status: Literal["verified", "unverified", "failed"]
+    stiffness: float | None
+    damping: float | None
+    gain: float
+    worst_cases: tuple[WorkspaceCase, ...]
+    exchanges: int
+    design_poses: int
+    verification_poses: int
+    verification_worst: WorkspacePoint | None
+    verification_margin: float | None
+    reason: str | None = None
+    note: str = GRAVITY_NOTE
+
+
+def _modes(model: KinematicModel, pose: Sequence[float], normal: Sequence[float]) -> WallModes:
+    mass, jac = model.at(np.asarray(pose, dtype=float))
+    return wall_modes(mass, jac, model.joint_damping, np.asarray(normal, dtype=float))
+
+
+def _b_max(modes: WallModes, t: float, td: float) -> float:
+    from models.discretize import RigidZOH, split_delay
+
+    d, f = split_delay(td / t)
+    m = modes.effective_mass
+    plants = [(ci * m, RigidZOH(li * t, d, f)) for ci, li in zip(modes.c, modes.lam)]
+    return _max_stable_damping(plants, modes, t, td / t)
+
+
+def _best_b(cases: list[WallModes], t: float, td: float, b_cap: float) -> tuple[float, float]:
+    """(B*, min over the cases of K_cr at B*)."""
+    def worst(b: float) -> float:   # an unbounded K_cr (no crossover) as a huge finite number: the search stays real
+        return min(min(wall_critical_stiffness(m, t, td, b).critical_stiffness, 1e30) for m in cases)
+
+    grid = np.linspace(0.0, b_cap, _B_GRID + 1)[:-1]     # B_cap itself: K_cr = 0
+    vals = [worst(float(b)) for b in grid]
+    i = int(np.argmax(vals))
+    lo = float(grid[max(i - 1, 0)])
+    hi = float(grid[i + 1]) if i + 1 < len(grid) else b_cap
+    # golden section on the bracket around the best grid point (the minimum of several K_cr(B) has kinks, where a
+    # parabolic step misleads): to 1e-9 of B_cap
+    g = (math.sqrt(5.0) - 1.0) / 2.0
+    a, b = lo, hi
+    x1, x2 = b - g * (b - a), a + g * (b - a)
+    f1, f2 = worst(x1), worst(x2)
+    while b - a > 1e-9 * max(b_cap, 1e-12):
+        if f1 >= f2:
+            b, x2, f2 = x2, x1, f1
+            x1 = b - g * (b - a)
+            f1 = worst(x1)
+        else:
+            a, x1, f1 = x1, x2, f2
+            x2 = a + g * (b - a)
+            f2 = worst(x2)
+    x, fx = (x1, f1) if f1 >= f2 else (x2, f2)
+    if fx > vals[i]:
+        return float(x), float(fx)
+    return float(grid[i]), float(vals[i])
+
+
+def design_workspace_stiffness(model: KinematicModel, poses: list[np.ndarray],
+                               normals: list[Sequence[float]] | Literal["worst"], sample_time: float, delay: float,
+                               *, min_gain_margin_db: float = 0.0, max_damping: float | None = None,
+                               verify_factor: int = 4, verify_seed: int = 1) -> WorkspaceDesign:
+    """The exchange design over ``poses`` × ``normals`` and its verification on a denser set (module doc)."""
+    if min_gain_margin_db < 0 or not math.isfinite(min_gain_margin_db):
+        raise InputError("requirements.min_gain_margin_db", "must be finite and ≥ 0")
+    gain = 10.0 ** (-min_gain_margin_db / 20.0)
+    first = workspace_map(model, poses, normals, sample_time, delay, 0.0)
+    start = min(first.points, key=lambda p: p.critical_stiffness)
+    active = [(start.pose, start.normal)]
+    cases = [_modes(model, *active[0])]
+    exchanges = 0
+    b_star = k_min = 0.0
+    for exchanges in range(1, _MAX_EXCHANGES + 1):
+        b_cap = min(_b_max(m, sample_time, delay) for m in cases)
+        if max_damping is not None:
+            b_cap = min(b_cap, max_damping * (1 + 1e-12))
+        if not math.isfinite(b_cap):
+            b_cap = max_damping if max_damping is not None else 1e3
+        b_star, k_min = _best_b(cases, sample_time, delay, b_cap)
+        if not (k_min > 0 and math.isfinite(k_min)):
+            return WorkspaceDesign("failed", None, None, gain, (), exchanges, len(poses), 0, None, None,
+                                   reason="no (K, B) with K > 0 is stable at the worst cases found")
+        now = workspace_map(model, poses, normals, sample_time, delay, b_star)
+        worst = min(now.points, key=lambda p: p.critical_stiffness)
+        if worst.critical_stiffness >= k_min * (1 - _RTOL):
+            break
+        active.append((worst.pose, worst.normal))
+        cases.append(_modes(model, worst.pose, worst.normal))
+    else:
+        return WorkspaceDesign("failed", None, None, gain, (), exchanges, len(poses), 0, None, None,
+                               reason=f"the exchange did not settle in {_MAX_EXCHANGES} rounds")
+    stiffness = gain * k_min
+    worst_cases = tuple(WorkspaceCase(tuple(p), tuple(n),  # type: ignore[arg-type]
+                                      wall_critical_stiffness(m, sample_time, delay, b_star).critical_stiffness)
+                        for (p, n), m in zip(active, cases))
+    dense = lhs_poses(model, verify_factor * len(poses), verify_seed) + list(poses)
+    check = workspace_map(model, dense, normals, sample_time, delay, b_star)
+    vworst = min(check.points, key=lambda p: p.critical_stiffness)
+    margin = vworst.critical_stiffness / stiffness - 1.0
+    status: Literal["verified", "unverified"] = "verified" if margin >= 0 else "unverified"
+    reason = None if margin >= 0 else (
+        f"at pose {tuple(round(x, 6) for x in vworst.pose)} of the denser set, K_cr = {vworst.critical_stiffness:.6g}"
+        f" N/m is below the design's K = {stiffness:.6g} N/m: design on more poses")
+    return WorkspaceDesign(status, stiffness, b_star, gain, worst_cases, exchanges, len(poses), len(check.points),
+                           vworst, margin, reason)
