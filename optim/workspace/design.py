@@ -16,9 +16,10 @@ that margin is ≥ 0; otherwise the answer says where the design is not stable.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
-from typing import Literal, Sequence
+from typing import TYPE_CHECKING, Literal, Sequence
 
 import numpy as np
 
@@ -28,7 +29,11 @@ from models.kinematics import KinematicModel
 from .wall_plant import WallModes, _max_stable_damping, wall_critical_stiffness, wall_modes
 from .workspace import GRAVITY_NOTE, WorkspacePoint, lhs_poses, workspace_map
 
-__all__ = ["WorkspaceCase", "WorkspaceDesign", "design_workspace_stiffness"]
+if TYPE_CHECKING:
+    from .analysis import PoseSpec
+
+__all__ = ["WorkspaceCase", "WorkspaceDesign", "design_workspace_stiffness", "MimoCheck", "mimo_checks",
+           "workspace_design_job"]
 
 _MAX_EXCHANGES = 25
 _B_GRID = 24
@@ -155,3 +160,72 @@ def design_workspace_stiffness(model: KinematicModel, poses: list[np.ndarray],
         f" N/m is below the design's K = {stiffness:.6g} N/m: design on more poses")
     return WorkspaceDesign(status, stiffness, b_star, gain, worst_cases, exchanges, len(poses), len(check.points),
                            vworst, margin, reason)
+
+
+@dataclass(frozen=True)
+class MimoCheck:
+    """The full MIMO sampled loop (optim.workspace.mimo_loop) at the design's (K, B) at one pose and normal."""
+
+    pose: tuple[float, ...]
+    normal: tuple[float, float, float]
+    spectral_radius: float
+    stable: bool
+
+
+def mimo_checks(model: KinematicModel, design: WorkspaceDesign, sample_time: float, delay: float
+                ) -> tuple[MimoCheck, ...]:
+    """The closed MIMO loop at every worst case of the exchange and at the denser set's worst point."""
+    from .mimo_loop import wall_spectral_radius
+
+    if design.stiffness is None or design.damping is None:
+        return ()
+    points = [(c.pose, c.normal) for c in design.worst_cases]
+    if design.verification_worst is not None:
+        points.append((design.verification_worst.pose, design.verification_worst.normal))
+    out = []
+    for pose, normal in points:
+        mass, jac = model.at(np.asarray(pose, dtype=float))
+        rho = wall_spectral_radius(mass, jac, model.joint_damping, np.asarray(normal, dtype=float), design.stiffness,
+                                   design.damping, sample_time, delay)
+        out.append(MimoCheck(tuple(pose), tuple(normal), rho, rho < 1.0))  # type: ignore[arg-type]
+    return tuple(out)
+
+
+def workspace_design_job(urdf: str | None, preset: str | None, end_effector: str | None,
+                         armature: Sequence[float] | None, joint_damping: Sequence[float] | None, poses: "PoseSpec",
+                         normals: Sequence[Sequence[float]] | Literal["worst"], sample_time: float, delay: float,
+                         min_gain_margin_db: float, max_damping: float | None, max_stiffness: float | None,
+                         verify_factor: int, verify: bool) -> tuple[WorkspaceDesign, tuple[MimoCheck, ...]]:
+    """POST /v1/design/stiffness with requirements.workspace, from plain arguments (it runs in a compute worker);
+    InputError fields are relative to the request body."""
+    from .analysis import device_kinematics
+    from .workspace import explicit_poses, grid_poses
+
+    def under(exc: InputError) -> InputError:
+        return InputError("requirements.workspace." + exc.field.removeprefix("device."), exc.rule)
+
+    try:
+        model = device_kinematics(urdf, preset, end_effector, armature, joint_damping)
+        if poses.explicit is not None:
+            qs = explicit_poses(model, poses.explicit)
+        elif poses.grid_num is not None:
+            qs = grid_poses(model, poses.grid_num)
+        else:
+            qs = lhs_poses(model, int(poses.lhs_samples or 0), poses.lhs_seed)
+        given: list[Sequence[float]] | Literal["worst"] = "worst"
+        if normals != "worst":
+            given = [list(n) for n in normals]
+        design = design_workspace_stiffness(model, qs, given, sample_time, delay,
+                                            min_gain_margin_db=min_gain_margin_db, max_damping=max_damping,
+                                            verify_factor=verify_factor, verify_seed=poses.lhs_seed + 1)
+    except InputError as exc:
+        if exc.field.startswith("requirements."):
+            raise
+        raise under(exc) from None
+    if max_stiffness is not None and design.stiffness is not None and design.stiffness > max_stiffness:
+        design = dataclasses.replace(design, stiffness=max_stiffness,
+                                     verification_margin=None if design.verification_worst is None else
+                                     design.verification_worst.critical_stiffness / max_stiffness - 1.0)
+        if design.verification_margin is not None and design.verification_margin >= 0:
+            design = dataclasses.replace(design, status="verified", reason=None)
+    return design, (mimo_checks(model, design, sample_time, delay) if verify else ())
