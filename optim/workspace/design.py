@@ -26,7 +26,7 @@ import numpy as np
 from models.errors import InputError
 from models.kinematics import KinematicModel
 
-from .wall_plant import WallModes, _max_stable_damping, wall_critical_stiffness, wall_modes
+from .wall_plant import WallModes, max_stable_damping, wall_critical_stiffness, wall_modes
 from .workspace import GRAVITY_NOTE, WorkspacePoint, lhs_poses, workspace_map
 
 if TYPE_CHECKING:
@@ -71,15 +71,6 @@ class WorkspaceDesign:
 def _modes(model: KinematicModel, pose: Sequence[float], normal: Sequence[float]) -> WallModes:
     mass, jac = model.at(np.asarray(pose, dtype=float))
     return wall_modes(mass, jac, model.joint_damping, np.asarray(normal, dtype=float))
-
-
-def _b_max(modes: WallModes, t: float, td: float) -> float:
-    from models.discretize import RigidZOH, split_delay
-
-    d, f = split_delay(td / t)
-    m = modes.effective_mass
-    plants = [(ci * m, RigidZOH(li * t, d, f)) for ci, li in zip(modes.c, modes.lam)]
-    return _max_stable_damping(plants, modes, t, td / t)
 
 
 def _best_b(cases: list[WallModes], t: float, td: float, b_cap: float) -> tuple[float, float]:
@@ -128,7 +119,7 @@ def design_workspace_stiffness(model: KinematicModel, poses: list[np.ndarray],
     exchanges = 0
     b_star = k_min = 0.0
     for exchanges in range(1, _MAX_EXCHANGES + 1):
-        b_cap = min(_b_max(m, sample_time, delay) for m in cases)
+        b_cap = min(max_stable_damping(m, sample_time, delay) for m in cases)
         if max_damping is not None:
             b_cap = min(b_cap, max_damping * (1 + 1e-12))
         if not math.isfinite(b_cap):
