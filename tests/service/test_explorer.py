@@ -30,7 +30,8 @@ def test_page_and_assets_are_served_and_nothing_else(client):
     page = client.get("/")
     assert page.status_code == 200 and page.headers["content-type"].startswith("text/html")
     assert "default-src 'self'" in page.headers["content-security-policy"]
-    for asset, kind in (("explorer.js", "text/javascript"), ("explorer.css", "text/css")):
+    for asset, kind in (("explorer.js", "text/javascript"), ("explorer.css", "text/css"),
+                        ("explorer_workspace.js", "text/javascript")):
         r = client.get(f"/explorer/{asset}")
         assert r.status_code == 200 and r.headers["content-type"].startswith(kind), asset
         text = r.text.replace("http://www.w3.org/2000/svg", "")        # the SVG namespace is a name, not a fetch
