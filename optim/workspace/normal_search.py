@@ -19,9 +19,10 @@ import scipy.optimize
 from models.discretize import RigidZOH, split_delay
 from optim.stability.crossovers import scan_grid, theta_min
 
+from .normal_dual import dual_worst, normal_at
 from .normal_kernel import critical_kernel, mode_numbers
 
-__all__ = ["worst_normal"]
+__all__ = ["worst_normal", "dual_normal"]
 
 _CIRCLE = 180
 _SPHERE = 1200
@@ -32,6 +33,7 @@ _STENCIL = 7         # a 7 × 7 stencil of (polar, azimuth) offsets per level
 _ZOOM = 2.5          # the stencil shrinks by this each level (it spans ±1 step: neighbours overlap)
 _STEP_MIN = 1e-11    # [rad]
 _STEP_SETTLED = 1e-4  # [rad]: the zoom may stop early only below this step
+_DUAL_GRID_STEPS = 40  # golden steps in μ for d(θ) on the grid (a ranking: the maxima are refined with more)
 
 
 class _PoseLoop:
@@ -112,6 +114,25 @@ class _PoseLoop:
         """Grid indices around the sampled normals' binding crossover (None when it was θ = π)."""
         j = getattr(self, "binding", None)
         return None if j is None else (max(j - 3, 0), min(j + 5, len(self.grid)))
+
+
+def dual_normal(mass: np.ndarray, jac: np.ndarray, damping_q: np.ndarray, sample_time: float, delay: float
+                ) -> tuple[np.ndarray, float] | None:
+    """B = 0, J of rank 3: the worst normal by duality (optim.workspace.normal_dual) and the K [N/m] it predicts
+    there, 1/(T² d*); None when no positive crossing was found.  The caller certifies it by the exact scan."""
+    lam, vec = scipy.linalg.eigh(np.diag(damping_q), mass)
+    w = np.ascontiguousarray(jac @ vec)
+    d, f = split_delay(delay / sample_time)
+    plants = [RigidZOH(max(float(li), 0.0) * sample_time, d, f) for li in lam]
+    m_scale = float(np.max(np.sum(w * w, axis=0)))
+    deltas = [p.delta for p in plants]
+    damp = min(deltas) * min(1.0, 1.0 / max(m_scale, 1e-300))
+    grid = scan_grid(theta_min(float(max(damp, 0.0)), float(delay / sample_time)), delay / sample_time, (),
+                     width_hint=max(min(deltas), 1e-6))
+    best, _, mu, h = dual_worst(w, mode_numbers(plants), grid, _DUAL_GRID_STEPS)
+    if not (best > 0.0 and math.isfinite(best)):
+        return None
+    return normal_at(h, mu), 1.0 / (sample_time ** 2 * best)
 
 
 def worst_normal(mass: np.ndarray, jac: np.ndarray, damping_q: np.ndarray, rank: int, sample_time: float,
