@@ -8,8 +8,8 @@ nᵀ C n = 0, and K > 0 when nᵀ A n < 0, so the lowest K over every normal cro
     d(θ) = max{ −nᵀ A n : nᵀ C n = 0, |n| = 1 } = min over μ of λ_max(−A + μ C)
 
 (the equality is the S-lemma for two quadratic forms in R³: their joint numerical range on the sphere is convex,
-Brickman 1961).  λ_max(−A + μC) is convex in μ, so d(θ) is a golden section over a bracket set by C's extreme
-eigenvalues; θ = π (C = 0) gives λ_max(−A).  The worst K over the pose is 1/(T² max_θ d(θ)): d on the exact scan's
+Brickman 1961).  λ_max(−A + μC) is convex in μ, so d(θ) is a bisection on its derivative vᵀCv over a bracket set by C's
+extreme eigenvalues; θ = π (C = 0) gives λ_max(−A).  The worst K over the pose is 1/(T² max_θ d(θ)): d on the exact scan's
 grid, golden sections in θ around its best local maxima, and the normal from the eigenvectors at (θ*, μ*).
 
 Certified, never trusted alone: optim.workspace.normal_search.worst_normal takes this normal only when the exact
@@ -30,7 +30,7 @@ from .normal_kernel import AT_A, AT_C, AT_D, AT_FRAC, AT_G0P, AT_G0V, AT_G1P, AT
 __all__ = ["dual_worst", "normal_at"]
 
 _GOLD = 0.3819660112501051
-_MU_STEPS = 80       # golden steps in μ: the bracket shrinks to 0.618^80 ≈ 2e-17 of its width
+_MU_STEPS = 80       # golden steps in μ (0.618^80 ≈ 2e-17 of the bracket), or bisection steps for μ* (2^-80)
 _THETA_STEPS = 60    # golden steps in θ between the grid's neighbours of a local maximum
 _CANDIDATES = 4      # local maxima of d on the grid refined
 
@@ -90,8 +90,61 @@ def _lmax(a00, a01, a02, a11, a12, a22):
 
 
 @kernel
+def _slope(a0, a1, a2, a3, a4, a5, c0, c1, c2, c3, c4, c5):
+    """(λ_max of the symmetric (a…), vᵀCv of its unit top eigenvector v): the derivative in μ of λ_max(A' + μC).
+    v is the largest cross product of two rows of A' − λ_max I."""
+    lam = _lmax(a0, a1, a2, a3, a4, a5)
+    r0 = (a0 - lam, a1, a2)
+    r1 = (a1, a3 - lam, a4)
+    r2 = (a2, a4, a5 - lam)
+    best, vx, vy, vz = -1.0, 0.0, 0.0, 0.0
+    for p, q in ((r0, r1), (r0, r2), (r1, r2)):
+        x = p[1] * q[2] - p[2] * q[1]
+        y = p[2] * q[0] - p[0] * q[2]
+        z = p[0] * q[1] - p[1] * q[0]
+        nn = x * x + y * y + z * z
+        if nn > best:
+            best, vx, vy, vz = nn, x, y, z
+    if best <= 0.0:
+        return lam, 0.0
+    s = (c0 * vx * vx + c3 * vy * vy + c5 * vz * vz + 2.0 * (c1 * vx * vy + c2 * vx * vz + c4 * vy * vz)) / best
+    return lam, s
+
+
+@kernel
 def _dual(h, steps):
-    """(d, μ*): min over μ of λ_max(−A + μC) (−inf when C is definite: no normal crosses at this θ)."""
+    """(d, μ*): min over μ of λ_max(−A + μC) (−inf when C is definite: no normal crosses at this θ), by bisection
+    on the sign of its derivative vᵀCv (nondecreasing in μ: the function is convex)."""
+    c0, c1, c2, c3, c4, c5 = h[6], h[7], h[8], h[9], h[10], h[11]
+    a0, a1, a2, a3, a4, a5 = -h[0], -h[1], -h[2], -h[3], -h[4], -h[5]
+    cmax = _lmax(c0, c1, c2, c3, c4, c5)
+    cmin = -_lmax(-c0, -c1, -c2, -c3, -c4, -c5)
+    if cmax == 0.0 and cmin == 0.0:
+        return _lmax(a0, a1, a2, a3, a4, a5), 0.0
+    if not (cmin < 0.0 < cmax):
+        return -np.inf, 0.0
+    span = _lmax(a0, a1, a2, a3, a4, a5) + _lmax(-a0, -a1, -a2, -a3, -a4, -a5)   # λ_max − λ_min of −A
+    lo, hi = -span / -cmin, span / cmax
+    best, arg = np.inf, 0.0
+    for _ in range(steps):
+        mid = 0.5 * (lo + hi)
+        lam, s = _slope(a0 + mid * c0, a1 + mid * c1, a2 + mid * c2, a3 + mid * c3, a4 + mid * c4, a5 + mid * c5,
+                        c0, c1, c2, c3, c4, c5)
+        if lam < best:
+            best, arg = lam, mid
+        if s > 0.0:
+            hi = mid
+        elif s < 0.0:
+            lo = mid
+        else:
+            break
+    return best, arg
+
+
+@kernel
+def _dual_golden(h, steps):
+    """(d, μ): min over μ of λ_max(−A + μC) by a golden section (robust values: the search in θ reads these; μ
+    to ~√ε only) (−inf when C is definite: no normal crosses at this θ)."""
     c0, c1, c2, c3, c4, c5 = h[6], h[7], h[8], h[9], h[10], h[11]
     a0, a1, a2, a3, a4, a5 = -h[0], -h[1], -h[2], -h[3], -h[4], -h[5]
     cmax = _lmax(c0, c1, c2, c3, c4, c5)
@@ -121,13 +174,13 @@ def _dual(h, steps):
 @kernel
 def _d_at(w, modes, theta, h, steps):
     _hmat(w, modes, theta, h)
-    return _dual(h, steps)
+    return _dual_golden(h, steps)
 
 
 @kernel
 def dual_worst(w, modes, grid, grid_steps):
-    """(d*, θ*, μ*, A(θ*) and C(θ*) as 12 numbers): the largest d(θ) over [grid[0], π], from d on ``grid`` (golden
-    sections of ``grid_steps`` in μ) and golden sections in θ around its best local maxima; d* ≤ 0 when no
+    """(d*, θ*, μ*, A(θ*) and C(θ*) as 12 numbers): the largest d(θ) over [grid[0], π], from d on ``grid`` (``grid_steps``
+    bisection steps in μ) and golden sections in θ around its best local maxima; d* ≤ 0 when no
     positive crossing exists."""
     g = grid.shape[0]
     h = np.empty(12)
@@ -165,6 +218,9 @@ def dual_worst(w, modes, grid, grid_steps):
                 best_d, best_t, best_mu = dv, t, mu
     out = np.empty(12)
     _hmat(w, modes, best_t, out)
+    d_bis, mu_bis = _dual(out, _MU_STEPS)        # μ* to full precision for the normal
+    if d_bis <= best_d:
+        best_mu = mu_bis
     return best_d, best_t, best_mu, out
 
 
