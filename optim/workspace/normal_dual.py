@@ -249,4 +249,32 @@ def normal_at(h: np.ndarray, mu: float) -> np.ndarray:
     if not cands:
         return v1
     cands = [x / np.linalg.norm(x) for x in cands]
-    return max(cands, key=lambda x: float(-(x @ a @ x)))
+    n = max(cands, key=lambda x: float(-(x @ a @ x)))
+    return _kkt_polish(a, c, n, mu)
+
+
+def _kkt_polish(a: np.ndarray, c: np.ndarray, n: np.ndarray, mu: float, steps: int = 6) -> np.ndarray:
+    """Newton on the KKT system of max −nᵀAn s.t. nᵀCn = 0, nᵀn = 1: (−A + μC)n = νn, from (n, μ); the polished
+    n is kept only where it satisfies both constraints better and does not lower −nᵀAn beyond rounding."""
+    x = np.concatenate([n, [mu, float(n @ (-a + mu * c) @ n)]])
+    eye = np.eye(3)
+    for _ in range(steps):
+        v, m, nu = x[:3], x[3], x[4]
+        res = np.concatenate([(-a + m * c) @ v - nu * v, [v @ c @ v, v @ v - 1.0]])
+        jac = np.zeros((5, 5))
+        jac[:3, :3] = -a + m * c - nu * eye
+        jac[:3, 3] = c @ v
+        jac[:3, 4] = -v
+        jac[3, :3] = 2.0 * (c @ v)
+        jac[4, :3] = 2.0 * v
+        try:
+            x = x - np.linalg.solve(jac, res)
+        except np.linalg.LinAlgError:
+            return n
+        if not np.all(np.isfinite(x)):
+            return n
+    out = x[:3] / np.linalg.norm(x[:3])
+    scale = float(np.max(np.abs(c))) or 1.0
+    if abs(out @ c @ out) <= max(abs(n @ c @ n), 1e-14 * scale) and -(out @ a @ out) >= -(n @ a @ n) * (1 - 1e-14):
+        return out
+    return n
