@@ -1,7 +1,7 @@
 """Every compiled (numba) kernel of the numerics, compiled at once: optim.stability.rigid_kernel (the rigid fast
 path's crossovers), optim.stability.rigid_tail (its proof that the tail holds none),
 optim.stability.passivity_kernel (the delayed passivity bound) and optim.workspace.normal_kernel (the worst-normal
-search's inner loop)."""
+search's inner loop) and optim.workspace.normal_dual (its dual form)."""
 
 from optim.stability import passivity_kernel, rigid_kernel, rigid_tail
 
@@ -14,6 +14,7 @@ def compile_kernels() -> None:
     rigid_kernel.compile_kernels()
     rigid_tail.compile_kernels()
     passivity_kernel.compile_kernels()
-    from optim.workspace import normal_kernel  # the workspace's worst-normal loop
+    from optim.workspace import normal_dual, normal_kernel  # the workspace's worst-normal loop and its dual
 
     normal_kernel.compile_kernels()
+    normal_dual.compile_kernels()

@@ -27,7 +27,7 @@ from optim.stability.compiled import kernel
 
 from .normal_kernel import AT_A, AT_C, AT_D, AT_FRAC, AT_G0P, AT_G0V, AT_G1P, AT_G1V, AT_NYQ, AT_OMP, AT_PHI12
 
-__all__ = ["dual_worst", "normal_at"]
+__all__ = ["dual_worst", "normal_at", "compile_kernels"]
 
 _GOLD = 0.3819660112501051
 _MU_STEPS = 80       # golden steps in μ (0.618^80 ≈ 2e-17 of the bracket), or bisection steps for μ* (2^-80)
@@ -278,3 +278,14 @@ def _kkt_polish(a: np.ndarray, c: np.ndarray, n: np.ndarray, mu: float, steps: i
     if abs(out @ c @ out) <= max(abs(n @ c @ n), 1e-14 * scale) and -(out @ a @ out) >= -(n @ a @ n) * (1 - 1e-14):
         return out
     return n
+
+
+def compile_kernels() -> None:
+    """Compile (or load from numba's cache) on a made-up pose: the first worst-normal analysis then runs at speed."""
+    from models.discretize import RigidZOH
+
+    from .normal_kernel import mode_numbers
+
+    plants = [RigidZOH(1e-3, 0, 0.0), RigidZOH(2e-3, 1, 0.5), RigidZOH(3e-3, 1, 0.5)]
+    w = np.array([[1.0, 0.2, 0.1], [0.3, 1.0, 0.2], [0.1, 0.4, 1.0]])
+    dual_worst(w, mode_numbers(plants), np.linspace(0.01, math.pi, 16), 4)
