@@ -171,3 +171,23 @@ def test_workspace_decodes_the_same_numbers_as_the_python_client(server, tmp_pat
     with ZwidthClient(server.url) as zw:
         want = zw.workspace(dev, {"explicit": [[0.3, 1.0]]}, [[0, 1, 0]])
     assert same_doubles(numbers(p.stdout), [want.minimum_critical_stiffness, want.worst.effective_mass])
+
+
+def test_design_stiffness_over_a_workspace(server, tmp_path):
+    """requirements.workspace passes through zwidth_design_stiffness as a struct: the same design as the client's."""
+    dev = {"mass": 1, "damping": 0, "sample_time": 1e-3, "delay": 1e-3}
+    ws = {"kinematics": {"preset": "planar-2link"}, "poses": {"latin_hypercube": {"samples": 3, "seed": 3}},
+          "normals": "worst", "verify_factor": 1}
+    p = octave("ws = struct('kinematics', struct('preset', 'planar-2link'), 'poses', "
+               "struct('latin_hypercube', struct('samples', 3, 'seed', 3)), 'normals', 'worst', 'verify_factor', 1);\n"
+               "r = zwidth_design_stiffness(struct('mass', 1, 'damping', 0, 'sample_time', 1e-3, 'delay', 1e-3), "
+               "struct('min_gain_margin_db', 1, 'workspace', ws));\n"
+               "printf('%s\\n', r.status);\n"
+               "printf('%.17g %.17g %.17g\\n', r.stiffness, r.damping, r.workspace.verification_margin);", tmp_path,
+               url=server.url)
+    status, values = p.stdout.strip().splitlines()
+    with ZwidthClient(server.url) as zw:
+        want = zw.design_stiffness(dev, {"min_gain_margin_db": 1, "workspace": ws})
+    assert status == want.status == "optimal"
+    assert numbers(values)[:2] == pytest.approx([want.stiffness, want.damping], rel=1e-7)
+    assert numbers(values)[2] == pytest.approx(want.workspace.verification_margin, rel=1e-6)
