@@ -285,7 +285,8 @@ def feedforward(preset: Preset = None, sets: Sets = None, device_file: DeviceFil
 # ------------------------------------------------------------------------------------------------ workspace
 @app.command()
 @handle_errors
-def workspace(preset: Annotated[str, typer.Argument(help="kinematic preset (planar-2link), or a URDF file's path")],
+def workspace(preset: Annotated[str, typer.Argument(help="kinematic preset (planar-2link, phantom-premium-1.5), "
+                                                        "or a URDF file's path")],
               end_effector: Annotated[str | None, typer.Option(help="end-effector frame (with a URDF file)")] = None,
               poses: Annotated[int, typer.Option(help="Latin-hypercube poses over the joint limits")] = 100,
               seed: Annotated[int, typer.Option(help="the poses' seed")] = 0,

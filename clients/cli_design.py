@@ -29,6 +29,25 @@ def _requirements(margin: float | None, **extra: Any) -> dict[str, Any]:
     return req
 
 
+def _workspace(kinematics: str | None, poses: int, seed: int, verify_factor: int | None) -> dict[str, Any] | None:
+    """requirements.workspace from the flags: a kinematic preset (or a URDF file's path with its end effector as
+    'path:frame'), a Latin hypercube of poses, each pose's worst normal."""
+    if kinematics is None:
+        return None
+    path, _, frame = kinematics.rpartition(":")
+    if path and Path(path).is_file():
+        kin: dict[str, Any] = {"urdf": Path(path).read_text(), "end_effector": frame}
+    elif Path(kinematics).is_file():
+        raise c.usage_error("a URDF file is given as --workspace 'path:end_effector_frame'")
+    else:
+        kin = {"preset": kinematics}
+    out: dict[str, Any] = {"kinematics": kin, "poses": {"latin_hypercube": {"samples": poses, "seed": seed}},
+                           "normals": "worst"}
+    if verify_factor is not None:
+        out["verify_factor"] = verify_factor
+    return out
+
+
 @app.command("stiffness")
 @c.handle_errors
 def stiffness(preset: Preset = None, sets: Sets = None, device_file: DeviceFile = None,
@@ -36,10 +55,21 @@ def stiffness(preset: Preset = None, sets: Sets = None, device_file: DeviceFile 
               passivity: Annotated[bool | None, typer.Option("--passivity/--no-passivity",
                                                              help="require passivity (delayed form)",
                                                              show_default=False)] = None,
+              workspace: Annotated[str | None, typer.Option(
+                  "--workspace", help="design over a multi-DOF device's workspace (requirements.workspace): a "
+                                      "kinematic preset (planar-2link, phantom-premium-1.5) or 'urdf_path:frame'; "
+                                      "the device gives T and t_d")] = None,
+              workspace_poses: Annotated[int, typer.Option(help="--workspace: Latin-hypercube design poses")] = 20,
+              workspace_seed: Annotated[int, typer.Option(help="--workspace: the poses' seed")] = 0,
+              verify_factor: Annotated[int | None, typer.Option(
+                  help="--workspace: the verification set is this many times the design poses")] = None,
               verify: c.Verify = False, local: Local = False, url: Url = DEFAULT_URL, token: Token = None, as_json: AsJson = False) -> None:
-    """The stiffest wall K with its damping B that keeps the margin (and passivity, limits)."""
+    """The stiffest wall K with its damping B that keeps the margin (and passivity, limits); with --workspace,
+    one (K, B) safe at every pose and normal of a multi-DOF device."""
     body = c.assemble({"device": c.device_root(preset, device_file, sets),
-                       "requirements": _requirements(margin, passivity=passivity)},
+                       "requirements": _requirements(margin, passivity=passivity,
+                                                     workspace=_workspace(workspace, workspace_poses,
+                                                                          workspace_seed, verify_factor))},
                       sets, files={"requirements": requirements_file})
     with c.client_with_status(Connection(local, url, token), "designing the wall…", as_json) as zw:
         r = zw.design_stiffness(body["device"], body["requirements"], verify=verify)
@@ -54,6 +84,11 @@ def stiffness(preset: Preset = None, sets: Sets = None, device_file: DeviceFile 
                 ("elapsed", r.elapsed_ms, "ms")]
         rows += [("reason", r.reason, "")] if r.reason else []
         rows += [(f"sensitivity: {s.parameter}", s.statement, "") for s in r.sensitivities]
+        ws = getattr(r, "workspace", None)
+        if ws is not None:
+            rows += [("workspace: worst cases", len(ws.worst_cases), ""), ("workspace: exchanges", ws.exchanges, ""),
+                     ("workspace: verification poses", ws.verification_poses, ""),
+                     ("workspace: verification margin", ws.verification_margin, "")]
         return rows
     c.emit_design(r, as_json, "stiffness design", body["device"], table_rows)
 

@@ -131,6 +131,41 @@ class WorstCaseOut(Answer):
     gain_margin_db: Annotated[float | None, Field(description="20·log10(K_cr/K) of the worst device [dB]")] = None
 
 
+class WorkspaceCaseOut(Answer):
+    pose: Annotated[list[float], Field(description="joint values [rad or m]")]
+    normal: Annotated[list[float], Field(description="unit wall normal in the base frame")]
+    critical_stiffness: Annotated[float | None, Field(description="K_cr at the design's B [N/m]")]
+
+
+class MimoCheckOut(Answer):
+    pose: list[float]
+    normal: list[float]
+    spectral_radius: Annotated[
+        float, Field(description="max |z| of the full MIMO sampled loop at the design's (K, B)")
+    ]
+    stable: bool
+
+
+class WorkspaceDesignOut(Answer):
+    worst_cases: Annotated[list[WorkspaceCaseOut], Field(description="the exchange's active (pose, normal) set")]
+    exchanges: int
+    design_poses: int
+    verification_poses: Annotated[
+        int, Field(description="poses of the denser set (a Latin hypercube and the design poses)")
+    ]
+    verification_worst: Annotated[
+        WorkspaceCaseOut | None, Field(description="the denser set's lowest K_cr at the design's B")
+    ]
+    verification_margin: Annotated[
+        float | None, Field(description="that K_cr / K − 1: ≥ 0 when the design holds there")
+    ]
+    mimo_checks: Annotated[
+        list[MimoCheckOut],
+        Field(description="verify: the full MIMO loop at the worst cases and the denser set's worst"),
+    ] = Field(default_factory=list)
+    note: str
+
+
 class HardwareDesignResponse(Answer):
     status: Literal["optimal", "infeasible", "failed"]
     free: str
@@ -325,3 +360,7 @@ class StiffnessDesignResponse(Answer):
     error_source: str | None = None
     exact_check: Annotated[ExactCheckOut | None, Field(description="exact margin of a linear or grid design")] = None
     verification: Annotated[common.VerificationOut | None, Field(description="present when verify was true")] = None
+    workspace: Annotated[
+        WorkspaceDesignOut | None,
+        Field(description="workspace design: its worst cases and the denser set's verification"),
+    ] = None

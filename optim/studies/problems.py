@@ -39,7 +39,7 @@ __all__ = ["MAX_STUDY_POINTS", "PROBLEMS", "StudyInputError", "ProblemUnavailabl
 
 #: Cost limit: the largest number of points one study may have (grid product or LHS samples).
 MAX_STUDY_POINTS = 1_000_000
-PROBLEMS: tuple[str, ...] = ("stability", "critical_stiffness", "stiffness", "inertia")
+PROBLEMS: tuple[str, ...] = ("stability", "critical_stiffness", "stiffness", "inertia", "workspace_critical_stiffness")
 #: chunk_factor of the vectorised problems (the service's default chunk of 64 points becomes 16384, the largest chunk:
 #: the runner sizes chunks to take about CHUNK_SECONDS, so a rigid critical_stiffness chunk at ~300k points per
 #: CPU-s takes ~50 ms and its task, transfer and store write are a few % of it; issue 20)
@@ -218,6 +218,9 @@ def get_problem(name: str) -> Problem:
 
         problem = Problem(name, one, _STABILITY_REQUIREMENTS, _check_stability_requirements, mod.evaluate_batch,
                           chunk_factor=VECTOR_CHUNK_FACTOR)
+    elif name == "workspace_critical_stiffness":     # poses swept as requirements.joint_i (optim.studies.workspace_study)
+        ws = importlib.import_module(".workspace_study", __package__)
+        problem = Problem(name, ws.evaluate_one, ws.REQUIREMENT_KINDS, ws.check_requirements)
     elif name in _LAZY:
         problem = _design_problem(name, *_LAZY[name])
     else:

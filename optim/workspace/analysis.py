@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, replace
-from typing import Literal, Sequence
+from typing import Any, Literal, Sequence
 
 from models.errors import InputError
 from models.kinematics import KINEMATIC_PRESETS, KinematicModel, load_kinematics
@@ -28,18 +28,23 @@ def device_kinematics(urdf: str | None, preset: str | None, end_effector: str | 
                       armature: Sequence[float] | None, joint_damping: Sequence[float] | None) -> KinematicModel:
     """The request's ``device.kinematics`` loaded (a preset's URDF and frame unless given); InputError fields are
     relative to the request body."""
+    extra: dict[str, Any] = {}
     if preset is not None:
         if preset not in KINEMATIC_PRESETS:
             raise InputError("device.kinematics.preset", f"unknown kinematic preset {preset!r}; known: "
                                                          f"{', '.join(KINEMATIC_PRESETS)}")
         base = KINEMATIC_PRESETS[preset]
+        if urdf is None:   # the preset's own URDF: with its coupling, joint names, limits and damping
+            extra = {k: v for k, v in base.items() if k in ("coupling", "joint_names", "lower", "upper")}
+            if joint_damping is None and "joint_damping" in base:
+                joint_damping = base["joint_damping"]
         urdf = base["urdf"] if urdf is None else urdf
         end_effector = base["end_effector"] if end_effector is None else end_effector
     if urdf is None or end_effector is None:
         raise InputError("device.kinematics", "needs `urdf` and `end_effector`, or a `preset`")
     try:
         return load_kinematics(urdf, end_effector, None if armature is None else list(armature),
-                               None if joint_damping is None else list(joint_damping))
+                               None if joint_damping is None else list(joint_damping), **extra)
     except InputError as exc:
         raise exc.under("device.kinematics.") from None
 

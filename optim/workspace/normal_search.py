@@ -19,11 +19,22 @@ import scipy.optimize
 from models.discretize import RigidZOH, split_delay
 from optim.stability.crossovers import scan_grid, theta_min
 
-__all__ = ["worst_normal"]
+from .normal_dual import dual_worst, normal_at
+from .normal_kernel import critical_kernel, mode_numbers
+
+__all__ = ["worst_normal", "dual_normal"]
 
 _CIRCLE = 180
 _SPHERE = 1200
 _SECANT_STEPS = 8
+_SAMPLE_STEPS = 3    # secant steps of the sphere's sampling (it ranks the starts)
+_STARTS = 3          # the best samples polished
+_STENCIL = 7         # a 7 × 7 stencil of (polar, azimuth) offsets per level
+_ZOOM = 2.5          # the stencil shrinks by this each level (it spans ±1 step: neighbours overlap)
+_STEP_MIN = 1e-11    # [rad]
+_STEP_SETTLED = 1e-4  # [rad]: the zoom may stop early only below this step
+_DUAL_GAP = 1e-6      # the dual's top-two eigenvalue gap (relative) below which its value is not trusted
+_DUAL_GRID_STEPS = 40  # golden steps in μ for d(θ) on the grid (a ranking: the maxima are refined with more)
 
 
 class _PoseLoop:
@@ -42,6 +53,7 @@ class _PoseLoop:
         self.grid = scan_grid(theta_min(float(max(damp, 0.0)), float(delay / sample_time)), delay / sample_time, (),
                               width_hint=max(min(deltas), 1e-6))
         self.r_grid = np.stack([p.response(self.grid) for p in self.plants])     # modes × G
+        self.modes = mode_numbers(self.plants)
 
     def k_of(self, g_sum: np.ndarray, theta: np.ndarray) -> np.ndarray:
         """K(θ) [N/m] from Σ c_i R_i(θ)."""
@@ -52,9 +64,23 @@ class _PoseLoop:
         r = np.stack([p.response(theta) for p in self.plants], axis=1)       # rows × modes
         return self.k_of(np.sum(c_rows * r, axis=1), theta)
 
-    def critical(self, normals: np.ndarray, window: tuple[int, int] | None = None) -> np.ndarray:
+    def critical(self, normals: np.ndarray, window: tuple[int, int] | None = None, steps: int = _SECANT_STEPS
+                 ) -> np.ndarray:
         """The smallest positive crossover K of each normal (inf where none), from the grid and secant steps;
-        ``window`` (grid indices) looks only there (the polish: the binding crossover moves little)."""
+        ``window`` (grid indices) looks only there (the polish: the binding crossover moves little).  Compiled
+        (optim.workspace.normal_kernel); ``critical_python`` is its twin."""
+        c = (normals @ self.w) ** 2
+        lo, hi = (0, len(self.grid)) if window is None else window
+        best, col = critical_kernel(np.ascontiguousarray(c), np.ascontiguousarray(self.r_grid[:, lo:hi]),
+                                    np.ascontiguousarray(self.grid[lo:hi]), self.modes, self.t, self.b, steps,
+                                    hi >= len(self.grid))
+        if window is None and len(normals) > 1 and col >= 0:
+            self.binding = int(col) + lo
+        return best
+
+    def critical_python(self, normals: np.ndarray, window: tuple[int, int] | None = None,
+                        steps: int = _SECANT_STEPS) -> np.ndarray:
+        """critical's Python twin (numpy): the oracle of the compiled kernel."""
         c = (normals @ self.w) ** 2                                           # N × modes
         lo, hi = (0, len(self.grid)) if window is None else window
         grid = self.grid[lo:hi]
@@ -66,7 +92,7 @@ class _PoseLoop:
             a, b = grid[cols], grid[cols + 1]
             fa, fb = im[rows, cols], im[rows, cols + 1]
             cr = c[rows]
-            for _ in range(_SECANT_STEPS):
+            for _ in range(steps):
                 x = b - fb * (b - a) / (fb - fa)
                 x = np.clip(x, np.minimum(a, b), np.maximum(a, b))
                 fx = self._at(cr, x).imag
@@ -91,6 +117,32 @@ class _PoseLoop:
         return None if j is None else (max(j - 3, 0), min(j + 5, len(self.grid)))
 
 
+def dual_normal(mass: np.ndarray, jac: np.ndarray, damping_q: np.ndarray, sample_time: float, delay: float
+                ) -> tuple[np.ndarray, float] | None:
+    """B = 0, J of rank 3: the worst normal by duality (optim.workspace.normal_dual) and the K [N/m] it predicts
+    there, 1/(T² d*); None when no positive crossing was found.  The caller certifies it by the exact scan."""
+    lam, vec = scipy.linalg.eigh(np.diag(damping_q), mass)
+    w = np.ascontiguousarray(jac @ vec)
+    d, f = split_delay(delay / sample_time)
+    plants = [RigidZOH(max(float(li), 0.0) * sample_time, d, f) for li in lam]
+    m_scale = float(np.max(np.sum(w * w, axis=0)))
+    deltas = [p.delta for p in plants]
+    damp = min(deltas) * min(1.0, 1.0 / max(m_scale, 1e-300))
+    grid = scan_grid(theta_min(float(max(damp, 0.0)), float(delay / sample_time)), delay / sample_time, (),
+                     width_hint=max(min(deltas), 1e-6))
+    best, _, mu, h = dual_worst(w, mode_numbers(plants), grid, _DUAL_GRID_STEPS)
+    if not (best > 0.0 and math.isfinite(best)):
+        return None
+    # λ_max in closed form loses digits as ~ε/gap where the top two eigenvalues of −A + μ*C nearly meet (the acos near
+    # ±1): below a gap of _DUAL_GAP the value d* is not trusted to 1e-9 (the search decides)
+    idx = ((0, 1, 2), (1, 3, 4), (2, 4, 5))
+    top = np.linalg.eigvalsh(-np.array([[h[k] for k in r] for r in idx]) + mu * np.array([[h[6 + k] for k in r]
+                                                                                         for r in idx]))
+    if top[2] - top[1] < _DUAL_GAP * abs(top[2]):
+        return None
+    return normal_at(h, mu), 1.0 / (sample_time ** 2 * best)
+
+
 def worst_normal(mass: np.ndarray, jac: np.ndarray, damping_q: np.ndarray, rank: int, sample_time: float,
                  delay: float, damping: float) -> np.ndarray:
     """The unit normal of lowest K_cr in the range of J (n and −n alike), by sampling and a bounded polish."""
@@ -109,7 +161,9 @@ def worst_normal(mass: np.ndarray, jac: np.ndarray, damping_q: np.ndarray, rank:
         i = int(np.argmin(vals))
         step = math.pi / _CIRCLE
         win = loop.near_binding()
-        res = scipy.optimize.minimize_scalar(lambda p: float(loop.critical(normals(np.array([p])), win)[0]),
+        # a normal without a crossover in the window reads 1e30 (finite: Brent's parabolic steps stay real)
+        res = scipy.optimize.minimize_scalar(lambda p: min(float(loop.critical(normals(np.array([p])), win)[0]),
+                                                           1e30),
                                              bounds=(phis[i] - step, phis[i] + step), method="bounded",
                                              options={"xatol": 1e-11})
         return normals(np.array([res.x if res.fun <= vals[i] else phis[i]]))[0]
@@ -120,12 +174,29 @@ def worst_normal(mass: np.ndarray, jac: np.ndarray, damping_q: np.ndarray, rank:
 
     k = np.arange(_SPHERE) + 0.5
     starts = np.stack([np.arccos(1.0 - k / _SPHERE), (math.pi * (1.0 + 5.0 ** 0.5) * k) % (2 * math.pi)], axis=1)
-    vals = loop.critical(sphere(starts))
-    best_x, best_v = starts[int(np.argmin(vals))], float(np.min(vals))
+    vals = loop.critical(sphere(starts), steps=_SAMPLE_STEPS)   # a ranking only: each start is re-evaluated
     win = loop.near_binding()
-    for i in np.argsort(vals)[:3]:
-        res = scipy.optimize.minimize(lambda tp: float(loop.critical(sphere(np.asarray(tp)), win)[0]), starts[i],
-                                      method="Nelder-Mead", options={"xatol": 1e-10, "fatol": 0.0, "maxiter": 300})
-        if res.fun < best_v:
-            best_x, best_v = res.x, float(res.fun)
-    return sphere(np.asarray(best_x))[0]
+    best = starts[np.argsort(vals)[:_STARTS]]
+    best_v = np.full(len(best), math.inf)      # the first level (its stencil holds each start) sets the values
+    # a zooming stencil around each of the best samples, all of them in one vectorised call per level: the
+    # stencil's centre is kept, so each start's value never rises
+    step = math.sqrt(4.0 * math.pi / _SPHERE)
+    offsets = np.linspace(-1.0, 1.0, _STENCIL)
+    grid = np.stack(np.meshgrid(offsets, offsets, indexing="ij"), axis=-1).reshape(-1, 2)
+    quiet = 0
+    while step > _STEP_MIN:
+        before = best_v.copy()
+        cand = best[:, None, :] + step * grid[None, :, :]                       # starts × stencil × 2
+        v = loop.critical(sphere(cand.reshape(-1, 2)), win).reshape(len(best), -1)
+        j = np.argmin(v, axis=1)
+        better = v[np.arange(len(best)), j] < best_v
+        best = np.where(better[:, None], cand[np.arange(len(best)), j], best)
+        best_v = np.where(better, v[np.arange(len(best)), j], best_v)
+        step /= _ZOOM
+        # converged: below _STEP_SETTLED, two levels in a row gain less than 1e-13 relative at every start (a level's
+        # gain bounds the rest's, which shrink geometrically with the step whether the minimum is smooth or a kink)
+        still = np.all(before - best_v <= 1e-13 * np.abs(best_v))
+        quiet = quiet + 1 if still else 0
+        if step < _STEP_SETTLED and quiet >= 2:
+            break
+    return sphere(best[int(np.argmin(best_v))][None, :])[0]

@@ -21,7 +21,8 @@ from models.discretize import RigidZOH, split_delay
 from optim.stability.crossovers import positive_real_crossings, scan_grid, theta_min
 from optim.stability.margins import NO_DAMPING_REASON
 
-__all__ = ["WallModes", "wall_modes", "WallCritical", "wall_critical_stiffness", "one_dof_equivalent"]
+__all__ = ["WallModes", "wall_modes", "WallCritical", "wall_critical_stiffness", "one_dof_equivalent",
+           "max_stable_damping"]
 
 #: A mode whose weight c_i is below this fraction of Σ c_i is not seen along n (rounding of the projection).
 _UNSEEN = 1e-14
@@ -90,6 +91,15 @@ def _max_stable_damping(plants, modes: WallModes, sample_time: float, d_samples:
     if not found:
         return math.inf
     return min(c.value for c in found) * modes.effective_mass / sample_time
+
+
+def max_stable_damping(modes: WallModes, sample_time: float, delay: float) -> float:
+    """B_max [N·s/m] of the wall along n: past it no K > 0 is stable (inf when the damper-only loop never crosses)."""
+    d_samples = delay / sample_time
+    d, f = split_delay(d_samples)
+    m = modes.effective_mass
+    plants = [(ci * m, RigidZOH(li * sample_time, d, f)) for ci, li in zip(modes.c, modes.lam)]
+    return _max_stable_damping(plants, modes, sample_time, d_samples)
 
 
 def wall_critical_stiffness(modes: WallModes, sample_time: float, delay: float, damping: float = 0.0

@@ -20,14 +20,16 @@ from scipy.stats import qmc
 from models.errors import InputError
 from models.kinematics import KinematicModel
 
-from .normal_search import worst_normal
-from .wall_plant import WallModes, one_dof_equivalent, wall_critical_stiffness, wall_modes
+from .normal_search import dual_normal, worst_normal
+from .wall_plant import WallCritical, WallModes, one_dof_equivalent, wall_critical_stiffness, wall_modes
 
 __all__ = ["WorkspacePoint", "WorkspaceMap", "workspace_map", "explicit_poses", "grid_poses", "lhs_poses",
            "MAX_EVALUATIONS", "GRAVITY_NOTE"]
 
 #: At most this many (pose, normal) pairs in one request (a study takes more).
 MAX_EVALUATIONS = 100_000
+#: The dual worst normal (B = 0, rank 3) is taken when the exact scan's K_cr there equals its prediction to this.
+_DUAL_AGREE = 1e-9
 #: A pose is singular when J's smallest singular value (of those the device has generically) is below this
 #: fraction of the largest.
 _SINGULAR = 1e-9
@@ -118,9 +120,10 @@ def lhs_poses(model: KinematicModel, samples: int, seed: int) -> list[np.ndarray
     return [np.array(p) for p in qmc.scale(unit, lo, hi)]
 
 
-def _point(q: np.ndarray, n: np.ndarray, modes: WallModes, sample_time: float, delay: float, damping: float
-           ) -> WorkspacePoint:
-    full = wall_critical_stiffness(modes, sample_time, delay, damping)
+def _point(q: np.ndarray, n: np.ndarray, modes: WallModes, sample_time: float, delay: float, damping: float,
+           full: WallCritical | None = None) -> WorkspacePoint:
+    if full is None:
+        full = wall_critical_stiffness(modes, sample_time, delay, damping)
     one = wall_critical_stiffness(one_dof_equivalent(modes), sample_time, delay, damping)
     k, k1 = full.critical_stiffness, one.critical_stiffness
     err = (k1 / k - 1.0) if (math.isfinite(k) and k > 0 and math.isfinite(k1)) else None
@@ -160,6 +163,14 @@ def workspace_map(model: KinematicModel, poses: list[np.ndarray], normals: list[
                                                         "every direction it generically can)")
             continue
         pose_normals: list[np.ndarray]
+        if normals == "worst" and rank == 3 and damping == 0.0:
+            dual = dual_normal(mass, jac, model.joint_damping, sample_time, delay)
+            if dual is not None:
+                modes = wall_modes(mass, jac, model.joint_damping, dual[0])
+                full = wall_critical_stiffness(modes, sample_time, delay, damping)
+                if abs(full.critical_stiffness / dual[1] - 1.0) <= _DUAL_AGREE:
+                    points.append(_point(q, dual[0], modes, sample_time, delay, damping, full))
+                    continue
         if normals == "worst":
             pose_normals = [worst_normal(mass, jac, model.joint_damping, rank, sample_time, delay, damping)]
         else:

@@ -828,6 +828,8 @@
     });
   }
 
+  window.zwidthExplorer = { api, errorsOf, showImage };   // for the tabs in their own files (explorer_*.js)
+
   // ------------------------------------------------------------------ start
   async function start() {
     installTabs();

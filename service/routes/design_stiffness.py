@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import time
 
 from fastapi import APIRouter
@@ -15,6 +16,8 @@ from optim.solver_info import plain
 from optim.stiffness import StiffnessRequirements
 from optim.verification import claimed_epsilon, verify_stiffness_design
 from optim.verification_robust import verify_robust_stiffness
+from optim.workspace.analysis import PoseSpec
+from optim.workspace.design import workspace_design_job
 from service.cost import stiffness_design_cost_ms, verify_cost_ms
 from service.errors import solver_trouble
 from service.executor import Compute
@@ -33,6 +36,8 @@ async def design_stiffness_route(request: StiffnessDesignRequest, compute: Compu
     # (service/cost.py), where the CasADi solvers are built and cached per process.
     t0 = time.perf_counter()
     req = request.requirements.core()
+    if request.requirements.workspace is not None:
+        return await _workspace(request, req, t0, compute)
     if request.requirements.uncertainty is not None:
         if request.method != "exact":
             raise InputError("method", "robust designs (requirements.uncertainty) are computed on the exact rung only")
@@ -91,3 +96,49 @@ async def _robust(request: StiffnessDesignRequest, req: StiffnessRequirements, t
             verify_robust_stiffness, box, d.stiffness, d.damping, req.min_gain_margin_db, req.passivity,
             worst.get("device"), (d.passivity_worst_case or {}).get("device"), cost_ms=None))
     return StiffnessDesignResponse(robust=True, **data)
+
+
+#: requirements the workspace design does not take (each names its field in the 422)
+_NOT_WITH_WORKSPACE = ("uncertainty", "passivity", "passive_with_quantization", "max_force", "max_penetration",
+                       "quantization", "max_force_noise")
+
+
+async def _workspace(request: StiffnessDesignRequest, req: StiffnessRequirements, t0: float,
+                     compute: Compute) -> StiffnessDesignResponse:
+    """requirements.workspace: one (K, B) over the poses and normals (optim.workspace.design)."""
+    r = request.requirements
+    for name in _NOT_WITH_WORKSPACE:
+        if getattr(r, name) not in (None, False):
+            raise InputError(f"requirements.{name}", "is not supported with requirements.workspace (the workspace "
+                                                     "design takes min_gain_margin_db, max_damping, max_stiffness)")
+    if request.method != "exact":
+        raise InputError("method", "the workspace design is computed on the exact rung only")
+    ws = r.workspace
+    assert ws is not None
+    kin, poses = ws.kinematics, ws.poses
+    spec = PoseSpec(explicit=None if poses.explicit is None else tuple(tuple(q) for q in poses.explicit),
+                    grid_num=None if poses.grid is None else poses.grid.num,
+                    lhs_samples=None if poses.latin_hypercube is None else poses.latin_hypercube.samples,
+                    lhs_seed=0 if poses.latin_hypercube is None else poses.latin_hypercube.seed)
+    design, checks = await compute.arun(
+        workspace_design_job, kin.urdf, kin.preset, kin.end_effector, kin.armature, kin.joint_damping, spec,
+        ws.normals, request.device.sample_time, request.device.delay, req.min_gain_margin_db, req.max_damping,
+        req.max_stiffness, ws.verify_factor, request.verify, cost_ms=None)
+    status = {"verified": "optimal", "unverified": "unsafe", "failed": "failed"}[design.status]
+    binding = min(design.worst_cases, key=lambda c: c.critical_stiffness) if design.worst_cases else None
+    kcr = binding.critical_stiffness if binding is not None else None
+    margin = (20 * math.log10(kcr / design.stiffness) if kcr and design.stiffness else None)
+    vw = design.verification_worst
+    out = {"worst_cases": [plain(c) for c in design.worst_cases], "exchanges": design.exchanges,
+           "design_poses": design.design_poses, "verification_poses": design.verification_poses,
+           "verification_worst": None if vw is None else {"pose": vw.pose, "normal": vw.normal,
+                                                          "critical_stiffness": vw.critical_stiffness},
+           "verification_margin": design.verification_margin, "mimo_checks": [plain(c) for c in checks],
+           "note": design.note}
+    reason = design.reason
+    if checks and not all(c.stable for c in checks) and status == "optimal":
+        status, reason = "unsafe", "the full MIMO loop is unstable at the design at a worst case (mimo_checks)"
+    return StiffnessDesignResponse(status=status, stiffness=design.stiffness, damping=design.damping,
+                                   critical_stiffness=kcr, gain_margin_db=margin, reason=reason, robust=True,
+                                   iterations=design.exchanges, workspace=out,
+                                   elapsed_ms=(time.perf_counter() - t0) * 1e3)

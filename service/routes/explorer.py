@@ -18,7 +18,8 @@ _MEDIA_TYPES = {"index.html": "text/html; charset=utf-8", "explorer.js": "text/j
                 "explorer.css": "text/css; charset=utf-8",
                 "explorer_studies.js": "text/javascript; charset=utf-8",
                 "explorer_filter.js": "text/javascript; charset=utf-8",
-                "explorer_quant.js": "text/javascript; charset=utf-8"}
+                "explorer_quant.js": "text/javascript; charset=utf-8",
+                "explorer_workspace.js": "text/javascript; charset=utf-8"}
 # The page loads nothing from elsewhere: a strict content-security policy holds it to that.
 _HEADERS = {"Content-Security-Policy": "default-src 'self'; img-src 'self' blob: data:; style-src 'self'; "
                                        "script-src 'self'; connect-src 'self'; frame-ancestors 'none'",

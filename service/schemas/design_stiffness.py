@@ -13,6 +13,7 @@ from .common import Device  # the numerics' validated domain (optim.domain) appl
 from .finite import FiniteModel
 from .ladder import DesignStatus, DesignStatusField, ExactCheckOut, GridPoints, GridPointsField, Method, MethodField
 from .verification import VerificationOut, VerifyField
+from .workspace import Kinematics, Poses
 
 __all__ = ["StiffnessRequirementsIn", "StiffnessDesignRequest", "SensitivityOut", "StiffnessDesignResponse",
            "RangeIn", "WorstCaseOut", "PassivityWorstCaseOut"]
@@ -28,6 +29,18 @@ class RangeIn(BaseModel):
     max: float
 
 
+class WorkspaceRequirementIn(BaseModel):
+    """The pose set and normals of the workspace design (the shapes of POST /v1/analysis/workspace)."""
+
+    model_config = _STRICT
+    kinematics: Kinematics
+    poses: Poses
+    normals: list[list[float]] | Literal["worst"] = Field(
+        "worst", description="unit wall normals in the base frame, or \"worst\": each pose's worst normal")
+    verify_factor: int = Field(4, ge=1, le=16, description="the verification's denser set: this many times the "
+                                                            "design poses (a Latin hypercube) plus the design poses")
+
+
 class StiffnessRequirementsIn(StiffnessRequirements):
     """Every limit but the gain margin is optional and acts only when given."""
 
@@ -39,9 +52,14 @@ class StiffnessRequirementsIn(StiffnessRequirements):
         None, description="robust design: dotted device paths (device.mass, device.delay, device.cable.stiffness, "
                           "…) mapped to {min, max}; the design then holds for every device of the box")
 
+    workspace: WorkspaceRequirementIn | None = Field(
+        None, description="workspace design: one (K, B) stable at every pose and normal of a multi-DOF device "
+                          "(docs/workspace.md); the device's sample_time and delay are the loop's, its mass and "
+                          "damping are not used")
+
     def core(self) -> StiffnessRequirements:
         """The numerics' requirements (without the box, which optim takes as an UncertaintyBox)."""
-        return StiffnessRequirements(**self.model_dump(exclude={"uncertainty"}))
+        return StiffnessRequirements(**self.model_dump(exclude={"uncertainty", "workspace"}))
 
 
 class StiffnessDesignRequest(BaseModel):
@@ -61,6 +79,8 @@ class StiffnessDesignRequest(BaseModel):
         """optim.domain: every cap on K or B, made dimensionless by the device (α = K·T²/m, β = B·T/m), within
         range; the derived caps K ≤ F/x and B ≤ F_noise·T/q are named by their force."""
         r, dev = self.requirements, self.device
+        if r.workspace is not None:   # the arm's M(q) sets the scale, not the device's mass: optim checks the design
+            return self
         if r.max_damping is not None:
             check_controller_domain(r.max_damping, dev, "damping", "requirements.max_damping")
         if r.max_stiffness is not None:
@@ -98,6 +118,31 @@ class PassivityWorstCaseOut(BaseModel):
     required_damping: float = Field(description="sup over θ of P(θ) at the design [N·s/m]")
     passivity_margin: float = Field(description="b − sup P [N·s/m]: ≥ 0, ≈ 0 when passivity binds")
     worst_angle: float | None = Field(None, description="θ = ωT where P is largest [rad per sample]")
+
+
+class WorkspaceCaseOut(FiniteModel):
+    pose: list[float] = Field(description="joint values [rad or m]")
+    normal: list[float] = Field(description="unit wall normal in the base frame")
+    critical_stiffness: float | None = Field(description="K_cr at the design's B [N/m]")
+
+
+class MimoCheckOut(FiniteModel):
+    pose: list[float]
+    normal: list[float]
+    spectral_radius: float = Field(description="max |z| of the full MIMO sampled loop at the design's (K, B)")
+    stable: bool
+
+
+class WorkspaceDesignOut(FiniteModel):
+    worst_cases: list[WorkspaceCaseOut] = Field(description="the exchange's active (pose, normal) set")
+    exchanges: int
+    design_poses: int
+    verification_poses: int = Field(description="poses of the denser set (a Latin hypercube and the design poses)")
+    verification_worst: WorkspaceCaseOut | None = Field(description="the denser set's lowest K_cr at the design's B")
+    verification_margin: float | None = Field(description="that K_cr / K − 1: ≥ 0 when the design holds there")
+    mimo_checks: list[MimoCheckOut] = Field(default_factory=list, description="verify: the full MIMO loop at the "
+                                                                              "worst cases and the denser set's worst")
+    note: str
 
 
 class StiffnessDesignResponse(FiniteModel):
@@ -139,3 +184,5 @@ class StiffnessDesignResponse(FiniteModel):
     error_source: str | None = None
     exact_check: ExactCheckOut | None = Field(None, description="exact margin of a linear or grid design")
     verification: VerificationOut | None = Field(None, description="present when verify was true")
+    workspace: WorkspaceDesignOut | None = Field(None, description="workspace design: its worst cases and the "
+                                                                   "denser set's verification")

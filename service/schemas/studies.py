@@ -61,7 +61,7 @@ class StudyRequest(BaseModel):
                                           "controller": {"velocity_filter": {"kind": "low_pass", "cutoff_hz": 50}}},
          "sweep": {"controller.velocity_filter.cutoff_hz": {"start": 5, "stop": 400, "num": 20, "scale": "log"},
                    "controller.mass": [-1, 0, 1]}}]}}
-    problem: Literal["stability", "critical_stiffness", "stiffness", "inertia"]
+    problem: Literal["stability", "critical_stiffness", "stiffness", "inertia", "workspace_critical_stiffness"]
     base: StudyBase
     sweep: dict[str, ValueList | RangeSpec] = Field(
         description="dotted path (device.delay, device.cable.stiffness, requirements.damping, controller.mass, "

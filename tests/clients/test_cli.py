@@ -160,6 +160,20 @@ def test_design_stiffness_requirements_by_set_and_infeasible_exits_1():
     assert r["status"] == "infeasible" and r["reason"]
 
 
+def test_design_stiffness_over_a_workspace():
+    """--workspace: requirements.workspace from the flags (a preset, Latin-hypercube poses, each pose's worst normal);
+    the table shows the exchange and the denser set's margin; an unknown preset is a 422 naming the field."""
+    base = ("design", "stiffness", "--set", "device.mass=1", "--set", "device.damping=0", "--set", "device.delay=1e-3",
+            "--margin", "1", "--workspace", "planar-2link", "--workspace-poses", "3", "--verify-factor", "1")
+    r = run_json(*base)
+    assert r["status"] == "optimal" and r["workspace"]["design_poses"] == 3 and r["workspace"]["verification_poses"] > 3
+    assert r["workspace"]["verification_margin"] >= 0 and r["stiffness"] > 0
+    assert "workspace: verification margin" in run(*base).stdout
+    bad = run("design", "stiffness", "--set", "device.mass=1", "--set", "device.damping=0", "--workspace", "nope",
+              code=2)
+    assert "requirements.workspace" in bad.stderr
+
+
 @pytest.mark.slow
 @pytest.mark.skipif(not has_route("/v1/design/inertia"),
                     reason="POST /v1/design/inertia is not in this build yet (branch inertia)")

@@ -213,3 +213,23 @@ def test_example_encoder_friction_answers_the_encoder_20_kn_per_m_needs(server, 
     # 2f_c/q = 2·0.1/1e-5 = 20 kN/m ≥ 15 kN/m and 2b/T = 50 kN/m: passive (Abbott & Okamura); q* = 2f_c/K_t = 10 µm
     assert "K = 15 kN/m: regime passive" in p.stdout
     assert "20 kN/m needs q <= 1e-05 m per count: 10000 counts over the 0.10 m travel (checked: 1)" in p.stdout
+
+
+def test_design_stiffness_over_a_workspace(server, tmp_path):
+    """requirements.workspace passes through zwidth_design_stiffness as a struct: the same design as the client's."""
+    dev = {"mass": 1, "damping": 0, "sample_time": 1e-3, "delay": 1e-3}
+    ws = {"kinematics": {"preset": "planar-2link"}, "poses": {"latin_hypercube": {"samples": 3, "seed": 3}},
+          "normals": "worst", "verify_factor": 1}
+    p = octave("ws = struct('kinematics', struct('preset', 'planar-2link'), 'poses', "
+               "struct('latin_hypercube', struct('samples', 3, 'seed', 3)), 'normals', 'worst', 'verify_factor', 1);\n"
+               "r = zwidth_design_stiffness(struct('mass', 1, 'damping', 0, 'sample_time', 1e-3, 'delay', 1e-3), "
+               "struct('min_gain_margin_db', 1, 'workspace', ws));\n"
+               "printf('%s\\n', r.status);\n"
+               "printf('%.17g %.17g %.17g\\n', r.stiffness, r.damping, r.workspace.verification_margin);", tmp_path,
+               url=server.url)
+    status, values = p.stdout.strip().splitlines()
+    with ZwidthClient(server.url) as zw:
+        want = zw.design_stiffness(dev, {"min_gain_margin_db": 1, "workspace": ws})
+    assert status == want.status == "optimal"
+    assert numbers(values)[:2] == pytest.approx([want.stiffness, want.damping], rel=1e-7)
+    assert numbers(values)[2] == pytest.approx(want.workspace.verification_margin, rel=1e-6)

@@ -82,3 +82,54 @@ def test_wrong_length_armature():
     with pytest.raises(InputError) as err:
         load_kinematics(**KINEMATIC_PRESETS["planar-2link"], armature=[0.1])
     assert err.value.field == "armature"
+
+
+# The PHANToM Premium 1.5's closed-form joint-space inertia (Cavusoglu, Feygin & Tendick 2002; Cavusoglu & Feygin
+# 2001, ERL memo M01/15; as coded in github.com/mahilab/Phantom, Model.cpp step_dynamics_cavusoglu) and its forward
+# kinematics, with the parameters copied here (the test never reads the preset's table for its reference).
+_PH = {"ma": 0.0202, "Iaxx": 0.4864e-4, "Iayy": 0.001843e-4, "Iazz": 0.4864e-4, "mc": 0.0249, "Icxx": 0.959e-4,
+       "Icyy": 0.959e-4, "Iczz": 0.0051e-4, "Ibexx": 11.09e-4, "Ibeyy": 10.06e-4, "Ibezz": 0.591e-4,
+       "Idfxx": 7.11e-4, "Idfyy": 0.629e-4, "Idfzz": 6.246e-4, "Ibaseyy": 11.87e-4, "l1": 0.215, "l2": 0.170,
+       "l3": 0.0325}
+
+
+def phantom_closed_form(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    p = _PH
+    ma, mc, l1, l2, l3 = p["ma"], p["mc"], p["l1"], p["l2"], p["l3"]
+    _, q2, q3 = q
+    m11 = (0.125 * (4 * p["Iayy"] + 4 * p["Iazz"] + 8 * p["Ibaseyy"] + 4 * p["Ibeyy"] + 4 * p["Ibezz"]
+                    + 4 * p["Icyy"] + 4 * p["Iczz"] + 4 * p["Idfyy"] + 4 * p["Idfzz"] + 4 * l1 ** 2 * ma
+                    + l2 ** 2 * ma + l1 ** 2 * mc + 4 * l3 ** 2 * mc)
+           + 0.125 * (4 * p["Ibeyy"] - 4 * p["Ibezz"] + 4 * p["Icyy"] - 4 * p["Iczz"] + l1 ** 2 * (4 * ma + mc))
+           * math.cos(2 * q2)
+           + 0.125 * (4 * p["Iayy"] - 4 * p["Iazz"] + 4 * p["Idfyy"] - 4 * p["Idfzz"] - l2 ** 2 * ma
+                      - 4 * l3 ** 2 * mc) * math.cos(2 * q3)
+           + l1 * (l2 * ma + l3 * mc) * math.cos(q2) * math.sin(q3))
+    m22 = 0.25 * (4 * (p["Ibexx"] + p["Icxx"] + l1 ** 2 * ma) + l1 ** 2 * mc)
+    m23 = -0.5 * l1 * (l2 * ma + l3 * mc) * math.sin(q2 - q3)
+    m33 = 0.25 * (4 * p["Iaxx"] + 4 * p["Idfxx"] + l2 ** 2 * ma + 4 * l3 ** 2 * mc)
+    mass = np.array([[m11, 0.0, 0.0], [0.0, m22, m23], [0.0, m23, m33]])
+
+    def tip(x: np.ndarray) -> np.ndarray:
+        r = l1 * math.cos(x[1]) + l2 * math.sin(x[2])
+        return np.array([math.sin(x[0]) * r, l2 - l2 * math.cos(x[2]) + l1 * math.sin(x[1]),
+                         -l1 + math.cos(x[0]) * r])
+
+    h = 1e-6   # the Jacobian by central differences of the closed-form position (truncation ~1e-13)
+    jac = np.stack([(tip(q + h * e) - tip(q - h * e)) / (2 * h) for e in np.eye(3)], axis=1)
+    return mass, jac
+
+
+def test_phantom_premium_against_the_papers_closed_form():
+    model = load_kinematics(**KINEMATIC_PRESETS["phantom-premium-1.5"])
+    assert model.joint_names == ("q1", "q2", "q3")
+    rng = np.random.default_rng(11)
+    worst_m = worst_j = 0.0
+    for _ in range(1000):
+        q = rng.uniform(model.lower, model.upper)
+        mass, jac = model.at(q)
+        m_ref, j_ref = phantom_closed_form(q)
+        worst_m = max(worst_m, float(np.max(np.abs(mass - m_ref))) / float(np.max(np.abs(m_ref))))
+        worst_j = max(worst_j, float(np.max(np.abs(jac - j_ref))) / float(np.max(np.abs(j_ref))))
+    assert worst_m < 1e-12
+    assert worst_j < 1e-8      # the reference is a finite difference

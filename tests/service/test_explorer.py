@@ -32,7 +32,7 @@ def test_page_and_assets_are_served_and_nothing_else(client):
     assert "default-src 'self'" in page.headers["content-security-policy"]
     for asset, kind in (("explorer.js", "text/javascript"), ("explorer.css", "text/css"),
                         ("explorer_filter.js", "text/javascript"), ("explorer_quant.js", "text/javascript"),
-                        ("explorer_studies.js", "text/javascript")):
+                        ("explorer_studies.js", "text/javascript"), ("explorer_workspace.js", "text/javascript")):
         r = client.get(f"/explorer/{asset}")
         assert r.status_code == 200 and r.headers["content-type"].startswith(kind), asset
         text = r.text.replace("http://www.w3.org/2000/svg", "")        # the SVG namespace is a name, not a fetch

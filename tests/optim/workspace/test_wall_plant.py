@@ -80,3 +80,22 @@ def test_kcr_is_the_mimo_loops_boundary_500():
     confirmed, _, bad = _check(_cases(500, 11))
     assert not bad, bad
     assert confirmed >= 490
+
+
+def test_kcr_is_the_mimo_loops_boundary_on_the_phantom_preset():
+    """The PHANToM preset (its joint coupling, its damping at the motor axes): random poses, normals, delays, B."""
+    from models.kinematics import KINEMATIC_PRESETS, load_kinematics
+
+    arm = load_kinematics(**KINEMATIC_PRESETS["phantom-premium-1.5"])
+    rng = np.random.default_rng(17)
+    cases = []
+    for _ in range(12):
+        q = rng.uniform(arm.lower, arm.upper)
+        mass, jac = arm.at(q)
+        n = random_normal(rng, jac)
+        t = float(rng.uniform(2e-4, 2e-3))
+        cases.append((arm, mass, jac, n, wall_modes(mass, jac, arm.joint_damping, n), t,
+                      float(t * rng.choice([0.0, rng.uniform(0, 3)])), float(rng.choice([0.0, rng.uniform(0, 0.5)]))))
+    confirmed, _, bad = _check(cases)
+    assert not bad, bad
+    assert confirmed == 12

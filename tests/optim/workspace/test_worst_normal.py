@@ -54,3 +54,19 @@ def test_worst_normal_fast():
 @pytest.mark.slow
 def test_worst_normal_dense():
     assert not _check(4, 500, 9)
+
+
+def test_worst_normal_phantom_premium():
+    """The PHANToM preset (3 DOF, its own damping): the worst normal against 400 sphere normals at 3 poses."""
+    from models.kinematics import KINEMATIC_PRESETS, load_kinematics
+
+    arm = load_kinematics(**KINEMATIC_PRESETS["phantom-premium-1.5"])
+    rng = np.random.default_rng(3)
+    for b_virt in (0.0, 0.02):
+        q = rng.uniform(arm.lower, arm.upper)
+        got = workspace_map(arm, [q], "worst", 1e-3, 5e-4, b_virt).minimum_critical_stiffness
+        mass, jac = arm.at(q)
+        ks = [wall_critical_stiffness(wall_modes(mass, jac, arm.joint_damping, n), 1e-3, 5e-4, b_virt)
+              .critical_stiffness for n in _sphere(400)]
+        assert min(ks) >= got * (1 - 1e-9)
+        assert min(ks) <= got * 1.05      # the sampling comes close: the answer is a minimum, not an outlier
