@@ -131,9 +131,11 @@ def _build(key: CutoffKey) -> ca.Function:
         ineqs.append(a - g_gain * hr / a_ref)
     ineqs.append(a - a_cap / a_ref)
     ineqs.append(b - b_cap / b_ref)
-    ln_nu = ca.log(nu)
-    ineqs.append((ca.log(beta + 1e-300) + ln_step(ln_nu)) - ca.log(s_step))
-    ineqs.append((ca.log(beta + 1e-300) + ln_noise(ln_nu)) - ca.log(s_rms))
+    # Ipopt may step a hair outside the bounds (bound_relax_factor): keep the logarithms and the splines' range
+    ln_nu = ca.log(ca.fmin(ca.fmax(nu, NU_MIN), NU_MAX))
+    ln_beta = ca.log(ca.fmax(beta, 1e-300))
+    ineqs.append((ln_beta + ln_step(ln_nu)) - ca.log(s_step))
+    ineqs.append((ln_beta + ln_noise(ln_nu)) - ca.log(s_rms))
     for j in range(key.cuts):
         th = cut_th[j]
         vr, vi = casadi_low_pass(th, nu, key.order)

@@ -38,6 +38,9 @@ async def design_stiffness_route(request: StiffnessDesignRequest, compute: Compu
     mass = ctrl.mass if ctrl is not None else 0.0
     vfilter = ctrl.velocity_filter if ctrl is not None else None
     rendered = is_rendered(req, mass, vfilter)
+    if rendered and request.method != "exact":
+        raise InputError("method", "designs of a rendered wall (a velocity filter, a designed cutoff or a virtual "
+                                   "mass) are computed on the exact rung only")
     if request.requirements.uncertainty is not None:
         if rendered:
             raise InputError("requirements.uncertainty", "a robust design of a rendered wall (velocity filter or "
