@@ -24,6 +24,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import lru_cache
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -40,6 +41,7 @@ N_CUTS = 8
 #: ν = f·T range of the noise interpolants (a designed cutoff's band lies inside it)
 NU_MIN, NU_MAX = 1e-5, 0.4999
 _NO_LIMIT = 1e30
+_OPTIONS: dict[str, Any] = {**IPOPT_OPTIONS, "calc_lam_p": False}
 
 
 @dataclass(frozen=True)
@@ -68,7 +70,7 @@ def noise_interpolants(order: int) -> tuple[ca.Function, ca.Function]:
     nus = np.geomspace(NU_MIN, NU_MAX, 400)
     s, n = [], []
     for nu in nus:
-        vt = velocity_transfer(LowPass(kind="low_pass", cutoff_hz=float(nu), order=order), 1.0)
+        vt = velocity_transfer(LowPass(kind="low_pass", cutoff_hz=float(nu), order=1 if order == 1 else 2), 1.0)
         s.append(math.log(step_peak(vt, 1.0)))
         n.append(math.log(noise_gain(vt, 1.0)))
     x = [list(np.log(nus))]
@@ -151,7 +153,7 @@ def _build(key: CutoffKey) -> ca.Function:
         ineqs.append((alpha * half_d - beta - delta) / a_ref)
     g = ca.vertcat(*(eqs + ineqs))
     return ca.nlpsol(f"cutoff_{n}_{key.order}_{m}_{int(key.nyquist)}_{key.cuts}", "ipopt",
-                     {"x": x, "p": p, "f": -a, "g": g}, {**IPOPT_OPTIONS, "calc_lam_p": False})
+                     {"x": x, "p": p, "f": -a, "g": g}, _OPTIONS)
 
 
 def solver_for(key: CutoffKey) -> ca.Function:

@@ -35,7 +35,7 @@ def rendered_exact_check(device: Device, req: StiffnessRequirements, design: Sti
     assert filt is not None and design.stiffness is not None and design.damping is not None
     spec = velocity_filter if velocity_filter is not None else req.velocity_filter
     if filt.designed or isinstance(spec, CutoffDesign):
-        spec = LowPass(kind="low_pass", cutoff_hz=float(filt.cutoff_hz or 0.0), order=filt.order or 1)
+        spec = LowPass(kind="low_pass", cutoff_hz=float(filt.cutoff_hz or 0.0), order=2 if filt.order == 2 else 1)
     rend = rendering(spec, filt.mass, device.sample_time)
     k, b = design.stiffness, design.damping
     kcr = rendered_critical_stiffness(device, b, rend).critical_stiffness

@@ -137,7 +137,7 @@ def _best_b(ctx: _Ctx, rend: Rendering, points: int = 33, zoom_rounds: int = 6,
 
 
 def _low_pass(order: int, cutoff: float, t: float, mass: float) -> Rendering:
-    return rendering(LowPass(kind="low_pass", cutoff_hz=cutoff, order=order), mass, t)
+    return rendering(LowPass(kind="low_pass", cutoff_hz=cutoff, order=1 if order == 1 else 2), mass, t)
 
 
 def design_rendered_stiffness(device: Device, req: StiffnessRequirements, mass: float = 0.0,

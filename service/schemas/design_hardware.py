@@ -7,6 +7,7 @@ from typing import Literal
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from optim.domain import check_controller_domain, check_cutoff_domain
+from optim.hardware.hardware_cutoff import check_cutoff_range
 from optim.hardware.hardware_range import check_range
 from optim.hardware.hardware_targets import HardwareTarget
 
@@ -50,8 +51,9 @@ class HardwareDesignRequest(BaseModel):
 
     device: Device
     target: HardwareTargetIn
-    free: Literal["sample_time", "delay", "damping", "mass", "cable.stiffness"] = Field(
-        description="the hardware parameter to find (the others are the device's)")
+    free: Literal["sample_time", "delay", "damping", "mass", "cable.stiffness", "velocity_filter.cutoff_hz"] = Field(
+        description="the hardware parameter to find (the others are the device's); velocity_filter.cutoff_hz: the "
+                    "lowest cutoff of a first-order low-pass on the damper's velocity that renders a stiffness target")
     points: int = Field(41, ge=9, le=201, description="points of the trade-off curve")
     range: ValueRangeIn | None = Field(None, description="scan exactly this range of the free parameter [SI]; by "
                                                          "default value/30 … value·30 (delay 0 … 30 samples), "
@@ -70,7 +72,9 @@ class HardwareDesignRequest(BaseModel):
             check_controller_domain(t.max_damping, self.device, "damping", "target.max_damping")
         if t.cutoff_min_hz is not None:
             check_cutoff_domain(t.cutoff_min_hz, self.device.sample_time, "target.cutoff_min_hz")
-        if self.range is not None:     # optim's rule (empty range, input limits at both ends): one source
+        if self.range is not None and self.free == "velocity_filter.cutoff_hz":
+            check_cutoff_range(self.device, self.range.min, self.range.max)
+        elif self.range is not None:     # optim's rule (empty range, input limits at both ends): one source
             check_range(self.device, self.free, t.core(), self.range.min, self.range.max)
         return self
 
