@@ -58,7 +58,8 @@ def design_cutoff_hardware(device: Device, target: HardwareTarget, points: int,
     t = device.sample_time
     lo, hi = value_range if value_range is not None else (DEFAULT_CUTOFF_RANGE[0] / t, DEFAULT_CUTOFF_RANGE[1] / t)
     check_cutoff_range(device, lo, hi)
-    req = StiffnessRequirements(min_gain_margin_db=target.min_gain_margin_db, max_damping=target.max_damping)
+    req = StiffnessRequirements(min_gain_margin_db=target.min_gain_margin_db, passivity=False,
+                                max_damping=target.max_damping)
     ctx = _Ctx(device, req, 0.0, req.stiffness_caps(), req.gain_factor)
     kt = target.stiffness
     memo: dict[float, tuple[float, float]] = {}

@@ -1,5 +1,5 @@
 """POST /v1/design/stiffness with a rendered wall (issue 30): the fixed filter, the designed cutoff's bad input
-(422 naming the field), today's answer without the new block."""
+(422 naming the field); today's answers without the new block are tests/service/test_recorded_answers.py's."""
 
 from __future__ import annotations
 
@@ -13,7 +13,8 @@ PATH = "/v1/design/stiffness"
 
 @pytest.fixture(scope="module")
 def client():
-    with make_client() as c:
+    # a rendered design runs in a worker for seconds; a loaded machine (the suite beside other work) needs the room
+    with make_client(request_timeout=300.0) as c:
         yield c
 
 
@@ -53,11 +54,6 @@ def test_non_numbers_in_the_cutoff_range(client, text):
     r = client.post(PATH, content=body, headers={"content-type": "application/json"})
     assert r.status_code == 422, r.text
     assert "velocity_filter" in r.json()["detail"][0]["loc"]
-
-
-def test_todays_design_has_no_rendered_block(client):
-    r = client.post(PATH, json={"device": DEV})
-    assert r.status_code == 200 and "rendered" not in r.json()
 
 
 def test_fixed_filter_design_with_its_noise(client):
