@@ -105,8 +105,13 @@ def main() -> None:
     args = ap.parse_args()
     load = os.getloadavg()[0]
     t0 = time.perf_counter()
-    with Pool(args.processes) as pool:
-        rows = pool.map(_run, [_case(s) for s in range(args.cases)], chunksize=1)
+    rows = []
+    with Pool(args.processes) as pool:     # results as they come (a long run on a loaded machine shows progress)
+        for row in pool.imap_unordered(_run, [_case(s) for s in range(args.cases)], chunksize=1):
+            rows.append(row)
+            print(f"{len(rows)}/{args.cases} seed {row['seed']}: {row['status']} K/scan "
+                  f"{(row['k'] or 0.0) / row['k_scan'] if row['k_scan'] else float('nan'):.6f}", flush=True)
+    rows.sort(key=lambda r: r["seed"])
     wall = time.perf_counter() - t0
     noise = [r for r in rows if r["noise_active"]]
     ok = [r for r in rows if r["status"] == "optimal" and r["k"] is not None and r["k"] >= 0.99 * r["k_scan"]]
