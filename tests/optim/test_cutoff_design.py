@@ -139,3 +139,18 @@ def test_designed_cutoff_beats_a_scan_over_the_cutoff():
     f = d.rendered.cutoff_hz
     for g in f * np.geomspace(0.7, 1.4, 5):
         assert _best_b(ctx, _low_pass(1, float(g), 1e-3, 0.0))[1] <= d.stiffness * (1 + 1e-6)
+
+
+@pytest.mark.slow
+def test_designed_cutoff_with_passivity_meets_all_three():
+    """LHifAM rigid, half a sample of delay, passivity and a 2 mN rms noise limit: margin, passivity and the noise
+    rule all bind at the designed cutoff, and the exact check agrees."""
+    warnings.filterwarnings("ignore")
+    dev = Device(mass=5.4, damping=3.5, sample_time=0.001, delay=0.0005)
+    spec = CutoffDesign(kind="low_pass", design=True, order=1, min_cutoff_hz=5, max_cutoff_hz=400)
+    req = StiffnessRequirements(passivity=True, quantization=1e-5, max_force_noise_rms=0.002, velocity_filter=spec)
+    d, rung = design_stiffness_on_rung(dev, req)
+    assert d.status == "optimal" and rung.exact_check.safe and rung.exact_check.passive
+    assert set(d.active_constraints) == {"min_gain_margin_db", "passivity", "max_force_noise_rms"}
+    r = rendering(LowPass(kind="low_pass", cutoff_hz=d.rendered.cutoff_hz, order=1), 0.0, 1e-3)
+    assert rendered_passivity(dev, d.stiffness, d.damping, r).passive
