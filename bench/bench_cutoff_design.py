@@ -149,7 +149,7 @@ def _write(rows: list[dict], args, load: float, wall: float) -> None:
         f"| design time: median, max [s] | {np.median([r['design_s'] for r in rows]):.2f}, "
         f"{max(r['design_s'] for r in rows):.2f} |",
         f"| scan time: median [s] | {np.median([r['scan_s'] for r in rows]):.2f} |",
-        f"| noise-limited K over today's unfiltered wall under the same noise rule: median, max | "
+        f"| noise-limited K over today's unfiltered wall with no noise rule (what the noise costs): median, max | "
         f"{np.median(gains):.3g}, {gains.max():.3g} |" if gains.size else "| gain | none |",
         f"| crossover/cutoff ω_c/(2πf) at the ideal cutoff, order 1: median (10–90 %) | "
         f"{np.median(ratios):.3f} ({np.percentile(ratios, 10):.3f}–{np.percentile(ratios, 90):.3f}) |"
