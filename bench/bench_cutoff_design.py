@@ -50,7 +50,7 @@ def _run(case: dict) -> dict:
 
     from models.device import Device
     from optim.design_ladder import design_stiffness_on_rung
-    from optim.stiffness.rendered_design import _best_b, _Ctx, _low_pass
+    from optim.stiffness.rendered_design import FilterContext, best_damping, low_pass_rendering
     from optim.stiffness.requirements import CutoffDesign, StiffnessRequirements
 
     dev = Device(mass=case["mass"], damping=case["damping"], sample_time=case["sample_time"], delay=case["delay"])
@@ -71,12 +71,12 @@ def _run(case: dict) -> dict:
     # the dense scan
     t0 = time.perf_counter()
     plain = StiffnessRequirements(min_gain_margin_db=case["margin"], quantization=q, **limits)
-    ctx = _Ctx(dev, plain, 0.0, plain.stiffness_caps(), plain.gain_factor)
+    ctx = FilterContext(dev, plain, 0.0, plain.stiffness_caps(), plain.gain_factor)
     memo: dict[float, float] = {}
 
     def k_at(f: float) -> float:
         if f not in memo:
-            memo[f] = _best_b(ctx, _low_pass(case["order"], f, t, 0.0), points=9, zoom_rounds=3, polish=False,
+            memo[f] = best_damping(ctx, low_pass_rendering(case["order"], f, t, 0.0), points=9, zoom_rounds=3, polish=False,
                               brackets=2)[1]
         return memo[f]
     fs = np.geomspace(lo, hi, SCAN_CUTOFFS)

@@ -80,6 +80,12 @@ class ExactCheck:
         return self.meets_min_gain_margin and self.passive is not False
 
 
+def exact_check(critical: float, value: float, required_db: float, what: str,
+                passive: bool | None = None) -> ExactCheck:
+    """The ExactCheck of a design's value against its exact critical value (the rendered designs' label too)."""
+    return _exact_check(critical, value, required_db, what, passive)
+
+
 def _unsafe_reason(method: str, check: ExactCheck) -> str:
     return (f"the {method} rung's design fails its own exact check: {check.statement.removeprefix('UNSAFE: ')} "
             "(its top-level margin is the rung's estimate; exact_check has the exact analysis)")

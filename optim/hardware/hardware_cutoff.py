@@ -22,7 +22,7 @@ from scipy.optimize import brentq
 from models.device import Device
 from optim.errors import InputError
 from optim.stability.rendered import rendered_critical_stiffness
-from optim.stiffness.rendered_design import _best_b, _Ctx, _low_pass
+from optim.stiffness.rendered_design import FilterContext, best_damping, low_pass_rendering
 from optim.stiffness.requirements import MIN_CUTOFF_NU, StiffnessRequirements
 
 if TYPE_CHECKING:
@@ -60,13 +60,13 @@ def design_cutoff_hardware(device: Device, target: HardwareTarget, points: int,
     check_cutoff_range(device, lo, hi)
     req = StiffnessRequirements(min_gain_margin_db=target.min_gain_margin_db, passivity=False,
                                 max_damping=target.max_damping)
-    ctx = _Ctx(device, req, 0.0, req.stiffness_caps(), req.gain_factor)
+    ctx = FilterContext(device, req, 0.0, req.stiffness_caps(), req.gain_factor)
     kt = target.stiffness
     memo: dict[float, tuple[float, float]] = {}
 
     def best(f: float) -> tuple[float, float]:
         if f not in memo:
-            b, k, _, _ = _best_b(ctx, _low_pass(1, f, t, 0.0), points=13, zoom_rounds=3, polish=False, brackets=2)
+            b, k, _, _ = best_damping(ctx, low_pass_rendering(1, f, t, 0.0), points=13, zoom_rounds=3, polish=False, brackets=2)
             memo[f] = (max(k, 0.0) if math.isfinite(k) or k > 0 else 0.0, b)
         return memo[f]
 
@@ -107,7 +107,7 @@ def design_cutoff_hardware(device: Device, target: HardwareTarget, points: int,
     value = intervals[0][0]
     bounded = value > lo
     k_star, b = best(value)
-    kcr = rendered_critical_stiffness(device, b, _low_pass(1, value, t, 0.0)).critical_stiffness
+    kcr = rendered_critical_stiffness(device, b, low_pass_rendering(1, value, t, 0.0)).critical_stiffness
     controller = {"stiffness": kt, "damping": b, "achievable_stiffness": k_star,
                   "gain_margin_db": 20 * math.log10(kcr / kt) if kcr > 0 and math.isfinite(kcr) else None,
                   "filter_cutoff_hz": value, "filter_order": 1}

@@ -29,7 +29,7 @@ NOISE_RTOL = 1e-9
 
 
 def rendered_exact_check(device: Device, req: StiffnessRequirements, design: StiffnessDesign, velocity_filter=None):
-    from optim.design_ladder import _exact_check
+    from optim.design_ladder import exact_check
 
     filt = design.rendered
     assert filt is not None and design.stiffness is not None and design.damping is not None
@@ -40,7 +40,7 @@ def rendered_exact_check(device: Device, req: StiffnessRequirements, design: Sti
     k, b = design.stiffness, design.damping
     kcr = rendered_critical_stiffness(device, b, rend).critical_stiffness
     passive = rendered_passivity(device, k, b, rend).passive if req.passivity else None
-    check = _exact_check(kcr, k, req.min_gain_margin_db, "rendered design", passive)
+    check = exact_check(kcr, k, req.min_gain_margin_db, "rendered design", passive)
     broken = []
     q, t = req.quantization, device.sample_time
     if q is not None and req.max_force_noise is not None:

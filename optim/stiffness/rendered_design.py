@@ -47,7 +47,7 @@ _MAX_EXCHANGES = 10
 
 
 @dataclass
-class _Ctx:
+class FilterContext:
     device: Device
     req: StiffnessRequirements
     mass: float
@@ -55,12 +55,12 @@ class _Ctx:
     gain: float
 
 
-def _filter_caps(ctx: _Ctx, rend: Rendering) -> dict[str, float]:
+def _filter_caps(ctx: FilterContext, rend: Rendering) -> dict[str, float]:
     t = ctx.device.sample_time
     return ctx.req.damping_caps(t, step_peak(rend.velocity, t), noise_gain(rend.velocity, t))
 
 
-def fixed_filter_objective(ctx: _Ctx, rend: Rendering, b: float) -> tuple[float, float, float | None]:
+def fixed_filter_objective(ctx: FilterContext, rend: Rendering, b: float) -> tuple[float, float, float | None]:
     """(min(g·K_cr, passive K, caps) [N/m], K_cr [N/m], passive K or None) at B from the exact analysis."""
     kcr = rendered_critical_stiffness(ctx.device, b, rend).critical_stiffness
     k = ctx.gain * kcr
@@ -92,7 +92,7 @@ def _zoom(f, lo: float, hi: float, x0: float, f0: float, rounds: int = 6, points
     return best_x, best_f
 
 
-def _b_range(ctx: _Ctx, rend: Rendering) -> tuple[float, float, dict[str, float], str | None]:
+def _b_range(ctx: FilterContext, rend: Rendering) -> tuple[float, float, dict[str, float], str | None]:
     """(B_max, the largest B the design may use, B caps, why none) at this filter."""
     b_max = rendered_max_stable_damping(ctx.device, rend)
     caps = _filter_caps(ctx, rend)
@@ -107,7 +107,7 @@ def _b_range(ctx: _Ctx, rend: Rendering) -> tuple[float, float, dict[str, float]
     return b_max, upper, caps, None
 
 
-def _best_b(ctx: _Ctx, rend: Rendering, points: int = 33, zoom_rounds: int = 6,
+def best_damping(ctx: FilterContext, rend: Rendering, points: int = 33, zoom_rounds: int = 6,
             polish: bool = True, brackets: int = 3) -> tuple[float, float, dict, float]:
     """(B*, objective at B*, B caps, B_max) at a fixed filter; objective −inf when no B is usable."""
     b_max, upper, caps, why = _b_range(ctx, rend)
@@ -136,7 +136,7 @@ def _best_b(ctx: _Ctx, rend: Rendering, points: int = 33, zoom_rounds: int = 6,
     return best_b, best_v, caps, b_max
 
 
-def _low_pass(order: int, cutoff: float, t: float, mass: float) -> Rendering:
+def low_pass_rendering(order: int, cutoff: float, t: float, mass: float) -> Rendering:
     return rendering(LowPass(kind="low_pass", cutoff_hz=cutoff, order=1 if order == 1 else 2), mass, t)
 
 
@@ -150,7 +150,7 @@ def design_rendered_stiffness(device: Device, req: StiffnessRequirements, mass: 
     spec = velocity_filter if velocity_filter is not None else req.velocity_filter
     k_caps = req.stiffness_caps()
     k_caps.update(req.quantization_caps(device.encoder_resolution, device.coulomb_friction))
-    ctx = _Ctx(device, req, float(mass), k_caps, req.gain_factor)
+    ctx = FilterContext(device, req, float(mass), k_caps, req.gain_factor)
     d_pass, conservative = passivity_samples(device)
     pass_note = None
     if req.passivity:
@@ -167,7 +167,7 @@ def design_rendered_stiffness(device: Device, req: StiffnessRequirements, mass: 
         filt = RenderedFilter("low_pass", rend.cutoff if rend is not None else None, spec.order, True, lo, hi, mass)
     else:
         r = rendering(spec, mass, device.sample_time)
-        b, _, _, _ = _best_b(ctx, r)
+        b, _, _, _ = best_damping(ctx, r)
         rend = _Fixed(r, None)
         solver, note = SolverInfo("exact B scan", details=(("method", _SCAN_METHOD),)), None
         cutoff = getattr(spec, "cutoff_hz", None)
@@ -187,7 +187,7 @@ class _Fixed:
     cutoff: float | None
 
 
-def _finish(ctx: _Ctx, rend: _Fixed | None, b: float, filt: RenderedFilter, solver: SolverInfo, note: str | None,
+def _finish(ctx: FilterContext, rend: _Fixed | None, b: float, filt: RenderedFilter, solver: SolverInfo, note: str | None,
             pass_note: str | None, d_pass: int, t0: float):
     from optim.stiffness.design import StiffnessDesign
 
@@ -254,14 +254,14 @@ class _CutoffRef:
     cutoff: float
 
 
-def _design_cutoff(ctx: _Ctx, order: int, lo: float, hi: float):
+def _design_cutoff(ctx: FilterContext, order: int, lo: float, hi: float):
     """(the chosen filter, its B, solver record, note) for a low-pass of this order with cutoff in [lo, hi] Hz."""
     t = ctx.device.sample_time
     cutoffs = np.geomspace(lo, hi, FILTER_PROFILE_CUTOFFS)
     seeds = []
     for f in cutoffs:
-        r = _low_pass(order, float(f), t, ctx.mass)
-        b, v, _, _ = _best_b(ctx, r, points=_B_PROFILE, zoom_rounds=1, polish=False, brackets=1)
+        r = low_pass_rendering(order, float(f), t, ctx.mass)
+        b, v, _, _ = best_damping(ctx, r, points=_B_PROFILE, zoom_rounds=1, polish=False, brackets=1)
         seeds.append((v, float(f), b))
     seeds.sort(key=lambda s: -s[0])
     v0, f0, b0 = seeds[0]
@@ -269,7 +269,7 @@ def _design_cutoff(ctx: _Ctx, order: int, lo: float, hi: float):
         why = f"no positive stiffness meets the requirements at any of {cutoffs.size} cutoffs in [{lo:.6g}, {hi:.6g}] Hz"
         return None, 0.0, SolverInfo("exact cutoff profile"), why
     if not math.isfinite(v0):
-        return _Fixed(_low_pass(order, f0, t, ctx.mass), f0), b0, SolverInfo("exact cutoff profile"), None
+        return _Fixed(low_pass_rendering(order, f0, t, ctx.mass), f0), b0, SolverInfo("exact cutoff profile"), None
     best = None
     for v_s, f_s, b_s in seeds[:2]:
         got = _nlp(ctx, order, lo, hi, f_s, b_s, v_s)
@@ -284,14 +284,14 @@ def _design_cutoff(ctx: _Ctx, order: int, lo: float, hi: float):
         solver = SolverInfo("exact cutoff scan", details=(("why", why), ("method", (
             f"the best B (exact) at {FILTER_PROFILE_CUTOFFS} log-spaced cutoffs, then bounded Brent over ln f "
             "around the best")),))
-        return _Fixed(_low_pass(order, f_s, t, ctx.mass), f_s), b_s, solver, None
+        return _Fixed(low_pass_rendering(order, f_s, t, ctx.mass), f_s), b_s, solver, None
     v, f, b, sol, rounds = best
     solver = SolverInfo("ipopt", sol.return_status, sol.iterations, starts=2, details=(
         ("exchange_rounds", rounds), ("seed", {"cutoff_hz": f0, "damping": b0, "stiffness": v0})))
-    return _Fixed(_low_pass(order, f, t, ctx.mass), f), b, solver, None
+    return _Fixed(low_pass_rendering(order, f, t, ctx.mass), f), b, solver, None
 
 
-def _refine_scan(ctx: _Ctx, order: int, lo: float, hi: float, seeds) -> tuple[float, float, float]:
+def _refine_scan(ctx: FilterContext, order: int, lo: float, hi: float, seeds) -> tuple[float, float, float]:
     t = ctx.device.sample_time
     cut = sorted(s[1] for s in seeds)
     f0 = seeds[0][1]
@@ -302,7 +302,7 @@ def _refine_scan(ctx: _Ctx, order: int, lo: float, hi: float, seeds) -> tuple[fl
     def g(u: float) -> float:
         f = min(max(math.exp(u), lo), hi)
         if f not in memo:
-            bb, v, _, _ = _best_b(ctx, _low_pass(order, f, t, ctx.mass), points=_B_PROFILE, zoom_rounds=4)
+            bb, v, _, _ = best_damping(ctx, low_pass_rendering(order, f, t, ctx.mass), points=_B_PROFILE, zoom_rounds=4)
             memo[f] = (v, bb)
         return memo[f][0]
     res = minimize_scalar(lambda u: -g(u), bounds=(a, b), method="bounded", options={"xatol": 1e-4})
@@ -313,7 +313,7 @@ def _refine_scan(ctx: _Ctx, order: int, lo: float, hi: float, seeds) -> tuple[fl
     return best[1], best[2], best[0]
 
 
-def _nlp(ctx: _Ctx, order: int, lo: float, hi: float, f0: float, b0: float, v0: float):
+def _nlp(ctx: FilterContext, order: int, lo: float, hi: float, f0: float, b0: float, v0: float):
     """(exact K [N/m], cutoff, B, solution, rounds) of the NLP from one seed, or None."""
     dev = ctx.device
     t, ks, bs = dev.sample_time, dev.stiffness_scale, dev.damping_scale
@@ -321,7 +321,7 @@ def _nlp(ctx: _Ctx, order: int, lo: float, hi: float, f0: float, b0: float, v0: 
     m = loop_matrices(dev)
     mu = ctx.mass / dev.mass
     d_pass = passivity_samples(dev)[0]
-    r0 = _low_pass(order, f0, t, ctx.mass)
+    r0 = low_pass_rendering(order, f0, t, ctx.mass)
     kres = rendered_critical_stiffness(dev, b0, r0)
     alpha_ref = max(v0 / ks, 1e-300)
     beta_ref = max(b0 / bs, 1e-6 * max(_b_range(ctx, r0)[0] / bs if math.isfinite(_b_range(ctx, r0)[0]) else 1.0,
@@ -360,7 +360,7 @@ def _nlp(ctx: _Ctx, order: int, lo: float, hi: float, f0: float, b0: float, v0: 
             return None
         f = min(max(nu_ref * math.exp(sol.c) / t, lo), hi)
         b = max(sol.b * beta_ref * bs, 0.0)
-        r = _low_pass(order, f, t, ctx.mass)
+        r = low_pass_rendering(order, f, t, ctx.mass)
         b_max, upper, _, why = _b_range(ctx, r)
         if why is not None:
             return None

@@ -21,7 +21,7 @@ from optim.stability.passivity_rendered import rendered_passivity
 from optim.stability.passivity_rendered_limit import largest_rendered_passive_stiffness
 from optim.stability.rendered import rendered_critical_stiffness
 from optim.stiffness.cutoff_problem import casadi_low_pass
-from optim.stiffness.rendered_design import _best_b, _Ctx, _low_pass
+from optim.stiffness.rendered_design import FilterContext, best_damping, low_pass_rendering
 from optim.stiffness.requirements import CutoffDesign, StiffnessRequirements
 
 LHIFAM = Device(mass=5.4, damping=3.5, sample_time=0.001)
@@ -135,10 +135,10 @@ def test_designed_cutoff_beats_a_scan_over_the_cutoff():
     assert d.status == "optimal" and rung.exact_check.safe and d.rendered.designed
     assert "max_force_noise_rms" in d.active_constraints
     plain = StiffnessRequirements(quantization=1e-5, max_force_noise_rms=0.05)
-    ctx = _Ctx(LHIFAM, plain, 0.0, {}, plain.gain_factor)
+    ctx = FilterContext(LHIFAM, plain, 0.0, {}, plain.gain_factor)
     f = d.rendered.cutoff_hz
     for g in f * np.geomspace(0.7, 1.4, 5):
-        assert _best_b(ctx, _low_pass(1, float(g), 1e-3, 0.0))[1] <= d.stiffness * (1 + 1e-6)
+        assert best_damping(ctx, low_pass_rendering(1, float(g), 1e-3, 0.0))[1] <= d.stiffness * (1 + 1e-6)
 
 
 @pytest.mark.slow

@@ -10,7 +10,7 @@ from models.device import Device
 from optim.errors import InputError
 from optim.hardware.design import design_hardware
 from optim.hardware.hardware_targets import HardwareTarget
-from optim.stiffness.rendered_design import _best_b, _Ctx, _low_pass
+from optim.stiffness.rendered_design import FilterContext, best_damping, low_pass_rendering
 from optim.stiffness.requirements import StiffnessRequirements
 from optim.verification_hardware import verify_hardware_design
 
@@ -39,8 +39,8 @@ def test_lowest_cutoff_renders_the_target_and_no_lower_one_does():
                         value_range=(10.0, 200.0))
     assert d.status == "optimal" and d.bounded and d.direction == "min"
     req = StiffnessRequirements(max_damping=200)
-    ctx = _Ctx(DEV, req, 0.0, {}, req.gain_factor)
-    below = _best_b(ctx, _low_pass(1, d.value * 0.99, 1e-3, 0.0))[1]
-    above = _best_b(ctx, _low_pass(1, d.value * 1.01, 1e-3, 0.0))[1]
+    ctx = FilterContext(DEV, req, 0.0, {}, req.gain_factor)
+    below = best_damping(ctx, low_pass_rendering(1, d.value * 0.99, 1e-3, 0.0))[1]
+    above = best_damping(ctx, low_pass_rendering(1, d.value * 1.01, 1e-3, 0.0))[1]
     assert below < 1e5 < above
     assert verify_hardware_design(DEV, FREE, d.value, d.controller).verdict == "confirmed"
