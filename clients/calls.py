@@ -198,13 +198,20 @@ def force_feedforward(device: DeviceLike, filter: PartLike | None = None, *,  # 
 
 
 def design_stiffness(device: DeviceLike, requirements: PartLike | None = None, *,
+                     controller: PartLike | None = None,
                      verify: bool = False) -> Call[StiffnessDesignResponse]:
     """``POST /v1/design/stiffness``: the stiffest safe wall K [N/m] with its damping B [N·s/m].
+
+    ``controller`` is the rendered wall's ``{"mass": M [kg], "velocity_filter": {...}}`` (a fixed filter); a cutoff
+    designed with K and B goes in ``requirements["velocity_filter"] = {"kind": "low_pass", "order": 1, "design":
+    True, "min_cutoff_hz": …, "max_cutoff_hz": …}``, with ``quantization`` and ``max_force_noise`` and/or
+    ``max_force_noise_rms`` [N] (the noise rules that give the cutoff its optimum).  The answer's ``.rendered``
+    says which filter and noise it renders.
 
     ``verify=True`` adds ``.verification``: the margin and passivity checked on the closed loop (a robust design:
     at every corner of its box and its worst device, one verdict each in ``.verification.points``)."""
     return Call("POST", "/v1/design/stiffness", "design", _model(StiffnessDesignResponse),
-                json=_body(device=device, requirements=requirements, verify=verify or None))
+                json=_body(device=device, requirements=requirements, controller=controller, verify=verify or None))
 
 
 def design_inertia(device: DeviceLike, requirements: PartLike | None = None, *,

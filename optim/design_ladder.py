@@ -34,6 +34,7 @@ import numpy as np
 
 from models.device import Device, Human
 from models.filters import ButterworthLowPass
+from optim.errors import InputError
 from optim.solver_info import SolverInfo
 from optim.stability.analysis import (
     DEFAULT_GRID_POINTS,
@@ -77,6 +78,12 @@ class ExactCheck:
     def safe(self) -> bool:
         """the design meets its margin requirement and (when required) is passive, by the exact analysis."""
         return self.meets_min_gain_margin and self.passive is not False
+
+
+def exact_check(critical: float, value: float, required_db: float, what: str,
+                passive: bool | None = None) -> ExactCheck:
+    """The ExactCheck of a design's value against its exact critical value (the rendered designs' label too)."""
+    return _exact_check(critical, value, required_db, what, passive)
 
 
 def _unsafe_reason(method: str, check: ExactCheck) -> str:
@@ -229,11 +236,47 @@ def _grid_stiffness(device: Device, req: StiffnessRequirements, points: int) -> 
                            passivity_delay_samples=d_pass if req.passivity else None), err
 
 
+def _rendered_design(device: Device, req: StiffnessRequirements, method: str, mass: float,
+                     velocity_filter) -> tuple[StiffnessDesign, RungInfo]:
+    """A rendered wall's design (optim.stiffness.rendered_design) with its exact check (optim.stiffness.rendered_check)
+    deciding the label."""
+    from optim.stiffness.rendered_check import rendered_exact_check
+    from optim.stiffness.rendered_design import design_rendered_stiffness
+
+    if method != "exact":
+        raise InputError("method", "designs of a rendered wall (a velocity filter, a designed cutoff or a virtual "
+                                   "mass) are computed on the exact rung only")
+    t0 = time.perf_counter()
+    design = design_rendered_stiffness(device, req, mass, velocity_filter)
+    check = None
+    if design.status == "optimal" and design.rendered is not None:
+        check = rendered_exact_check(device, req, design, velocity_filter)
+        if not check.safe:
+            design = replace(design, status="unsafe", reason=(
+                f"the rendered design fails its exact check: {check.statement.removeprefix('UNSAFE: ')}"))
+    elapsed = (time.perf_counter() - t0) * 1e3
+    design = replace(design, elapsed_ms=elapsed)
+    src = ("exact rendered boundary: K_cr re-checked at the design's B and filter by the exact rendered analysis "
+           "(optim.stability.rendered), passivity by the general Colgate–Schenkel scan, the noise rules recomputed")
+    return design, RungInfo(method, _EXACT_ERR, src, check, elapsed)
+
+
+def is_rendered(req: StiffnessRequirements, mass: float = 0.0, velocity_filter=None) -> bool:
+    """Whether a design renders more than today's wall C(z) = K + B(1 − z⁻¹)/T."""
+    spec = velocity_filter if velocity_filter is not None else req.velocity_filter
+    return mass != 0.0 or (spec is not None and getattr(spec, "kind", None) != "backward_difference")
+
+
 def design_stiffness_on_rung(device: Device, req: StiffnessRequirements | None = None, method: str = "exact",
-                             grid_points: int = DEFAULT_GRID_POINTS) -> tuple[StiffnessDesign, RungInfo]:
-    """The stiffness design on one rung, with the rung's error estimate and (linear, grid) the exact check."""
+                             grid_points: int = DEFAULT_GRID_POINTS, mass: float = 0.0,
+                             velocity_filter=None) -> tuple[StiffnessDesign, RungInfo]:
+    """The stiffness design on one rung, with the rung's error estimate and (linear, grid) the exact check.  A
+    virtual mass M [kg] or a velocity filter (``velocity_filter``, or ``req.velocity_filter`` — fixed or a designed
+    cutoff) makes it a rendered design (exact rung only, its label decided by the exact rendered check)."""
     check_rung(method, grid_points)
     req = req or StiffnessRequirements()
+    if is_rendered(req, mass, velocity_filter):
+        return _rendered_design(device, req, method, mass, velocity_filter)
     t0 = time.perf_counter()
     check = None
     if method == "linear":

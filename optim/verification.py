@@ -614,8 +614,9 @@ def _with_labels(v: Verification, device: Device, stiffness: float, damping: flo
 
 def verify_stiffness_design(device: Device, stiffness: float, damping: float, gain_margin_db: float | None,
                             passive: bool | None = None, epsilon: float | None = DEFAULT_EPSILON,
-                            critical: float | None = None) -> Verification:
-    """A design (K, B): its margin says the critical gain is K·10^(GM/20): check that gain like K_cr at ±``epsilon``
+                            critical: float | None = None, render: tuple | None = None) -> Verification:
+    """A design (K, B) (``render``: a rendered wall's (velocity filter spec, virtual mass M [kg]), closed with the
+    filter's states; None: today's wall): its margin says the critical gain is K·10^(GM/20): check that gain like K_cr at ±``epsilon``
     (the design rung's claim, :func:`claimed_epsilon`; None: it claims no bound), check that K itself is stable (a
     design is always said stable), and, when the design states it, its passivity."""
     t0 = time.perf_counter()
@@ -623,10 +624,12 @@ def verify_stiffness_design(device: Device, stiffness: float, damping: float, ga
     if epsilon is None:
         v = not_checkable(t0, "the design's rung states no error bound on its K_cr: its margin claims nothing to check")
     else:
-        v = verify_critical_stiffness(device, damping, kc, epsilon)
+        v = verify_critical_stiffness(device, damping, kc, epsilon, render=render)
     if gain_margin_db is not None and kc is not None:
         v = labelled(v, f"gain_margin_db = {gain_margin_db:.9g} (critical stiffness K·10^(GM/20) = {kc:.9g} N/m)")
-    return _with_labels(v, device, stiffness, damping, True, passive, t0)
+    if render is None:
+        return _with_labels(v, device, stiffness, damping, True, passive, t0)
+    return _with_labels(v, device, stiffness, damping, True, passive, t0, render)
 
 
 def verify_analysis(device: Device, analysis, render: tuple | None = None) -> Verification:

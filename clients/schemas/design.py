@@ -108,6 +108,34 @@ class PassivityWorstCaseOut(Answer):
     worst_angle: Annotated[float | None, Field(description="θ = ωT where P is largest [rad per sample]")] = None
 
 
+class RenderedFilterOut(Answer):
+    kind: Annotated[
+        str,
+        Field(description="the velocity filter: backward_difference, low_pass, moving_average, transfer_function"),
+    ]
+    cutoff_hz: Annotated[float | None, Field(description="f of a low-pass [Hz] (designed or given)")] = None
+    order: Annotated[int | None, Field(description="low-pass order")] = None
+    designed: Annotated[bool, Field(description="true when the design chose the cutoff")]
+    min_cutoff_hz: Annotated[float | None, Field(description="the designed cutoff's range [Hz]")] = None
+    max_cutoff_hz: float | None = None
+    mass: Annotated[float, Field(description="virtual mass M [kg]")] = 0.0
+    step_peak: Annotated[
+        float, Field(description="max_k |s_k| [1/s]: the velocity estimate after a unit position step")
+    ]
+    noise_gain: Annotated[
+        float, Field(description="sqrt(Σh_k²) [1/s]: rms velocity estimate per unit white position noise")
+    ]
+    force_step: Annotated[
+        float | None,
+        Field(description="B·q·max|s_k| [N]: the damper force step of one encoder count (with requirements.quantization)"),
+    ] = None
+    force_noise_rms: Annotated[float | None, Field(description="B·q·sqrt(Σh_k²/12) [N rms] (with quantization)")] = None
+    crossover_cutoff_ratio: Annotated[
+        float | None, Field(description="the critical crossover's ω/(2π) over the cutoff")
+    ] = None
+    note: str | None = None
+
+
 class RigidComparisonOut(Answer):
     critical_force_gain: Annotated[float | None, Field(description="the rigid model's K_f,cr at the design's cutoff")]
     force_gain: Annotated[float | None, Field(description="the K_f the rigid model would have allowed")]
@@ -329,6 +357,11 @@ class StiffnessDesignResponse(Answer):
     ] = None
     passivity_note: str | None = None
     reason: str | None = None
+    rendered: Annotated[
+        RenderedFilterOut | None,
+        Field(description="the rendered wall's velocity filter (given or designed), virtual mass and damper noise; "
+                          "absent for today's wall"),
+    ] = None
     solver: dict[str, Any] = Field(default_factory=dict)
     elapsed_ms: float
     setup_ms: Annotated[float | None, Field(description="boundary sampling and seeding [ms]")] = None

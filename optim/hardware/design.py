@@ -110,7 +110,9 @@ class HardwareDesign:
 
 
 def loose_direction(free: str, target: HardwareTarget) -> str:
-    """The direction in which the hardware gets looser (module docstring)."""
+    """The direction in which the hardware gets looser (module docstring); the velocity filter's cutoff: lower."""
+    if free == "velocity_filter.cutoff_hz":
+        return "min"
     if free == "mass" and target.stiffness is None and target.feedforward == "apparent_mass":
         return "max"
     return FREE_PARAMETERS[free][0]
@@ -123,8 +125,12 @@ def design_hardware(device: Device, target: HardwareTarget, free: str, points: i
     ``value_range`` (min, max) [SI] is scanned as given; without it the default span is widened while the
     target is out of reach and the best value is at an end (optim/hardware/hardware_range.py)."""
     t0 = time.perf_counter()
+    from optim.hardware.hardware_cutoff import CUTOFF_FREE, design_cutoff_hardware
+
+    if free == CUTOFF_FREE:
+        return design_cutoff_hardware(device, target, points, value_range)
     if free not in FREE_PARAMETERS:
-        raise InputError("free", f"must be one of {', '.join(FREE_PARAMETERS)}")
+        raise InputError("free", f"must be one of {', '.join(FREE_PARAMETERS)}, {CUTOFF_FREE}")
     if free == "cable.stiffness" and device.cable is None:
         raise InputError("free", "cable.stiffness needs a device with a cable block")
     target.check(device, free)

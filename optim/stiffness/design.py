@@ -30,6 +30,7 @@ from optim.stiffness import safeguards
 from optim.stiffness.loop import loop_matrices
 from optim.stiffness.problem import N_CUTS, ProblemKey, ProblemSolution, solve_problem
 from optim.stiffness.profile import BoundaryCurve, boundary_curve, coarse_critical, crossings_at
+from optim.stiffness.rendered_filter import RenderedFilter
 from optim.stiffness.requirements import DESIGN_BACK_OFF, StiffnessRequirements
 
 __all__ = ["StiffnessDesign", "Sensitivity", "design_stiffness", "DesignContext", "DesignAttempt", "problem_params"]
@@ -86,6 +87,9 @@ class StiffnessDesign:
     passivity_delay_samples: int | None = None
     passivity_note: str | None = None
     reason: str | None = None
+    rendered: RenderedFilter | None = None
+    """the velocity filter (given or designed), virtual mass and damper noise of a rendered wall; None for today's
+    wall C(z) = K + B(1 − z⁻¹)/T."""
     solver: SolverInfo = NO_SOLVER
     """the method that answered (Ipopt, the exact B scan fallback, or a rung's own), how it ended, its structure."""
     elapsed_ms: float = 0.0

@@ -7,11 +7,16 @@ a pairing rule and their messages live here alone.
 
 from __future__ import annotations
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+import math
+from typing import Annotated, Any, Literal, Union
 
+from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag, model_validator
+
+from models.velocity_filter import BackwardDifference, LowPass, MovingAverage, TransferFunctionFilter
 from optim.errors import InputError
 
-__all__ = ["StiffnessRequirements", "DESIGN_BACK_OFF", "LIMIT_MAX"]
+__all__ = ["StiffnessRequirements", "CutoffDesign", "DesignFilter", "DESIGN_BACK_OFF", "LIMIT_MAX",
+           "DEFAULT_MAX_CUTOFF", "DEFAULT_CUTOFF_SPAN"]
 
 #: A design sits strictly inside the limits the analysis checks: K ≤ (1 − DESIGN_BACK_OFF)·g·K_cr(B) and
 #: K ≤ (1 − DESIGN_BACK_OFF)·sup passive K(B); a cap on K (max_stiffness, max_force) is met as K ≤ cap.
@@ -30,6 +35,69 @@ LIMIT_MAX = 1e12
 
 #: Limits that come in pairs: (a, b, the constraint they make together).
 _PAIRS = (("max_force", "max_penetration", "K·x ≤ F"), ("quantization", "max_force_noise", "B·q/T ≤ F_noise"))
+
+#: A designed cutoff's default range: max_cutoff_hz = DEFAULT_MAX_CUTOFF/T (0.8 of the Nyquist frequency),
+#: min_cutoff_hz = max/DEFAULT_CUTOFF_SPAN.
+DEFAULT_MAX_CUTOFF = 0.4
+DEFAULT_CUTOFF_SPAN = 1000.0
+#: A designed cutoff is at least this many times the sample rate (optim.stiffness.cutoff_problem.NU_MIN).
+MIN_CUTOFF_NU = 1e-5
+
+
+class CutoffDesign(BaseModel):
+    """A low-pass velocity filter whose cutoff the design chooses together with K and B (ARCHITECTURE.md,
+    "The rendered virtual environment")."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, frozen=True)
+    kind: Literal["low_pass"]
+    design: Literal[True] = Field(description="true: the cutoff is designed (a fixed filter leaves this out)")
+    order: Literal[1, 2] = Field(default=1, description="1 (first order, step-invariant) or 2 (Butterworth)")
+    min_cutoff_hz: float | None = Field(default=None, gt=0, le=1e12, description="lowest cutoff [Hz]; default "
+                                        f"max_cutoff_hz/{DEFAULT_CUTOFF_SPAN:g}")
+    max_cutoff_hz: float | None = Field(default=None, gt=0, le=1e12, description="highest cutoff [Hz], below the "
+                                        f"Nyquist frequency 1/(2T); default {DEFAULT_MAX_CUTOFF:g}/T")
+
+    @model_validator(mode="after")
+    def _range(self) -> "CutoffDesign":
+        if self.min_cutoff_hz is not None and self.max_cutoff_hz is not None and \
+                not self.min_cutoff_hz < self.max_cutoff_hz:
+            raise InputError("max_cutoff_hz", f"the cutoff range is empty: max_cutoff_hz "
+                             f"{self.max_cutoff_hz:g} must exceed min_cutoff_hz {self.min_cutoff_hz:g}")
+        return self
+
+    def band(self, sample_time: float) -> tuple[float, float]:
+        """(lowest, highest) cutoff [Hz] at the sample time T; InputError naming the field for a cutoff at or above
+        the Nyquist frequency or an empty range."""
+        nyquist = 0.5 / sample_time
+        hi = self.max_cutoff_hz if self.max_cutoff_hz is not None else DEFAULT_MAX_CUTOFF / sample_time
+        lo = self.min_cutoff_hz if self.min_cutoff_hz is not None else hi / DEFAULT_CUTOFF_SPAN
+        if not hi < nyquist:
+            raise InputError("velocity_filter.max_cutoff_hz", f"must be below the Nyquist frequency 1/(2T) = "
+                                                              f"{nyquist:.6g} Hz")
+        if not lo < nyquist:
+            raise InputError("velocity_filter.min_cutoff_hz", f"must be below the Nyquist frequency 1/(2T) = "
+                                                              f"{nyquist:.6g} Hz")
+        if not lo < hi:
+            raise InputError("velocity_filter.max_cutoff_hz", f"the cutoff range is empty: max_cutoff_hz {hi:g} must "
+                                                              f"exceed min_cutoff_hz {lo:g}")
+        if not lo * sample_time >= MIN_CUTOFF_NU:
+            raise InputError("velocity_filter.min_cutoff_hz", f"must be at least {MIN_CUTOFF_NU:g}/T = "
+                                                              f"{MIN_CUTOFF_NU / sample_time:.3g} Hz")
+        return lo, hi
+
+
+def _filter_tag(v: Any) -> str:
+    if isinstance(v, dict):
+        return "design" if "design" in v else str(v.get("kind", ""))
+    return "design" if isinstance(v, CutoffDesign) else str(getattr(v, "kind", ""))
+
+
+#: requirements.velocity_filter: a fixed filter (any kind) or a low-pass whose cutoff is designed.
+DesignFilter = Annotated[Union[Annotated[CutoffDesign, Tag("design")],
+                               Annotated[BackwardDifference, Tag("backward_difference")],
+                               Annotated[LowPass, Tag("low_pass")], Annotated[MovingAverage, Tag("moving_average")],
+                               Annotated[TransferFunctionFilter, Tag("transfer_function")]],
+                         Discriminator(_filter_tag)]
 
 
 def _limit(description: str):
@@ -55,11 +123,23 @@ class StiffnessRequirements(BaseModel):
     max_force: float | None = _limit("actuator saturation F [N]; needs max_penetration (K·x ≤ F)")
     max_penetration: float | None = _limit("penetration x [m] at which the force must not saturate; needs max_force")
     quantization: float | None = _limit("encoder quantisation q [m]; needs max_force_noise (B·q/T ≤ F_noise)")
-    max_force_noise: float | None = _limit("largest damper force step F_noise [N]; needs quantization")
+    max_force_noise: float | None = _limit("largest damper force step F_noise [N]; needs quantization "
+                                           "(B·q·max|s_k| ≤ F_noise, B·q/T for the backward difference)")
+    max_force_noise_rms: float | None = _limit("largest damper force noise [N rms] of the encoder's quantisation "
+                                               "noise through the velocity filter, B·q·sqrt(Σh_k²/12); needs "
+                                               "quantization")
+    velocity_filter: DesignFilter | None = Field(
+        default=None, description="the velocity the damper sees: a fixed filter (as controller.velocity_filter), or "
+                                  "{kind: low_pass, order, design: true, min_cutoff_hz, max_cutoff_hz} to choose the "
+                                  "cutoff with K and B; null: the backward difference")
 
     @model_validator(mode="after")
     def _pairs(self) -> "StiffnessRequirements":
+        if self.max_force_noise_rms is not None and self.quantization is None:
+            raise InputError("quantization", "required when max_force_noise_rms is given (B·q·sqrt(Σh²/12) ≤ F_rms)")
         for a, b, rule in _PAIRS:
+            if a == "quantization" and self.max_force_noise_rms is not None:
+                continue                       # quantization with an rms limit alone is a complete noise rule
             if (getattr(self, a) is None) != (getattr(self, b) is None):
                 missing, other = (b, a) if getattr(self, b) is None else (a, b)
                 raise InputError(missing, f"required when {other} is given ({rule})")
@@ -94,11 +174,22 @@ class StiffnessRequirements(BaseModel):
             caps["max_force"] = self.max_force / self.max_penetration
         return caps
 
-    def damping_caps(self, sample_time: float) -> dict[str, float]:
-        """Upper limits on B [N·s/m] by constraint name."""
+    @property
+    def designs_cutoff(self) -> bool:
+        return isinstance(self.velocity_filter, CutoffDesign)
+
+    def damping_caps(self, sample_time: float, step_peak: float | None = None,
+                     noise_gain: float | None = None) -> dict[str, float]:
+        """Upper limits on B [N·s/m] by constraint name.  ``step_peak`` = max|s_k| and ``noise_gain`` =
+        sqrt(Σh_k²) [1/s] of the velocity filter (models.velocity_noise); None: the backward difference's 1/T and
+        √2/T."""
         caps = {}
         if self.max_damping is not None:
             caps["max_damping"] = self.max_damping
         if self.quantization is not None and self.max_force_noise is not None:
-            caps["max_force_noise"] = self.max_force_noise * sample_time / self.quantization
+            caps["max_force_noise"] = (self.max_force_noise * sample_time / self.quantization if step_peak is None
+                                       else self.max_force_noise / (self.quantization * step_peak))
+        if self.quantization is not None and self.max_force_noise_rms is not None:
+            gain = math.sqrt(2.0) / sample_time if noise_gain is None else noise_gain
+            caps["max_force_noise_rms"] = self.max_force_noise_rms * math.sqrt(12.0) / (self.quantization * gain)
         return caps

@@ -8,7 +8,8 @@ import time
 from fastapi import APIRouter
 from fastapi.exceptions import RequestValidationError
 
-from optim.design_ladder import design_stiffness_on_rung
+from models.velocity_filter import LowPass
+from optim.design_ladder import design_stiffness_on_rung, is_rendered
 from optim.errors import InputError
 from optim.robust.box import UncertaintyBox
 from optim.robust.stiffness import robust_design_stiffness
@@ -36,16 +37,29 @@ async def design_stiffness_route(request: StiffnessDesignRequest, compute: Compu
     # (service/cost.py), where the CasADi solvers are built and cached per process.
     t0 = time.perf_counter()
     req = request.requirements.core()
+    ctrl = request.controller
+    mass = ctrl.mass if ctrl is not None else 0.0
+    vfilter = ctrl.velocity_filter if ctrl is not None else None
+    rendered = is_rendered(req, mass, vfilter)
+    if rendered and request.method != "exact":
+        raise InputError("method", "designs of a rendered wall (a velocity filter, a designed cutoff or a virtual "
+                                   "mass) are computed on the exact rung only")
     if request.requirements.workspace is not None:
+        if rendered:
+            raise InputError("controller", "a workspace design of a rendered wall (velocity filter, designed cutoff "
+                                           "or virtual mass) is not available yet: design today's wall")
         return await _workspace(request, req, t0, compute)
     if request.requirements.uncertainty is not None:
+        if rendered:
+            raise InputError("requirements.uncertainty", "a robust design of a rendered wall (velocity filter or "
+                                                         "virtual mass) is not available yet: give one device")
         if request.method != "exact":
             raise InputError("method", "robust designs (requirements.uncertainty) are computed on the exact rung only")
         return await _robust(request, req, t0, compute)
     try:
         design, rung = await compute.arun(
-            design_stiffness_on_rung, request.device, req, request.method, request.grid_points,
-            cost_ms=stiffness_design_cost_ms(request.device, request.method, request.grid_points))
+            design_stiffness_on_rung, request.device, req, request.method, request.grid_points, mass, vfilter,
+            cost_ms=None if rendered else stiffness_design_cost_ms(request.device, request.method, request.grid_points))
     except InputError:
         raise                   # 422 naming the field, as on every route (service.errors)
     except (RuntimeError, ArithmeticError, ValueError) as exc:   # CasADi raises RuntimeError on solver trouble
@@ -55,10 +69,23 @@ async def design_stiffness_route(request: StiffnessDesignRequest, compute: Compu
     if request.verify and design.stiffness is not None and design.damping is not None:
         # the margin and (when required) the passivity the design claims, checked by the closed loop
         passive = True if req.passivity else None
+        render = _render(design, req, vfilter)
         data["verification"] = verification_out(await compute.arun(
             verify_stiffness_design, request.device, design.stiffness, design.damping, design.gain_margin_db, passive,
-            claimed_epsilon(rung.method, rung.error_estimate, linear_factor=2.0), cost_ms=verify_cost_ms(request.device)))
+            claimed_epsilon(rung.method, rung.error_estimate, linear_factor=2.0), None, render,
+            cost_ms=verify_cost_ms(request.device)))
     return StiffnessDesignResponse(**data, **rung_fields(rung))
+
+
+def _render(design, req: StiffnessRequirements, vfilter) -> tuple | None:
+    """(velocity filter spec, virtual mass) of a rendered design for verify (None: today's wall)."""
+    r = design.rendered
+    if r is None:
+        return None
+    spec = vfilter if vfilter is not None else req.velocity_filter
+    if r.designed:
+        spec = LowPass(kind="low_pass", cutoff_hz=r.cutoff_hz, order=r.order)
+    return (spec, r.mass)
 
 
 def input_error(exc: ValueError) -> Exception:

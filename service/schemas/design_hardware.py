@@ -4,9 +4,10 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, model_serializer, model_validator
 
 from optim.domain import check_controller_domain, check_cutoff_domain
+from optim.hardware.hardware_cutoff import check_cutoff_range
 from optim.hardware.hardware_range import check_range
 from optim.hardware.hardware_targets import HardwareTarget
 from optim.hardware.quantisation import QUANTISATION_FREE, check_quantisation_request
@@ -52,10 +53,11 @@ class HardwareDesignRequest(BaseModel):
     device: Device
     target: HardwareTargetIn
     free: Literal["sample_time", "delay", "damping", "mass", "cable.stiffness", "encoder_resolution",
-                  "coulomb_friction"] = Field(
+                  "coulomb_friction", "velocity_filter.cutoff_hz"] = Field(
         description="the hardware parameter to find (the others are the device's); encoder_resolution (the "
                     "coarsest q) and coulomb_friction (the least f_c) keep target.stiffness passive as a virtual "
-                    "spring (optim/hardware/quantisation.py)")
+                    "spring (optim/hardware/quantisation.py); velocity_filter.cutoff_hz: the lowest cutoff of a "
+                    "first-order low-pass on the damper's velocity that renders a stiffness target")
     points: int = Field(41, ge=9, le=201, description="points of the trade-off curve")
     range: ValueRangeIn | None = Field(None, description="scan exactly this range of the free parameter [SI]; by "
                                                          "default value/30 … value·30 (delay 0 … 30 samples), "
@@ -76,7 +78,9 @@ class HardwareDesignRequest(BaseModel):
             check_controller_domain(t.max_damping, self.device, "damping", "target.max_damping")
         if t.cutoff_min_hz is not None:
             check_cutoff_domain(t.cutoff_min_hz, self.device.sample_time, "target.cutoff_min_hz")
-        if self.range is not None:     # optim's rule (empty range, input limits at both ends): one source
+        if self.range is not None and self.free == "velocity_filter.cutoff_hz":
+            check_cutoff_range(self.device, self.range.min, self.range.max)
+        elif self.range is not None:     # optim's rule (empty range, input limits at both ends): one source
             check_range(self.device, self.free, t.core(), self.range.min, self.range.max)
         return self
 
@@ -152,3 +156,11 @@ class HardwareDesignResponse(FiniteModel):
                                                         "limit's terms, the counts over device.travel, and the "
                                                         "nonlinear analysis at the answer and 1 % looser "
                                                         "(optim/hardware/quantisation.py)")
+
+    @model_serializer(mode="wrap")
+    def _omit_absent_quantisation(self, handler):   # unannotated: the response schema stays the model's own
+        # today's hardware designs answer exactly as before: the block appears only for free = encoder/friction
+        data = handler(self)
+        if data.get("quantisation", 0) is None:
+            del data["quantisation"]
+        return data

@@ -4,19 +4,24 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, model_serializer, model_validator
 
+from models.velocity_filter import rendering
 from optim.domain import check_controller_domain
+from optim.errors import InputError
 from optim.stiffness.requirements import StiffnessRequirements
 
-from .common import Device  # the numerics' validated domain (optim.domain) applies
+from .common import (
+    Device,  # the numerics' validated domain (optim.domain) applies
+    RenderedEnvironment,
+)
 from .finite import FiniteModel
 from .ladder import DesignStatus, DesignStatusField, ExactCheckOut, GridPoints, GridPointsField, Method, MethodField
 from .verification import VerificationOut, VerifyField
 from .workspace import Kinematics, Poses
 
 __all__ = ["StiffnessRequirementsIn", "StiffnessDesignRequest", "SensitivityOut", "StiffnessDesignResponse",
-           "RangeIn", "WorstCaseOut", "PassivityWorstCaseOut"]
+           "RangeIn", "WorstCaseOut", "PassivityWorstCaseOut", "RenderedFilterOut"]
 
 _STRICT = ConfigDict(extra="forbid", allow_inf_nan=False, strict=True)
 
@@ -70,9 +75,31 @@ class StiffnessDesignRequest(BaseModel):
 
     device: Device
     requirements: StiffnessRequirementsIn = Field(default_factory=StiffnessRequirementsIn)
+    controller: RenderedEnvironment | None = Field(
+        default=None, description="the rendered wall's virtual mass and fixed velocity filter (ARCHITECTURE.md, "
+                                  "\"The rendered virtual environment\"); a designed cutoff goes in "
+                                  "requirements.velocity_filter")
     method: Method = MethodField()
     grid_points: GridPoints = GridPointsField()
     verify: bool = VerifyField()
+
+    @model_validator(mode="after")
+    def _filter_fits_the_device(self) -> "StiffnessDesignRequest":
+        """The filter's rules that need T (a cutoff or cutoff range below Nyquist, a stable velocity estimate), as
+        422s naming the field; one filter only."""
+        from optim.stiffness.rendered_design import check_design_filter
+
+        c = self.controller
+        if c is not None and c.velocity_filter is not None and self.requirements.velocity_filter is not None:
+            raise InputError("requirements.velocity_filter", "give the velocity filter once: in controller (a fixed "
+                                                              "filter) or in requirements (fixed or designed), not both")
+        if c is not None and c.rendered:
+            try:
+                rendering(c.velocity_filter, c.mass, self.device.sample_time)
+            except InputError as exc:
+                raise exc.under("controller.") from None
+        check_design_filter(self.requirements, self.device.sample_time)
+        return self
 
     @model_validator(mode="after")
     def _in_domain(self) -> "StiffnessDesignRequest":
@@ -145,6 +172,25 @@ class WorkspaceDesignOut(FiniteModel):
     note: str
 
 
+class RenderedFilterOut(BaseModel):
+    kind: str = Field(description="the velocity filter: backward_difference, low_pass, moving_average, "
+                                  "transfer_function")
+    cutoff_hz: float | None = Field(None, description="f of a low-pass [Hz] (designed or given)")
+    order: int | None = Field(None, description="low-pass order")
+    designed: bool = Field(description="true when the design chose the cutoff")
+    min_cutoff_hz: float | None = Field(None, description="the designed cutoff's range [Hz]")
+    max_cutoff_hz: float | None = None
+    mass: float = Field(0.0, description="virtual mass M [kg]")
+    step_peak: float = Field(description="max_k |s_k| [1/s]: the velocity estimate after a unit position step")
+    noise_gain: float = Field(description="sqrt(Σh_k²) [1/s]: rms velocity estimate per unit white position noise")
+    force_step: float | None = Field(None, description="B·q·max|s_k| [N]: the damper force step of one encoder "
+                                                       "count (with requirements.quantization)")
+    force_noise_rms: float | None = Field(None, description="B·q·sqrt(Σh_k²/12) [N rms] (with quantization)")
+    crossover_cutoff_ratio: float | None = Field(None, description="the critical crossover's ω/(2π) over the "
+                                                                   "cutoff")
+    note: str | None = None
+
+
 class StiffnessDesignResponse(FiniteModel):
     status: DesignStatus = DesignStatusField()
     stiffness: float | None = Field(None, description="K [N/m]")
@@ -165,6 +211,9 @@ class StiffnessDesignResponse(FiniteModel):
     passivity_delay_samples: int | None = Field(None, description="whole samples of delay used by the passivity test")
     passivity_note: str | None = None
     reason: str | None = None
+    rendered: RenderedFilterOut | None = Field(None, description="the rendered wall's velocity filter (given or "
+                                                                 "designed), virtual mass and damper noise; absent "
+                                                                 "for today's wall")
     solver: dict = Field(default_factory=dict)
     elapsed_ms: float
     setup_ms: float | None = Field(None, description="boundary sampling and seeding [ms]")
@@ -186,3 +235,13 @@ class StiffnessDesignResponse(FiniteModel):
     verification: VerificationOut | None = Field(None, description="present when verify was true")
     workspace: WorkspaceDesignOut | None = Field(None, description="workspace design: its worst cases and the "
                                                                    "denser set's verification")
+
+    @model_serializer(mode="wrap")
+    def _omit_absent_rendering(self, handler):   # unannotated: the response schema stays the model's own
+        # today's designs answer exactly as before: each block appears only for a rendered wall or a workspace design
+        data = handler(self)
+        if data.get("rendered", 0) is None:
+            del data["rendered"]
+        if data.get("workspace", 0) is None:
+            del data["workspace"]
+        return data
