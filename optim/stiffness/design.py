@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 
@@ -349,19 +349,22 @@ def _finish(ctx: DesignContext, at: DesignAttempt, b_max: float, k_caps: dict, b
             ("method", "the exact objective min(g·K_cr(B), passive K(B), caps) at 63 values of B (even, "
                        "log-spaced near 0, next to B_max) and at the coarse profile's seeds, then nested grids "
                        "and bounded Brent around the three best (optimal to the scan's resolution in B)")))
-    common = dict(max_stable_damping=_fin(b_max), passivity_delay_samples=ctx.d_pass if req.passivity else None,
-                  passivity_note=pass_note, solver=solver, setup_ms=setup_ms, solve_ms=solve_ms)
+    def design(**answer: Any) -> StiffnessDesign:
+        """The answer with what every outcome of this attempt shares (B_max, the passivity delay, the solver)."""
+        return StiffnessDesign(max_stable_damping=_fin(b_max),
+                               passivity_delay_samples=ctx.d_pass if req.passivity else None,
+                               passivity_note=pass_note, solver=solver, setup_ms=setup_ms, solve_ms=solve_ms,
+                               elapsed_ms=(time.perf_counter() - t0) * 1e3, **answer)
     if not safeguards.settled(at):
         why = (f"Ipopt did not converge: {at.sol.return_status}" if not safeguards.ipopt_ok(at) else
                "the exchange of crossovers and passivity angles did not settle")
-        return StiffnessDesign(status="failed", reason=why, elapsed_ms=(time.perf_counter() - t0) * 1e3, **common)
+        return design(status="failed", reason=why)
     kcr = at.exact.critical_stiffness
     analysed = [req.gain_factor * kcr] + ([at.passive_k] if at.passive_k is not None else [])
     k = min([at.stiffness, *k_caps.values(), (1.0 - DESIGN_BACK_OFF) * min(analysed)])
     if not k > 0:
         why = (at_reason(at) or "no positive stiffness satisfies the requirements")
-        return StiffnessDesign(status="infeasible", reason=why,
-                               elapsed_ms=(time.perf_counter() - t0) * 1e3, **common)
+        return design(status="infeasible", reason=why)
     active = []
     if k >= req.gain_factor * kcr * (1 - _ACTIVE_RTOL):
         active.append("min_gain_margin_db")
@@ -377,9 +380,8 @@ def _finish(ctx: DesignContext, at: DesignAttempt, b_max: float, k_caps: dict, b
     else:
         sens, note = (), "no sensitivities: the design comes from the exact B scan, which has no multipliers"
     lin = linear_estimate(dev, at.damping)
-    return StiffnessDesign(
+    return design(
         status="optimal", stiffness=k, damping=at.damping, critical_stiffness=kcr,
         gain_margin_db=gain_margin_db(kcr, k), crossover_frequency=at.exact.crossover_frequency,
         linear_estimate=lin, linear_estimate_error=(lin - kcr) / kcr, active_constraints=tuple(active),
-        back_off=DESIGN_BACK_OFF, sensitivities=sens, sensitivity_note=note,
-        elapsed_ms=(time.perf_counter() - t0) * 1e3, **common)
+        back_off=DESIGN_BACK_OFF, sensitivities=sens, sensitivity_note=note)
