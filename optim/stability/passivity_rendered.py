@@ -26,11 +26,11 @@ from models.device import Device
 from models.velocity_filter import Rendering
 from optim.stability.passivity import PassivityCheck, passivity_samples
 
-__all__ = ["rendered_passivity", "rendered_required_damping"]
+__all__ = ["rendered_passivity", "rendered_passivity_bound", "rendered_required_damping"]
 
 
-def _bound(device: Device, stiffness: float, damping: float, rendering: Rendering, whole: int,
-           theta: np.ndarray) -> np.ndarray:
+def rendered_passivity_bound(device: Device, stiffness: float, damping: float, rendering: Rendering, whole: int,
+                             theta: np.ndarray) -> np.ndarray:
     """(T/2)·Re{(1 − e^{−jθ})·e^{−jdθ}·C(e^{jθ})}/(1 − cos θ) [N·s/m]."""
     t, m = device.sample_time, device.mass
     a = -np.expm1(-1j * theta)
@@ -47,7 +47,7 @@ def rendered_required_damping(device: Device, stiffness: float, damping: float, 
     for ang in rendering.velocity.pole_angles():
         parts.append(np.clip(ang + np.linspace(-0.05, 0.05, 401), 1e-7, math.pi))
     grid = np.unique(np.concatenate(parts))
-    vals = _bound(device, stiffness, damping, rendering, whole, grid)
+    vals = rendered_passivity_bound(device, stiffness, damping, rendering, whole, grid)
     padded = np.concatenate([[-np.inf], vals, [-np.inf]])
     peaks = np.flatnonzero((vals >= padded[:-2]) & (vals >= padded[2:]))
     i_best = int(np.argmax(vals))
@@ -55,7 +55,7 @@ def rendered_required_damping(device: Device, stiffness: float, damping: float, 
     for i in peaks[np.argsort(vals[peaks])[-6:]]:
         lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
         if hi > lo:
-            r = minimize_scalar(lambda x: -float(_bound(device, stiffness, damping, rendering, whole,
+            r = minimize_scalar(lambda x: -float(rendered_passivity_bound(device, stiffness, damping, rendering, whole,
                                                         np.array([x]))[0]),
                                 bounds=(lo, hi), method="bounded", options={"xatol": 1e-13 * max(lo, 1e-12)})
             if -r.fun > best_v:

@@ -22,18 +22,9 @@ from scipy.optimize import minimize_scalar
 from models.device import Device
 from models.velocity_filter import DEFAULT_RENDERING, Rendering
 from optim.stability.passivity import passivity_samples
+from optim.stability.passivity_rendered import rendered_passivity_bound
 
 __all__ = ["largest_rendered_passive_stiffness"]
-
-
-def _bound(device: Device, stiffness: float, damping: float, rendering: Rendering, whole: int,
-           theta: np.ndarray) -> np.ndarray:
-    """(T/2)·Re{(1 − e^{−jθ})·e^{−jdθ}·C(e^{jθ})}/(1 − cos θ) [N·s/m] (as optim.stability.passivity_rendered)."""
-    t, m = device.sample_time, device.mass
-    a = -np.expm1(-1j * theta)
-    ctrl = stiffness + (m / (t * t)) * rendering.controller_response(theta, damping * t / m, rendering.mass / m)
-    den = 2.0 * np.sin(0.5 * theta) ** 2
-    return (0.5 * t) * (a * np.exp(-1j * whole * theta) * ctrl).real / den
 
 
 def _grid(rendering: Rendering, whole: int) -> np.ndarray:
@@ -52,8 +43,8 @@ def largest_rendered_passive_stiffness(device: Device, damping: float, rendering
     grid = _grid(rendering, whole)
 
     def parts(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        s = _bound(device, 1.0, 0.0, DEFAULT_RENDERING, whole, theta)
-        r = _bound(device, 0.0, damping, rendering, whole, theta)
+        s = rendered_passivity_bound(device, 1.0, 0.0, DEFAULT_RENDERING, whole, theta)
+        r = rendered_passivity_bound(device, 0.0, damping, rendering, whole, theta)
         return s, r
 
     s, r = parts(grid)
