@@ -416,7 +416,7 @@ def render(rows: list[Row], note: str = "", load: tuple[float, float] | None = N
     base = {r.problem: r.rate for r in rows if r.chunk is None}
     for r in rows:
         cpu = f"{r.cpu_rate:.0f}" if r.cpu_rate else "—"
-        lines.append(f"| {r.problem} | {r.grid} | {r.executor} | {r.points} | {r.median:.3f} | {r.p95:.3f} | {r.rate:.0f} | "
+        lines.append(f"| {r.problem} | {r.executor} | {r.points} | {r.median:.3f} | {r.p95:.3f} | {r.rate:.0f} | "
                      f"{r.rate / base[r.problem]:.2f} | {cpu} | {r.failed} | {r.chunk or '—'} |")
     goals = []
     for prob, goal in GOALS.items():
