@@ -12,6 +12,7 @@ window.zwidthStudies = (() => {
     stability: "stability of a wall",
     stiffness: "stiffness design",
     inertia: "inertia design (force feedforward)",
+    workspace_critical_stiffness: "K_cr over a multi-DOF workspace",
   });
   const escape = (s) => String(s).replace(/[&<>"]/g, (c) => ({ "&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;" }[c]));
 

@@ -17,6 +17,7 @@ from urllib.parse import urlparse
 
 import pytest
 
+from service.routes.explorer import _MEDIA_TYPES
 from tests.optim.identification.cases import record
 
 from .conftest import start_live_server
@@ -355,8 +356,8 @@ def test_explorer_filter_block_overlays_the_boundaries_and_reads_the_m_width(tmp
                 expect(page.locator("#vf-samples")).to_be_visible()
                 expect(page.locator("#filter-error")).to_be_empty(timeout=60_000)
                 assert not b.errors, b.errors
-                assert b.api_paths() <= {*ALLOWED_PATHS, "/explorer/explorer.js", "/explorer/explorer.css",
-                                         "/explorer/explorer_filter.js", "/v1/presets", "/v1/analysis/stability",
+                assets = {f"/explorer/{name}" for name in _MEDIA_TYPES if name != "index.html"}
+                assert b.api_paths() <= {*ALLOWED_PATHS, *assets, "/v1/presets", "/v1/analysis/stability",
                                          "/v1/analysis/boundary"}, b.api_paths()
             finally:
                 b.close()
