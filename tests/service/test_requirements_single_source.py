@@ -19,7 +19,7 @@ from tests.service.conftest import LHIFAM_RIGID, make_client
 
 HUMAN = {"mass": 2.0, "damping": 2.0, "stiffness": 10.0}
 
-PAIRS = [(StiffnessRequirements, StiffnessRequirementsIn, {"uncertainty"}),
+PAIRS = [(StiffnessRequirements, StiffnessRequirementsIn, {"uncertainty", "workspace"}),
          (InertiaRequirements, InertiaRequirementsIn, {"uncertainty"}), (HardwareTarget, HardwareTargetIn, set())]
 
 
@@ -32,7 +32,8 @@ def client():
 @pytest.mark.parametrize("core, schema, added", PAIRS, ids=["stiffness", "inertia", "hardware"])
 def test_the_request_model_is_optims_plus_the_box(core, schema, added):
     """The service's requirements are optim's model: the same fields with the same bounds, defaults and docs,
-    the same validators, and nothing of their own but the robust design's box."""
+    the same validators, and nothing of their own but the robust design's box (and the stiffness design's
+    workspace: the pose set of a multi-DOF design, optim.workspace.design, issue 33)."""
     assert issubclass(schema, core)
     assert set(schema.model_fields) - set(core.model_fields) == added
     for name, info in core.model_fields.items():
