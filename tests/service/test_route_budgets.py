@@ -56,8 +56,8 @@ CASES = {
                                            "points": 121}), WORKER_CHEAP),
     "plots/hardware": (("/v1/plots/hardware", {"device": CABLE_DELAYED, "target": {"stiffness": 2000},
                                                "free": "cable.stiffness", "points": 201}), WORKER_CHEAP),
-    "plots/boundary": (("/v1/plots/boundary", {"device": {"preset": "lhifam", "delay": 0.5}, "points": 2000}),
-                       WORKER_CHEAP),
+    "plots/boundary": (("/v1/plots/boundary", {"device": {"preset": "lhifam", "delay": 0.0995}, "points": 2000}),
+                       ("/v1/analysis/stability", {"device": LHIFAM_RIGID})),
     "plots/bode": (("/v1/plots/bode", {"device": {"preset": "lhifam", "delay": 10.0}, "points": 5000,
                                        "controller": {"stiffness": 100, "damping": 50}}),
                    ("/v1/analysis/stability", {"device": LHIFAM_RIGID})),
@@ -65,7 +65,9 @@ CASES = {
 #: The Bode data are bounded by their input limits to ~0.1 s (10 000 samples of delay, 5000 points, a cable
 #: device) and the drawing, its crossover labels capped, to well under a second: the costliest valid request is
 #: stopped by a 0.02 s budget instead (the next request: an inline analysis).
-BUDGETS = {"plots/bode": 0.02}
+#: The cable boundary is compiled since issue 32: its costliest valid curve (2000 points, a fractional delay) takes
+#: 0.13–0.37 s on an idle 2-core machine, too near the 0.2 s budget to be stopped by it reliably; 0.02 s stops it.
+BUDGETS = {"plots/bode": 0.02, "plots/boundary": 0.02}
 
 
 @pytest.fixture(scope="module")
