@@ -25,7 +25,7 @@ import numpy as np
 
 from optim.stability.compiled import kernel
 
-from .normal_kernel import AT_A, AT_C, AT_D, AT_FRAC, AT_G0P, AT_G0V, AT_G1P, AT_G1V, AT_NYQ, AT_OMP, AT_PHI12
+from .normal_kernel import AT_D, mode_response
 
 __all__ = ["dual_worst", "normal_at", "compile_kernels"]
 
@@ -50,17 +50,7 @@ def _hmat(w, modes, theta, out):
         out[k] = 0.0
     for i in range(modes.shape[0]):
         v = modes[i]
-        if theta == math.pi and not math.isnan(v[AT_NYQ]):
-            r = complex(1.0, 0.0) / complex(v[AT_NYQ], 0.0)
-        else:
-            den = zm1 * (zm1 + v[AT_OMP])
-            if v[AT_FRAC] == 0.0:
-                num = v[AT_A] * (z + 1.0) + v[AT_C]
-            else:
-                gpos = v[AT_G0P] + v[AT_G1P] * zinv
-                gvel = v[AT_G0V] + v[AT_G1V] * zinv
-                num = gpos * ((z - 1.0) + v[AT_OMP]) + v[AT_PHI12] * gvel
-            r = 1.0 / (den * lead / num)
+        r = mode_response(v, theta, z, zm1, zinv, lead)
         x, y, zz = w[0, i], w[1, i], w[2, i]
         outer = (x * x, x * y, x * zz, y * y, y * zz, zz * zz)
         for k in range(6):

@@ -21,7 +21,7 @@ import numpy as np
 from models.discretize import RigidZOH
 from optim.stability.compiled import kernel
 
-__all__ = ["mode_numbers", "critical_kernel", "compile_kernels"]
+__all__ = ["mode_numbers", "mode_response", "critical_kernel", "compile_kernels"]
 
 # the columns of a mode's numbers
 (AT_FRAC, AT_A, AT_C, AT_OMP, AT_PHI12, AT_G0P, AT_G0V, AT_G1P, AT_G1V, AT_D, AT_NYQ) = range(11)
@@ -41,6 +41,23 @@ def mode_numbers(plants: list[RigidZOH]) -> np.ndarray:
 
 
 @kernel
+def mode_response(v, theta, z, zm1, zinv, lead):
+    """R(θ) of one mode (a row of :func:`mode_numbers`) as RigidZOH.response(θ): the ZOH numerator over
+    (z − 1)(z − 1 + ω') with the delay's phase ``lead``, the Nyquist value in closed form; z, z − 1, 1/z and the
+    delay's phase are the caller's (shared by the modes)."""
+    if theta == math.pi and not math.isnan(v[AT_NYQ]):
+        return complex(1.0, 0.0) / complex(v[AT_NYQ], 0.0)
+    den = zm1 * (zm1 + v[AT_OMP])
+    if v[AT_FRAC] == 0.0:
+        num = v[AT_A] * (z + 1.0) + v[AT_C]
+    else:
+        gpos = v[AT_G0P] + v[AT_G1P] * zinv
+        gvel = v[AT_G0V] + v[AT_G1V] * zinv
+        num = gpos * ((z - 1.0) + v[AT_OMP]) + v[AT_PHI12] * gvel
+    return 1.0 / (den * lead / num)
+
+
+@kernel
 def _k(crow, modes, theta, t, b):
     """K(θ) = −1/(T²·Σ c_i R_i(θ)) − B(1 − e^{−jθ})/T of one normal (weights ``crow``), each R_i as
     RigidZOH.response(θ) (the modes share the delay, so z, z − 1 and the delay's phase are computed once)."""
@@ -54,17 +71,7 @@ def _k(crow, modes, theta, t, b):
     g = complex(0.0, 0.0)
     for i in range(modes.shape[0]):
         v = modes[i]
-        if theta == math.pi and not math.isnan(v[AT_NYQ]):
-            r = complex(1.0, 0.0) / complex(v[AT_NYQ], 0.0)
-        else:
-            den = zm1 * (zm1 + v[AT_OMP])
-            if v[AT_FRAC] == 0.0:
-                num = v[AT_A] * (z + 1.0) + v[AT_C]
-            else:
-                gpos = v[AT_G0P] + v[AT_G1P] * zinv
-                gvel = v[AT_G0V] + v[AT_G1V] * zinv
-                num = gpos * ((z - 1.0) + v[AT_OMP]) + v[AT_PHI12] * gvel
-            r = 1.0 / (den * lead / num)
+        r = mode_response(v, theta, z, zm1, zinv, lead)
         g += crow[i] * r
     one_minus = complex(2.0 * sh * sh, sn)        # 1 − e^{−jθ}
     return -1.0 / (t * t * g) - b * one_minus / t
