@@ -22,6 +22,11 @@ spectral radius of the closed-loop state matrix, optim.stability.closed_loop, no
 force-feedforward loop's, optim.transparency.closed_loop_feedforward, not K_f,cr).  The device it ends on
 is checked like the others (kind ``interior``); a device that is unstable there contradicts the design.
 
+A rendered wall (a velocity filter, a virtual mass: ``render``) is checked the same way with its own loop: each
+device's K_cr by the exact rendered analysis (optim.stability.rendered, the filter realised at that device's sample
+time), every closed loop, the interior search's included, with the filter's and the virtual mass's states
+(optim.stability.closed_loop_rendered).
+
 The overall verdict is ``contradicted`` if any point contradicts, else ``not_checkable`` (with the points'
 reasons) if any point cannot be decided, else ``confirmed``; every point's own verdict is listed.
 """
@@ -39,9 +44,11 @@ from scipy.optimize import minimize
 
 from models.device import Device
 from models.filters import ButterworthLowPass
+from models.velocity_filter import rendering
 from optim.robust.box import STIFFNESS_PATHS, UncertaintyBox
 from optim.stability.closed_loop import radius_excess, sampled_plant, stiffness_closed_loop
 from optim.stability.margins import critical_stiffness
+from optim.stability.rendered import rendered_critical_stiffness
 from optim.transparency.feedforward import critical_force_gain, resolve_human
 from optim.verification import (
     EIG_MAX_STATES,
@@ -150,6 +157,21 @@ def _excess_at(box: UncertaintyBox, x: np.ndarray, gain: float, damping: float) 
     return ex.excess, ex.decided_unstable
 
 
+def _rendered_excess_at(box: UncertaintyBox, x: np.ndarray, gain: float, damping: float, spec,
+                        mass: float) -> tuple[float, bool]:
+    """Spectral radius − 1 of the rendered wall's closed loop (the filter's and the virtual mass's states,
+    optim.stability.closed_loop_rendered: not the rendered K_cr scan) at (gain, B) on the box's device at x."""
+    from optim.stability.closed_loop_rendered import rendered_closed_loop, rendered_states
+
+    dev = box.device_at(x)
+    m, t = dev.mass, dev.sample_time
+    plant = sampled_plant(dev)
+    if rendered_states(plant, spec, t) > EIG_MAX_STATES:
+        raise ValueError("delay too long for the eigenvalue search")
+    ex = radius_excess(rendered_closed_loop(plant, spec, t, gain * t * t / m, damping * t / m, mass / m))
+    return ex.excess, ex.decided_unstable
+
+
 def _ff_excess_at(box: UncertaintyBox, x: np.ndarray, gain: float, order: int,
                   cutoff_hz: float) -> tuple[float, bool]:
     """Spectral radius − 1 of the force-feedforward loop 1 + K_f·D·G_1 at K_f = ``gain`` on the box's device at x
@@ -166,9 +188,13 @@ def _ff_excess_at(box: UncertaintyBox, x: np.ndarray, gain: float, order: int,
 
 
 def interior_search(box: UncertaintyBox, relevant: np.ndarray, gain: float, damping: float,
-                    seed: int = 20260) -> InteriorSearch | None:
+                    seed: int = 20260, render: tuple | None = None) -> InteriorSearch | None:
     """The device of the box with the largest closed-loop spectral radius at the wall (gain, B), searched
-    independently of the design (module doc).  None when the box's delays are too long for eigenvalues."""
+    independently of the design (module doc).  None when the box's delays are too long for eigenvalues.
+    ``render``: a rendered wall's (velocity filter spec, virtual mass M [kg]), closed with the filter's states."""
+    if render is not None:
+        spec, mass = render
+        return _search(box, relevant, lambda x: _rendered_excess_at(box, x, gain, damping, spec, mass), seed)
     return _search(box, relevant, lambda x: _excess_at(box, x, gain, damping), seed)
 
 
@@ -235,11 +261,13 @@ def _simplex(u: np.ndarray, width: float) -> np.ndarray:
 
 def verify_robust_stiffness(box: UncertaintyBox, stiffness: float, damping: float, min_gain_margin_db: float,
                             passivity: bool, worst: dict | None = None,
-                            least_passive: dict | None = None) -> Verification:
+                            least_passive: dict | None = None, render: tuple | None = None) -> Verification:
     """Check a robust wall (K, B) at every corner of its box and at the worst (and least passive) device found.
 
     ``worst`` / ``least_passive``: the design's ``worst_case["device"]`` / ``passivity_worst_case["device"]``
-    (path → value)."""
+    (path → value).  ``render``: a rendered wall's (velocity filter spec, virtual mass M [kg]): each device's K_cr by
+    the exact rendered analysis, every closed loop (the checks ± ε and the interior search) with the filter's and the
+    virtual mass's states; None: today's wall."""
     t0 = time.perf_counter()
     relevant = box.relevant(STIFFNESS_PATHS)
     out = []
@@ -247,7 +275,8 @@ def verify_robust_stiffness(box: UncertaintyBox, stiffness: float, damping: floa
     what = "every corner, the worst device found"
     search = None
     if relevant.any():
-        search = interior_search(box, relevant, stiffness * 10.0 ** (min_gain_margin_db / 20.0), damping)
+        search = interior_search(box, relevant, stiffness * 10.0 ** (min_gain_margin_db / 20.0), damping,
+                                 render=render)
         if search is not None:
             extra.append(("interior", box.describe(search.point)))
             what += f" and the independent interior search's worst ({search.evaluations} closed loops)"
@@ -255,10 +284,15 @@ def verify_robust_stiffness(box: UncertaintyBox, stiffness: float, damping: floa
             what += " (no interior search: the delay is too long for the closed loop's eigenvalues)"
     for kind, x in _points(box, relevant, extra):
         dev = box.device_at(x)
-        found = critical_stiffness(dev, damping).critical_stiffness
+        if render is None:
+            found = critical_stiffness(dev, damping).critical_stiffness
+        else:
+            found = rendered_critical_stiffness(dev, damping, rendering(render[0], render[1],
+                                                                        dev.sample_time)).critical_stiffness
         kcr = None if found is None or math.isinf(found) else float(found)
         # the critical gain of this device (not one implied by a margin): checked ± ε, K itself, passivity
-        v = verify_stiffness_design(dev, stiffness, damping, None, True if passivity else None, critical=kcr)
+        v = verify_stiffness_design(dev, stiffness, damping, None, True if passivity else None, critical=kcr,
+                                    render=render)
         p = _point(box.describe(x), kind, kcr, stiffness, min_gain_margin_db, v)
         if kind == "interior" and search is not None and search.unstable and p.verdict != "contradicted":
             p = dataclasses.replace(p, verdict="contradicted", reason="; ".join(

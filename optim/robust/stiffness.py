@@ -48,6 +48,7 @@ from optim.robust.stiffness_seeding import seed
 from optim.robust.worst_case import WorstCase, worst_case_stiffness
 from optim.solver_info import NO_SOLVER, SolverInfo
 from optim.stability.margins import critical_stiffness, gain_margin_db
+from optim.stiffness.rendered_filter import RenderedFilter
 from optim.stiffness.requirements import DESIGN_BACK_OFF, StiffnessRequirements
 
 __all__ = ["RobustStiffnessDesign", "robust_design_stiffness", "TOLERANCE_DB"]
@@ -88,6 +89,8 @@ class RobustStiffnessDesign:
     """with passivity: whole samples of delay of that device."""
     passivity_note: str | None = None
     reason: str | None = None
+    rendered: RenderedFilter | None = None
+    """a rendered wall's velocity filter and virtual mass (optim.robust.rendered_stiffness); None: today's wall."""
     solver: SolverInfo = NO_SOLVER
     """the final NLP: Ipopt's return status and iterations, its structure (scenarios, crossovers, cuts)."""
     elapsed_ms: float = 0.0

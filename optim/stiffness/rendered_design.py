@@ -92,6 +92,10 @@ def _zoom(f, lo: float, hi: float, x0: float, f0: float, rounds: int = 6, points
     return best_x, best_f
 
 
+#: the nested-grid + bounded-Brent maximiser, shared with the robust rendered design (optim.robust.rendered_stiffness)
+zoom_maximum = _zoom
+
+
 def _b_range(ctx: FilterContext, rend: Rendering) -> tuple[float, float, dict[str, float], str | None]:
     """(B_max, the largest B the design may use, B caps, why none) at this filter."""
     b_max = rendered_max_stable_damping(ctx.device, rend)

@@ -12,6 +12,7 @@ from models.velocity_filter import LowPass
 from optim.design_ladder import design_stiffness_on_rung, is_rendered
 from optim.errors import InputError
 from optim.robust.box import UncertaintyBox
+from optim.robust.rendered_stiffness import robust_rendered_stiffness
 from optim.robust.stiffness import robust_design_stiffness
 from optim.solver_info import plain
 from optim.stiffness import StiffnessRequirements
@@ -50,11 +51,11 @@ async def design_stiffness_route(request: StiffnessDesignRequest, compute: Compu
                                            "or virtual mass) is not available yet: design today's wall")
         return await _workspace(request, req, t0, compute)
     if request.requirements.uncertainty is not None:
-        if rendered:
-            raise InputError("requirements.uncertainty", "a robust design of a rendered wall (velocity filter or "
-                                                         "virtual mass) is not available yet: give one device")
         if request.method != "exact":
             raise InputError("method", "robust designs (requirements.uncertainty) are computed on the exact rung only")
+        if rendered:
+            spec = vfilter if vfilter is not None else req.velocity_filter
+            return await _robust(request, req, t0, compute, (spec, mass))
         return await _robust(request, req, t0, compute)
     try:
         design, rung = await compute.arun(
@@ -101,11 +102,16 @@ def input_error(exc: ValueError) -> Exception:
 
 
 async def _robust(request: StiffnessDesignRequest, req: StiffnessRequirements, t0: float,
-            compute: Compute) -> StiffnessDesignResponse:
+            compute: Compute, render: tuple | None = None) -> StiffnessDesignResponse:
+    """The robust box; ``render``: a rendered wall's (fixed velocity filter spec, virtual mass M [kg])."""
     ranges = {k: (v.min, v.max) for k, v in request.requirements.uncertainty.items()}
     try:
         box = UncertaintyBox.from_ranges(request.device, ranges)
-        d = await compute.arun(robust_design_stiffness, request.device, req, box, cost_ms=None)  # always a worker
+        if render is None:
+            d = await compute.arun(robust_design_stiffness, request.device, req, box, cost_ms=None)  # always a worker
+        else:
+            d = await compute.arun(robust_rendered_stiffness, request.device, req, box, render[1], render[0],
+                                   cost_ms=None)
     except InputError as exc:
         raise input_error(exc) from None
     except (RuntimeError, ArithmeticError, ValueError) as exc:   # numerical trouble, as the nominal design
@@ -121,7 +127,7 @@ async def _robust(request: StiffnessDesignRequest, req: StiffnessRequirements, t
         # every corner of the box and the worst (least passive) device found, on the closed loop
         data["verification"] = verification_out(await compute.arun(
             verify_robust_stiffness, box, d.stiffness, d.damping, req.min_gain_margin_db, req.passivity,
-            worst.get("device"), (d.passivity_worst_case or {}).get("device"), cost_ms=None))
+            worst.get("device"), (d.passivity_worst_case or {}).get("device"), render, cost_ms=None))
     return StiffnessDesignResponse(robust=True, **data)
 
 
