@@ -146,13 +146,31 @@ def render(fig: Figure, fmt: ImageFormat) -> bytes:
     return buf.getvalue()
 
 
-def boundary_plot(device, damping_max: float | None, points: int, fmt: ImageFormat) -> bytes:
+def boundary_plot(device, damping_max: float | None, points: int, fmt: ImageFormat, rendering=None) -> bytes:
     """Compute and draw the boundary figure: what a compute worker runs for /v1/plots/boundary (the drawing is
-    under the request time budget too, and the server process never holds a figure)."""
+    under the request time budget too, and the server process never holds a figure).  ``rendering``: the walls'
+    velocity filter and virtual mass (models.velocity_filter.Rendering; None: today's wall)."""
     from optim.stability.boundary import stability_boundary
 
     title = f"Stability boundary: {device_title(device)}"
-    return render(boundary_figure(stability_boundary(device, damping_max, points), title, units(device)), fmt)
+    if rendering is not None:
+        title += f"\n{rendering_title(rendering)}"
+    return render(boundary_figure(stability_boundary(device, damping_max, points, rendering), title, units(device)),
+                  fmt)
+
+
+def rendering_title(rendering) -> str:
+    """The rendered wall in a title: its velocity filter and virtual mass."""
+    spec = rendering.spec
+    kind = getattr(spec, "kind", None) or rendering.velocity.kind
+    parts = [kind.replace("_", " ")]
+    if getattr(spec, "cutoff_hz", None) is not None:
+        parts[0] += f" {spec.cutoff_hz:g} Hz, order {spec.order}"
+    elif getattr(spec, "samples", None) is not None:
+        parts[0] += f" of {spec.samples} samples"
+    if rendering.mass:
+        parts.append(f"virtual mass M = {rendering.mass:g}")
+    return "velocity filter: " + "; ".join(parts)
 
 
 def bode_plot(device, damping: float, points: int, stiffness: float | None, fmt: ImageFormat) -> bytes:

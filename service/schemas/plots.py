@@ -10,7 +10,7 @@ from pydantic import BaseModel, Field
 from optim.stability.boundary import MAX_BOUNDARY_POINTS
 from optim.stability.frequency_response import MAX_RESPONSE_POINTS
 
-from .common import STRICT, Controller, Device
+from .common import STRICT, Controller, Device, RenderedEnvironment
 
 __all__ = ["BoundaryPlotRequest", "BodePlotRequest", "ImageFormat", "FormatQuery", "image_format", "BODY_FORMAT"]
 
@@ -32,6 +32,9 @@ class BoundaryPlotRequest(BaseModel):
     device: Device
     damping_max: float | None = Field(default=None, gt=0, le=1e15, description="largest B [N·s/m]; default B_max")
     points: int = Field(default=50, ge=2, le=MAX_BOUNDARY_POINTS, description="values of B on the curve")
+    controller: RenderedEnvironment | None = Field(
+        default=None, description="virtual mass and velocity filter of the walls on the boundary (default: today's "
+                                  "wall); the curve is then the rendered K_cr(B), as POST /v1/analysis/boundary's")
     format: ImageFormat | None = BODY_FORMAT
 
 
