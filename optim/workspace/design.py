@@ -25,8 +25,10 @@ import numpy as np
 
 from models.errors import InputError
 from models.kinematics import KinematicModel
+from models.velocity_filter import Rendering, filter_spec, rendering
 
 from .wall_plant import WallModes, max_stable_damping, wall_critical_stiffness, wall_modes
+from .wall_rendered import RenderedWall
 from .workspace import GRAVITY_NOTE, WorkspacePoint, lhs_poses, workspace_map
 
 if TYPE_CHECKING:
@@ -73,9 +75,12 @@ def _modes(model: KinematicModel, pose: Sequence[float], normal: Sequence[float]
     return wall_modes(mass, jac, model.joint_damping, np.asarray(normal, dtype=float))
 
 
-def _best_b(cases: list[WallModes], t: float, td: float, b_cap: float) -> tuple[float, float]:
-    """(B*, min over the cases of K_cr at B*)."""
+def _best_b(cases: list[WallModes], t: float, td: float, b_cap: float,
+            walls: list[RenderedWall] | None = None) -> tuple[float, float]:
+    """(B*, min over the cases of K_cr at B*); ``walls``: the cases' rendered walls (None: today's wall)."""
     def worst(b: float) -> float:   # an unbounded K_cr (no crossover) as a huge finite number: the search stays real
+        if walls is not None:
+            return min(min(w.critical(b).critical_stiffness, 1e30) for w in walls)
         return min(min(wall_critical_stiffness(m, t, td, b).critical_stiffness, 1e30) for m in cases)
 
     grid = np.linspace(0.0, b_cap, _B_GRID + 1)[:-1]     # B_cap itself: K_cr = 0
@@ -107,42 +112,56 @@ def _best_b(cases: list[WallModes], t: float, td: float, b_cap: float) -> tuple[
 def design_workspace_stiffness(model: KinematicModel, poses: list[np.ndarray],
                                normals: list[Sequence[float]] | Literal["worst"], sample_time: float, delay: float,
                                *, min_gain_margin_db: float = 0.0, max_damping: float | None = None,
-                               verify_factor: int = 4, verify_seed: int = 1) -> WorkspaceDesign:
-    """The exchange design over ``poses`` × ``normals`` and its verification on a denser set (module doc)."""
+                               verify_factor: int = 4, verify_seed: int = 1,
+                               rendering: Rendering | None = None) -> WorkspaceDesign:
+    """The exchange design over ``poses`` × ``normals`` and its verification on a denser set (module doc).
+    ``rendering``: the rendered wall's velocity filter and virtual mass (optim.workspace.wall_rendered: the
+    per-(pose, normal) plant with the filter; the normals must be given)."""
     if min_gain_margin_db < 0 or not math.isfinite(min_gain_margin_db):
         raise InputError("requirements.min_gain_margin_db", "must be finite and ≥ 0")
     gain = 10.0 ** (-min_gain_margin_db / 20.0)
-    first = workspace_map(model, poses, normals, sample_time, delay, 0.0)
+    first = workspace_map(model, poses, normals, sample_time, delay, 0.0, rendering=rendering)
     start = min(first.points, key=lambda p: p.critical_stiffness)
     active = [(start.pose, start.normal)]
     cases = [_modes(model, *active[0])]
+    walls = None if rendering is None else [RenderedWall(cases[0], sample_time, delay, rendering)]
     exchanges = 0
     b_star = k_min = 0.0
     for exchanges in range(1, _MAX_EXCHANGES + 1):
-        b_cap = min(max_stable_damping(m, sample_time, delay) for m in cases)
+        if walls is not None:
+            b_cap = min(w.max_stable_damping() for w in walls)
+            if math.isnan(b_cap):
+                return WorkspaceDesign("failed", None, None, gain, (), exchanges, len(poses), 0, None, None,
+                                       reason="B_max of a worst case with this filter and virtual mass is not "
+                                              "resolved (a crossing whose direction is not resolved)")
+        else:
+            b_cap = min(max_stable_damping(m, sample_time, delay) for m in cases)
         if max_damping is not None:
             b_cap = min(b_cap, max_damping * (1 + 1e-12))
         if not math.isfinite(b_cap):
             b_cap = max_damping if max_damping is not None else 1e3
-        b_star, k_min = _best_b(cases, sample_time, delay, b_cap)
+        b_star, k_min = _best_b(cases, sample_time, delay, b_cap, walls)
         if not (k_min > 0 and math.isfinite(k_min)):
             return WorkspaceDesign("failed", None, None, gain, (), exchanges, len(poses), 0, None, None,
                                    reason="no (K, B) with K > 0 is stable at the worst cases found")
-        now = workspace_map(model, poses, normals, sample_time, delay, b_star)
+        now = workspace_map(model, poses, normals, sample_time, delay, b_star, rendering=rendering)
         worst = min(now.points, key=lambda p: p.critical_stiffness)
         if worst.critical_stiffness >= k_min * (1 - _RTOL):
             break
         active.append((worst.pose, worst.normal))
         cases.append(_modes(model, worst.pose, worst.normal))
+        if walls is not None and rendering is not None:
+            walls.append(RenderedWall(cases[-1], sample_time, delay, rendering))
     else:
         return WorkspaceDesign("failed", None, None, gain, (), exchanges, len(poses), 0, None, None,
                                reason=f"the exchange did not settle in {_MAX_EXCHANGES} rounds")
     stiffness = gain * k_min
-    worst_cases = tuple(WorkspaceCase(tuple(p), tuple(n),  # type: ignore[arg-type]
-                                      wall_critical_stiffness(m, sample_time, delay, b_star).critical_stiffness)
-                        for (p, n), m in zip(active, cases))
+    kcrs = ([w.critical(b_star).critical_stiffness for w in walls] if walls is not None else
+            [wall_critical_stiffness(m, sample_time, delay, b_star).critical_stiffness for m in cases])
+    worst_cases = tuple(WorkspaceCase(tuple(p), tuple(n), k)  # type: ignore[arg-type]
+                        for (p, n), k in zip(active, kcrs))
     dense = lhs_poses(model, verify_factor * len(poses), verify_seed) + list(poses)
-    check = workspace_map(model, dense, normals, sample_time, delay, b_star)
+    check = workspace_map(model, dense, normals, sample_time, delay, b_star, rendering=rendering)
     vworst = min(check.points, key=lambda p: p.critical_stiffness)
     margin = vworst.critical_stiffness / stiffness - 1.0
     status: Literal["verified", "unverified"] = "verified" if margin >= 0 else "unverified"
@@ -163,10 +182,11 @@ class MimoCheck:
     stable: bool
 
 
-def mimo_checks(model: KinematicModel, design: WorkspaceDesign, sample_time: float, delay: float
-                ) -> tuple[MimoCheck, ...]:
-    """The closed MIMO loop at every worst case of the exchange and at the denser set's worst point."""
-    from .mimo_loop import wall_spectral_radius
+def mimo_checks(model: KinematicModel, design: WorkspaceDesign, sample_time: float, delay: float,
+                rendering: Rendering | None = None) -> tuple[MimoCheck, ...]:
+    """The closed MIMO loop at every worst case of the exchange and at the denser set's worst point (``rendering``:
+    with the velocity filter's and the virtual mass's states, V(z) on the normal penetration)."""
+    from .mimo_loop import rendered_wall_spectral_radius, wall_spectral_radius
 
     if design.stiffness is None or design.damping is None:
         return ()
@@ -176,8 +196,13 @@ def mimo_checks(model: KinematicModel, design: WorkspaceDesign, sample_time: flo
     out = []
     for pose, normal in points:
         mass, jac = model.at(np.asarray(pose, dtype=float))
-        rho = wall_spectral_radius(mass, jac, model.joint_damping, np.asarray(normal, dtype=float), design.stiffness,
-                                   design.damping, sample_time, delay)
+        if rendering is not None:
+            rho = rendered_wall_spectral_radius(mass, jac, model.joint_damping, np.asarray(normal, dtype=float),
+                                                design.stiffness, design.damping, sample_time, delay,
+                                                filter_spec(rendering, sample_time), rendering.mass)
+        else:
+            rho = wall_spectral_radius(mass, jac, model.joint_damping, np.asarray(normal, dtype=float),
+                                       design.stiffness, design.damping, sample_time, delay)
         out.append(MimoCheck(tuple(pose), tuple(normal), rho, rho < 1.0))  # type: ignore[arg-type]
     return tuple(out)
 
@@ -186,15 +211,23 @@ def workspace_design_job(urdf: str | None, preset: str | None, end_effector: str
                          armature: Sequence[float] | None, joint_damping: Sequence[float] | None, poses: "PoseSpec",
                          normals: Sequence[Sequence[float]] | Literal["worst"], sample_time: float, delay: float,
                          min_gain_margin_db: float, max_damping: float | None, max_stiffness: float | None,
-                         verify_factor: int, verify: bool) -> tuple[WorkspaceDesign, tuple[MimoCheck, ...]]:
+                         verify_factor: int, verify: bool, velocity_filter=None, virtual_mass: float = 0.0
+                         ) -> tuple[WorkspaceDesign, tuple[MimoCheck, ...]]:
     """POST /v1/design/stiffness with requirements.workspace, from plain arguments (it runs in a compute worker);
-    InputError fields are relative to the request body."""
+    InputError fields are relative to the request body.  ``velocity_filter`` / ``virtual_mass`` [kg]: a rendered
+    wall (fixed filter); None / 0: today's wall."""
     from .analysis import device_kinematics
     from .workspace import explicit_poses, grid_poses
 
     def under(exc: InputError) -> InputError:
         return InputError("requirements.workspace." + exc.field.removeprefix("device."), exc.rule)
 
+    rend = None
+    if velocity_filter is not None or virtual_mass != 0.0:
+        try:
+            rend = rendering(velocity_filter, virtual_mass, sample_time)
+        except InputError as exc:
+            raise exc.under("controller.") from None
     try:
         model = device_kinematics(urdf, preset, end_effector, armature, joint_damping)
         if poses.explicit is not None:
@@ -208,9 +241,10 @@ def workspace_design_job(urdf: str | None, preset: str | None, end_effector: str
             given = [list(n) for n in normals]
         design = design_workspace_stiffness(model, qs, given, sample_time, delay,
                                             min_gain_margin_db=min_gain_margin_db, max_damping=max_damping,
-                                            verify_factor=verify_factor, verify_seed=poses.lhs_seed + 1)
+                                            verify_factor=verify_factor, verify_seed=poses.lhs_seed + 1,
+                                            rendering=rend)
     except InputError as exc:
-        if exc.field.startswith("requirements."):
+        if exc.field.startswith(("requirements.", "controller.")):
             raise
         raise under(exc) from None
     if max_stiffness is not None and design.stiffness is not None and design.stiffness > max_stiffness:
@@ -219,4 +253,4 @@ def workspace_design_job(urdf: str | None, preset: str | None, end_effector: str
                                      design.verification_worst.critical_stiffness / max_stiffness - 1.0)
         if design.verification_margin is not None and design.verification_margin >= 0:
             design = dataclasses.replace(design, status="verified", reason=None)
-    return design, (mimo_checks(model, design, sample_time, delay) if verify else ())
+    return design, (mimo_checks(model, design, sample_time, delay, rend) if verify else ())

@@ -9,7 +9,7 @@ stability.
 
 from __future__ import annotations
 
-__all__ = ["closed_loop_matrix", "wall_spectral_radius"]
+__all__ = ["closed_loop_matrix", "wall_spectral_radius", "rendered_closed_loop_matrix", "rendered_wall_spectral_radius"]
 
 import math
 
@@ -83,3 +83,70 @@ def wall_spectral_radius(mass: np.ndarray, jac: np.ndarray, damping_q: np.ndarra
     """max |z| over the closed loop's eigenvalues."""
     eig = np.linalg.eigvals(closed_loop_matrix(mass, jac, damping_q, normal, stiffness, damping, sample_time, delay))
     return float(np.max(np.abs(eig)))
+
+
+def rendered_closed_loop_matrix(mass: np.ndarray, jac: np.ndarray, damping_q: np.ndarray, normal: np.ndarray,
+                                stiffness: float, damping: float, sample_time: float, delay: float, spec,
+                                virtual_mass: float = 0.0) -> np.ndarray:
+    """The loop of :func:`closed_loop_matrix` with the rendered wall C(z) = K + B·V(z) + M·A(z) along n: the filter's
+    and the virtual mass's states as one difference equation on the penetration p = nᵀy (its coefficients written
+    out from the filter's specification by optim.stability.closed_loop_rendered.filter_polynomials, not the
+    crossover scan's V(z)):  D(w)·f[k] = −(K·D(w) + (B/T)·N̂(w) + (M/T²)·N̂(w)(1 − w))·p[k], u = n·f.
+    State: x (penetration, joint velocities), p[k−1 … k−P], f[k−1 … k−L]."""
+    from optim.stability.closed_loop_rendered import filter_polynomials
+
+    t = sample_time
+    num, den = filter_polynomials(spec, t)
+    p = np.zeros(max(den.size, num.size + 1))
+    p[:den.size] += stiffness * den
+    p[:num.size] += (damping / t) * num + (virtual_mass / t ** 2) * num
+    p[1:num.size + 1] -= (virtual_mass / t ** 2) * num
+    nq = mass.shape[0]
+    minv = np.linalg.inv(mass)
+    a = np.zeros((1 + nq, 1 + nq))
+    a[0, 1:] = normal @ jac
+    a[1:, 1:] = -minv @ np.diag(damping_q)
+    b = np.zeros((1 + nq, 1))
+    b[1:, 0] = minv @ jac.T @ normal
+    samples = delay / t
+    d = int(math.floor(samples + 1e-12))
+    frac = samples - d
+    if frac < 1e-12:
+        frac = 0.0
+    phi, g_now, g_prev = _zoh_pieces(a, b, t, frac)
+    nx = 1 + nq
+    npast = p.size - 1
+    nf = max(d + 1, den.size - 1)
+    ip, jf = nx, nx + npast
+    size = nx + npast + nf
+    f_now = np.zeros(size)
+    f_now[0] = -p[0]
+    for i in range(1, p.size):
+        f_now[ip + i - 1] -= p[i]
+    for i in range(1, den.size):
+        f_now[jf + i - 1] -= den[i]
+
+    def f_past(i: int) -> np.ndarray:          # f[k−1−i]
+        e = np.zeros(size)
+        e[jf + i] = 1.0
+        return e
+    applied = f_now if d == 0 else f_past(d - 1)
+    out = np.zeros((size, size))
+    out[:nx, :nx] = phi
+    out[:nx] += np.outer(g_now[:, 0], applied) + np.outer(g_prev[:, 0], f_past(d))
+    out[ip, 0] = 1.0                            # p[k] = x[0]
+    for j in range(1, npast):
+        out[ip + j, ip + j - 1] = 1.0
+    out[jf] = f_now
+    for j in range(1, nf):
+        out[jf + j, jf + j - 1] = 1.0
+    return out
+
+
+def rendered_wall_spectral_radius(mass: np.ndarray, jac: np.ndarray, damping_q: np.ndarray, normal: np.ndarray,
+                                  stiffness: float, damping: float, sample_time: float, delay: float, spec,
+                                  virtual_mass: float = 0.0) -> float:
+    """max |z| over the rendered wall's closed loop (:func:`rendered_closed_loop_matrix`)."""
+    q = rendered_closed_loop_matrix(mass, jac, damping_q, normal, stiffness, damping, sample_time, delay, spec,
+                                    virtual_mass)
+    return float(np.max(np.abs(np.linalg.eigvals(q))))

@@ -19,9 +19,11 @@ from scipy.stats import qmc
 
 from models.errors import InputError
 from models.kinematics import KinematicModel
+from models.velocity_filter import Rendering
 
 from .normal_search import dual_normal, worst_normal
 from .wall_plant import WallCritical, WallModes, one_dof_equivalent, wall_critical_stiffness, wall_modes
+from .wall_rendered import RenderedWall
 
 __all__ = ["WorkspacePoint", "WorkspaceMap", "workspace_map", "explicit_poses", "grid_poses", "lhs_poses",
            "MAX_EVALUATIONS", "GRAVITY_NOTE"]
@@ -121,10 +123,14 @@ def lhs_poses(model: KinematicModel, samples: int, seed: int) -> list[np.ndarray
 
 
 def _point(q: np.ndarray, n: np.ndarray, modes: WallModes, sample_time: float, delay: float, damping: float,
-           full: WallCritical | None = None) -> WorkspacePoint:
-    if full is None:
-        full = wall_critical_stiffness(modes, sample_time, delay, damping)
-    one = wall_critical_stiffness(one_dof_equivalent(modes), sample_time, delay, damping)
+           full: WallCritical | None = None, rendering: Rendering | None = None) -> WorkspacePoint:
+    if rendering is not None:
+        full = RenderedWall(modes, sample_time, delay, rendering).critical(damping)
+        one = RenderedWall(one_dof_equivalent(modes), sample_time, delay, rendering).critical(damping)
+    else:
+        if full is None:
+            full = wall_critical_stiffness(modes, sample_time, delay, damping)
+        one = wall_critical_stiffness(one_dof_equivalent(modes), sample_time, delay, damping)
     k, k1 = full.critical_stiffness, one.critical_stiffness
     err = (k1 / k - 1.0) if (math.isfinite(k) and k > 0 and math.isfinite(k1)) else None
     return WorkspacePoint(tuple(float(x) for x in q), (float(n[0]), float(n[1]), float(n[2])), k, full.frequency,
@@ -132,12 +138,17 @@ def _point(q: np.ndarray, n: np.ndarray, modes: WallModes, sample_time: float, d
 
 
 def workspace_map(model: KinematicModel, poses: list[np.ndarray], normals: list[Sequence[float]] | Literal["worst"],
-                  sample_time: float, delay: float, damping: float = 0.0, *, explicit: bool = False
-                  ) -> WorkspaceMap:
+                  sample_time: float, delay: float, damping: float = 0.0, *, explicit: bool = False,
+                  rendering: Rendering | None = None) -> WorkspaceMap:
     """K_cr at every pose × normal (or each pose's worst normal) and the minimum over them.
 
     ``explicit`` poses are the user's own: a singular one is refused, naming it; sampled poses skip singular ones.
+    ``rendering``: the rendered wall's velocity filter and virtual mass (optim.workspace.wall_rendered; the normals
+    must then be given: the worst-normal search is today's wall's).
     """
+    if rendering is not None and normals == "worst":
+        raise InputError("normals", "with a velocity filter or a virtual mass give the normals: the search for the "
+                                    "worst normal is available for today's wall only")
     given: list[np.ndarray] = []
     if normals != "worst":
         for i, n in enumerate(normals):
@@ -180,7 +191,7 @@ def workspace_map(model: KinematicModel, poses: list[np.ndarray], normals: list[
             if not modes.c:
                 raise InputError(f"normals.{i}", f"the device cannot move along this normal at pose {j} "
                                                  "(Jᵀn = 0): no wall can be rendered there")
-            points.append(_point(q, n_vec, modes, sample_time, delay, damping))
+            points.append(_point(q, n_vec, modes, sample_time, delay, damping, rendering=rendering))
     if not points:
         raise InputError("poses", "every sampled pose is singular")
     worst = min(points, key=lambda p: p.critical_stiffness)

@@ -16,6 +16,7 @@ from optim.robust.rendered_stiffness import robust_rendered_stiffness
 from optim.robust.stiffness import robust_design_stiffness
 from optim.solver_info import plain
 from optim.stiffness import StiffnessRequirements
+from optim.stiffness.rendered_filter import RenderedFilter
 from optim.verification import claimed_epsilon, verify_stiffness_design
 from optim.verification_robust import verify_robust_stiffness
 from optim.workspace.analysis import PoseSpec
@@ -46,10 +47,13 @@ async def design_stiffness_route(request: StiffnessDesignRequest, compute: Compu
         raise InputError("method", "designs of a rendered wall (a velocity filter, a designed cutoff or a virtual "
                                    "mass) are computed on the exact rung only")
     if request.requirements.workspace is not None:
-        if rendered:
-            raise InputError("controller", "a workspace design of a rendered wall (velocity filter, designed cutoff "
-                                           "or virtual mass) is not available yet: design today's wall")
-        return await _workspace(request, req, t0, compute)
+        if not rendered:
+            return await _workspace(request, req, t0, compute)
+        spec = vfilter if vfilter is not None else req.velocity_filter
+        if req.designs_cutoff:
+            raise InputError("requirements.velocity_filter.design", "a workspace design takes a fixed velocity "
+                             "filter: give its cutoff_hz (the cutoff is designed for one device only)")
+        return await _workspace(request, req, t0, compute, (spec, mass))
     if request.requirements.uncertainty is not None:
         if request.method != "exact":
             raise InputError("method", "robust designs (requirements.uncertainty) are computed on the exact rung only")
@@ -137,8 +141,9 @@ _NOT_WITH_WORKSPACE = ("uncertainty", "passivity", "passive_with_quantization", 
 
 
 async def _workspace(request: StiffnessDesignRequest, req: StiffnessRequirements, t0: float,
-                     compute: Compute) -> StiffnessDesignResponse:
-    """requirements.workspace: one (K, B) over the poses and normals (optim.workspace.design)."""
+                     compute: Compute, render: tuple | None = None) -> StiffnessDesignResponse:
+    """requirements.workspace: one (K, B) over the poses and normals (optim.workspace.design); ``render``: a rendered
+    wall's (fixed velocity filter spec, virtual mass M [kg])."""
     r = request.requirements
     for name in _NOT_WITH_WORKSPACE:
         if getattr(r, name) not in (None, False):
@@ -148,6 +153,9 @@ async def _workspace(request: StiffnessDesignRequest, req: StiffnessRequirements
         raise InputError("method", "the workspace design is computed on the exact rung only")
     ws = r.workspace
     assert ws is not None
+    if render is not None and ws.normals == "worst":     # refused before a worker starts (optim says the same)
+        raise InputError("requirements.workspace.normals", "with a velocity filter or a virtual mass give the "
+                         "normals: the search for the worst normal is available for today's wall only")
     kin, poses = ws.kinematics, ws.poses
     spec = PoseSpec(explicit=None if poses.explicit is None else tuple(tuple(q) for q in poses.explicit),
                     grid_num=None if poses.grid is None else poses.grid.num,
@@ -156,7 +164,7 @@ async def _workspace(request: StiffnessDesignRequest, req: StiffnessRequirements
     design, checks = await compute.arun(
         workspace_design_job, kin.urdf, kin.preset, kin.end_effector, kin.armature, kin.joint_damping, spec,
         ws.normals, request.device.sample_time, request.device.delay, req.min_gain_margin_db, req.max_damping,
-        req.max_stiffness, ws.verify_factor, request.verify, cost_ms=None)
+        req.max_stiffness, ws.verify_factor, request.verify, *(render or ()), cost_ms=None)
     status = {"verified": "optimal", "unverified": "unsafe", "failed": "failed"}[design.status]
     binding = min(design.worst_cases, key=lambda c: c.critical_stiffness) if design.worst_cases else None
     kcr = binding.critical_stiffness if binding is not None else None
@@ -171,7 +179,13 @@ async def _workspace(request: StiffnessDesignRequest, req: StiffnessRequirements
     reason = design.reason
     if checks and not all(c.stable for c in checks) and status == "optimal":
         status, reason = "unsafe", "the full MIMO loop is unstable at the design at a worst case (mimo_checks)"
+    extra = {}
+    if render is not None:
+        spec, mass = render
+        extra["rendered"] = plain(RenderedFilter(getattr(spec, "kind", "backward_difference") if spec is not None
+                                                 else "backward_difference", getattr(spec, "cutoff_hz", None),
+                                                 getattr(spec, "order", None), False, mass=mass))
     return StiffnessDesignResponse(status=status, stiffness=design.stiffness, damping=design.damping,
                                    critical_stiffness=kcr, gain_margin_db=margin, reason=reason, robust=True,
                                    iterations=design.exchanges, workspace=out,
-                                   elapsed_ms=(time.perf_counter() - t0) * 1e3)
+                                   elapsed_ms=(time.perf_counter() - t0) * 1e3, **extra)
