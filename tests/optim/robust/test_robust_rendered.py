@@ -124,3 +124,22 @@ def test_the_interior_search_closes_the_loop_with_the_filter(design):
     assert rendered is not None and rendered.unstable and rendered.excess > 0
     assert plain is not None and not plain.unstable and plain.excess < 0
     assert worst.mass == 4.5
+
+
+def test_a_virtual_mass_box_design_holds_on_the_grid_and_the_closed_loop():
+    """M = −1 kg (inertia compensation) with the default velocity: every grid device keeps the margin (the rendered
+    analysis) and is stable at K on the closed loop with the virtual mass's states; verify confirms."""
+    box = UncertaintyBox.from_ranges(DEV, RANGES)
+    d = robust_rendered_stiffness(DEV, StiffnessRequirements(min_gain_margin_db=GM), box, -1.0, None)
+    assert d.status == "optimal" and d.rendered.mass == -1.0
+    axes = [np.linspace(lo, hi, 4) for lo, hi in RANGES.values()]
+    for m, bb, td in itertools.product(*axes):
+        dev = Device(mass=m, damping=bb, sample_time=0.001, delay=td)
+        kcr = rendered_critical_stiffness(dev, d.damping, rendering(None, -1.0, 0.001)).critical_stiffness
+        assert 20 * math.log10(kcr / d.stiffness) >= GM - 1e-6
+        t = dev.sample_time
+        ex = radius_excess(rendered_closed_loop(sampled_plant(dev), None, t, d.stiffness * t * t / m, d.damping * t / m,
+                                                -1.0 / m))
+        assert ex.decided_stable
+    v = verify_robust_stiffness(box, d.stiffness, d.damping, GM, False, d.worst_case["device"], None, (None, -1.0))
+    assert v.verdict == "confirmed", v.reason
