@@ -221,7 +221,9 @@ def main() -> None:
         lines.append(f"| {label} | {bd.max_stable_damping:.6g} | {bd.optimum.damping:.6g} | "
                      f"{bd.optimum.critical_stiffness:.6g} |")
     _plot(curves)
-    lines += ["", "## Designed cutoff", ""]
+    from bench.virtual_environment_designs import sections
+
+    lines += ["", *sections(), "## Designed cutoff", ""]
     (DOCS / "virtual_environment.md").write_text("\n".join(lines))
     print("\n".join(lines))
 
