@@ -310,11 +310,15 @@ def plot_simulation(device: DeviceLike, scene: PartLike, *, format: ImageFormat 
                 params={"format": format})
 
 
-def plot_boundary(device: DeviceLike, *, damping_max: float | None = None, points: int | None = None,
-                  format: ImageFormat = "png") -> Call[Plot]:  # noqa: A002
-    """``POST /v1/plots/boundary?format=``: the stability boundary K_cr(B) with its optimum."""
+def plot_boundary(device: DeviceLike, controller: PartLike | None = None, *, damping_max: float | None = None,
+                  points: int | None = None, format: ImageFormat = "png") -> Call[Plot]:  # noqa: A002
+    """``POST /v1/plots/boundary?format=``: the stability boundary K_cr(B) with its optimum.
+
+    ``controller`` is the rendered wall on the boundary, ``{"mass": M [kg], "velocity_filter": {...}}`` (as
+    :func:`boundary`; default today's wall)."""
     return Call("POST", "/v1/plots/boundary", "plot", _image,
-                json=_body(device=device, damping_max=damping_max, points=points), params={"format": format})
+                json=_body(device=device, controller=controller, damping_max=damping_max, points=points),
+                params={"format": format})
 
 
 def plot_bode(device: DeviceLike, controller: PartLike | None = None, *, points: int | None = None,

@@ -47,12 +47,24 @@ def boundary(preset: Preset = None, sets: Sets = None, device_file: DeviceFile =
              out_file: Annotated[Path, typer.Option("--out", "-o", help=".png or .svg")] = Path("boundary.png"),
              points: Points = None,
              damping_max: Annotated[float | None, typer.Option(help="largest B [N·s/m]; default B_max")] = None,
+             velocity_filter: Annotated[str | None, typer.Option(
+                 help="the velocity the damper sees: backward_difference | low_pass:F_HZ[:ORDER] | "
+                      "moving_average:N")] = None,
+             virtual_mass: Annotated[float | None, typer.Option(help="virtual mass M of the walls [kg]")] = None,
              local: Local = False, url: Url = DEFAULT_URL, token: Token = None) -> None:
-    """The stability boundary K_cr(B) with its optimum (POST /v1/plots/boundary)."""
+    """The stability boundary K_cr(B) with its optimum (POST /v1/plots/boundary), for today's wall or the rendered
+    one (--velocity-filter, --virtual-mass)."""
+    from .cli import parse_velocity_filter
+
     fmt = _format(out_file)
-    body = c.assemble({"device": c.device_root(preset, device_file, sets)}, sets)
+    controller = None
+    if velocity_filter is not None or virtual_mass is not None:
+        controller = {**({"mass": virtual_mass} if virtual_mass is not None else {}),
+                      **({"velocity_filter": parse_velocity_filter(velocity_filter)} if velocity_filter else {})}
+    body = c.assemble({"device": c.device_root(preset, device_file, sets), "controller": controller}, sets)
     with open_client(Connection(local, url, token)) as zw, c.progress_status("drawing the boundary…", False):
-        plot = zw.plot_boundary(body["device"], damping_max=damping_max, points=points, format=fmt)
+        plot = zw.plot_boundary(body["device"], body.get("controller"), damping_max=damping_max, points=points,
+                                format=fmt)
     _save(plot, out_file)
 
 
