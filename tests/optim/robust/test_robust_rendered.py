@@ -143,3 +143,18 @@ def test_a_virtual_mass_box_design_holds_on_the_grid_and_the_closed_loop():
         assert ex.decided_stable
     v = verify_robust_stiffness(box, d.stiffness, d.damping, GM, False, d.worst_case["device"], None, (None, -1.0))
     assert v.verdict == "confirmed", v.reason
+
+
+def test_the_noise_rule_caps_b_with_the_filters_step_peak():
+    """max_force_noise with the 50 Hz filter: B·q·max|s_k| ≤ 0.5 N binds (B = 0.5/(q·(1 − a)/T) = 185.46 N·s/m, the
+    figure of docs/virtual_environment.md's worked example), and the margin still holds over the box."""
+    from models.velocity_noise import force_step
+
+    box = UncertaintyBox.from_ranges(DEV, {"device.mass": (4.5, 6.5), "device.delay": (0.0002, 0.0008)})
+    req = StiffnessRequirements(min_gain_margin_db=GM, quantization=1e-5, max_force_noise=0.5)
+    d = robust_rendered_stiffness(DEV, req, box, 0.0, LP50)
+    assert d.status == "optimal" and "max_force_noise" in d.active_constraints
+    a = math.exp(-2 * math.pi * 50 * 0.001)
+    assert d.damping == pytest.approx(0.5 / (1e-5 * (1 - a) / 0.001), rel=1e-9)
+    assert force_step(d.damping, 1e-5, rendering(LP50, 0.0, 0.001).velocity, 0.001) <= 0.5 * (1 + 1e-12)
+    assert d.gain_margin_db >= GM - 1e-6
