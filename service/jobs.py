@@ -52,14 +52,20 @@ def simulate_job(device: Device, scene: Scene) -> tuple[SimulationResult, RelayR
 
 
 def robust_slice_job(device: Device, requirements: StiffnessRequirements, box: UncertaintyBox, x: str, y: str,
-                     points: int, min_gain_margin_db: float, fmt: str) -> bytes:
-    """The robust design and the figure of the margin over its (x, y) slice through the worst device."""
-    design = robust_design_stiffness(device, requirements, box)
+                     points: int, min_gain_margin_db: float, fmt: str, render: tuple | None = None) -> bytes:
+    """The robust design and the figure of the margin over its (x, y) slice through the worst device (``render``: a
+    rendered wall's (velocity filter spec, virtual mass M [kg]): optim.robust.rendered_stiffness and its K_cr)."""
+    if render is None:
+        design = robust_design_stiffness(device, requirements, box)
+    else:
+        from optim.robust.rendered_stiffness import robust_rendered_stiffness
+
+        design = robust_rendered_stiffness(device, requirements, box, render[1], render[0])
     if design.status != "optimal":
         raise NumericInputError("requirements", f"no robust design to plot: {design.status}: {design.reason}")
     paths = list(box.paths)
     worst = box.to_box(box.to_unit(list(design.worst_case["device"].values())))
-    xs, ys, margin = margin_slice(box, design.stiffness, design.damping, worst, x, y, points)
+    xs, ys, margin = margin_slice(box, design.stiffness, design.damping, worst, x, y, points, render)
     wxy = (worst[paths.index(x)], worst[paths.index(y)])
     u = units(device)
     ranges = {p: (float(lo), float(hi)) for p, lo, hi in zip(box.paths, box.lower, box.upper)}

@@ -26,15 +26,21 @@ __all__ = ["plot_robust_slice", "robust_slice_figure", "plot_hardware", "hardwar
 
 
 def margin_slice(box: UncertaintyBox, stiffness: float, damping: float, worst: np.ndarray, x: str, y: str,
-                 points: int = 41) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(xs, ys, margin[dB] of shape (len(ys), len(xs))) over the slice; −inf dB where K_cr = 0."""
+                 points: int = 41, render: tuple | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(xs, ys, margin[dB] of shape (len(ys), len(xs))) over the slice; −inf dB where K_cr = 0.  ``render``: a
+    rendered wall's (velocity filter spec, virtual mass M [kg]), each K_cr by the exact rendered analysis."""
     i, j = box.paths.index(x), box.paths.index(y)
     u = np.linspace(0.0, 1.0, points)
     base = box.to_unit(worst)
     grid = np.repeat(base[None, :], points * points, axis=0)
     uu, vv = np.meshgrid(u, u)
     grid[:, i], grid[:, j] = uu.ravel(), vv.ravel()
-    kcr, _ = box_critical_stiffness(box, grid, damping)
+    if render is None:
+        kcr, _ = box_critical_stiffness(box, grid, damping)
+    else:
+        from optim.robust.rendered_stiffness import box_rendered_critical_stiffness
+
+        kcr, _ = box_rendered_critical_stiffness(box, grid, damping, render[0], render[1])
     with np.errstate(divide="ignore"):
         margin = 20 * np.log10(kcr / stiffness)
     pts = box.to_box(grid)

@@ -41,7 +41,7 @@ from optim.stiffness.rendered_design import zoom_maximum
 from optim.stiffness.rendered_filter import RenderedFilter
 from optim.stiffness.requirements import DESIGN_BACK_OFF, CutoffDesign, StiffnessRequirements
 
-__all__ = ["robust_rendered_stiffness", "rendered_worst_case"]
+__all__ = ["robust_rendered_stiffness", "rendered_worst_case", "box_rendered_critical_stiffness"]
 
 _MAX_OUTER = 25
 _ACTIVE_RTOL = 1e-6
@@ -70,26 +70,32 @@ def _renderings(devices: list[Device], spec, mass: float, memo: dict[float, Rend
     return out
 
 
+def box_rendered_critical_stiffness(box: UncertaintyBox, unit: np.ndarray, damping: float, spec, mass: float,
+                                    memo: dict[float, Rendering] | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The rendered K_cr(B) [N/m] and crossover angle [rad/sample] at unit-cube points (rows) of the box, each by the
+    exact rendered analysis with the filter at that device's sample time (ArithmeticError where one is unresolved)."""
+    memo = {} if memo is None else memo
+    devs = box.devices(box.to_box(np.atleast_2d(unit)))
+    ks, ths = np.empty(len(devs)), np.empty(len(devs))
+    for i, (d, r) in enumerate(zip(devs, _renderings(devs, spec, mass, memo))):
+        res = rendered_critical_stiffness(d, damping, r)
+        k = res.critical_stiffness
+        if k is None or math.isnan(k):
+            raise ArithmeticError(f"the rendered K_cr is not resolved at a device of the box ({res.reason})")
+        ks[i] = k
+        ths[i] = res.crossover_frequency * d.sample_time if res.crossover_frequency is not None else math.nan
+    return ks, ths
+
+
 def rendered_worst_case(box: UncertaintyBox, stiffness: float, damping: float, spec, mass: float, *,
                         samples: int = 128, starts: int = 3, seed: int = 0) -> WorstCase:
     """The device of the box with the smallest rendered K_cr(B) (the global search of optim.robust.worst_case with
     the exact rendered analysis at each point)."""
     active = box.relevant(STIFFNESS_PATHS)
     memo: dict[float, Rendering] = {}
-
-    def evaluate(unit: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        devs = box.devices(box.to_box(np.atleast_2d(unit)))
-        ks, ths = np.empty(len(devs)), np.empty(len(devs))
-        for i, (d, r) in enumerate(zip(devs, _renderings(devs, spec, mass, memo))):
-            res = rendered_critical_stiffness(d, damping, r)
-            k = res.critical_stiffness
-            if k is None or math.isnan(k):
-                raise ArithmeticError(f"the rendered K_cr is not resolved at a device of the box ({res.reason})")
-            ks[i] = k
-            ths[i] = (res.crossover_frequency * d.sample_time if res.crossover_frequency is not None
-                      else math.nan)
-        return ks, ths
-    best_u, best_k, best_a, evals = minimise_over_box(box, active, evaluate, samples=samples, starts=starts, seed=seed)
+    best_u, best_k, best_a, evals = minimise_over_box(
+        box, active, lambda u: box_rendered_critical_stiffness(box, u, damping, spec, mass, memo), samples=samples,
+        starts=starts, seed=seed)
     point = box.to_box(best_u)
     dev = box.device_at(point)
     freq = best_a / dev.sample_time if math.isfinite(best_a) else None

@@ -6,6 +6,7 @@ from fastapi import APIRouter
 from fastapi.responses import Response
 from pydantic import ConfigDict, Field
 
+from optim.design_ladder import is_rendered
 from optim.errors import InputError
 from optim.robust.box import UncertaintyBox
 
@@ -49,9 +50,17 @@ async def robust_plot(req: RobustPlotRequest, compute: Compute,
         if p not in paths:
             raise InputError(name, f"{p!r} is not one of the uncertain paths {paths}")
     requirements = req.requirements.core()
+    c = req.controller
+    mass = c.mass if c is not None else 0.0
+    vfilter = c.velocity_filter if c is not None else None
+    render = None
+    if is_rendered(requirements, mass, vfilter):     # the rendered box (optim.robust.rendered_stiffness)
+        if req.method != "exact":
+            raise InputError("method", "designs of a rendered wall are computed on the exact rung only")
+        render = (vfilter if vfilter is not None else requirements.velocity_filter, mass)
     try:  # the robust design and the points² exact analyses of the slice: always a worker
         image = await compute.arun(robust_slice_job, req.device, requirements, box, x, y, req.points,
-                                   req.requirements.min_gain_margin_db, format, cost_ms=None)
+                                   req.requirements.min_gain_margin_db, format, render, cost_ms=None)
     except InputError:
         raise
     except ValueError as exc:

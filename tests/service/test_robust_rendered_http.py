@@ -65,3 +65,36 @@ def test_bad_combinations_are_422_naming_the_field(client, extra, loc_end):
     assert r.status_code == 422, r.text
     err = r.json()["detail"][0]
     assert err["loc"][-1] == loc_end or ".".join(map(str, err["loc"])).endswith(loc_end), err
+
+
+def test_the_robust_slice_of_a_rendered_wall_is_the_rendered_margin():
+    """/v1/plots/robust's slice (service.plots_robust.margin_slice) with the filter: each cell is 20·log10 of the
+    rendered K_cr over K, and the design's slice through its worst device never dips below the margin."""
+    import numpy as np
+
+    from optim.robust.box import UncertaintyBox
+    from optim.robust.rendered_stiffness import robust_rendered_stiffness
+    from optim.stiffness import StiffnessRequirements
+    from service.plots_robust import margin_slice
+
+    dev = Device(**DEV)
+    spec = LowPass(**LP50)
+    box = UncertaintyBox.from_ranges(dev, {k: (v["min"], v["max"]) for k, v in UNC.items()})
+    d = robust_rendered_stiffness(dev, StiffnessRequirements(min_gain_margin_db=6), box, 0.0, spec)
+    worst = np.array([d.worst_case["device"][p] for p in box.paths])
+    xs, ys, margin = margin_slice(box, d.stiffness, d.damping, worst, "device.mass", "device.delay", 7, (spec, 0.0))
+    assert margin.min() >= 6 - 1e-6
+    point = worst.copy()
+    point[0], point[2] = xs[3], ys[5]
+    kcr = rendered_critical_stiffness(box.device_at(point), d.damping, rendering(spec, 0.0, 0.001)).critical_stiffness
+    assert margin[5, 3] == pytest.approx(20 * math.log10(kcr / d.stiffness), abs=1e-12)
+    today, _, plain = margin_slice(box, d.stiffness, d.damping, worst, "device.mass", "device.delay", 7)
+    assert (plain > margin).all()      # today's wall's K_cr is higher: the slice is the filter's, not today's
+
+
+@pytest.mark.slow      # a compute worker starts and compiles the rendered kernels (~30 s)
+def test_robust_plot_of_a_rendered_wall(client):
+    r = client.post("/v1/plots/robust?format=svg", json={"device": DEV, "controller": {"velocity_filter": LP50},
+                                                         "requirements": {"uncertainty": UNC}, "points": 5})
+    assert r.status_code == 200, r.text[:300]
+    assert r.headers["content-type"].startswith("image/svg+xml")
