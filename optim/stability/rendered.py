@@ -36,7 +36,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import Literal
+from typing import Literal, NamedTuple
 
 import numpy as np
 
@@ -119,9 +119,9 @@ def _m_loop(device: Device, rendering: Rendering, alpha: float, beta: float):
     return h
 
 
-@dataclass(frozen=True)
-class Passage:
-    """A real value of h on the circle: the gain that puts a closed-loop pole at e^{jθ}, and which way it goes."""
+class Passage(NamedTuple):
+    """A real value of h on the circle: the gain that puts a closed-loop pole at e^{jθ}, and which way it goes
+    (immutable; a named tuple: the certified path builds dozens per K_cr, at a third of a frozen dataclass's cost)."""
 
     angle: float
     value: float
@@ -192,7 +192,7 @@ def _certified(device: Device, rendering: Rendering, loop: int, alpha: float, be
         found = rigid_real_crossings(plant, rendering, loop, alpha, beta, mu)
     except (ZeroDivisionError, FloatingPointError, ValueError, np.linalg.LinAlgError):
         return None
-    return None if found is None else [Passage(t, v, o) for t, v, o in found]
+    return None if found is None else list(map(Passage._make, found))
 
 
 @lru_cache(maxsize=1024)

@@ -1,6 +1,8 @@
 """The certified isolation of optim.stability.rendered_rigid against the adaptive scan (optim.stability.rendered's
 real_crossings, a second algorithm) on random rigid walls of every filter kind: every real value of h_K, h_B and
-h_M, with the poles' direction, where the certificate closes; and it closes on most walls (else the speed is lost)."""
+h_M, with the poles' direction, where the certificate closes; and it closes on most walls (else the speed is lost).
+The one compiled call (``_crossings``) is held bit for bit to its Python twin (tests/optim/stability/
+rendered_rigid_python.py: numpy building the polynomials and bounds on every call, as it ran before), None for None."""
 
 from __future__ import annotations
 
@@ -17,6 +19,7 @@ from optim.stability import rendered as R
 from optim.stability.margins import loop_plant
 from optim.stability.rendered_rigid import LOOP_B, LOOP_K, LOOP_M, rigid_real_crossings
 from tests.optim.stability.filter_properties import KINDS, random_filter
+from tests.optim.stability.rendered_rigid_python import rigid_real_crossings_python
 
 #: |h| above this is the scan's rendering of a pole of h on the circle (V(π) = 0), not a gain
 _HUGE = 1e12
@@ -53,6 +56,7 @@ def test_certified_crossings_match_the_scan():
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", RuntimeWarning)
                 fast = rigid_real_crossings(plant, r, loop, a, b, m)
+                assert fast == rigid_real_crossings_python(plant, r, loop, a, b, m), (i, loop)
                 if fast is None:
                     continue
                 certified += 1
