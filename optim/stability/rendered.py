@@ -41,7 +41,7 @@ from typing import Literal, NamedTuple
 import numpy as np
 
 from models.device import Device
-from models.discretize import RigidZOH
+from models.discretize import RigidZOH, StateSpaceZOH
 from models.velocity_filter import Rendering, VelocityTransfer
 from optim.errors import InputError
 from optim.stability.crossovers import (
@@ -54,7 +54,7 @@ from optim.stability.crossovers import (
     theta_min,
 )
 from optim.stability.margins import NO_DAMPING_REASON, CriticalStiffness, critical_from_crossings, loop_plant
-from optim.stability.rendered_rigid import LOOP_B, LOOP_K, LOOP_M, rigid_real_crossings
+from optim.stability.rendered_rigid import LOOP_B, LOOP_K, LOOP_M, cable_real_crossings, rigid_real_crossings
 from optim.stability.undamped_cable import is_undamped_cable
 
 __all__ = ["MassRange", "rendered_critical_stiffness", "rendered_max_stable_damping", "rendered_mass_range",
@@ -193,10 +193,13 @@ def _certified(device: Device, rendering: Rendering, loop: int, alpha: float, be
     """The real values of a rigid loop's h by optim.stability.rendered_rigid's certified isolation (no scan), or None
     where its certificate does not close (a cable device, a tangency, a zero of the estimate on the circle)."""
     plant = loop_plant(device)
-    if not isinstance(plant, RigidZOH):
-        return None
     try:
-        found = rigid_real_crossings(plant, rendering, loop, alpha, beta, mu)
+        if isinstance(plant, RigidZOH):
+            found = rigid_real_crossings(plant, rendering, loop, alpha, beta, mu)
+        elif isinstance(plant, StateSpaceZOH) and not is_undamped_cable(device):
+            found = cable_real_crossings(plant, rendering, loop, alpha, beta, mu)
+        else:
+            return None
     except (ZeroDivisionError, FloatingPointError, ValueError, np.linalg.LinAlgError):
         return None
     return None if found is None else list(map(Passage._make, found))

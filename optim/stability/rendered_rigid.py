@@ -46,13 +46,19 @@ from functools import lru_cache
 
 import numpy as np
 
-from models.discretize import RigidZOH
+from models.discretize import RigidZOH, StateSpaceZOH
 from models.velocity_filter import Rendering, VelocityTransfer
+from optim.stability.cable_kernel import _inv_response
+from optim.stability.cable_loop import cable_loop
 from optim.stability.compiled import kernel
 
-__all__ = ["LOOP_K", "LOOP_B", "LOOP_M", "rigid_real_crossings", "compile_kernels", "MAX_PIECES", "MAX_DEGREE"]
+__all__ = ["LOOP_K", "LOOP_B", "LOOP_M", "rigid_real_crossings", "cable_real_crossings", "compile_kernels", "MAX_PIECES", "MAX_DEGREE"]
 
 LOOP_K, LOOP_B, LOOP_M = 0, 1, 2
+#: a cable loop's certified crossings are given up (the scan answers) where h's terms exceed |h| by more than this
+#: at a root (random cables with δ ≲ 1e-4: the scan's and the modal form's roundings moved K by up to 4e-10)
+_CABLE_CONDITION = 100.0
+_NO_MODAL = np.zeros(18, dtype=complex)        # a rigid plant's (unused) modal form: one compiled signature
 _EPS = 2.220446049250313e-16
 #: pieces of [0, π] examined at most before the certificate gives up (the caller scans)
 MAX_PIECES = 4_000
@@ -76,6 +82,14 @@ def _parts(plant: RigidZOH, velocity: VelocityTransfer) -> tuple:
     else:
         mt = np.array([g0p, g1p - p * g0p + phi12 * g0v, phi12 * g1v - p * g1p])
     dg = np.concatenate([np.zeros(plant.d + 1), mt])
+    dg.setflags(write=False)
+    _, _, r, d, r_q, p_mul, avg_n, circle, _ = _parts_filter(velocity)
+    return np.array([1.0, -p]), dg, r, d, r_q, p_mul, avg_n, circle, _numbers(plant)
+
+
+@lru_cache(maxsize=1024)
+def _parts_filter(velocity: VelocityTransfer) -> tuple:
+    """The filter's share of ``_parts``: (None, None, R, D, Q's replacement for R, P's multiplier, n, circle, None)."""
     r, d = np.asarray(velocity.r, dtype=float), np.asarray(velocity.d, dtype=float)
     avg_n, circle = 0, False
     if butter_form(velocity.r):
@@ -86,9 +100,9 @@ def _parts(plant: RigidZOH, velocity: VelocityTransfer) -> tuple:
     else:
         circle = _circle_zeros(velocity.r)   # a zero of R on the circle: a pole of h_B, h_M there
         r_q, p_mul = r, np.ones(1)
-    for x in (dg, r, d, r_q, p_mul):
+    for x in (r, d, r_q, p_mul):
         x.setflags(write=False)
-    return np.array([1.0, -p]), dg, r, d, r_q, p_mul, avg_n, circle, _numbers(plant)
+    return None, None, r, d, r_q, p_mul, avg_n, circle, None
 
 
 def butter_form(r: tuple[float, ...]) -> bool:
@@ -119,12 +133,13 @@ def _circle_zeros(r: tuple[float, ...]) -> bool:
 
 
 def _numbers(plant: RigidZOH) -> np.ndarray:
-    """(1 − p, a, c, Φ₁₂, Γ0p, Γ0v, Γ1p, Γ1v, d, fractional, has Nyquist value, the value): _h's ``nums``."""
+    """(1 − p, a, c, Φ₁₂, Γ0p, Γ0v, Γ1p, Γ1v, d, fractional, has Nyquist value, the value, 0: rigid): _h's
+    ``nums``."""
     omp, phi12, g0p, g0v, g1p, g1v, _ = plant.coefficients()
     a, c = plant.f0_numerator()
     nyq = plant.inverse_at_nyquist()
     return np.array([omp, a, c, phi12, g0p, g0v, g1p, g1v, float(plant.d), 1.0 if plant.f > 0.0 else 0.0,
-                     0.0 if nyq is None else 1.0, 0.0 if nyq is None else nyq])
+                     0.0 if nyq is None else 1.0, 0.0 if nyq is None else nyq, 0.0])
 
 
 # ---------------------------------------------------------------- the polynomials (compiled, once per call)
@@ -331,10 +346,11 @@ def _poly_w(c, w):
 
 
 @kernel
-def _h(theta, loop, nums, r, dd, alpha, beta, mu):
+def _h(theta, loop, nums, modal, r, dd, alpha, beta, mu):
     """The loop's h(θ), accurate (models.discretize.RigidZOH.inverse_response, models.velocity_filter):
-    nums = (1 − p, a, c, Φ₁₂, Γ0p, Γ0v, Γ1p, Γ1v, d, fractional, has Nyquist value, the value); nan where a
-    division is by 0 (a zero of the plant's numerator, of D, or of V or A on the circle for h_B, h_M)."""
+    nums = (1 − p, a, c, Φ₁₂, Γ0p, Γ0v, Γ1p, Γ1v, d, fractional, has Nyquist value, the value, cable); a cable's
+    1/G_n is its modal form's (``modal``: optim.stability.cable_kernel._inv_response, the cable K_cr's own).  nan
+    where a division is by 0 (a zero of the plant's numerator, of D, or of V or A on the circle for h_B, h_M)."""
     nan = complex(math.nan, math.nan)
     omp = nums[0]
     s = math.sin(0.5 * theta)
@@ -343,7 +359,10 @@ def _h(theta, loop, nums, r, dd, alpha, beta, mu):
     ct = math.cos(theta)
     zm1 = complex(-2.0 * s * s, st)
     den = zm1 * (zm1 + omp)
-    if nums[9] == 0.0:
+    if nums[12] != 0.0:
+        num = complex(1.0, 0.0)
+        den = _inv_response(modal, nums[8], theta)
+    elif nums[9] == 0.0:
         num = nums[1] * complex(2.0 * ch * ch, st) + nums[2]
     else:
         zinv = complex(ct, -st)
@@ -351,7 +370,7 @@ def _h(theta, loop, nums, r, dd, alpha, beta, mu):
     if num == 0.0:
         return nan
     dth = nums[8] * theta
-    inv = den * complex(math.cos(dth), math.sin(dth)) / num
+    inv = den if nums[12] != 0.0 else den * complex(math.cos(dth), math.sin(dth)) / num
     if theta == math.pi and nums[10] != 0.0:
         inv = complex(nums[11], 0.0)
     w = complex(ct, -st)
@@ -369,7 +388,7 @@ def _h(theta, loop, nums, r, dd, alpha, beta, mu):
 
 
 @kernel
-def _refine(pieces, count, loop, nums, r, dd, alpha, beta, mu, out):
+def _refine(pieces, count, loop, nums, modal, r, dd, alpha, beta, mu, out):
     """Each piece's root of Im h to 4 ulp (Illinois, a bisection every 4th step): rows θ, Re h; False where the
     accurate h's sign at an end disagrees with f's.  (Started nearer, at the polynomial's Newton root, it took a
     third fewer evaluations but moved an ill-conditioned K_cr by 5e-12: the whole piece is kept.)"""
@@ -377,8 +396,8 @@ def _refine(pieces, count, loop, nums, r, dd, alpha, beta, mu, out):
     for i in range(count):
         a = pieces[i, 0]
         b = pieces[i, 1]
-        fa = _h(a, loop, nums, r, dd, alpha, beta, mu).imag
-        fb = _h(b, loop, nums, r, dd, alpha, beta, mu).imag
+        fa = _h(a, loop, nums, modal, r, dd, alpha, beta, mu).imag
+        fb = _h(b, loop, nums, modal, r, dd, alpha, beta, mu).imag
         if not (fa * pieces[i, 2] > 0.0 and fb * pieces[i, 3] > 0.0):     # (nan: False)
             return False
         side = 0
@@ -396,7 +415,7 @@ def _refine(pieces, count, loop, nums, r, dd, alpha, beta, mu, out):
                 x = min(lo + m, mid)
             elif hi - x < m:
                 x = max(hi - m, mid)
-            fx = _h(x, loop, nums, r, dd, alpha, beta, mu).imag
+            fx = _h(x, loop, nums, modal, r, dd, alpha, beta, mu).imag
             if fx != fx:
                 return False             # a division by 0 in h: not certified
             if fx == 0.0:
@@ -419,14 +438,53 @@ def _refine(pieces, count, loop, nums, r, dd, alpha, beta, mu, out):
                 side = -1
         t = a if abs(fa) <= abs(fb) else b
         out[i, 0] = t
-        out[i, 1] = _h(t, loop, nums, r, dd, alpha, beta, mu).real
+        out[i, 1] = _h(t, loop, nums, modal, r, dd, alpha, beta, mu).real
     return True
 
 
 @kernel
-def _crossings(loop, alpha, beta, mu, p1, dg, r, d, r_q, p_mul, avg_n, nums, max_pieces, max_degree):
+def _cable_condition(theta, loop, nums, modal, r, dd, alpha, beta, mu):
+    """How many times larger than |h| the terms are that make a cable loop's h at θ (the modal sum of G_n, then h's
+    own terms): h's rounding is about this times ε (the cable's modal form cancels between its modes, ~θ/δ)."""
+    sh = math.sin(0.5 * theta)
+    st = math.sin(theta)
+    zm1 = complex(-2.0 * sh * sh, st)
+    zinv = complex(math.cos(theta), -st)
+    acc_e = 0j
+    acc_c = 0j
+    mag_e = 0.0
+    mag_c = 0.0
+    for i in range(3):
+        lam, r0, r1, e12, c2 = modal[5 * i], modal[5 * i + 1], modal[5 * i + 2], modal[5 * i + 3], modal[5 * i + 4]
+        y = (r0 + zinv * r1) / (zm1 - lam)
+        acc_e += y * e12
+        acc_c += y * c2
+        mag_e += abs(y * e12)
+        mag_c += abs(y * c2)
+    c1, g0_1, g1_1 = modal[15], modal[16], modal[17]
+    x1 = (g0_1 + zinv * g1_1 + acc_e) / zm1
+    mag_x1 = (abs(g0_1) + abs(g1_1) + mag_e) / abs(zm1)
+    g = c1 * x1 + acc_c
+    kappa_g = (abs(c1) * mag_x1 + mag_c) / abs(g)
+    h = _h(theta, loop, nums, modal, r, dd, alpha, beta, mu)
+    inv = 1.0 / abs(g)
+    w = complex(math.cos(theta), -st)
+    omw = complex(2.0 * sh * sh, st)
+    v = abs(omw * _poly_w(r, w) / _poly_w(dd, w))
+    acc = v * abs(omw)
+    if loop == 0:
+        terms = inv * kappa_g + abs(beta) * v + abs(mu) * acc
+        return terms / abs(h)
+    if loop == 1:
+        return (inv * kappa_g + abs(mu) * acc) / (abs(h) * v)
+    return (inv * kappa_g + abs(alpha) + abs(beta) * v) / (abs(h) * acc)
+
+
+@kernel
+def _crossings(loop, alpha, beta, mu, p1, dg, r, d, r_q, p_mul, avg_n, nums, modal, pad, max_pieces, max_degree):
     """rigid_real_crossings in one compiled call: (count, rows θ, h(θ), outward), count −1 where the certificate
-    does not close (the caller scans)."""
+    does not close (the caller scans).  ``pad``: the relative error of the plant's polynomial coefficients beyond
+    their rounding (a cable's computed zeros), added to every bound."""
     none = np.empty((0, 3))
     P, Q = _loop_polys(loop, alpha, beta, mu, p1, dg, r, d, r_q, p_mul, False)
     Pa, Qa = _loop_polys(loop, alpha, beta, mu, p1, dg, r, d, r_q, p_mul, True)
@@ -441,7 +499,7 @@ def _crossings(loop, alpha, beta, mu, p1, dg, r, d, r_q, p_mul, avg_n, nums, max
     dk = _taylor_table(a)
     dkabs = _taylor_table(aabs)          # every term positive: a bound of each |coefficient|
     err = np.empty(n)
-    scale = 16.0 * (n + 8) ** 2 * 2.220446049250313e-16
+    scale = 16.0 * (n + 8) ** 2 * 2.220446049250313e-16 + pad
     for k in range(n):
         row = 0.0
         for j in range(n):
@@ -477,8 +535,14 @@ def _crossings(loop, alpha, beta, mu, p1, dg, r, d, r_q, p_mul, avg_n, nums, max
                 kept += 1
         count = kept
     roots = np.empty((max(count, 1), 2))
-    if count and not _refine(pieces, count, loop, nums, r, d, alpha, beta, mu, roots):
+    if count and not _refine(pieces, count, loop, nums, modal, r, d, alpha, beta, mu, roots):
         return -1, none
+    if nums[12] != 0.0:
+        # a cable's h is a difference of much larger terms at low damping: where its rounding could move a root's
+        # value past what the scan's evaluation gives (they differ in the last bits), the scan answers
+        for i in range(count):
+            if not _cable_condition(roots[i, 0], loop, nums, modal, r, d, alpha, beta, mu) <= _CABLE_CONDITION:
+                return -1, none
     out = np.empty((count + 1, 3))
     found = 0
     for i in range(count):
@@ -489,7 +553,7 @@ def _crossings(loop, alpha, beta, mu, p1, dg, r, d, r_q, p_mul, avg_n, nums, max
             # f'(θ) = −sin θ·p'(cos θ): Im h rises through the root where p' < 0
             out[found, 2] = 2.0 if pieces[i, 4] < 0.0 else -2.0
             found += 1
-    v_pi = _h(math.pi, loop, nums, r, d, alpha, beta, mu).real   # nan where V(π) = 0 (h_B, h_M infinite there)
+    v_pi = _h(math.pi, loop, nums, modal, r, d, alpha, beta, mu).real   # nan where V(π) = 0 (h_B, h_M infinite there)
     if math.isfinite(v_pi) and v_pi != 0.0 and abs(v_pi) < 1e250:
         out[found, 0] = math.pi
         out[found, 1] = v_pi
@@ -510,7 +574,77 @@ def rigid_real_crossings(plant: RigidZOH, rendering: Rendering, loop: int, alpha
     if circle and loop != LOOP_K:
         return None                          # a zero of R on the circle: a pole of h_B, h_M there
     count, out = _crossings(loop, float(alpha), float(beta), float(mu), p1, dg, r, d, r_q, p_mul, avg_n, nums,
-                            MAX_PIECES, MAX_DEGREE)
+                            _NO_MODAL, 0.0, MAX_PIECES, MAX_DEGREE)
+    if count < 0:
+        return None
+    return [(t, v, int(o)) for t, v, o in out[:count].tolist()]
+
+
+def _cable_parts(plant: StateSpaceZOH, velocity: VelocityTransfer) -> tuple | None:
+    """``_cable_parts_uncached``, kept with the sampled plant per filter (as cable_loop keeps the factored loop)."""
+    key = ("rendered_parts", velocity)
+    cache = plant._cache  # type: ignore[attr-defined]
+    if key not in cache:
+        cache[key] = _cable_parts_uncached(plant, velocity)
+    return cache[key]
+
+
+def _cable_parts_uncached(plant: StateSpaceZOH, velocity: VelocityTransfer) -> tuple | None:
+    """``_parts`` of a damped cable plant from its factored loop (optim.stability.cable_loop: Q = z/(z − 1)/G_n =
+    z^s·Π(z − c_k)/(L·Π(z − ζ_i))), so 1/G_n = (1 − w)·P₁/Dg with P₁ = Π(1 − c_k w) and Dg = L·w^{s+K−I}·Π(1 − ζ_i w)
+    (w = z⁻¹, K poles c_k, I zeros ζ_i): the rigid form with longer polynomials.  Also the modal form (h's
+    accurate 1/G_n) and the relative error of the coefficients, Π(1 + err_i/|ζ_i|) − 1 (each computed zero's error
+    bound, cable_loop's): coefficient by coefficient the perturbed product stays within that factor of the product
+    of the absolute values.  None where the loop is not factored (the caller scans)."""
+    loop = cable_loop(plant)
+    if loop is None:
+        return None
+    poles = [f for f in loop.factors if f.sign > 0]
+    zeros = [f for f in loop.factors if f.sign < 0]
+    shift = loop.s + len(poles) - len(zeros)
+    if shift < 0:
+        return None
+    p1c = np.ones(1, dtype=complex)
+    for f in poles:
+        p1c = np.convolve(p1c, np.array([1.0, -f.c]))
+    dgc = np.ones(1, dtype=complex)
+    for f in zeros:
+        dgc = np.convolve(dgc, np.array([1.0, -f.c]))
+    lead = loop.lead_abs if loop.lead_arg == 0.0 else -loop.lead_abs
+    p1 = p1c.real.copy()
+    dg = np.concatenate([np.zeros(shift), lead * dgc.real])
+    pad = 1.0
+    for f in loop.factors:
+        pad *= 1.0 + (f.err + 2.0 * _EPS * f.mag) / f.mag
+    pad -= 1.0
+    imag = float(np.max(np.abs(p1c.imag))) + float(np.max(np.abs(dgc.imag)))
+    if not (math.isfinite(pad) and pad < 1e-6 and imag <= 1e-12 * (float(np.max(np.abs(p1c.real)))
+                                                                    + float(np.max(np.abs(dgc.real))))):
+        return None                  # the conjugate pairs did not cancel (an unpaired complex factor)
+    _, _, r, d, r_q, p_mul, avg_n, circle, _ = _parts_filter(velocity)
+    modes, c1, g0_1, g1_1 = loop.modal
+    modal = np.array([v for mode in modes for v in mode] + [c1, g0_1, g1_1], dtype=complex)
+    nums = np.zeros(13)
+    nums[8] = float(loop.d)
+    nums[12] = 1.0
+    for x in (p1, dg, modal, nums):
+        x.setflags(write=False)
+    return p1, dg, r, d, r_q, p_mul, avg_n, circle, nums, modal, pad
+
+
+def cable_real_crossings(plant: StateSpaceZOH, rendering: Rendering, loop: int, alpha: float, beta: float,
+                         mu: float) -> list[tuple[float, float, int]] | None:
+    """rigid_real_crossings for a damped cable plant (``_cable_parts``): the same certified isolation of the real
+    values of h, refined on the modal form's 1/G_n; None where the loop is not factored or the certificate does
+    not close (the caller scans)."""
+    parts = _cable_parts(plant, rendering.velocity)
+    if parts is None:
+        return None
+    p1, dg, r, d, r_q, p_mul, avg_n, circle, nums, modal, pad = parts
+    if circle and loop != LOOP_K:
+        return None
+    count, out = _crossings(loop, float(alpha), float(beta), float(mu), p1, dg, r, d, r_q, p_mul, avg_n, nums,
+                            modal, pad, MAX_PIECES, MAX_DEGREE)
     if count < 0:
         return None
     return [(t, v, int(o)) for t, v, o in out[:count].tolist()]

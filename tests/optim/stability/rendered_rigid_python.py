@@ -15,6 +15,7 @@ from models.discretize import RigidZOH
 from models.velocity_filter import Rendering
 from optim.stability.rendered_rigid import (
     _EPS,
+    _NO_MODAL,
     LOOP_K,
     MAX_DEGREE,
     MAX_PIECES,
@@ -145,7 +146,7 @@ def _numbers(plant: RigidZOH) -> np.ndarray:
     a, c = plant.f0_numerator()
     nyq = plant.inverse_at_nyquist()
     return np.array([omp, a, c, phi12, g0p, g0v, g1p, g1v, float(plant.d), 1.0 if plant.f > 0.0 else 0.0,
-                     0.0 if nyq is None else 1.0, 0.0 if nyq is None else nyq])
+                     0.0 if nyq is None else 1.0, 0.0 if nyq is None else nyq, 0.0])
 
 
 def rigid_real_crossings_python(plant: RigidZOH, rendering: Rendering, loop: int, alpha: float, beta: float,
@@ -196,12 +197,12 @@ def rigid_real_crossings_python(plant: RigidZOH, rendering: Rendering, loop: int
     r = np.asarray(rendering.velocity.r, dtype=float)
     dd = np.asarray(rendering.velocity.d, dtype=float)
     roots = np.empty((max(count, 1), 2))
-    if count and not _refine(out, count, loop, nums, r, dd, alpha, beta, mu, roots):
+    if count and not _refine(out, count, loop, nums, _NO_MODAL, r, dd, alpha, beta, mu, roots):
         return None
     # f'(θ) = −sin θ·p'(cos θ): Im h rises through the root where p' < 0
     found = [(float(roots[i, 0]), float(roots[i, 1]), 2 if out[i, 4] < 0.0 else -2) for i in range(count)]
     try:
-        v_pi = complex(_h(math.pi, loop, nums, r, dd, alpha, beta, mu)).real
+        v_pi = complex(_h(math.pi, loop, nums, _NO_MODAL, r, dd, alpha, beta, mu)).real
     except ZeroDivisionError:          # V(π) = 0 (a Butterworth, an even moving average): h_B, h_M infinite there
         v_pi = math.inf
     if math.isfinite(v_pi) and v_pi != 0.0:
