@@ -190,8 +190,9 @@ def _walk(passages, start: float, end: float, unstable: int | None) -> int | Non
 
 def _certified(device: Device, rendering: Rendering, loop: int, alpha: float, beta: float,
                mu: float) -> list[Passage] | None:
-    """The real values of a rigid loop's h by optim.stability.rendered_rigid's certified isolation (no scan), or None
-    where its certificate does not close (a cable device, a tangency, a zero of the estimate on the circle)."""
+    """The real values of the loop's h by optim.stability.rendered_rigid's certified isolation (no scan; a rigid
+    plant, or a damped cable's factored loop), or None where its certificate does not close (a tangency, a zero of
+    the estimate on the circle, a cable not factored or whose h is a difference of far larger terms)."""
     plant = loop_plant(device)
     try:
         if isinstance(plant, RigidZOH):

@@ -37,6 +37,20 @@ Each certified root's piece is then a bracket of the accurate h (the expm1 forms
 models.velocity_filter, compiled), whose sign at both ends must agree with f's (else None); Illinois' regula falsi
 refines it to 4 ulp, as optim.stability.crossovers.solve_brackets does.  The direction of the poles at a crossing
 (rendered.Passage.outward) is the sign of f' there, certified above; at θ = π it is the sign of f(π) = p(−1).
+
+Speed (issue 30: a filtered K_cr within 10× of today's): everything above runs in one compiled call
+(``_crossings``) on the (plant, filter)'s polynomial data, built once and cached (``_parts``); its Python twin,
+numpy building the same polynomials on every call, is tests/optim/stability/rendered_rigid_python.py (bit for bit).
+
+Cable plants (``cable_real_crossings``): optim.stability.cable_loop factors a damped cable's loop as
+Q = z/(z − 1)/G_n = z^s·Π(z − c_k)/(L·Π(z − ζ_i)), so 1/G_n = (1 − w)·P₁/Dg with P₁ = Π(1 − c_k w) and
+Dg = L·w^{s+K−I}·Π(1 − ζ_i w): the form above with longer polynomials, and the same isolation.  The computed zeros
+ζ_i carry an error bound (cable_loop's); coefficient by coefficient the product then stays within Π(1 + err/|ζ|)
+of the product of absolute values, so that factor, less one, is added to E's relative size.  Each root is refined
+on the modal form's 1/G_n (optim.stability.cable_kernel._inv_response, today's cable K_cr's own).  At low damping
+a cable's h is a difference of terms many times |h| (the modes cancel, ~θ/δ): the modal form's and the scan's
+roundings then differ in the answer's last digits (4e-10 on a random cable with δ ≈ 6e-6), so where the terms
+exceed |h| by more than _CABLE_CONDITION at a root, the scan answers, as before.
 """
 
 from __future__ import annotations
@@ -59,6 +73,7 @@ LOOP_K, LOOP_B, LOOP_M = 0, 1, 2
 #: at a root (random cables with δ ≲ 1e-4: the scan's and the modal form's roundings moved K by up to 4e-10)
 _CABLE_CONDITION = 100.0
 _NO_MODAL = np.zeros(18, dtype=complex)        # a rigid plant's (unused) modal form: one compiled signature
+_NO_MODAL.setflags(write=False)
 _EPS = 2.220446049250313e-16
 #: pieces of [0, π] examined at most before the certificate gives up (the caller scans)
 MAX_PIECES = 4_000
@@ -82,9 +97,11 @@ def _parts(plant: RigidZOH, velocity: VelocityTransfer) -> tuple:
     else:
         mt = np.array([g0p, g1p - p * g0p + phi12 * g0v, phi12 * g1v - p * g1p])
     dg = np.concatenate([np.zeros(plant.d + 1), mt])
-    dg.setflags(write=False)
+    p1, nums = np.array([1.0, -p]), _numbers(plant)
+    for x in (p1, dg, nums):
+        x.setflags(write=False)      # cached; and read-only arrays are one compiled signature with the cable's
     _, _, r, d, r_q, p_mul, avg_n, circle, _ = _parts_filter(velocity)
-    return np.array([1.0, -p]), dg, r, d, r_q, p_mul, avg_n, circle, _numbers(plant)
+    return p1, dg, r, d, r_q, p_mul, avg_n, circle, nums
 
 
 @lru_cache(maxsize=1024)
@@ -583,7 +600,7 @@ def rigid_real_crossings(plant: RigidZOH, rendering: Rendering, loop: int, alpha
 def _cable_parts(plant: StateSpaceZOH, velocity: VelocityTransfer) -> tuple | None:
     """``_cable_parts_uncached``, kept with the sampled plant per filter (as cable_loop keeps the factored loop)."""
     key = ("rendered_parts", velocity)
-    cache = plant._cache  # type: ignore[attr-defined]
+    cache = plant._cache
     if key not in cache:
         cache[key] = _cable_parts_uncached(plant, velocity)
     return cache[key]
