@@ -62,7 +62,7 @@ import numpy as np
 
 from models.discretize import RigidZOH, StateSpaceZOH
 from models.velocity_filter import Rendering, VelocityTransfer
-from optim.stability.cable_kernel import _inv_response
+from optim.stability.cable_kernel import inverse_response as _inv_response
 from optim.stability.cable_loop import cable_loop
 from optim.stability.compiled import kernel
 
