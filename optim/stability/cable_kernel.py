@@ -28,7 +28,7 @@ import numpy as np
 from optim.stability.cable_loop import CableLoop
 from optim.stability.compiled import kernel
 
-__all__ = ["min_crossing", "batch_rows", "cable_min_crossing_compiled", "compile_kernels", "MAX_PIECES"]
+__all__ = ["min_crossing", "batch_rows", "cable_min_crossing_compiled", "compile_kernels", "MAX_PIECES", "inverse_response"]
 
 _EPS = 2.220446049250313e-16
 _TWO_PI = 2.0 * math.pi
@@ -68,6 +68,10 @@ def _inv_response(modal, d, t):
     dt = d * t
     g = (c1 * x1 + acc_c) * complex(math.cos(dt), -math.sin(dt))
     return 1.0 / g
+
+
+#: 1/G_n by the modal form, compiled (optim.stability.rendered_rigid refines a filtered cable wall's roots on it)
+inverse_response = _inv_response
 
 
 @kernel

@@ -1,7 +1,7 @@
 """Every compiled (numba) kernel of the numerics, compiled at once: optim.stability.rigid_kernel (the rigid fast
 path's crossovers), optim.stability.rigid_tail (its proof that the tail holds none),
 optim.stability.passivity_kernel (the delayed passivity bound), optim.stability.rendered_rigid (a rendered rigid
-wall's certified crossings), optim.stability.cable_kernel (the cable brackets), optim.workspace.normal_kernel (the
+or cable wall's certified crossings), optim.stability.cable_kernel (the cable brackets), optim.workspace.normal_kernel (the
 worst-normal search's inner loop) and optim.workspace.normal_dual (its dual form)."""
 
 from optim.stability import cable_kernel, passivity_kernel, rendered_rigid, rigid_kernel, rigid_tail

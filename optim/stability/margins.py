@@ -331,7 +331,7 @@ def _undamped(device: Device, plant, damping: float) -> CriticalStiffness:
 
     found = true_crossings(h, positive_real_crossings(h, _grid(device, plant, beta)))
     scale, t = device.stiffness_scale, device.sample_time
-    crossovers = tuple(Crossover(frequency=c.angle / t, stiffness=c.value * scale) for c in found)
+    crossovers = _crossover_tuple([(c.angle, c.value) for c in found], t, scale)     # Crossover(θ/T, α·scale)
     if not crossovers:
         confirm_or_refuse(device, damping, math.inf)
         return CriticalStiffness(math.inf, None, (), damping, b_max,
@@ -493,7 +493,7 @@ def critical_from_crossings(device: Device, found: list[Crossing], damping: floa
     """K_cr(B) from the positive-real crossings (θ, α) of the loop's h: every one a Crossover (θ/T [rad/s],
     α·stiffness_scale [N/m]), the least of them K_cr; ∞ without one."""
     scale, t = device.stiffness_scale, device.sample_time
-    crossovers = tuple(Crossover(frequency=c.angle / t, stiffness=c.value * scale) for c in found)
+    crossovers = _crossover_tuple([(c.angle, c.value) for c in found], t, scale)     # Crossover(θ/T, α·scale)
     if not crossovers:
         return CriticalStiffness(math.inf, None, (), damping, b_max,
                                  reason="no phase crossover: every positive stiffness is stable")

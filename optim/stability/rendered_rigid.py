@@ -37,21 +37,43 @@ Each certified root's piece is then a bracket of the accurate h (the expm1 forms
 models.velocity_filter, compiled), whose sign at both ends must agree with f's (else None); Illinois' regula falsi
 refines it to 4 ulp, as optim.stability.crossovers.solve_brackets does.  The direction of the poles at a crossing
 (rendered.Passage.outward) is the sign of f' there, certified above; at θ = π it is the sign of f(π) = p(−1).
+
+Speed (issue 30: a filtered K_cr within 10× of today's): everything above runs in one compiled call
+(``_crossings``) on the (plant, filter)'s polynomial data, built once and cached (``_parts``); its Python twin,
+numpy building the same polynomials on every call, is tests/optim/stability/rendered_rigid_python.py (bit for bit).
+
+Cable plants (``cable_real_crossings``): optim.stability.cable_loop factors a damped cable's loop as
+Q = z/(z − 1)/G_n = z^s·Π(z − c_k)/(L·Π(z − ζ_i)), so 1/G_n = (1 − w)·P₁/Dg with P₁ = Π(1 − c_k w) and
+Dg = L·w^{s+K−I}·Π(1 − ζ_i w): the form above with longer polynomials, and the same isolation.  The computed zeros
+ζ_i carry an error bound (cable_loop's); coefficient by coefficient the product then stays within Π(1 + err/|ζ|)
+of the product of absolute values, so that factor, less one, is added to E's relative size.  Each root is refined
+on the modal form's 1/G_n (optim.stability.cable_kernel._inv_response, today's cable K_cr's own).  At low damping
+a cable's h is a difference of terms many times |h| (the modes cancel, ~θ/δ): the modal form's and the scan's
+roundings then differ in the answer's last digits (4e-10 on a random cable with δ ≈ 6e-6), so where the terms
+exceed |h| by more than _CABLE_CONDITION at a root, the scan answers, as before.
 """
 
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 
 import numpy as np
 
-from models.discretize import RigidZOH
-from models.velocity_filter import Rendering
+from models.discretize import RigidZOH, StateSpaceZOH
+from models.velocity_filter import Rendering, VelocityTransfer
+from optim.stability.cable_kernel import inverse_response as _inv_response
+from optim.stability.cable_loop import cable_loop
 from optim.stability.compiled import kernel
 
-__all__ = ["LOOP_K", "LOOP_B", "LOOP_M", "rigid_real_crossings", "compile_kernels", "MAX_PIECES", "MAX_DEGREE"]
+__all__ = ["LOOP_K", "LOOP_B", "LOOP_M", "rigid_real_crossings", "cable_real_crossings", "compile_kernels", "MAX_PIECES", "MAX_DEGREE"]
 
 LOOP_K, LOOP_B, LOOP_M = 0, 1, 2
+#: a cable loop's certified crossings are given up (the scan answers) where h's terms exceed |h| by more than this
+#: at a root (random cables with δ ≲ 1e-4: the scan's and the modal form's roundings moved K by up to 4e-10)
+_CABLE_CONDITION = 100.0
+_NO_MODAL = np.zeros(18, dtype=complex)        # a rigid plant's (unused) modal form: one compiled signature
+_NO_MODAL.setflags(write=False)
 _EPS = 2.220446049250313e-16
 #: pieces of [0, π] examined at most before the certificate gives up (the caller scans)
 MAX_PIECES = 4_000
@@ -60,10 +82,13 @@ MAX_PIECES = 4_000
 MAX_DEGREE = 48
 
 
-# ---------------------------------------------------------------- the polynomials (numpy, once per call)
+# ---------------------------------------------------------------- the loop's polynomial data (once per plant, filter)
 
-def _plant_parts(plant: RigidZOH) -> tuple[np.ndarray, np.ndarray]:
-    """(P₁ = [1, −p], Dg = w^{d+1}·M̃) of the module docstring."""
+@lru_cache(maxsize=1024)
+def _parts(plant: RigidZOH, velocity: VelocityTransfer) -> tuple:
+    """What the compiled driver needs of a (plant, filter), built once: (P₁ = [1, −p], Dg = w^{d+1}·M̃ of the module
+    docstring, R, D, Q's replacement for R and P's multiplier in h_B and h_M, the moving average's n (0: another
+    kind), whether R has a zero on the circle that neither replacement handles, the plant's numbers for h)."""
     omp, phi12, g0p, g0v, g1p, g1v, _ = plant.coefficients()
     p = 1.0 - omp
     if plant.f == 0.0:
@@ -72,49 +97,29 @@ def _plant_parts(plant: RigidZOH) -> tuple[np.ndarray, np.ndarray]:
     else:
         mt = np.array([g0p, g1p - p * g0p + phi12 * g0v, phi12 * g1v - p * g1p])
     dg = np.concatenate([np.zeros(plant.d + 1), mt])
-    return np.array([1.0, -p]), dg
+    p1, nums = np.array([1.0, -p]), _numbers(plant)
+    for x in (p1, dg, nums):
+        x.setflags(write=False)      # cached; and read-only arrays are one compiled signature with the cable's
+    _, _, r, d, r_q, p_mul, avg_n, circle, _ = _parts_filter(velocity)
+    return p1, dg, r, d, r_q, p_mul, avg_n, circle, nums
 
 
-def _polys(plant: RigidZOH, rendering: Rendering, loop: int, alpha: float, beta: float, mu: float,
-           absolute: bool) -> tuple[np.ndarray, np.ndarray] | None:
-    """(P, Q_s) of the loop: Q_s has Q's sign of Im (module docstring); with ``absolute`` every coefficient and every
-    term taken positive (the sums that bound the rounding)."""
-    p1, dg = _plant_parts(plant)
-    r, d = np.asarray(rendering.velocity.r), np.asarray(rendering.velocity.d)
-    omw = np.array([1.0, -1.0])
-    if absolute:
-        p1, dg, r, d, omw = np.abs(p1), np.abs(dg), np.abs(r), np.abs(d), np.abs(omw)
-        alpha, beta, mu = abs(alpha), abs(beta), abs(mu)
-    cv = np.convolve
-    if loop == LOOP_K:
-        ctrl = beta * np.array([1.0, 0.0]) + mu * omw
-        a1 = cv(cv(omw, p1), d)
-        a2 = cv(cv(cv(dg, omw), ctrl), r)
-        P = _add(a1, a2) if absolute else _add(-a1, -a2)
-        return P, cv(dg, d)
-    if butter_form(rendering.velocity.r):
+@lru_cache(maxsize=1024)
+def _parts_filter(velocity: VelocityTransfer) -> tuple:
+    """The filter's share of ``_parts``: (None, None, R, D, Q's replacement for R, P's multiplier, n, circle, None)."""
+    r, d = np.asarray(velocity.r, dtype=float), np.asarray(velocity.d, dtype=float)
+    avg_n, circle = 0, False
+    if butter_form(velocity.r):
         r_q, p_mul = np.array([0.0, r[0]]), np.ones(1)       # r₀(1 + w)² → r₀·w: the same sign of Im
-    elif rendering.velocity.kind == "moving_average":
-        r_q, p_mul = _average_q(len(r), absolute)
-    elif _circle_zeros(rendering.velocity.r):
-        return None                          # a zero of R on the circle: a pole of h there
+    elif velocity.kind == "moving_average":
+        r_q, p_mul = _average_q(len(r))
+        avg_n = len(r)
     else:
+        circle = _circle_zeros(velocity.r)   # a zero of R on the circle: a pole of h_B, h_M there
         r_q, p_mul = r, np.ones(1)
-    if loop == LOOP_B:
-        a1 = cv(p1, d)
-        a2 = mu * cv(cv(dg, omw), r)
-        P = _add(a1, a2) if absolute else _add(-a1, -a2)
-        return cv(P, p_mul), cv(dg, r_q)
-    a1 = cv(p1, d)
-    a3 = beta * cv(dg, r)
-    if alpha == 0.0:
-        P = _add(a1, a3) if absolute else _add(-a1, -a3)
-        return cv(P, p_mul), cv(cv(dg, omw), r_q)
-    a1 = cv(omw, a1)
-    a2 = alpha * cv(dg, d)
-    a3 = cv(omw, a3)
-    P = _add(_add(a1, a2), a3) if absolute else _add(_add(-a1, -a2), -a3)
-    return cv(P, p_mul), cv(cv(dg, np.array([0.0, 1.0]) if absolute else np.array([0.0, -1.0])), r_q)
+    for x in (r, d, r_q, p_mul):
+        x.setflags(write=False)
+    return None, None, r, d, r_q, p_mul, avg_n, circle, None
 
 
 def butter_form(r: tuple[float, ...]) -> bool:
@@ -122,7 +127,7 @@ def butter_form(r: tuple[float, ...]) -> bool:
     return len(r) == 3 and r[1] == 2.0 * r[0] and r[2] == r[0] and r[0] != 0.0
 
 
-def _average_q(n: int, absolute: bool) -> tuple[np.ndarray, np.ndarray]:
+def _average_q(n: int) -> tuple[np.ndarray, np.ndarray]:
     """(Q's replacement for R, P's multiplier) of an n-sample moving average, R = (1 + w + … + w^{n−1})/n: for even
     n, R = (1 + w)·R'(w) with R' = (1 + w² + … + w^{n−2})/n, and P·(1 + w) over R'·(1 + w)² has Im of the same sign
     as P over R; (1 + w)² → w as for Butterworth.  The other zeros, e^{2πjk/n}, stay (their pieces are dropped)."""
@@ -138,30 +143,88 @@ def average_zero_angles(n: int) -> tuple[float, ...]:
     return tuple(2.0 * math.pi * k / n for k in range(1, (n + 1) // 2))
 
 
-def _add(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    if a.size < b.size:
-        a, b = b, a
-    out = a.copy()
-    out[:b.size] += b
-    return out
-
-
 def _circle_zeros(r: tuple[float, ...]) -> bool:
     if len(r) < 2:
         return False
     return bool(np.any(np.abs(np.abs(np.roots(np.asarray(r[::-1]))) - 1.0) < 1e-6))
 
 
-def _sine_coefficients(P: np.ndarray, Q: np.ndarray, absolute: bool) -> np.ndarray:
+def _numbers(plant: RigidZOH) -> np.ndarray:
+    """(1 − p, a, c, Φ₁₂, Γ0p, Γ0v, Γ1p, Γ1v, d, fractional, has Nyquist value, the value, 0: rigid): _h's
+    ``nums``."""
+    omp, phi12, g0p, g0v, g1p, g1v, _ = plant.coefficients()
+    a, c = plant.f0_numerator()
+    nyq = plant.inverse_at_nyquist()
+    return np.array([omp, a, c, phi12, g0p, g0v, g1p, g1v, float(plant.d), 1.0 if plant.f > 0.0 else 0.0,
+                     0.0 if nyq is None else 1.0, 0.0 if nyq is None else nyq, 0.0])
+
+
+# ---------------------------------------------------------------- the polynomials (compiled, once per call)
+
+@kernel
+def _conv(a, b):
+    """numpy.convolve(a, b): out[k] = Σ_i a[i]·b[k − i]."""
+    out = np.zeros(a.size + b.size - 1)
+    for i in range(a.size):
+        for j in range(b.size):
+            out[i + j] += a[i] * b[j]
+    return out
+
+
+@kernel
+def _add(a, b, sa, sb):
+    """sa·a + sb·b (sa, sb = ±1), the shorter one padded with zeros."""
+    if a.size < b.size:
+        a, b, sa, sb = b, a, sb, sa
+    out = np.empty(a.size)
+    for i in range(a.size):
+        out[i] = sa * a[i]
+    for i in range(b.size):
+        out[i] += sb * b[i]
+    return out
+
+
+@kernel
+def _loop_polys(loop, alpha, beta, mu, p1, dg, r, d, r_q, p_mul, absolute):
+    """(P, Q_s) of the loop: Q_s has Q's sign of Im (module docstring); with ``absolute`` every coefficient and every
+    term taken positive (the sums that bound the rounding)."""
+    omw = np.array([1.0, -1.0])
+    sgn = -1.0                 # P's terms enter negated (module docstring), or all positive with ``absolute``
+    if absolute:
+        p1, dg, r, d, r_q, omw = np.abs(p1), np.abs(dg), np.abs(r), np.abs(d), np.abs(r_q), np.abs(omw)
+        alpha, beta, mu = abs(alpha), abs(beta), abs(mu)
+        sgn = 1.0
+    if loop == 0:
+        ctrl = np.array([beta + mu, mu * omw[1]])
+        a1 = _conv(_conv(omw, p1), d)
+        a2 = _conv(_conv(_conv(dg, omw), ctrl), r)
+        return _add(a1, a2, sgn, sgn), _conv(dg, d)
+    if loop == 1:
+        a1 = _conv(p1, d)
+        a2 = mu * _conv(_conv(dg, omw), r)
+        return _conv(_add(a1, a2, sgn, sgn), p_mul), _conv(dg, r_q)
+    a1 = _conv(p1, d)
+    a3 = beta * _conv(dg, r)
+    if alpha == 0.0:
+        return _conv(_add(a1, a3, sgn, sgn), p_mul), _conv(_conv(dg, omw), r_q)
+    a1 = _conv(omw, a1)
+    a2 = alpha * _conv(dg, d)
+    a3 = _conv(omw, a3)
+    P = _add(_add(a1, a2, sgn, sgn), a3, 1.0, sgn)
+    return _conv(P, p_mul), _conv(_conv(dg, np.array([0.0, sgn])), r_q)
+
+
+@kernel
+def _sine_coefficients(P, Q, absolute):
     """c_1..c_n: Im(P(w)·Q(w̄)) = Σ c_k sin kθ, w = e^{−jθ} (|c|'s bound with ``absolute``)."""
-    r = np.convolve(P, Q[::-1])          # r[i] is the coefficient of w^(i − (len(Q) − 1))
+    r = _conv(P, Q[::-1])          # r[i] is the coefficient of w^(i − (len(Q) − 1))
     zero = Q.size - 1
     n = max(zero, r.size - 1 - zero)
-    pos = np.zeros(n + 1)
-    neg = np.zeros(n + 1)
-    pos[:r.size - zero] = r[zero:]
-    neg[:zero + 1] = r[zero::-1]
-    c = neg[1:] + pos[1:] if absolute else neg[1:] - pos[1:]
+    c = np.zeros(n)
+    for k in range(1, n + 1):
+        pos = r[zero + k] if zero + k < r.size else 0.0
+        neg = r[zero - k] if zero - k >= 0 else 0.0
+        c[k - 1] = neg + pos if absolute else neg - pos
     return c
 
 
@@ -300,9 +363,12 @@ def _poly_w(c, w):
 
 
 @kernel
-def _h(theta, loop, nums, r, dd, alpha, beta, mu):
+def _h(theta, loop, nums, modal, r, dd, alpha, beta, mu):
     """The loop's h(θ), accurate (models.discretize.RigidZOH.inverse_response, models.velocity_filter):
-    nums = (1 − p, a, c, Φ₁₂, Γ0p, Γ0v, Γ1p, Γ1v, d, fractional, has Nyquist value, the value)."""
+    nums = (1 − p, a, c, Φ₁₂, Γ0p, Γ0v, Γ1p, Γ1v, d, fractional, has Nyquist value, the value, cable); a cable's
+    1/G_n is its modal form's (``modal``: optim.stability.cable_kernel._inv_response, the cable K_cr's own).  nan
+    where a division is by 0 (a zero of the plant's numerator, of D, or of V or A on the circle for h_B, h_M)."""
+    nan = complex(math.nan, math.nan)
     omp = nums[0]
     s = math.sin(0.5 * theta)
     ch = math.cos(0.5 * theta)
@@ -310,37 +376,46 @@ def _h(theta, loop, nums, r, dd, alpha, beta, mu):
     ct = math.cos(theta)
     zm1 = complex(-2.0 * s * s, st)
     den = zm1 * (zm1 + omp)
-    if nums[9] == 0.0:
+    if nums[12] != 0.0:
+        num = complex(1.0, 0.0)
+        den = _inv_response(modal, nums[8], theta)
+    elif nums[9] == 0.0:
         num = nums[1] * complex(2.0 * ch * ch, st) + nums[2]
     else:
         zinv = complex(ct, -st)
         num = (nums[4] + nums[6] * zinv) * (zm1 + omp) + nums[3] * (nums[5] + nums[7] * zinv)
+    if num == 0.0:
+        return nan
     dth = nums[8] * theta
-    inv = den * complex(math.cos(dth), math.sin(dth)) / num
+    inv = den if nums[12] != 0.0 else den * complex(math.cos(dth), math.sin(dth)) / num
     if theta == math.pi and nums[10] != 0.0:
         inv = complex(nums[11], 0.0)
     w = complex(ct, -st)
     omw = complex(2.0 * s * s, st)
-    v = omw * _poly_w(r, w) / _poly_w(dd, w)
+    dv = _poly_w(dd, w)
+    if dv == 0.0:
+        return nan
+    v = omw * _poly_w(r, w) / dv
     acc = v * omw
     if loop == 0:
         return -inv - beta * v - mu * acc
     if loop == 1:
-        return (-inv - mu * acc) / v
-    return (-inv - alpha - beta * v) / acc
+        return (-inv - mu * acc) / v if v != 0.0 else nan
+    return (-inv - alpha - beta * v) / acc if acc != 0.0 else nan
 
 
 @kernel
-def _refine(pieces, count, loop, nums, r, dd, alpha, beta, mu, out):
+def _refine(pieces, count, loop, nums, modal, r, dd, alpha, beta, mu, out):
     """Each piece's root of Im h to 4 ulp (Illinois, a bisection every 4th step): rows θ, Re h; False where the
-    accurate h's sign at an end disagrees with f's."""
+    accurate h's sign at an end disagrees with f's.  (Started nearer, at the polynomial's Newton root, it took a
+    third fewer evaluations but moved an ill-conditioned K_cr by 5e-12: the whole piece is kept.)"""
     eps = 2.220446049250313e-16
     for i in range(count):
         a = pieces[i, 0]
         b = pieces[i, 1]
-        fa = _h(a, loop, nums, r, dd, alpha, beta, mu).imag
-        fb = _h(b, loop, nums, r, dd, alpha, beta, mu).imag
-        if not (fa * pieces[i, 2] > 0.0 and fb * pieces[i, 3] > 0.0):
+        fa = _h(a, loop, nums, modal, r, dd, alpha, beta, mu).imag
+        fb = _h(b, loop, nums, modal, r, dd, alpha, beta, mu).imag
+        if not (fa * pieces[i, 2] > 0.0 and fb * pieces[i, 3] > 0.0):     # (nan: False)
             return False
         side = 0
         for it in range(200):
@@ -357,7 +432,9 @@ def _refine(pieces, count, loop, nums, r, dd, alpha, beta, mu, out):
                 x = min(lo + m, mid)
             elif hi - x < m:
                 x = max(hi - m, mid)
-            fx = _h(x, loop, nums, r, dd, alpha, beta, mu).imag
+            fx = _h(x, loop, nums, modal, r, dd, alpha, beta, mu).imag
+            if fx != fx:
+                return False             # a division by 0 in h: not certified
             if fx == 0.0:
                 a = x
                 b = x
@@ -378,76 +455,216 @@ def _refine(pieces, count, loop, nums, r, dd, alpha, beta, mu, out):
                 side = -1
         t = a if abs(fa) <= abs(fb) else b
         out[i, 0] = t
-        out[i, 1] = _h(t, loop, nums, r, dd, alpha, beta, mu).real
+        out[i, 1] = _h(t, loop, nums, modal, r, dd, alpha, beta, mu).real
     return True
 
 
-def _numbers(plant: RigidZOH) -> np.ndarray:
-    omp, phi12, g0p, g0v, g1p, g1v, _ = plant.coefficients()
-    a, c = plant.f0_numerator()
-    nyq = plant.inverse_at_nyquist()
-    return np.array([omp, a, c, phi12, g0p, g0v, g1p, g1v, float(plant.d), 1.0 if plant.f > 0.0 else 0.0,
-                     0.0 if nyq is None else 1.0, 0.0 if nyq is None else nyq])
+@kernel
+def _cable_condition(theta, loop, nums, modal, r, dd, alpha, beta, mu):
+    """How many times larger than |h| the terms are that make a cable loop's h at θ (the modal sum of G_n, then h's
+    own terms): h's rounding is about this times ε (the cable's modal form cancels between its modes, ~θ/δ)."""
+    sh = math.sin(0.5 * theta)
+    st = math.sin(theta)
+    zm1 = complex(-2.0 * sh * sh, st)
+    zinv = complex(math.cos(theta), -st)
+    acc_e = 0j
+    acc_c = 0j
+    mag_e = 0.0
+    mag_c = 0.0
+    for i in range(3):
+        lam, r0, r1, e12, c2 = modal[5 * i], modal[5 * i + 1], modal[5 * i + 2], modal[5 * i + 3], modal[5 * i + 4]
+        y = (r0 + zinv * r1) / (zm1 - lam)
+        acc_e += y * e12
+        acc_c += y * c2
+        mag_e += abs(y * e12)
+        mag_c += abs(y * c2)
+    c1, g0_1, g1_1 = modal[15], modal[16], modal[17]
+    x1 = (g0_1 + zinv * g1_1 + acc_e) / zm1
+    mag_x1 = (abs(g0_1) + abs(g1_1) + mag_e) / abs(zm1)
+    g = c1 * x1 + acc_c
+    kappa_g = (abs(c1) * mag_x1 + mag_c) / abs(g)
+    h = _h(theta, loop, nums, modal, r, dd, alpha, beta, mu)
+    inv = 1.0 / abs(g)
+    w = complex(math.cos(theta), -st)
+    omw = complex(2.0 * sh * sh, st)
+    v = abs(omw * _poly_w(r, w) / _poly_w(dd, w))
+    acc = v * abs(omw)
+    if loop == 0:
+        terms = inv * kappa_g + abs(beta) * v + abs(mu) * acc
+        return terms / abs(h)
+    if loop == 1:
+        return (inv * kappa_g + abs(mu) * acc) / (abs(h) * v)
+    return (inv * kappa_g + abs(alpha) + abs(beta) * v) / (abs(h) * acc)
+
+
+@kernel
+def _crossings(loop, alpha, beta, mu, p1, dg, r, d, r_q, p_mul, avg_n, nums, modal, pad, max_pieces, max_degree):
+    """rigid_real_crossings in one compiled call: (count, rows θ, h(θ), outward), count −1 where the certificate
+    does not close (the caller scans).  ``pad``: the relative error of the plant's polynomial coefficients beyond
+    their rounding (a cable's computed zeros), added to every bound."""
+    none = np.empty((0, 3))
+    P, Q = _loop_polys(loop, alpha, beta, mu, p1, dg, r, d, r_q, p_mul, False)
+    Pa, Qa = _loop_polys(loop, alpha, beta, mu, p1, dg, r, d, r_q, p_mul, True)
+    a = _chebyshev_t(_sine_coefficients(P, Q, False))
+    aabs = _chebyshev_t(_sine_coefficients(Pa, Qa, True))
+    n = a.size
+    big = 0.0
+    for j in range(n):
+        big += aabs[j]
+    if not (big > 0.0 and math.isfinite(big)) or n > max_degree:
+        return -1, none
+    dk = _taylor_table(a)
+    dkabs = _taylor_table(aabs)          # every term positive: a bound of each |coefficient|
+    err = np.empty(n)
+    scale = 16.0 * (n + 8) ** 2 * 2.220446049250313e-16 + pad
+    for k in range(n):
+        row = 0.0
+        for j in range(n):
+            row += dkabs[k, j]
+        err[k] = scale * row
+    if n > 1:
+        slope = 0.0
+        for j in range(n):
+            slope += dkabs[1, j]
+        err[0] += 2.220446049250313e-16 * slope       # x = cos θ rounded: |p'|·ε
+    for k in range(n):
+        if not math.isfinite(err[k]):
+            return -1, none
+    pieces = np.empty((n + 2, 5))
+    count = _isolate(dk, err, pieces, max_pieces)
+    if count < 0:
+        return -1, none
+    if loop != 0 and avg_n > 0:
+        # a zero of R on the circle is a pole of h_B, h_M: its piece (the one root there is that pole) is dropped
+        kept = 0
+        for i in range(count):
+            t1 = pieces[i, 0]
+            t2 = pieces[i, 1]
+            inside = False
+            for k in range(1, (avg_n + 1) // 2):
+                q = 2.0 * math.pi * k / avg_n
+                if t1 <= q <= t2:
+                    if abs(q - t1) <= 1e-12 * q or abs(t2 - q) <= 1e-12 * q:
+                        return -1, none
+                    inside = True
+            if not inside:
+                pieces[kept, :] = pieces[i, :]
+                kept += 1
+        count = kept
+    roots = np.empty((max(count, 1), 2))
+    if count and not _refine(pieces, count, loop, nums, modal, r, d, alpha, beta, mu, roots):
+        return -1, none
+    if nums[12] != 0.0:
+        # a cable's h is a difference of much larger terms at low damping: where its rounding could move a root's
+        # value past what the scan's evaluation gives (they differ in the last bits), the scan answers
+        for i in range(count):
+            if not _cable_condition(roots[i, 0], loop, nums, modal, r, d, alpha, beta, mu) <= _CABLE_CONDITION:
+                return -1, none
+    out = np.empty((count + 1, 3))
+    found = 0
+    for i in range(count):
+        v = roots[i, 1]
+        if math.isfinite(v) and abs(v) < 1e250 and v != 0.0:
+            out[found, 0] = roots[i, 0]
+            out[found, 1] = v
+            # f'(θ) = −sin θ·p'(cos θ): Im h rises through the root where p' < 0
+            out[found, 2] = 2.0 if pieces[i, 4] < 0.0 else -2.0
+            found += 1
+    v_pi = _h(math.pi, loop, nums, modal, r, d, alpha, beta, mu).real   # nan where V(π) = 0 (h_B, h_M infinite there)
+    if math.isfinite(v_pi) and v_pi != 0.0 and abs(v_pi) < 1e250:
+        out[found, 0] = math.pi
+        out[found, 1] = v_pi
+        out[found, 2] = 1.0 if _clenshaw(a, -1.0) < 0.0 else -1.0
+        found += 1
+    return found, out
 
 
 def rigid_real_crossings(plant: RigidZOH, rendering: Rendering, loop: int, alpha: float, beta: float,
                          mu: float) -> list[tuple[float, float, int]] | None:
     """Every θ ∈ (0, π] where the loop's h is real (module docstring), as (θ, h(θ), outward) by θ: outward +2/−2 for
     a pair leaving/entering as the moving gain rises (the sign of d Im h/dθ), ±1 at θ = π; None where the
-    certificate does not close (the caller scans).  The Nyquist point is listed when h(π) is finite and non-zero."""
+    certificate does not close (the caller scans).  The Nyquist point is listed when h(π) is finite and non-zero.
+    One compiled call (``_crossings``) on the (plant, filter)'s polynomial data, built once (``_parts``)."""
     if plant.delta == 0.0:
         return None                                   # M̃ vanishes at w = −1: a pole of h at π
-    alpha, beta, mu = float(alpha), float(beta), float(mu)   # one compiled signature
-    polys = _polys(plant, rendering, loop, alpha, beta, mu, absolute=False)
-    if polys is None:
-        return None
-    pabs = _polys(plant, rendering, loop, alpha, beta, mu, absolute=True)
-    assert pabs is not None
-    c = _sine_coefficients(*polys, absolute=False)
-    cabs = _sine_coefficients(*pabs, absolute=True)
-    a = _chebyshev_t(c)
-    aabs = _chebyshev_t(cabs)
-    n = a.size
-    big = float(np.sum(aabs))
-    if not (big > 0.0 and math.isfinite(big)) or n > MAX_DEGREE:
-        return None
-    dk = _taylor_table(a)
-    dkabs = _taylor_table(aabs)          # every term positive: a bound of each |coefficient|
-    err = 16.0 * (n + 8) ** 2 * _EPS * np.sum(dkabs, axis=1)
-    err[0] += _EPS * float(np.sum(dkabs[1]))       # x = cos θ rounded: |p'|·ε
-    if not np.all(np.isfinite(err)):
-        return None
-    out = np.empty((n + 2, 5))
-    count = _isolate(dk, err, out, MAX_PIECES)
+    p1, dg, r, d, r_q, p_mul, avg_n, circle, nums = _parts(plant, rendering.velocity)
+    if circle and loop != LOOP_K:
+        return None                          # a zero of R on the circle: a pole of h_B, h_M there
+    count, out = _crossings(loop, float(alpha), float(beta), float(mu), p1, dg, r, d, r_q, p_mul, avg_n, nums,
+                            _NO_MODAL, 0.0, MAX_PIECES, MAX_DEGREE)
     if count < 0:
         return None
-    if loop != LOOP_K and rendering.velocity.kind == "moving_average":
-        # a zero of R on the circle is a pole of h_B, h_M: its piece (the one root there is that pole) is dropped
-        keep = []
-        for i in range(count):
-            t1, t2 = out[i, 0], out[i, 1]
-            inside = [q for q in average_zero_angles(len(rendering.velocity.r)) if t1 <= q <= t2]
-            if any(abs(q - t1) <= 1e-12 * q or abs(t2 - q) <= 1e-12 * q for q in inside):
-                return None
-            if not inside:
-                keep.append(i)
-        out = out[keep]
-        count = len(keep)
-    nums = _numbers(plant)
-    r = np.asarray(rendering.velocity.r, dtype=float)
-    dd = np.asarray(rendering.velocity.d, dtype=float)
-    roots = np.empty((max(count, 1), 2))
-    if count and not _refine(out, count, loop, nums, r, dd, alpha, beta, mu, roots):
+    return [(t, v, int(o)) for t, v, o in out[:count].tolist()]
+
+
+def _cable_parts(plant: StateSpaceZOH, velocity: VelocityTransfer) -> tuple | None:
+    """``_cable_parts_uncached``, kept with the sampled plant per filter (as cable_loop keeps the factored loop)."""
+    key = ("rendered_parts", velocity)
+    cache = plant._cache
+    if key not in cache:
+        cache[key] = _cable_parts_uncached(plant, velocity)
+    return cache[key]
+
+
+def _cable_parts_uncached(plant: StateSpaceZOH, velocity: VelocityTransfer) -> tuple | None:
+    """``_parts`` of a damped cable plant from its factored loop (optim.stability.cable_loop: Q = z/(z − 1)/G_n =
+    z^s·Π(z − c_k)/(L·Π(z − ζ_i))), so 1/G_n = (1 − w)·P₁/Dg with P₁ = Π(1 − c_k w) and Dg = L·w^{s+K−I}·Π(1 − ζ_i w)
+    (w = z⁻¹, K poles c_k, I zeros ζ_i): the rigid form with longer polynomials.  Also the modal form (h's
+    accurate 1/G_n) and the relative error of the coefficients, Π(1 + err_i/|ζ_i|) − 1 (each computed zero's error
+    bound, cable_loop's): coefficient by coefficient the perturbed product stays within that factor of the product
+    of the absolute values.  None where the loop is not factored (the caller scans)."""
+    loop = cable_loop(plant)
+    if loop is None:
         return None
-    # f'(θ) = −sin θ·p'(cos θ): Im h rises through the root where p' < 0
-    found = [(float(roots[i, 0]), float(roots[i, 1]), 2 if out[i, 4] < 0.0 else -2) for i in range(count)]
-    try:
-        v_pi = complex(_h(math.pi, loop, nums, r, dd, alpha, beta, mu)).real
-    except ZeroDivisionError:          # V(π) = 0 (a Butterworth, an even moving average): h_B, h_M infinite there
-        v_pi = math.inf
-    if math.isfinite(v_pi) and v_pi != 0.0:
-        found.append((math.pi, v_pi, 1 if _clenshaw(a, -1.0) < 0.0 else -1))
-    return [x for x in found if math.isfinite(x[1]) and abs(x[1]) < 1e250 and x[1] != 0.0]
+    poles = [f for f in loop.factors if f.sign > 0]
+    zeros = [f for f in loop.factors if f.sign < 0]
+    shift = loop.s + len(poles) - len(zeros)
+    if shift < 0:
+        return None
+    p1c = np.ones(1, dtype=complex)
+    for f in poles:
+        p1c = np.convolve(p1c, np.array([1.0, -f.c]))
+    dgc = np.ones(1, dtype=complex)
+    for f in zeros:
+        dgc = np.convolve(dgc, np.array([1.0, -f.c]))
+    lead = loop.lead_abs if loop.lead_arg == 0.0 else -loop.lead_abs
+    p1 = p1c.real.copy()
+    dg = np.concatenate([np.zeros(shift), lead * dgc.real])
+    pad = 1.0
+    for f in loop.factors:
+        pad *= 1.0 + (f.err + 2.0 * _EPS * f.mag) / f.mag
+    pad -= 1.0
+    imag = float(np.max(np.abs(p1c.imag))) + float(np.max(np.abs(dgc.imag)))
+    if not (math.isfinite(pad) and pad < 1e-6 and imag <= 1e-12 * (float(np.max(np.abs(p1c.real)))
+                                                                    + float(np.max(np.abs(dgc.real))))):
+        return None                  # the conjugate pairs did not cancel (an unpaired complex factor)
+    _, _, r, d, r_q, p_mul, avg_n, circle, _ = _parts_filter(velocity)
+    modes, c1, g0_1, g1_1 = loop.modal
+    modal = np.array([v for mode in modes for v in mode] + [c1, g0_1, g1_1], dtype=complex)
+    nums = np.zeros(13)
+    nums[8] = float(loop.d)
+    nums[12] = 1.0
+    for x in (p1, dg, modal, nums):
+        x.setflags(write=False)
+    return p1, dg, r, d, r_q, p_mul, avg_n, circle, nums, modal, pad
+
+
+def cable_real_crossings(plant: StateSpaceZOH, rendering: Rendering, loop: int, alpha: float, beta: float,
+                         mu: float) -> list[tuple[float, float, int]] | None:
+    """rigid_real_crossings for a damped cable plant (``_cable_parts``): the same certified isolation of the real
+    values of h, refined on the modal form's 1/G_n; None where the loop is not factored or the certificate does
+    not close (the caller scans)."""
+    parts = _cable_parts(plant, rendering.velocity)
+    if parts is None:
+        return None
+    p1, dg, r, d, r_q, p_mul, avg_n, circle, nums, modal, pad = parts
+    if circle and loop != LOOP_K:
+        return None
+    count, out = _crossings(loop, float(alpha), float(beta), float(mu), p1, dg, r, d, r_q, p_mul, avg_n, nums,
+                            modal, pad, MAX_PIECES, MAX_DEGREE)
+    if count < 0:
+        return None
+    return [(t, v, int(o)) for t, v, o in out[:count].tolist()]
 
 
 def compile_kernels() -> None:
