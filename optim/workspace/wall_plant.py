@@ -21,6 +21,9 @@ from models.discretize import RigidZOH, split_delay
 from optim.stability.crossovers import positive_real_crossings, scan_grid, theta_min
 from optim.stability.margins import NO_DAMPING_REASON
 
+from .normal_kernel import mode_numbers
+from .wall_kernel import KIND_DAMPER, KIND_STIFFNESS, wall_crossings
+
 __all__ = ["WallModes", "wall_modes", "WallCritical", "wall_critical_stiffness", "one_dof_equivalent",
            "max_stable_damping"]
 
@@ -81,16 +84,25 @@ def _grid(modes: WallModes, sample_time: float, delay_samples: float, beta: floa
                      width_hint=max(min(deltas), 1e-6))
 
 
-def _max_stable_damping(plants, modes: WallModes, sample_time: float, d_samples: float) -> float:
+def _max_stable_damping(plants, modes: WallModes, sample_time: float, d_samples: float, compiled: bool = True
+                        ) -> float:
     """B_max [N·s/m]: the smallest positive crossover gain of the damper-only loop B(1 − z⁻¹)/T·G_n."""
     def h(theta: np.ndarray) -> np.ndarray:
         g = sum(w * p.response(theta) for w, p in plants)
         return (-1.0 / g) / (-np.expm1(-1j * theta))
 
-    found = positive_real_crossings(h, _grid(modes, sample_time, d_samples, 0.0))
-    if not found:
+    grid = _grid(modes, sample_time, d_samples, 0.0)
+    values: list[float] | np.ndarray
+    if compiled:
+        _, values, ok = wall_crossings(np.array([w for w, _ in plants]), mode_numbers([p for _, p in plants]), grid,
+                                       0.0, KIND_DAMPER)
+        if not ok:
+            values = [c.value for c in positive_real_crossings(h, grid)]
+    else:
+        values = [c.value for c in positive_real_crossings(h, grid)]
+    if not len(values):
         return math.inf
-    return min(c.value for c in found) * modes.effective_mass / sample_time
+    return float(min(values)) * modes.effective_mass / sample_time
 
 
 def max_stable_damping(modes: WallModes, sample_time: float, delay: float) -> float:
@@ -102,9 +114,11 @@ def max_stable_damping(modes: WallModes, sample_time: float, delay: float) -> fl
     return _max_stable_damping(plants, modes, sample_time, d_samples)
 
 
-def wall_critical_stiffness(modes: WallModes, sample_time: float, delay: float, damping: float = 0.0
-                            ) -> WallCritical:
-    """The exact K_cr of the sampled wall loop on G_n with ZOH and ``delay`` [s], virtual damping B [N·s/m]."""
+def wall_critical_stiffness(modes: WallModes, sample_time: float, delay: float, damping: float = 0.0,
+                            compiled: bool = True) -> WallCritical:
+    """The exact K_cr of the sampled wall loop on G_n with ZOH and ``delay`` [s], virtual damping B [N·s/m].
+
+    The scan is compiled (optim.workspace.wall_kernel); ``compiled=False`` runs its Python twin (the oracle)."""
     if damping == 0.0 and all(li == 0.0 for li in modes.lam):
         return WallCritical(0.0, None, (), NO_DAMPING_REASON)
     d_samples = delay / sample_time
@@ -118,14 +132,22 @@ def wall_critical_stiffness(modes: WallModes, sample_time: float, delay: float, 
         return -1.0 / g + beta * np.expm1(-1j * theta)
 
     if damping > 0.0:
-        b_max = _max_stable_damping(plants, modes, sample_time, d_samples)
+        b_max = _max_stable_damping(plants, modes, sample_time, d_samples, compiled)
         if damping >= b_max:
             return WallCritical(0.0, None, (), f"virtual damping B = {damping:.6g} N·s/m is at or above B_max = "
                                                f"{b_max:.6g} N·s/m (the damper-only loop's critical gain): no "
                                                "positive stiffness is stable")
-    found = positive_real_crossings(h, _grid(modes, sample_time, d_samples, beta))
+    grid = _grid(modes, sample_time, d_samples, beta)
     scale = m / sample_time ** 2
-    crossovers = tuple((c.angle / sample_time, c.value * scale) for c in found)
+    pairs: list[tuple[float, float]] | None = None
+    if compiled:
+        angles, values, ok = wall_crossings(np.array([w for w, _ in plants]), mode_numbers([p for _, p in plants]),
+                                            grid, beta, KIND_STIFFNESS)
+        if ok:
+            pairs = list(zip(angles.tolist(), values.tolist()))
+    if pairs is None:
+        pairs = [(c.angle, c.value) for c in positive_real_crossings(h, grid)]
+    crossovers = tuple((a / sample_time, v * scale) for a, v in pairs)
     if not crossovers:
         return WallCritical(math.inf, None, (), "no phase crossover: every positive stiffness is stable")
     best = min(crossovers, key=lambda c: c[1])
