@@ -23,7 +23,7 @@ from models.kinematics import KinematicModel
 from .normal_search import dual_normal, worst_normal
 from .wall_plant import WallCritical, WallModes, one_dof_equivalent, wall_critical_stiffness, wall_modes
 
-__all__ = ["WorkspacePoint", "WorkspaceMap", "workspace_map", "explicit_poses", "grid_poses", "lhs_poses",
+__all__ = ["WorkspacePoint", "WorkspaceMap", "workspace_map", "workspace_points", "merge_points", "explicit_poses", "grid_poses", "lhs_poses",
            "MAX_EVALUATIONS", "GRAVITY_NOTE"]
 
 #: At most this many (pose, normal) pairs in one request (a study takes more).
@@ -138,6 +138,27 @@ def workspace_map(model: KinematicModel, poses: list[np.ndarray], normals: list[
 
     ``explicit`` poses are the user's own: a singular one is refused, naming it; sampled poses skip singular ones.
     """
+    points = workspace_points(model, poses, normals, sample_time, delay, damping, explicit=explicit)
+    return merge_points([points], normals)
+
+
+def merge_points(parts: Sequence[Sequence[WorkspacePoint]], normals: object) -> WorkspaceMap:
+    """The map of the points of consecutive slices of the poses (workspace_points of each, in order): the worst is
+    the first point of lowest K_cr, as over one list."""
+    points = tuple(p for part in parts for p in part)
+    if not points:
+        raise InputError("poses", "every sampled pose is singular")
+    worst = min(points, key=lambda p: p.critical_stiffness)
+    return WorkspaceMap(points, worst, worst.critical_stiffness, "worst" if normals == "worst" else "given")
+
+
+def workspace_points(model: KinematicModel, poses: list[np.ndarray],
+                     normals: list[Sequence[float]] | Literal["worst"], sample_time: float, delay: float,
+                     damping: float = 0.0, *, explicit: bool = False, part: tuple[int, int] = (0, 1)
+                     ) -> list[WorkspacePoint]:
+    """The points of workspace_map (its checks on the whole request), of the ``part`` = (i, k)-th of k consecutive
+    slices of ``poses`` only (a request split over compute workers; a singular explicit pose is named by its index
+    in the whole list)."""
     given: list[np.ndarray] = []
     if normals != "worst":
         for i, n in enumerate(normals):
@@ -154,7 +175,10 @@ def workspace_map(model: KinematicModel, poses: list[np.ndarray], normals: list[
         raise InputError("poses", "no pose to analyse")
     rank = _generic_rank(model)
     points: list[WorkspacePoint] = []
-    for j, q in enumerate(poses):
+    i_part, parts = part
+    first, last = i_part * len(poses) // parts, (i_part + 1) * len(poses) // parts
+    for j in range(first, last):
+        q = poses[j]
         mass, jac = model.at(q)
         s = np.linalg.svd(jac, compute_uv=False)
         if rank and s[rank - 1] <= _SINGULAR * max(s[0], 1e-300):
@@ -181,7 +205,4 @@ def workspace_map(model: KinematicModel, poses: list[np.ndarray], normals: list[
                 raise InputError(f"normals.{i}", f"the device cannot move along this normal at pose {j} "
                                                  "(Jᵀn = 0): no wall can be rendered there")
             points.append(_point(q, n_vec, modes, sample_time, delay, damping))
-    if not points:
-        raise InputError("poses", "every sampled pose is singular")
-    worst = min(points, key=lambda p: p.critical_stiffness)
-    return WorkspaceMap(tuple(points), worst, worst.critical_stiffness, "worst" if normals == "worst" else "given")
+    return points
