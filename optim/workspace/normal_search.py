@@ -21,6 +21,7 @@ from optim.stability.crossovers import scan_grid, theta_min
 
 from .normal_dual import dual_worst, normal_at
 from .normal_kernel import critical_kernel, mode_numbers
+from .wall_kernel import plain_scan_grid
 
 __all__ = ["worst_normal", "dual_normal"]
 
@@ -127,8 +128,7 @@ def dual_normal(mass: np.ndarray, jac: np.ndarray, damping_q: np.ndarray, sample
     m_scale = float(np.max(np.sum(w * w, axis=0)))
     deltas = [p.delta for p in plants]
     damp = min(deltas) * min(1.0, 1.0 / max(m_scale, 1e-300))
-    grid = scan_grid(theta_min(float(max(damp, 0.0)), float(delay / sample_time)), delay / sample_time, (),
-                     width_hint=max(min(deltas), 1e-6))
+    grid = plain_scan_grid(theta_min(float(max(damp, 0.0)), float(delay / sample_time)), float(delay / sample_time))
     best, _, mu, h = dual_worst(w, mode_numbers(plants), grid, _DUAL_GRID_STEPS)
     if not (best > 0.0 and math.isfinite(best)):
         return None

@@ -22,10 +22,11 @@ import math
 import numpy as np
 
 from optim.stability.compiled import kernel
+from optim.stability.crossovers import LIN_STEP, LOG_END, LOG_MIN_SAMPLES, LOG_PER_DECADE, STEPS_PER_DELAY_TURN
 
 from .normal_kernel import AT_D, mode_response
 
-__all__ = ["wall_crossings", "compile_kernels", "KIND_STIFFNESS", "KIND_DAMPER"]
+__all__ = ["wall_crossings", "plain_scan_grid", "compile_kernels", "KIND_STIFFNESS", "KIND_DAMPER"]
 
 #: H(θ) = −1/G_n(θ) + β(e^{−jθ} − 1): the stiffness loop (K > 0 crossovers)
 KIND_STIFFNESS = 0
@@ -35,6 +36,29 @@ KIND_DAMPER = 1
 _EPS = 2.220446049250313e-16
 _MAX_ARG_STEP = 0.25
 _MAX_REFINE_ROUNDS = 60
+
+
+@kernel
+def plain_scan_grid(theta_min, delay_samples):
+    """optim.stability.crossovers.scan_grid(θ_min, d, ()) compiled: the log part to max(LOG_END, 10 θ_min), then
+    the linear part to π, by numpy's geomspace and linspace formulas (numpy's vectorised power and log10 may round
+    a sample 1 ulp apart: the crossings found are the same, refined to 4 ulp)."""
+    theta_lin = max(LOG_END, theta_min * 10)
+    n1 = max(LOG_MIN_SAMPLES, int(LOG_PER_DECADE * math.log10(theta_lin / theta_min)) + 2)
+    step = min(LIN_STEP, math.pi / (STEPS_PER_DELAY_TURN * (delay_samples + 1.0)))
+    n2 = int(math.ceil((math.pi - theta_lin) / step)) + 1
+    out = np.empty(n1 + n2 - 1)
+    ls, le = math.log10(theta_min), math.log10(theta_lin)
+    st = (le - ls) / (n1 - 1)
+    for i in range(n1):
+        out[i] = 10.0 ** (float(i) * st + ls)
+    out[0] = theta_min
+    out[n1 - 1] = theta_lin
+    st2 = (math.pi - theta_lin) / (n2 - 1)
+    for i in range(1, n2):
+        out[n1 - 1 + i] = float(i) * st2 + theta_lin
+    out[n1 + n2 - 2] = math.pi
+    return out
 
 
 @kernel
@@ -190,6 +214,6 @@ def compile_kernels() -> None:
     from .normal_kernel import mode_numbers
 
     modes = mode_numbers([RigidZOH(1e-3, 0, 0.5), RigidZOH(2e-3, 0, 0.5)])
-    grid = np.linspace(0.01, math.pi, 16)
+    grid = plain_scan_grid(1e-5, 0.5)
     wall_crossings(np.array([0.5, 0.5]), modes, grid, 0.0, KIND_STIFFNESS)
     wall_crossings(np.array([0.5, 0.5]), modes, grid, 0.0, KIND_DAMPER)

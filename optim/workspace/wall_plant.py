@@ -22,7 +22,7 @@ from optim.stability.crossovers import positive_real_crossings, scan_grid, theta
 from optim.stability.margins import NO_DAMPING_REASON
 
 from .normal_kernel import mode_numbers
-from .wall_kernel import KIND_DAMPER, KIND_STIFFNESS, wall_crossings
+from .wall_kernel import KIND_DAMPER, KIND_STIFFNESS, plain_scan_grid, wall_crossings
 
 __all__ = ["WallModes", "wall_modes", "WallCritical", "wall_critical_stiffness", "one_dof_equivalent",
            "max_stable_damping"]
@@ -72,7 +72,8 @@ class WallCritical:
     reason: str | None = None
 
 
-def _grid(modes: WallModes, sample_time: float, delay_samples: float, beta: float) -> np.ndarray:
+def _grid(modes: WallModes, sample_time: float, delay_samples: float, beta: float, compiled: bool = False
+          ) -> np.ndarray:
     m = modes.effective_mass
     deltas = [li * sample_time for li in modes.lam]
     # the lowest damping any piece of the loop can have, normalised by m_e: every mode's own δ_i, and the
@@ -80,6 +81,8 @@ def _grid(modes: WallModes, sample_time: float, delay_samples: float, beta: floa
     low = 0.0 if any(li == 0.0 for li in modes.lam) else \
         sample_time / (m * math.fsum(ci / li for ci, li in zip(modes.c, modes.lam)))
     damp = min([low] + deltas) + beta
+    if compiled:
+        return plain_scan_grid(theta_min(float(damp), float(delay_samples)), float(delay_samples))
     return scan_grid(theta_min(float(damp), float(delay_samples)), delay_samples, (),
                      width_hint=max(min(deltas), 1e-6))
 
@@ -91,7 +94,7 @@ def _max_stable_damping(plants, modes: WallModes, sample_time: float, d_samples:
         g = sum(w * p.response(theta) for w, p in plants)
         return (-1.0 / g) / (-np.expm1(-1j * theta))
 
-    grid = _grid(modes, sample_time, d_samples, 0.0)
+    grid = _grid(modes, sample_time, d_samples, 0.0, compiled)
     values: list[float] | np.ndarray
     if compiled:
         _, values, ok = wall_crossings(np.array([w for w, _ in plants]), mode_numbers([p for _, p in plants]), grid,
@@ -137,7 +140,7 @@ def wall_critical_stiffness(modes: WallModes, sample_time: float, delay: float, 
             return WallCritical(0.0, None, (), f"virtual damping B = {damping:.6g} N·s/m is at or above B_max = "
                                                f"{b_max:.6g} N·s/m (the damper-only loop's critical gain): no "
                                                "positive stiffness is stable")
-    grid = _grid(modes, sample_time, d_samples, beta)
+    grid = _grid(modes, sample_time, d_samples, beta, compiled)
     scale = m / sample_time ** 2
     pairs: list[tuple[float, float]] | None = None
     if compiled:

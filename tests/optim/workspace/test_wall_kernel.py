@@ -50,3 +50,17 @@ def test_compiled_scan_is_the_python_scan():
         _compare(modes, t, td, b)
         _compare(one_dof_equivalent(modes), t, td, b)
         cases += 1
+
+
+def test_compiled_grid_is_the_scan_grid():
+    """plain_scan_grid against crossovers.scan_grid (no hints): the same samples to 1 ulp (numpy's vectorised power
+    and log10 may round apart), over θ_min from 1e-9 to 1e-2 and delays from 0 to 50 samples."""
+    from optim.stability.crossovers import scan_grid
+    from optim.workspace.wall_kernel import plain_scan_grid
+
+    rng = np.random.default_rng(6)
+    for _ in range(300):
+        tm, d = 10 ** rng.uniform(-9, -2), float(rng.choice([0.0, 0.5, 1.0, rng.uniform(0, 50)]))
+        a, b = scan_grid(tm, d, ()), plain_scan_grid(tm, d)
+        assert a.shape == b.shape
+        assert np.all(np.abs(a - b) <= 2.3e-16 * a)
