@@ -117,11 +117,12 @@ class _PoseLoop:
         return None if j is None else (max(j - 3, 0), min(j + 5, len(self.grid)))
 
 
-def dual_normal(mass: np.ndarray, jac: np.ndarray, damping_q: np.ndarray, sample_time: float, delay: float
-                ) -> tuple[np.ndarray, float] | None:
+def dual_normal(mass: np.ndarray, jac: np.ndarray, damping_q: np.ndarray, sample_time: float, delay: float,
+                eig: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, float] | None:
     """B = 0, J of rank 3: the worst normal by duality (optim.workspace.normal_dual) and the K [N/m] it predicts
-    there, 1/(T² d*); None when no positive crossing was found.  The caller certifies it by the exact scan."""
-    lam, vec = scipy.linalg.eigh(np.diag(damping_q), mass)
+    there, 1/(T² d*); None when no positive crossing was found.  The caller certifies it by the exact scan.
+    ``eig``: wall_plant.pose_eig(mass, damping_q) when the caller has it."""
+    lam, vec = scipy.linalg.eigh(np.diag(damping_q), mass) if eig is None else eig
     w = np.ascontiguousarray(jac @ vec)
     d, f = split_delay(delay / sample_time)
     plants = [RigidZOH(max(float(li), 0.0) * sample_time, d, f) for li in lam]

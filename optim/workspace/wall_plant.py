@@ -24,7 +24,7 @@ from optim.stability.margins import NO_DAMPING_REASON
 from .normal_kernel import mode_numbers
 from .wall_kernel import KIND_DAMPER, KIND_STIFFNESS, plain_scan_grid, wall_crossings
 
-__all__ = ["WallModes", "wall_modes", "WallCritical", "wall_critical_stiffness", "one_dof_equivalent",
+__all__ = ["WallModes", "wall_modes", "pose_eig", "WallCritical", "wall_critical_stiffness", "one_dof_equivalent",
            "max_stable_damping"]
 
 #: A mode whose weight c_i is below this fraction of Σ c_i is not seen along n (rounding of the projection).
@@ -51,9 +51,17 @@ class WallModes:
         return m * m * math.fsum(ci * li for ci, li in zip(self.c, self.lam))
 
 
-def wall_modes(mass: np.ndarray, jac: np.ndarray, damping: np.ndarray, normal: np.ndarray) -> WallModes:
-    """The modes of nᵀ J (M s² + D s)⁻¹ Jᵀ n (M symmetric positive definite, D diagonal ≥ 0)."""
-    lam, vec = scipy.linalg.eigh(np.diag(damping), mass)     # DV = MVΛ, VᵀMV = I
+def pose_eig(mass: np.ndarray, damping: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(Λ, V) of (D, M): DV = MVΛ, VᵀMV = I (every normal at the pose shares them)."""
+    lam, vec = scipy.linalg.eigh(np.diag(damping), mass)
+    return lam, vec
+
+
+def wall_modes(mass: np.ndarray, jac: np.ndarray, damping: np.ndarray, normal: np.ndarray,
+               eig: tuple[np.ndarray, np.ndarray] | None = None) -> WallModes:
+    """The modes of nᵀ J (M s² + D s)⁻¹ Jᵀ n (M symmetric positive definite, D diagonal ≥ 0); ``eig`` is
+    pose_eig(mass, damping) when the caller has it."""
+    lam, vec = pose_eig(mass, damping) if eig is None else eig     # DV = MVΛ, VᵀMV = I
     proj = (normal @ jac) @ vec
     c = proj * proj
     total = float(np.sum(c))

@@ -21,7 +21,7 @@ from models.errors import InputError
 from models.kinematics import KinematicModel
 
 from .normal_search import dual_normal, worst_normal
-from .wall_plant import WallCritical, WallModes, one_dof_equivalent, wall_critical_stiffness, wall_modes
+from .wall_plant import WallCritical, WallModes, one_dof_equivalent, pose_eig, wall_critical_stiffness, wall_modes
 
 __all__ = ["WorkspacePoint", "WorkspaceMap", "workspace_map", "workspace_points", "merge_points", "explicit_poses", "grid_poses", "lhs_poses",
            "MAX_EVALUATIONS", "GRAVITY_NOTE"]
@@ -188,9 +188,10 @@ def workspace_points(model: KinematicModel, poses: list[np.ndarray],
             continue
         pose_normals: list[np.ndarray]
         if normals == "worst" and rank == 3 and damping == 0.0:
-            dual = dual_normal(mass, jac, model.joint_damping, sample_time, delay)
+            eig = pose_eig(mass, model.joint_damping)
+            dual = dual_normal(mass, jac, model.joint_damping, sample_time, delay, eig)
             if dual is not None:
-                modes = wall_modes(mass, jac, model.joint_damping, dual[0])
+                modes = wall_modes(mass, jac, model.joint_damping, dual[0], eig)
                 full = wall_critical_stiffness(modes, sample_time, delay, damping)
                 if abs(full.critical_stiffness / dual[1] - 1.0) <= _DUAL_AGREE:
                     points.append(_point(q, dual[0], modes, sample_time, delay, damping, full))
