@@ -19,12 +19,13 @@ import scipy.linalg
 
 from models.discretize import RigidZOH, split_delay
 from optim.stability.crossovers import positive_real_crossings, scan_grid, theta_min
+from optim.stability.fast_rigid import fast_rigid
 from optim.stability.margins import NO_DAMPING_REASON
 
 from .normal_kernel import mode_numbers
 from .wall_kernel import KIND_DAMPER, KIND_STIFFNESS, plain_scan_grid, wall_crossings
 
-__all__ = ["WallModes", "wall_modes", "pose_eig", "WallCritical", "wall_critical_stiffness", "one_dof_equivalent",
+__all__ = ["WallModes", "wall_modes", "pose_eig", "one_dof_critical_stiffness", "WallCritical", "wall_critical_stiffness", "one_dof_equivalent",
            "max_stable_damping"]
 
 #: A mode whose weight c_i is below this fraction of Σ c_i is not seen along n (rounding of the projection).
@@ -169,3 +170,16 @@ def one_dof_equivalent(modes: WallModes) -> WallModes:
     """The 1-DOF approximation 1/(m_e s² + b_e s) as a one-mode WallModes."""
     m, b = modes.effective_mass, modes.effective_damping
     return WallModes((1.0 / m,), (b / m,))
+
+
+def one_dof_critical_stiffness(modes: WallModes, sample_time: float, delay: float, damping: float = 0.0) -> float:
+    """K_cr [N/m] of the 1-DOF approximation (one_dof_equivalent(modes)): at B = 0 by the rigid fast path
+    (optim.stability.fast_rigid: the product's own exact rigid K_cr, µs), elsewhere or where it does not close by
+    the wall scan (tests/optim/workspace/test_wall_kernel.py holds the two to 1e-12)."""
+    one = one_dof_equivalent(modes)
+    if damping == 0.0 and one.lam[0] > 0.0:
+        d, f = split_delay(delay / sample_time)
+        res = fast_rigid(RigidZOH(one.lam[0] * sample_time, d, f), 0.0)
+        if res is not None and res.theta is not None:
+            return res.alpha * one.effective_mass / sample_time ** 2
+    return wall_critical_stiffness(one, sample_time, delay, damping).critical_stiffness

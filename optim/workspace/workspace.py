@@ -21,7 +21,14 @@ from models.errors import InputError
 from models.kinematics import KinematicModel
 
 from .normal_search import dual_normal, worst_normal
-from .wall_plant import WallCritical, WallModes, one_dof_equivalent, pose_eig, wall_critical_stiffness, wall_modes
+from .wall_plant import (
+    WallCritical,
+    WallModes,
+    one_dof_critical_stiffness,
+    pose_eig,
+    wall_critical_stiffness,
+    wall_modes,
+)
 
 __all__ = ["WorkspacePoint", "WorkspaceMap", "workspace_map", "workspace_points", "merge_points", "explicit_poses", "grid_poses", "lhs_poses",
            "MAX_EVALUATIONS", "GRAVITY_NOTE"]
@@ -124,8 +131,7 @@ def _point(q: np.ndarray, n: np.ndarray, modes: WallModes, sample_time: float, d
            full: WallCritical | None = None) -> WorkspacePoint:
     if full is None:
         full = wall_critical_stiffness(modes, sample_time, delay, damping)
-    one = wall_critical_stiffness(one_dof_equivalent(modes), sample_time, delay, damping)
-    k, k1 = full.critical_stiffness, one.critical_stiffness
+    k, k1 = full.critical_stiffness, one_dof_critical_stiffness(modes, sample_time, delay, damping)
     err = (k1 / k - 1.0) if (math.isfinite(k) and k > 0 and math.isfinite(k1)) else None
     return WorkspacePoint(tuple(float(x) for x in q), (float(n[0]), float(n[1]), float(n[2])), k, full.frequency,
                           modes.effective_mass, modes.effective_damping, k1, err, len(modes.c), full.reason)

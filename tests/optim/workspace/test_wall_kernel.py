@@ -8,7 +8,13 @@ import math
 import numpy as np
 
 from models.kinematics import KINEMATIC_PRESETS, load_kinematics
-from optim.workspace.wall_plant import WallModes, one_dof_equivalent, wall_critical_stiffness, wall_modes
+from optim.workspace.wall_plant import (
+    WallModes,
+    one_dof_critical_stiffness,
+    one_dof_equivalent,
+    wall_critical_stiffness,
+    wall_modes,
+)
 
 from .arms import random_arm, random_normal
 
@@ -49,6 +55,9 @@ def test_compiled_scan_is_the_python_scan():
         b = float(rng.choice([0.0, rng.uniform(0, 0.5)]))
         _compare(modes, t, td, b)
         _compare(one_dof_equivalent(modes), t, td, b)
+        one = one_dof_critical_stiffness(modes, t, td, b)      # the rigid fast path at B = 0
+        assert _same(one, wall_critical_stiffness(one_dof_equivalent(modes), t, td, b, compiled=False)
+                     .critical_stiffness)
         cases += 1
 
 
