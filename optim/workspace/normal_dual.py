@@ -164,6 +164,12 @@ def _birth(h, cmin, cmax):
         lam = cmin
     else:
         return False, 0.0
+    # only a simple eigenvalue ≈ 0 has one null vector (two modes of equal λ, e.g. two undamped joints, share their
+    # crossing's birth: a 2-D null space, where −uᵀAu of one vector is not the max; the dual's own value stands
+    # there, and the exact scan's certificate decides)
+    mid = h[6] + h[9] + h[11] - cmax - cmin
+    if abs(mid) <= 1e-6 * max(cmax, -cmin):
+        return False, 0.0
     ux, uy, uz = _eigvec(h[6], h[7], h[8], h[9], h[10], h[11], lam)
     d = -(h[0] * ux * ux + h[3] * uy * uy + h[5] * uz * uz + 2.0 * (h[1] * ux * uy + h[2] * ux * uz + h[4] * uy * uz))
     return True, d
