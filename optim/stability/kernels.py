@@ -1,8 +1,9 @@
 """Every compiled (numba) kernel of the numerics, compiled at once: optim.stability.rigid_kernel (the rigid fast
 path's crossovers), optim.stability.rigid_tail (its proof that the tail holds none),
 optim.stability.passivity_kernel (the delayed passivity bound), optim.stability.rendered_rigid (a rendered rigid
-or cable wall's certified crossings), optim.stability.cable_kernel (the cable brackets), optim.workspace.normal_kernel (the
-worst-normal search's inner loop) and optim.workspace.normal_dual (its dual form)."""
+or cable wall's certified crossings), optim.stability.cable_kernel (the cable brackets), optim.workspace.normal_kernel
+(the worst-normal search's inner loop), optim.workspace.normal_dual (its dual form) and optim.workspace.wall_kernel (the
+wall plant's exact scan)."""
 
 from optim.stability import cable_kernel, passivity_kernel, rendered_rigid, rigid_kernel, rigid_tail
 
@@ -17,7 +18,8 @@ def compile_kernels() -> None:
     passivity_kernel.compile_kernels()
     rendered_rigid.compile_kernels()
     cable_kernel.compile_kernels()
-    from optim.workspace import normal_dual, normal_kernel  # the workspace's worst-normal loop and its dual
+    from optim.workspace import normal_dual, normal_kernel, wall_kernel  # the workspace's loops and its exact scan
 
     normal_kernel.compile_kernels()
     normal_dual.compile_kernels()
+    wall_kernel.compile_kernels()

@@ -9,9 +9,17 @@ from typing import Any, Literal, Sequence
 from models.errors import InputError
 from models.kinematics import KINEMATIC_PRESETS, KinematicModel, load_kinematics
 
-from .workspace import WorkspaceMap, explicit_poses, grid_poses, lhs_poses, workspace_map
+from .workspace import (
+    WorkspaceMap,
+    WorkspacePoint,
+    explicit_poses,
+    grid_poses,
+    lhs_poses,
+    workspace_map,
+    workspace_points,
+)
 
-__all__ = ["PoseSpec", "analyse_workspace", "device_kinematics"]
+__all__ = ["PoseSpec", "analyse_workspace", "analyse_workspace_part", "pose_count", "device_kinematics"]
 
 
 @dataclass(frozen=True)
@@ -49,6 +57,14 @@ def device_kinematics(urdf: str | None, preset: str | None, end_effector: str | 
         raise exc.under("device.kinematics.") from None
 
 
+def _poses(model: KinematicModel, poses: PoseSpec) -> list:
+    if poses.explicit is not None:
+        return explicit_poses(model, poses.explicit)
+    if poses.grid_num is not None:
+        return grid_poses(model, poses.grid_num)
+    return lhs_poses(model, int(poses.lhs_samples or 0), poses.lhs_seed)
+
+
 def analyse_workspace(urdf: str | None, preset: str | None, end_effector: str | None,
                       armature: Sequence[float] | None, joint_damping: Sequence[float] | None, poses: PoseSpec,
                       normals: Sequence[Sequence[float]] | Literal["worst"], sample_time: float, delay: float,
@@ -56,12 +72,28 @@ def analyse_workspace(urdf: str | None, preset: str | None, end_effector: str | 
     """The workspace map and its elapsed time [ms]; InputError fields are relative to the request body."""
     start = time.perf_counter()
     model = device_kinematics(urdf, preset, end_effector, armature, joint_damping)
-    if poses.explicit is not None:
-        qs = explicit_poses(model, poses.explicit)
-    elif poses.grid_num is not None:
-        qs = grid_poses(model, poses.grid_num)
-    else:
-        qs = lhs_poses(model, int(poses.lhs_samples or 0), poses.lhs_seed)
+    qs = _poses(model, poses)
     result = workspace_map(model, qs, normals if normals == "worst" else [list(n) for n in normals], sample_time,
                            delay, damping, explicit=poses.explicit is not None)
     return replace(result), (time.perf_counter() - start) * 1e3
+
+
+def analyse_workspace_part(urdf: str | None, preset: str | None, end_effector: str | None,
+                           armature: Sequence[float] | None, joint_damping: Sequence[float] | None, poses: PoseSpec,
+                           normals: Sequence[Sequence[float]] | Literal["worst"], sample_time: float, delay: float,
+                           damping: float, part: int, parts: int) -> list[WorkspacePoint]:
+    """The points of the ``part``-th of ``parts`` consecutive slices of the request's poses (every check on the
+    whole request, as analyse_workspace): one compute worker's share; merge_points joins the shares in order."""
+    model = device_kinematics(urdf, preset, end_effector, armature, joint_damping)
+    qs = _poses(model, poses)
+    return workspace_points(model, qs, normals if normals == "worst" else [list(n) for n in normals], sample_time,
+                            delay, damping, explicit=poses.explicit is not None, part=(part, parts))
+
+
+def pose_count(poses: PoseSpec) -> int:
+    """How many poses the request names, at least (a grid: num per joint, at least num)."""
+    if poses.explicit is not None:
+        return len(poses.explicit)
+    if poses.grid_num is not None:
+        return poses.grid_num
+    return int(poses.lhs_samples or 0)

@@ -33,6 +33,8 @@ _GOLD = 0.3819660112501051
 _MU_STEPS = 80       # golden steps in μ (0.618^80 ≈ 2e-17 of the bracket), or bisection steps for μ* (2^-80)
 _THETA_STEPS = 60    # golden steps in θ between the grid's neighbours of a local maximum
 _CANDIDATES = 4      # local maxima of d on the grid refined
+_NEAR_DOUBLE = 1.0 - 1e-6   # |r| of the closed form above this: two eigenvalues nearly meet (deflate)
+_SEMI = 1e-12        # C's small extreme eigenvalue below this fraction of the other extreme: the birth limit
 
 
 @kernel
@@ -59,8 +61,30 @@ def _hmat(w, modes, theta, out):
 
 
 @kernel
+def _eigvec(c0, c1, c2, c3, c4, c5, lam):
+    """The unit eigenvector of the symmetric (c…) for its simple eigenvalue ``lam``: the largest cross product of
+    two rows of C − λI."""
+    r0 = (c0 - lam, c1, c2)
+    r1 = (c1, c3 - lam, c4)
+    r2 = (c2, c4, c5 - lam)
+    best, vx, vy, vz = -1.0, 0.0, 0.0, 0.0
+    for p, q in ((r0, r1), (r0, r2), (r1, r2)):
+        x = p[1] * q[2] - p[2] * q[1]
+        y = p[2] * q[0] - p[0] * q[2]
+        z = p[0] * q[1] - p[1] * q[0]
+        nn = x * x + y * y + z * z
+        if nn > best:
+            best, vx, vy, vz = nn, x, y, z
+    if not best > 0.0:
+        return 1.0, 0.0, 0.0
+    s = math.sqrt(best)
+    return vx / s, vy / s, vz / s
+
+
+@kernel
 def _lmax(a00, a01, a02, a11, a12, a22):
-    """The largest eigenvalue of a real symmetric 3 × 3 (the trigonometric closed form)."""
+    """The largest eigenvalue of a real symmetric 3 × 3 (the trigonometric closed form; a deflation where two
+    eigenvalues nearly meet)."""
     p1 = a01 * a01 + a02 * a02 + a12 * a12
     q = (a00 + a11 + a22) / 3.0
     b00, b11, b22 = a00 - q, a11 - q, a22 - q
@@ -76,7 +100,35 @@ def _lmax(a00, a01, a02, a11, a12, a22):
         phi = 0.0
     else:
         phi = math.acos(r) / 3.0
-    return q + 2.0 * p * math.cos(phi)
+    if r > -_NEAR_DOUBLE:
+        return q + 2.0 * p * math.cos(phi)
+    # the top two eigenvalues nearly meet (r → −1, φ → π/3): acos loses ~√ε of the angle and cos(φ) passes it on
+    # (λ_max to ~1e-8; where the bottom two meet, r → 1, cos is flat at φ = 0 and λ_max stays exact).  The isolated
+    # λ_min (cos is flat at φ + 2π/3 = π) and its eigenvector are well conditioned: deflate to the 2 × 2 on its
+    # orthogonal complement, whose eigenvalues the stable formula gives to ~ε‖A‖ (an error δ of the eigenvector
+    # moves them by O(δ²)).
+    iso = q + 2.0 * p * math.cos(phi + 2.0 * math.pi / 3.0)
+    vx, vy, vz = _eigvec(a00, a01, a02, a11, a12, a22, iso)
+    # an orthonormal basis (e, f) of v's complement: e ⊥ v from the smallest component, f = v × e
+    if abs(vx) <= abs(vy) and abs(vx) <= abs(vz):
+        ex, ey, ez = 0.0, vz, -vy
+    elif abs(vy) <= abs(vz):
+        ex, ey, ez = -vz, 0.0, vx
+    else:
+        ex, ey, ez = vy, -vx, 0.0
+    en = math.sqrt(ex * ex + ey * ey + ez * ez)
+    ex, ey, ez = ex / en, ey / en, ez / en
+    fx, fy, fz = vy * ez - vz * ey, vz * ex - vx * ez, vx * ey - vy * ex
+    aex = a00 * ex + a01 * ey + a02 * ez
+    aey = a01 * ex + a11 * ey + a12 * ez
+    aez = a02 * ex + a12 * ey + a22 * ez
+    afx = a00 * fx + a01 * fy + a02 * fz
+    afy = a01 * fx + a11 * fy + a12 * fz
+    afz = a02 * fx + a12 * fy + a22 * fz
+    bee = ex * aex + ey * aey + ez * aez
+    bff = fx * afx + fy * afy + fz * afz
+    bef = ex * afx + ey * afy + ez * afz
+    return 0.5 * (bee + bff) + math.sqrt(0.25 * (bee - bff) * (bee - bff) + bef * bef)
 
 
 @kernel
@@ -102,6 +154,28 @@ def _slope(a0, a1, a2, a3, a4, a5, c0, c1, c2, c3, c4, c5):
 
 
 @kernel
+def _birth(h, cmin, cmax):
+    """(True, d) where C is semidefinite to _SEMI (a crossing is born or dies at this θ: the only normal with
+    nᵀCn = 0 is C's eigenvector u of the eigenvalue ≈ 0, so d = −uᵀAu); (False, 0) elsewhere.  There the dual's
+    minimiser μ* runs off to ~1/λ and λ_max(−A + μC) loses every digit; the limit is exact to O(_SEMI)."""
+    if cmax <= _SEMI * -cmin:
+        lam = cmax
+    elif -cmin <= _SEMI * cmax:
+        lam = cmin
+    else:
+        return False, 0.0
+    # only a simple eigenvalue ≈ 0 has one null vector (two modes of equal λ, e.g. two undamped joints, share their
+    # crossing's birth: a 2-D null space, where −uᵀAu of one vector is not the max; the dual's own value stands
+    # there, and the exact scan's certificate decides)
+    mid = h[6] + h[9] + h[11] - cmax - cmin
+    if abs(mid) <= 1e-6 * max(cmax, -cmin):
+        return False, 0.0
+    ux, uy, uz = _eigvec(h[6], h[7], h[8], h[9], h[10], h[11], lam)
+    d = -(h[0] * ux * ux + h[3] * uy * uy + h[5] * uz * uz + 2.0 * (h[1] * ux * uy + h[2] * ux * uz + h[4] * uy * uz))
+    return True, d
+
+
+@kernel
 def _dual(h, steps):
     """(d, μ*): min over μ of λ_max(−A + μC) (−inf when C is definite: no normal crosses at this θ), by bisection
     on the sign of its derivative vᵀCv (nondecreasing in μ: the function is convex)."""
@@ -113,6 +187,9 @@ def _dual(h, steps):
         return _lmax(a0, a1, a2, a3, a4, a5), 0.0
     if not (cmin < 0.0 < cmax):
         return -np.inf, 0.0
+    born, d_born = _birth(h, cmin, cmax)
+    if born:
+        return d_born, math.nan
     span = _lmax(a0, a1, a2, a3, a4, a5) + _lmax(-a0, -a1, -a2, -a3, -a4, -a5)   # λ_max − λ_min of −A
     lo, hi = -span / -cmin, span / cmax
     best, arg = np.inf, 0.0
@@ -143,6 +220,9 @@ def _dual_golden(h, steps):
         return _lmax(a0, a1, a2, a3, a4, a5), 0.0
     if not (cmin < 0.0 < cmax):
         return -np.inf, 0.0
+    born, d_born = _birth(h, cmin, cmax)
+    if born:
+        return d_born, math.nan
     span = _lmax(a0, a1, a2, a3, a4, a5) + _lmax(-a0, -a1, -a2, -a3, -a4, -a5)   # λ_max − λ_min of −A
     lo, hi = -span / -cmin, span / cmax
     x1 = lo + _GOLD * (hi - lo)
@@ -209,7 +289,7 @@ def dual_worst(w, modes, grid, grid_steps):
     out = np.empty(12)
     _hmat(w, modes, best_t, out)
     d_bis, mu_bis = _dual(out, _MU_STEPS)        # μ* to full precision for the normal
-    if d_bis <= best_d:
+    if d_bis <= best_d or math.isnan(mu_bis) or math.isnan(best_mu):
         best_mu = mu_bis
     return best_d, best_t, best_mu, out
 
@@ -220,6 +300,10 @@ def normal_at(h: np.ndarray, mu: float) -> np.ndarray:
     idx = ((0, 1, 2), (1, 3, 4), (2, 4, 5))
     a = np.array([[h[k] for k in row] for row in idx])
     c = np.array([[h[6 + k] for k in row] for row in idx])
+    if math.isnan(mu):          # the birth limit (_birth): C's eigenvector of its eigenvalue ≈ 0
+        ev = np.linalg.eigvalsh(c)
+        lam = ev[2] if abs(ev[2]) <= abs(ev[0]) else ev[0]
+        return np.array(_eigvec(h[6], h[7], h[8], h[9], h[10], h[11], float(lam)))
     _, vec = np.linalg.eigh(-a + mu * c)
     v1, v2 = vec[:, 2], vec[:, 1]
     if not np.any(c):

@@ -21,6 +21,7 @@ from optim.stability.crossovers import scan_grid, theta_min
 
 from .normal_dual import dual_worst, normal_at
 from .normal_kernel import critical_kernel, mode_numbers
+from .wall_kernel import plain_scan_grid
 
 __all__ = ["worst_normal", "dual_normal"]
 
@@ -33,7 +34,6 @@ _STENCIL = 7         # a 7 × 7 stencil of (polar, azimuth) offsets per level
 _ZOOM = 2.5          # the stencil shrinks by this each level (it spans ±1 step: neighbours overlap)
 _STEP_MIN = 1e-11    # [rad]
 _STEP_SETTLED = 1e-4  # [rad]: the zoom may stop early only below this step
-_DUAL_GAP = 1e-6      # the dual's top-two eigenvalue gap (relative) below which its value is not trusted
 _DUAL_GRID_STEPS = 40  # golden steps in μ for d(θ) on the grid (a ranking: the maxima are refined with more)
 
 
@@ -117,29 +117,24 @@ class _PoseLoop:
         return None if j is None else (max(j - 3, 0), min(j + 5, len(self.grid)))
 
 
-def dual_normal(mass: np.ndarray, jac: np.ndarray, damping_q: np.ndarray, sample_time: float, delay: float
-                ) -> tuple[np.ndarray, float] | None:
+def dual_normal(mass: np.ndarray, jac: np.ndarray, damping_q: np.ndarray, sample_time: float, delay: float,
+                eig: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, float] | None:
     """B = 0, J of rank 3: the worst normal by duality (optim.workspace.normal_dual) and the K [N/m] it predicts
-    there, 1/(T² d*); None when no positive crossing was found.  The caller certifies it by the exact scan."""
-    lam, vec = scipy.linalg.eigh(np.diag(damping_q), mass)
+    there, 1/(T² d*); None when no positive crossing was found.  The caller certifies it by the exact scan.
+    ``eig``: wall_plant.pose_eig(mass, damping_q) when the caller has it."""
+    lam, vec = scipy.linalg.eigh(np.diag(damping_q), mass) if eig is None else eig
     w = np.ascontiguousarray(jac @ vec)
     d, f = split_delay(delay / sample_time)
     plants = [RigidZOH(max(float(li), 0.0) * sample_time, d, f) for li in lam]
     m_scale = float(np.max(np.sum(w * w, axis=0)))
     deltas = [p.delta for p in plants]
     damp = min(deltas) * min(1.0, 1.0 / max(m_scale, 1e-300))
-    grid = scan_grid(theta_min(float(max(damp, 0.0)), float(delay / sample_time)), delay / sample_time, (),
-                     width_hint=max(min(deltas), 1e-6))
+    grid = plain_scan_grid(theta_min(float(max(damp, 0.0)), float(delay / sample_time)), float(delay / sample_time))
     best, _, mu, h = dual_worst(w, mode_numbers(plants), grid, _DUAL_GRID_STEPS)
     if not (best > 0.0 and math.isfinite(best)):
         return None
-    # λ_max in closed form loses digits as ~ε/gap where the top two eigenvalues of −A + μ*C nearly meet (the acos near
-    # ±1): below a gap of _DUAL_GAP the value d* is not trusted to 1e-9 (the search decides)
-    idx = ((0, 1, 2), (1, 3, 4), (2, 4, 5))
-    top = np.linalg.eigvalsh(-np.array([[h[k] for k in r] for r in idx]) + mu * np.array([[h[6 + k] for k in r]
-                                                                                         for r in idx]))
-    if top[2] - top[1] < _DUAL_GAP * abs(top[2]):
-        return None
+    # d* is accurate where −A + μ*C's top two eigenvalues meet (normal_dual._lmax deflates there) and at a crossing's
+    # birth (C semidefinite: normal_dual._birth); the exact scan at the normal still decides (the caller)
     return normal_at(h, mu), 1.0 / (sample_time ** 2 * best)
 
 

@@ -19,9 +19,13 @@ import scipy.linalg
 
 from models.discretize import RigidZOH, split_delay
 from optim.stability.crossovers import positive_real_crossings, scan_grid, theta_min
+from optim.stability.fast_rigid import fast_rigid
 from optim.stability.margins import NO_DAMPING_REASON
 
-__all__ = ["WallModes", "wall_modes", "WallCritical", "wall_critical_stiffness", "one_dof_equivalent",
+from .normal_kernel import mode_numbers
+from .wall_kernel import KIND_DAMPER, KIND_STIFFNESS, plain_scan_grid, wall_crossings
+
+__all__ = ["WallModes", "wall_modes", "pose_eig", "one_dof_critical_stiffness", "WallCritical", "wall_critical_stiffness", "one_dof_equivalent",
            "max_stable_damping"]
 
 #: A mode whose weight c_i is below this fraction of Σ c_i is not seen along n (rounding of the projection).
@@ -48,9 +52,17 @@ class WallModes:
         return m * m * math.fsum(ci * li for ci, li in zip(self.c, self.lam))
 
 
-def wall_modes(mass: np.ndarray, jac: np.ndarray, damping: np.ndarray, normal: np.ndarray) -> WallModes:
-    """The modes of nᵀ J (M s² + D s)⁻¹ Jᵀ n (M symmetric positive definite, D diagonal ≥ 0)."""
-    lam, vec = scipy.linalg.eigh(np.diag(damping), mass)     # DV = MVΛ, VᵀMV = I
+def pose_eig(mass: np.ndarray, damping: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(Λ, V) of (D, M): DV = MVΛ, VᵀMV = I (every normal at the pose shares them)."""
+    lam, vec = scipy.linalg.eigh(np.diag(damping), mass)
+    return lam, vec
+
+
+def wall_modes(mass: np.ndarray, jac: np.ndarray, damping: np.ndarray, normal: np.ndarray,
+               eig: tuple[np.ndarray, np.ndarray] | None = None) -> WallModes:
+    """The modes of nᵀ J (M s² + D s)⁻¹ Jᵀ n (M symmetric positive definite, D diagonal ≥ 0); ``eig`` is
+    pose_eig(mass, damping) when the caller has it."""
+    lam, vec = pose_eig(mass, damping) if eig is None else eig     # DV = MVΛ, VᵀMV = I
     proj = (normal @ jac) @ vec
     c = proj * proj
     total = float(np.sum(c))
@@ -69,7 +81,8 @@ class WallCritical:
     reason: str | None = None
 
 
-def _grid(modes: WallModes, sample_time: float, delay_samples: float, beta: float) -> np.ndarray:
+def _grid(modes: WallModes, sample_time: float, delay_samples: float, beta: float, compiled: bool = False
+          ) -> np.ndarray:
     m = modes.effective_mass
     deltas = [li * sample_time for li in modes.lam]
     # the lowest damping any piece of the loop can have, normalised by m_e: every mode's own δ_i, and the
@@ -77,20 +90,31 @@ def _grid(modes: WallModes, sample_time: float, delay_samples: float, beta: floa
     low = 0.0 if any(li == 0.0 for li in modes.lam) else \
         sample_time / (m * math.fsum(ci / li for ci, li in zip(modes.c, modes.lam)))
     damp = min([low] + deltas) + beta
+    if compiled:
+        return plain_scan_grid(theta_min(float(damp), float(delay_samples)), float(delay_samples))
     return scan_grid(theta_min(float(damp), float(delay_samples)), delay_samples, (),
                      width_hint=max(min(deltas), 1e-6))
 
 
-def _max_stable_damping(plants, modes: WallModes, sample_time: float, d_samples: float) -> float:
+def _max_stable_damping(plants, modes: WallModes, sample_time: float, d_samples: float, compiled: bool = True
+                        ) -> float:
     """B_max [N·s/m]: the smallest positive crossover gain of the damper-only loop B(1 − z⁻¹)/T·G_n."""
     def h(theta: np.ndarray) -> np.ndarray:
         g = sum(w * p.response(theta) for w, p in plants)
         return (-1.0 / g) / (-np.expm1(-1j * theta))
 
-    found = positive_real_crossings(h, _grid(modes, sample_time, d_samples, 0.0))
-    if not found:
+    grid = _grid(modes, sample_time, d_samples, 0.0, compiled)
+    values: list[float] | np.ndarray
+    if compiled:
+        _, values, ok = wall_crossings(np.array([w for w, _ in plants]), mode_numbers([p for _, p in plants]), grid,
+                                       0.0, KIND_DAMPER)
+        if not ok:
+            values = [c.value for c in positive_real_crossings(h, grid)]
+    else:
+        values = [c.value for c in positive_real_crossings(h, grid)]
+    if not len(values):
         return math.inf
-    return min(c.value for c in found) * modes.effective_mass / sample_time
+    return float(min(values)) * modes.effective_mass / sample_time
 
 
 def max_stable_damping(modes: WallModes, sample_time: float, delay: float) -> float:
@@ -102,9 +126,11 @@ def max_stable_damping(modes: WallModes, sample_time: float, delay: float) -> fl
     return _max_stable_damping(plants, modes, sample_time, d_samples)
 
 
-def wall_critical_stiffness(modes: WallModes, sample_time: float, delay: float, damping: float = 0.0
-                            ) -> WallCritical:
-    """The exact K_cr of the sampled wall loop on G_n with ZOH and ``delay`` [s], virtual damping B [N·s/m]."""
+def wall_critical_stiffness(modes: WallModes, sample_time: float, delay: float, damping: float = 0.0,
+                            compiled: bool = True) -> WallCritical:
+    """The exact K_cr of the sampled wall loop on G_n with ZOH and ``delay`` [s], virtual damping B [N·s/m].
+
+    The scan is compiled (optim.workspace.wall_kernel); ``compiled=False`` runs its Python twin (the oracle)."""
     if damping == 0.0 and all(li == 0.0 for li in modes.lam):
         return WallCritical(0.0, None, (), NO_DAMPING_REASON)
     d_samples = delay / sample_time
@@ -118,14 +144,22 @@ def wall_critical_stiffness(modes: WallModes, sample_time: float, delay: float, 
         return -1.0 / g + beta * np.expm1(-1j * theta)
 
     if damping > 0.0:
-        b_max = _max_stable_damping(plants, modes, sample_time, d_samples)
+        b_max = _max_stable_damping(plants, modes, sample_time, d_samples, compiled)
         if damping >= b_max:
             return WallCritical(0.0, None, (), f"virtual damping B = {damping:.6g} N·s/m is at or above B_max = "
                                                f"{b_max:.6g} N·s/m (the damper-only loop's critical gain): no "
                                                "positive stiffness is stable")
-    found = positive_real_crossings(h, _grid(modes, sample_time, d_samples, beta))
+    grid = _grid(modes, sample_time, d_samples, beta, compiled)
     scale = m / sample_time ** 2
-    crossovers = tuple((c.angle / sample_time, c.value * scale) for c in found)
+    pairs: list[tuple[float, float]] | None = None
+    if compiled:
+        angles, values, ok = wall_crossings(np.array([w for w, _ in plants]), mode_numbers([p for _, p in plants]),
+                                            grid, beta, KIND_STIFFNESS)
+        if ok:
+            pairs = list(zip(angles.tolist(), values.tolist()))
+    if pairs is None:
+        pairs = [(c.angle, c.value) for c in positive_real_crossings(h, grid)]
+    crossovers = tuple((a / sample_time, v * scale) for a, v in pairs)
     if not crossovers:
         return WallCritical(math.inf, None, (), "no phase crossover: every positive stiffness is stable")
     best = min(crossovers, key=lambda c: c[1])
@@ -136,3 +170,16 @@ def one_dof_equivalent(modes: WallModes) -> WallModes:
     """The 1-DOF approximation 1/(m_e s² + b_e s) as a one-mode WallModes."""
     m, b = modes.effective_mass, modes.effective_damping
     return WallModes((1.0 / m,), (b / m,))
+
+
+def one_dof_critical_stiffness(modes: WallModes, sample_time: float, delay: float, damping: float = 0.0) -> float:
+    """K_cr [N/m] of the 1-DOF approximation (one_dof_equivalent(modes)): at B = 0 by the rigid fast path
+    (optim.stability.fast_rigid: the product's own exact rigid K_cr, µs), elsewhere or where it does not close by
+    the wall scan (tests/optim/workspace/test_wall_kernel.py holds the two to 1e-12)."""
+    one = one_dof_equivalent(modes)
+    if damping == 0.0 and one.lam[0] > 0.0:
+        d, f = split_delay(delay / sample_time)
+        res = fast_rigid(RigidZOH(one.lam[0] * sample_time, d, f), 0.0)
+        if res is not None and res.theta is not None:
+            return res.alpha * one.effective_mass / sample_time ** 2
+    return wall_critical_stiffness(one, sample_time, delay, damping).critical_stiffness

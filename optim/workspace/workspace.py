@@ -22,10 +22,18 @@ from models.kinematics import KinematicModel
 from models.velocity_filter import Rendering
 
 from .normal_search import dual_normal, worst_normal
-from .wall_plant import WallCritical, WallModes, one_dof_equivalent, wall_critical_stiffness, wall_modes
+from .wall_plant import (
+    WallCritical,
+    WallModes,
+    one_dof_critical_stiffness,
+    one_dof_equivalent,
+    pose_eig,
+    wall_critical_stiffness,
+    wall_modes,
+)
 from .wall_rendered import RenderedWall
 
-__all__ = ["WorkspacePoint", "WorkspaceMap", "workspace_map", "explicit_poses", "grid_poses", "lhs_poses",
+__all__ = ["WorkspacePoint", "WorkspaceMap", "workspace_map", "workspace_points", "merge_points", "explicit_poses", "grid_poses", "lhs_poses",
            "MAX_EVALUATIONS", "GRAVITY_NOTE"]
 
 #: At most this many (pose, normal) pairs in one request (a study takes more).
@@ -126,12 +134,12 @@ def _point(q: np.ndarray, n: np.ndarray, modes: WallModes, sample_time: float, d
            full: WallCritical | None = None, rendering: Rendering | None = None) -> WorkspacePoint:
     if rendering is not None:
         full = RenderedWall(modes, sample_time, delay, rendering).critical(damping)
-        one = RenderedWall(one_dof_equivalent(modes), sample_time, delay, rendering).critical(damping)
+        k1 = RenderedWall(one_dof_equivalent(modes), sample_time, delay, rendering).critical(damping).critical_stiffness
     else:
         if full is None:
             full = wall_critical_stiffness(modes, sample_time, delay, damping)
-        one = wall_critical_stiffness(one_dof_equivalent(modes), sample_time, delay, damping)
-    k, k1 = full.critical_stiffness, one.critical_stiffness
+        k1 = one_dof_critical_stiffness(modes, sample_time, delay, damping)
+    k = full.critical_stiffness
     err = (k1 / k - 1.0) if (math.isfinite(k) and k > 0 and math.isfinite(k1)) else None
     return WorkspacePoint(tuple(float(x) for x in q), (float(n[0]), float(n[1]), float(n[2])), k, full.frequency,
                           modes.effective_mass, modes.effective_damping, k1, err, len(modes.c), full.reason)
@@ -146,6 +154,28 @@ def workspace_map(model: KinematicModel, poses: list[np.ndarray], normals: list[
     ``rendering``: the rendered wall's velocity filter and virtual mass (optim.workspace.wall_rendered; the normals
     must then be given: the worst-normal search is today's wall's).
     """
+    points = workspace_points(model, poses, normals, sample_time, delay, damping, explicit=explicit,
+                              rendering=rendering)
+    return merge_points([points], normals)
+
+
+def merge_points(parts: Sequence[Sequence[WorkspacePoint]], normals: object) -> WorkspaceMap:
+    """The map of the points of consecutive slices of the poses (workspace_points of each, in order): the worst is
+    the first point of lowest K_cr, as over one list."""
+    points = tuple(p for part in parts for p in part)
+    if not points:
+        raise InputError("poses", "every sampled pose is singular")
+    worst = min(points, key=lambda p: p.critical_stiffness)
+    return WorkspaceMap(points, worst, worst.critical_stiffness, "worst" if normals == "worst" else "given")
+
+
+def workspace_points(model: KinematicModel, poses: list[np.ndarray],
+                     normals: list[Sequence[float]] | Literal["worst"], sample_time: float, delay: float,
+                     damping: float = 0.0, *, explicit: bool = False, part: tuple[int, int] = (0, 1),
+                     rendering: Rendering | None = None) -> list[WorkspacePoint]:
+    """The points of workspace_map (its checks on the whole request), of the ``part`` = (i, k)-th of k consecutive
+    slices of ``poses`` only (a request split over compute workers; a singular explicit pose is named by its index
+    in the whole list)."""
     if rendering is not None and normals == "worst":
         raise InputError("normals", "with a velocity filter or a virtual mass give the normals: the search for the "
                                     "worst normal is available for today's wall only")
@@ -165,7 +195,10 @@ def workspace_map(model: KinematicModel, poses: list[np.ndarray], normals: list[
         raise InputError("poses", "no pose to analyse")
     rank = _generic_rank(model)
     points: list[WorkspacePoint] = []
-    for j, q in enumerate(poses):
+    i_part, parts = part
+    first, last = i_part * len(poses) // parts, (i_part + 1) * len(poses) // parts
+    for j in range(first, last):
+        q = poses[j]
         mass, jac = model.at(q)
         s = np.linalg.svd(jac, compute_uv=False)
         if rank and s[rank - 1] <= _SINGULAR * max(s[0], 1e-300):
@@ -175,9 +208,10 @@ def workspace_map(model: KinematicModel, poses: list[np.ndarray], normals: list[
             continue
         pose_normals: list[np.ndarray]
         if normals == "worst" and rank == 3 and damping == 0.0:
-            dual = dual_normal(mass, jac, model.joint_damping, sample_time, delay)
+            eig = pose_eig(mass, model.joint_damping)
+            dual = dual_normal(mass, jac, model.joint_damping, sample_time, delay, eig)
             if dual is not None:
-                modes = wall_modes(mass, jac, model.joint_damping, dual[0])
+                modes = wall_modes(mass, jac, model.joint_damping, dual[0], eig)
                 full = wall_critical_stiffness(modes, sample_time, delay, damping)
                 if abs(full.critical_stiffness / dual[1] - 1.0) <= _DUAL_AGREE:
                     points.append(_point(q, dual[0], modes, sample_time, delay, damping, full))
@@ -192,7 +226,4 @@ def workspace_map(model: KinematicModel, poses: list[np.ndarray], normals: list[
                 raise InputError(f"normals.{i}", f"the device cannot move along this normal at pose {j} "
                                                  "(Jᵀn = 0): no wall can be rendered there")
             points.append(_point(q, n_vec, modes, sample_time, delay, damping, rendering=rendering))
-    if not points:
-        raise InputError("poses", "every sampled pose is singular")
-    worst = min(points, key=lambda p: p.critical_stiffness)
-    return WorkspaceMap(tuple(points), worst, worst.critical_stiffness, "worst" if normals == "worst" else "given")
+    return points

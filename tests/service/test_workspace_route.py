@@ -88,3 +88,26 @@ def test_workspace_plot_renders(client, tmp_path):
     bad = client.post("/v1/plots/workspace", json={
         "device": {"kinematics": {"preset": "planar-2link"}}, "x_joint": 5})
     assert bad.status_code == 422 and bad.json()["detail"][0]["loc"][-1] == "x_joint"
+
+
+def test_a_split_request_is_the_one_worker_answer(client):
+    """80 poses go to the two compute workers in two slices: the same points, in order, and the same worst as one
+    worker's map; a singular explicit pose in the second slice is named by its index in the whole list."""
+    from optim.workspace.analysis import PoseSpec, analyse_workspace
+
+    body = {"device": {"sample_time": 0.001, "delay": 0.0005, "kinematics": {"preset": "planar-2link"}},
+            "poses": {"latin_hypercube": {"samples": 80, "seed": 4}}, "normals": [[0.0, 1.0, 0.0], [0.6, 0.8, 0.0]]}
+    r = client.post("/v1/analysis/workspace", json=body)
+    assert r.status_code == 200, r.text
+    got = r.json()
+    want, _ = analyse_workspace(None, "planar-2link", None, None, None, PoseSpec(lhs_samples=80, lhs_seed=4),
+                                [[0.0, 1.0, 0.0], [0.6, 0.8, 0.0]], 0.001, 0.0005)
+    assert [p["critical_stiffness"] for p in got["points"]] == [p.critical_stiffness for p in want.points]
+    assert [p["pose"] for p in got["points"]] == [list(p.pose) for p in want.points]
+    assert got["worst"]["pose"] == list(want.worst.pose) and got["worst"]["normal"] == list(want.worst.normal)
+    urdf = KINEMATIC_PRESETS["planar-2link"]["urdf"].replace('lower="0.1" upper="3.0"', 'lower="-3.0" upper="3.0"')
+    poses = [[0.3, 1.0]] * 70 + [[0.3, 0.0]]
+    r = client.post("/v1/analysis/workspace", json={
+        "device": {"kinematics": {"urdf": urdf, "end_effector": "tip"}}, "poses": {"explicit": poses},
+        "normals": [[0, 1, 0]]})
+    assert r.status_code == 422 and r.json()["detail"][0]["loc"] == ["body", "poses", "explicit", 70]
