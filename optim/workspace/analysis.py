@@ -8,6 +8,14 @@ from typing import Any, Literal, Sequence
 
 from models.errors import InputError
 from models.kinematics import KINEMATIC_PRESETS, KinematicModel, load_kinematics
+from models.velocity_filter import (
+    BackwardDifference,
+    LowPass,
+    MovingAverage,
+    Rendering,
+    TransferFunctionFilter,
+    rendering,
+)
 
 from .workspace import (
     WorkspaceMap,
@@ -57,6 +65,10 @@ def device_kinematics(urdf: str | None, preset: str | None, end_effector: str | 
         raise exc.under("device.kinematics.") from None
 
 
+#: a controller's velocity filter (models.velocity_filter)
+Filter = BackwardDifference | LowPass | MovingAverage | TransferFunctionFilter
+
+
 def _poses(model: KinematicModel, poses: PoseSpec) -> list:
     if poses.explicit is not None:
         return explicit_poses(model, poses.explicit)
@@ -68,26 +80,42 @@ def _poses(model: KinematicModel, poses: PoseSpec) -> list:
 def analyse_workspace(urdf: str | None, preset: str | None, end_effector: str | None,
                       armature: Sequence[float] | None, joint_damping: Sequence[float] | None, poses: PoseSpec,
                       normals: Sequence[Sequence[float]] | Literal["worst"], sample_time: float, delay: float,
-                      damping: float = 0.0) -> tuple[WorkspaceMap, float]:
-    """The workspace map and its elapsed time [ms]; InputError fields are relative to the request body."""
+                      damping: float = 0.0, velocity_filter: Filter | None = None, virtual_mass: float = 0.0
+                      ) -> tuple[WorkspaceMap, float]:
+    """The workspace map and its elapsed time [ms]; InputError fields are relative to the request body.
+    ``velocity_filter`` / ``virtual_mass`` [kg]: the rendered wall's (the controller's; None / 0: today's wall)."""
     start = time.perf_counter()
+    rend = _rendering(velocity_filter, virtual_mass, sample_time)
     model = device_kinematics(urdf, preset, end_effector, armature, joint_damping)
     qs = _poses(model, poses)
     result = workspace_map(model, qs, normals if normals == "worst" else [list(n) for n in normals], sample_time,
-                           delay, damping, explicit=poses.explicit is not None)
+                           delay, damping, explicit=poses.explicit is not None, rendering=rend)
     return replace(result), (time.perf_counter() - start) * 1e3
 
 
 def analyse_workspace_part(urdf: str | None, preset: str | None, end_effector: str | None,
                            armature: Sequence[float] | None, joint_damping: Sequence[float] | None, poses: PoseSpec,
                            normals: Sequence[Sequence[float]] | Literal["worst"], sample_time: float, delay: float,
-                           damping: float, part: int, parts: int) -> list[WorkspacePoint]:
+                           damping: float, velocity_filter: Filter | None, virtual_mass: float, part: int, parts: int
+                           ) -> list[WorkspacePoint]:
     """The points of the ``part``-th of ``parts`` consecutive slices of the request's poses (every check on the
     whole request, as analyse_workspace): one compute worker's share; merge_points joins the shares in order."""
+    rend = _rendering(velocity_filter, virtual_mass, sample_time)
     model = device_kinematics(urdf, preset, end_effector, armature, joint_damping)
     qs = _poses(model, poses)
     return workspace_points(model, qs, normals if normals == "worst" else [list(n) for n in normals], sample_time,
-                            delay, damping, explicit=poses.explicit is not None, part=(part, parts))
+                            delay, damping, explicit=poses.explicit is not None, part=(part, parts),
+                            rendering=rend)
+
+
+def _rendering(velocity_filter: Filter | None, virtual_mass: float, sample_time: float) -> Rendering | None:
+    """The controller's rendered wall at T (None: today's wall); InputError fields under ``controller.``."""
+    if velocity_filter is None and virtual_mass == 0.0:
+        return None
+    try:
+        return rendering(velocity_filter, virtual_mass, sample_time)
+    except InputError as exc:
+        raise exc.under("controller.") from None
 
 
 def pose_count(poses: PoseSpec) -> int:

@@ -38,7 +38,8 @@ async def workspace(req: WorkspaceRequest, compute: Compute) -> WorkspaceRespons
                     lhs_samples=None if poses.latin_hypercube is None else poses.latin_hypercube.samples,
                     lhs_seed=0 if poses.latin_hypercube is None else poses.latin_hypercube.seed)
     args = (kin.urdf, kin.preset, kin.end_effector, kin.armature, kin.joint_damping, spec, req.normals,
-            req.device.sample_time, req.device.delay, req.controller.damping if req.controller else 0.0)
+            req.device.sample_time, req.device.delay, req.controller.damping if req.controller else 0.0,
+            req.controller.velocity_filter if req.controller else None, req.controller.mass if req.controller else 0.0)
     count = pose_count(spec) * (1 if req.normals == "worst" else len(req.normals))
     parts = min(compute.workers, count // (SPLIT_FROM // 2)) if count >= SPLIT_FROM else 1
     try:

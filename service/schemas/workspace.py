@@ -10,7 +10,7 @@ from models.device import MAX_DELAY_SAMPLES
 from models.kinematics import KINEMATIC_PRESETS, MAX_URDF_CHARS
 from optim.workspace.workspace import GRAVITY_NOTE, MAX_EVALUATIONS
 
-from .common import STRICT, Controller
+from .common import STRICT, RenderedController
 from .finite import FiniteModel
 
 _JOINTS = 64
@@ -76,7 +76,8 @@ class WorkspaceRequest(BaseModel):
         {"device": {"sample_time": 0.001, "kinematics": {"preset": "planar-2link"}},
          "poses": {"latin_hypercube": {"samples": 20, "seed": 1}}, "normals": [[0.0, 1.0, 0.0]]}]}}
     device: WorkspaceDevice
-    controller: Controller | None = Field(default=None, description="B [N·s/m] of the wall (its K is not used)")
+    controller: RenderedController | None = Field(
+        default=None, description="B [N·s/m] of the wall, its velocity filter and virtual mass (its K is not used)")
     poses: Poses
     normals: list[list[float]] | Literal["worst"] = Field(
         description="unit wall normals in the base frame (normalised), or \"worst\": each pose's worst normal")

@@ -54,3 +54,29 @@ def test_workspace_design_with_a_filter_through_http(client):
     assert body["status"] == "optimal" and body["stiffness"] == pytest.approx(ref.stiffness, rel=1e-9)
     assert body["rendered"]["cutoff_hz"] == 50
     assert body["workspace"]["mimo_checks"] and all(c["stable"] for c in body["workspace"]["mimo_checks"])
+
+
+def test_the_workspace_analysis_renders_the_controllers_filter(client):
+    # POST /v1/analysis/workspace took a controller of K and B only: the map is now the rendered wall's (the same
+    # numbers as optim.workspace.workspace_map with the filter), not today's wall's
+    q, n = [0.3, 1.0], [0.0, 1.0, 0.0]
+    base = {"device": {"sample_time": 0.001, "delay": 0.001, "kinematics": {"preset": "planar-2link"}},
+            "poses": {"explicit": [q]}, "normals": [n]}
+    plain = client.post("/v1/analysis/workspace", json={**base, "controller": {"stiffness": 100.0, "damping": 0.2}})
+    r = client.post("/v1/analysis/workspace", json={**base, "controller": {"damping": 0.2, "velocity_filter": LP50}})
+    assert plain.status_code == 200 and r.status_code == 200, r.text[:300]
+    arm = load_kinematics(**KINEMATIC_PRESETS["planar-2link"])
+    import numpy as np
+
+    from optim.workspace.workspace import workspace_map
+    want = workspace_map(arm, [np.array(q)], [n], 0.001, 0.001, 0.2, explicit=True,
+                         rendering=rendering(LowPass(**LP50), 0.0, 0.001))
+    got = r.json()["minimum_critical_stiffness"]
+    assert got == pytest.approx(want.minimum_critical_stiffness, rel=1e-12)
+    assert got != pytest.approx(plain.json()["minimum_critical_stiffness"], rel=1e-3)
+    worst = client.post("/v1/analysis/workspace", json={**base, "normals": "worst",
+                                                         "controller": {"velocity_filter": LP50}})
+    assert worst.status_code == 422 and worst.json()["detail"][0]["loc"][-1] == "normals"
+    bad = client.post("/v1/analysis/workspace", json={**base, "controller": {"velocity_filter": {
+        "kind": "low_pass", "cutoff_hz": 600, "order": 1}}})
+    assert bad.status_code == 422 and "velocity_filter" in ".".join(map(str, bad.json()["detail"][0]["loc"]))
