@@ -249,13 +249,18 @@ def circle_poles(device: Device) -> tuple[int, tuple[float, ...]]:
 def plant_response(plant: SampledPlant, theta: np.ndarray) -> np.ndarray:
     """G(e^{iθ}) = z^{−d}·c((z − 1)I − E)⁻¹(Γ0 + Γ1 z⁻¹) at each θ [rad/sample], z − 1 computed without
     cancellation."""
+    _, _, x = _resolvent_solve(plant, theta)
+    return (x @ plant.c) * np.exp(-1j * plant.d * theta)
+
+
+def _resolvent_solve(plant: SampledPlant, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(z − 1, (z − 1)I − E, x = ((z − 1)I − E)⁻¹(Γ0 + Γ1 z⁻¹)) at each θ, z − 1 without cancellation."""
     n = plant.e.shape[0]
     zm1 = -2.0 * np.sin(theta / 2) ** 2 + 1j * np.sin(theta)
     zinv = np.exp(-1j * theta)
     mats = zm1[:, None, None] * np.eye(n) - plant.e[None, :, :]
     rhs = plant.g0[None, :] + plant.g1[None, :] * zinv[:, None]
-    x = np.linalg.solve(mats, rhs[:, :, None])[:, :, 0]
-    return (x @ plant.c) * np.exp(-1j * plant.d * theta)
+    return zm1, mats, np.linalg.solve(mats, rhs[:, :, None])[:, :, 0]
 
 
 #: the a-priori rounding bound's constant (:func:`plant_rounding`): generous against the measured errors
@@ -269,11 +274,7 @@ def plant_rounding(plant: SampledPlant, theta: np.ndarray) -> np.ndarray:
     lightly damped mode (the pole's own rounding), pessimistic beside z = 1 (whose poles the structure keeps exact):
     it only decides when verify may skip the mpmath look (optim.stability.circle_reach)."""
     n = plant.e.shape[0]
-    zm1 = -2.0 * np.sin(theta / 2) ** 2 + 1j * np.sin(theta)
-    zinv = np.exp(-1j * theta)
-    mats = zm1[:, None, None] * np.eye(n) - plant.e[None, :, :]
-    rhs = plant.g0[None, :] + plant.g1[None, :] * zinv[:, None]
-    x = np.linalg.solve(mats, rhs[:, :, None])[:, :, 0]
+    zm1, mats, x = _resolvent_solve(plant, theta)
     y = np.linalg.solve(np.swapaxes(mats, 1, 2), np.broadcast_to(plant.c.astype(complex), (theta.size, n))[:, :, None])
     ny, nx = np.linalg.norm(y[:, :, 0], axis=1), np.linalg.norm(x, axis=1)
     ne = np.linalg.norm(plant.e)
