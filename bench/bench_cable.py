@@ -113,7 +113,8 @@ def section(rows: list[dict], args, wall: float, load: tuple[float, float]) -> s
         lines += ["Contradicted (first 10):", ""] + [f"- `{r['device']}`, B = {r['b']!r}: {r['reason']}"
                                                     for r in contradicted[:10]] + [""]
     if nc:
-        lines += ["Not checkable, with the reason (first 10):", ""] + [f"- {r['reason']}" for r in nc[:10]] + [""]
+        lines += ["Not checkable, with the reason (first 10):", ""] + [f"- {r['reason']}: `{r['device']}`, B = {r['b']!r}"
+                                                                    for r in nc[:10]] + [""]
     above = [r for r in scanned if r["scan_err"] > 1e-12]
     if above:
         lines += ["Above 1e-12 from the scan (first 10; the scan's own conditioning there: "

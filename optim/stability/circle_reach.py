@@ -85,8 +85,10 @@ def _candidates(th: np.ndarray, vals: np.ndarray, hd: Callable) -> tuple[np.ndar
     if n < 2:
         return none, none, none
     a = np.abs(vals)
-    left = np.concatenate([[True], a[1:] <= a[:-1]])
-    right = np.concatenate([a[:-1] <= a[1:], [True]])
+    # interior minima, and θ = π (a real pole near z = −1); not a segment's other ends: those are z = 1's and an
+    # undamped mode's indentations, whose poles the count takes from the structure
+    left = np.concatenate([[False], a[1:] <= a[:-1]])
+    right = np.concatenate([a[:-1] <= a[1:], [bool(th[-1] == math.pi)]])
     i = np.nonzero(left & right)[0]
     lo, hi = np.maximum(i - 1, 0), np.minimum(i + 1, n - 1)
     slope = (vals[hi] - vals[lo]) / (th[hi] - th[lo])
@@ -115,7 +117,9 @@ def _foot(precise: Callable, theta: float, digits: int) -> tuple[mp.mpf, mp.mpf,
         if slope == 0:
             return None
         q = f / slope
-        th = min(max(th - mp.re(q), mp.mpf(0)), +mp.pi)
+        new = th - mp.re(q)
+        # stay inside (0, π]: a step past an end goes half way to it (z = 1 is a pole of F)
+        th = th / 2 if new <= 0 else (th + mp.pi) / 2 if new > mp.pi else new
         if abs(mp.re(q)) <= max(tol * abs(th), mp.mpf("1e-6") * abs(mp.im(q))):
             f = precise(th)
             evals += 1
@@ -156,6 +160,13 @@ def precise_correction(segments: list[tuple[np.ndarray, np.ndarray]], ret_diff: 
     bound on the double F's error (the plant's matrices and their solve rounded, normwise): a pole farther off the
     circle than three times the reach it gives is left to the double winding without an mpmath evaluation."""
     near = _near_poles(poles)
+    try:
+        return _with_poles(segments, ret_diff, precise, digits, unresolved, near, rounding)
+    except ZeroDivisionError:                    # mpmath's solve on a pole of the plant
+        return Correction(0.0, 0, None, f"the return difference in {digits}-digit mpmath met a pole of the plant")
+
+
+def _with_poles(segments, ret_diff, precise, digits, unresolved, near, rounding) -> Correction:
     with mp.workdps(digits + 10):
         mp_poles = [mp.mpc(complex(p)) for p in near]
 
