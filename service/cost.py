@@ -84,11 +84,8 @@ def nonlinear_verify_cost_ms(device: Device) -> float:
 
 def verify_cost_ms(device: Device) -> float:
     """Estimated cost [ms] of one ``verify`` (optim.verification): two or three closed loops, by eigenvalues up to
-    160 states (≈ 1-10 ms), by the argument principle beyond (≈ 20 ms + 0.03 ms per sample of delay, and the mpmath
-    look at the poles near the circle, optim.stability.circle_reach: ≈ 80 ms on a cable, 20 ms on a rigid device)."""
-    if device.delay_samples <= 150:
-        return 15.0
-    return 25.0 + 0.03 * device.delay_samples + (80.0 if device.cable is not None else 20.0)
+    160 states (≈ 1-10 ms), by the argument principle beyond (≈ 20 ms + 0.03 ms per sample of delay)."""
+    return 5.0 + (20.0 + 0.03 * device.delay_samples if device.delay_samples > 150 else 10.0)
 
 
 def boundary_cost_ms(device: Device, points: int) -> float:
