@@ -192,7 +192,10 @@ def _correct(segments, ret_diff, hd, hp, precise, digits, unresolved, near, roun
             eta_d = rounding(feet) * np.prod(np.abs(np.exp(1j * feet)[:, None] - near[None, :]), axis=1)
             clear = r_d > 3.0 * (REACH_SAFETY * eta_d / slope_d + 8.0 * _EPS * feet)
             feet = feet[~clear]
+        seen: list[tuple[float, float]] = []      # (θ_f, reach) of the poles examined: one look per pole
         for c in [float(x) for x in feet] + forced:
+            if c not in forced and any(abs(c - x0) <= 1e3 * r0 for x0, r0 in seen):
+                continue
             found = _foot(hp, c, digits)
             if found is None:
                 return Correction(0.0, evals, None, f"Newton in {digits} digits found no foot of the closed-loop "
@@ -206,6 +209,10 @@ def _correct(segments, ret_diff, hd, hp, precise, digits, unresolved, near, roun
             terms = (1.0 + abs(complex(ret_diff(np.array([x]))[0]) - 1.0)) * float(np.prod(np.abs(np.exp(1j * x) - near)))
             eta = max(eta, _EPS * terms)
             reach = REACH_SAFETY * eta / float(abs(slope)) + 8.0 * _EPS * abs(x)
+            again = any(abs(x - x0) <= 1e-3 * max(r0, reach) for x0, r0 in seen)
+            if again and c not in forced:
+                continue                # another minimum of the same pole
+            seen.append((x, max(reach, float(abs(r)))))
             if abs(r) >= reach and c not in forced:
                 continue                # the double winding saw this pole on its side
             floor = mp.mpf(10) ** (-(digits - 8)) * terms / abs(slope)
@@ -216,8 +223,9 @@ def _correct(segments, ret_diff, hd, hp, precise, digits, unresolved, near, roun
             lo = max(int(np.searchsorted(th, min(x, c) - w)) - 1, 0)
             hi = min(int(np.searchsorted(th, max(x, c) + w)), th.size - 1)
             arcs.append([lo, hi, [(foot, r, reach, w)]])
-            notes.append(f"a pole {float(r):+.1e} off the circle at θ = {x:.9g}, below double precision's reach "
-                         f"({reach:.1e})")
+            if not again:
+                notes.append(f"a pole {float(r):+.1e} off the circle at θ = {x:.9g}, below double precision's reach "
+                             f"({reach:.1e})")
         if not arcs:
             continue
         arcs.sort(key=lambda a: a[0])
