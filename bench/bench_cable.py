@@ -89,7 +89,9 @@ def section(rows: list[dict], args, wall: float, load: tuple[float, float]) -> s
         "B = 0, uniform below B_max or within 1e-4…1e-1 of it (a third each).  B_max and K_cr by "
         "`optim.stability.margins` (path `fast`: the compiled cable brackets, optim.stability.cable_kernel; "
         "`bounded-scan`: the fallback, said in the answer), K_cr checked by the closed loop "
-        "(`optim.verification.verify_critical_stiffness`) and, on the first devices, against the scan of every "
+        "(`optim.verification.verify_critical_stiffness`; a closed-loop pole within double precision's reach of the "
+        "unit circle decided in 50-digit mpmath, optim.stability.circle_reach: before issue 34's fix 1 of these 5,000 "
+        "was wrongly contradicted there, a pole 2.1e-17 off the circle) and, on the first devices, against the scan of every "
         "crossover (`scan_critical_stiffness`; answers re-solved in 40 digits near B_max left out: there the double "
         "scan is the less accurate of the two).",
         "",
@@ -113,7 +115,8 @@ def section(rows: list[dict], args, wall: float, load: tuple[float, float]) -> s
         lines += ["Contradicted (first 10):", ""] + [f"- `{r['device']}`, B = {r['b']!r}: {r['reason']}"
                                                     for r in contradicted[:10]] + [""]
     if nc:
-        lines += ["Not checkable, with the reason (first 10):", ""] + [f"- {r['reason']}" for r in nc[:10]] + [""]
+        lines += ["Not checkable, with the reason (first 10):", ""] + [f"- {r['reason']}: `{r['device']}`, B = {r['b']!r}"
+                                                                    for r in nc[:10]] + [""]
     above = [r for r in scanned if r["scan_err"] > 1e-12]
     if above:
         lines += ["Above 1e-12 from the scan (first 10; the scan's own conditioning there: "

@@ -1,34 +1,22 @@
 """Cables within 1e-3 of B_max, both sides (issue 34): K_cr within its own error estimate, every K_cr = 0 answer's
 stable set (none, or a band) confirmed by an independent closed loop (tests/optim/stability/near_b_max_cases.py).
 
-Writes the section "Cables near B_max" of docs/properties_analysis.md (generated; never edit by hand; the rest of that
-doc is bench/bench_verify.py's, which keeps this section).  Usage:
+Writes the section "Cables near B_max" of docs/properties_analysis.md (generated; never edit by hand; the other
+sections are kept: before bench/sections.py this script dropped every section after its own).  Usage:
     PYTHONPATH=. python -m bench.bench_near_b_max [--cases 500] [--seed 34] [--workers 2]
 """
 
 from __future__ import annotations
 
-import argparse
 import platform
 import time
-import warnings
-from concurrent.futures import ProcessPoolExecutor
-from pathlib import Path
 
 import numpy as np
 
-OUT = Path(__file__).resolve().parents[1] / "docs" / "properties_analysis.md"
-#: the section's first line: everything from it on is this script's
+from bench.sections import parser, replace_section, run_chunks
+
+#: the section's heading (bench.sections.replace_section: up to the next section is this script's)
 MARKER = "## Cables near B_max (issue 34)"
-
-
-def _chunk(args: tuple[int, int, int]) -> list[dict]:
-    from tests.optim.stability.near_b_max_cases import run
-
-    seed, start, n = args
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        return run(seed, n, start)
 
 
 def section(rows: list[dict], seed: int, wall: float, cases: int) -> list[str]:
@@ -76,21 +64,11 @@ def section(rows: list[dict], seed: int, wall: float, cases: int) -> list[str]:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--cases", type=int, default=500)
-    ap.add_argument("--seed", type=int, default=34)
-    ap.add_argument("--workers", type=int, default=2)
-    ap.add_argument("--out", type=Path, default=OUT)
-    args = ap.parse_args()
+    args = parser(500, 34).parse_args()
     t0 = time.perf_counter()
-    step = 10
-    jobs = [(args.seed, s, min(step, args.cases - s)) for s in range(0, args.cases, step)]
-    with ProcessPoolExecutor(args.workers) as ex:
-        rows = [r for part in ex.map(_chunk, jobs) for r in part]
+    rows = run_chunks("tests.optim.stability.near_b_max_cases", args.seed, args.cases, args.workers)
     lines = section(rows, args.seed, time.perf_counter() - t0, args.cases)
-    old = args.out.read_text() if args.out.exists() else ""
-    head = old.split(MARKER)[0].rstrip("\n")
-    args.out.write_text((head + "\n\n" if head else "") + "\n".join(lines))
+    replace_section(args.out, MARKER, lines)
     print("\n".join(lines))
 
 

@@ -15,16 +15,14 @@ Writes the section "Crossovers near Nyquist" of docs/properties_analysis.md (the
 
 from __future__ import annotations
 
-import argparse
 import math
-import os
 import platform
 import time
-from pathlib import Path
 
 import numpy as np
 
-OUT = Path(__file__).resolve().parents[1] / "docs" / "properties_analysis.md"
+from bench.sections import load_text, parser, replace_section
+
 MARKER = "## Crossovers near Nyquist (issue 34)"
 
 
@@ -101,14 +99,11 @@ def run(seed: int, n: int, log_delay: tuple[float, float] = (0.0, 3.3)) -> dict:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--cases", type=int, default=2200)
-    ap.add_argument("--seed", type=int, default=34)
+    ap = parser(2200, 34, workers=False)
     ap.add_argument("--log-delay", type=float, nargs=2, default=(0.0, 3.3),
                     help="delays log-uniform between 10^LO and 10^HI samples (long delays put crossings nearer π)")
-    ap.add_argument("--out", type=Path, default=OUT)
     args = ap.parse_args()
-    load = " ".join(f"{x:.1f}" for x in os.getloadavg())
+    load = load_text()
     t0 = time.perf_counter()
     r = run(args.seed, args.cases, tuple(args.log_delay))
     wall = time.perf_counter() - t0
@@ -130,14 +125,7 @@ def main() -> None:
     ]
     if r["missing_cases"]:
         lines += ["Missing (first 10):", ""] + [f"- `{c}`" for c in r["missing_cases"][:10]] + [""]
-    old = args.out.read_text() if args.out.exists() else ""
-    if MARKER in old:
-        head, rest = old.split(MARKER, 1)
-        tail = rest[rest.find("\n## "):] if "\n## " in rest else ""
-        text = head + "\n".join(lines).rstrip("\n") + "\n" + tail
-    else:
-        text = old.rstrip("\n") + "\n\n" + "\n".join(lines)
-    args.out.write_text(text)
+    replace_section(args.out, MARKER, lines)
     print("\n".join(lines))
 
 

@@ -10,27 +10,15 @@ other sections are kept).  Usage:
 
 from __future__ import annotations
 
-import argparse
 import platform
 import time
-import warnings
 from collections import Counter
-from concurrent.futures import ProcessPoolExecutor
-from pathlib import Path
 
 import numpy as np
 
-OUT = Path(__file__).resolve().parents[1] / "docs" / "properties_analysis.md"
+from bench.sections import load_text, parser, replace_section, run_chunks
+
 MARKER = "## Rendered walls near B_max (issue 34)"
-
-
-def _chunk(args: tuple[int, int, int]) -> list[dict]:
-    from tests.optim.stability.rendered_band_cases import run
-
-    seed, start, n = args
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        return run(seed, n, start)
 
 
 def section(rows: list[dict], seed: int, wall: float, cases: int, load: str) -> list[str]:
@@ -91,29 +79,12 @@ def section(rows: list[dict], seed: int, wall: float, cases: int, load: str) -> 
 
 
 def main() -> None:
-    import os
-
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--cases", type=int, default=600)
-    ap.add_argument("--seed", type=int, default=34)
-    ap.add_argument("--workers", type=int, default=2)
-    ap.add_argument("--out", type=Path, default=OUT)
-    args = ap.parse_args()
-    load = " ".join(f"{x:.1f}" for x in os.getloadavg())
+    args = parser(600, 34).parse_args()
+    load = load_text()
     t0 = time.perf_counter()
-    step = 10
-    jobs = [(args.seed, s, min(step, args.cases - s)) for s in range(0, args.cases, step)]
-    with ProcessPoolExecutor(args.workers) as ex:
-        rows = [r for part in ex.map(_chunk, jobs) for r in part]
+    rows = run_chunks("tests.optim.stability.rendered_band_cases", args.seed, args.cases, args.workers)
     lines = section(rows, args.seed, time.perf_counter() - t0, args.cases, load)
-    old = args.out.read_text() if args.out.exists() else ""
-    if MARKER in old:
-        head, rest = old.split(MARKER, 1)
-        tail = rest[rest.find("\n## "):] if "\n## " in rest else ""
-        text = head + "\n".join(lines).rstrip("\n") + "\n" + tail
-    else:
-        text = old.rstrip("\n") + "\n\n" + "\n".join(lines)
-    args.out.write_text(text)
+    replace_section(args.out, MARKER, lines)
     print("\n".join(lines))
 
 

@@ -8,14 +8,12 @@ other sections are kept).  Usage:
 
 from __future__ import annotations
 
-import argparse
-import os
 import platform
 import time
 import warnings
-from pathlib import Path
 
-OUT = Path(__file__).resolve().parents[1] / "docs" / "properties_analysis.md"
+from bench.sections import load_text, parser, replace_section
+
 MARKER = "## Undamped cables past B_max (issue 34)"
 
 
@@ -59,25 +57,14 @@ def section(rows: list[dict], seed: int, wall: float, cases: int, load: str) -> 
 def main() -> None:
     from tests.optim.stability.undamped_band_cases import run
 
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--cases", type=int, default=400)
-    ap.add_argument("--seed", type=int, default=34)
-    ap.add_argument("--out", type=Path, default=OUT)
-    args = ap.parse_args()
-    load = " ".join(f"{x:.1f}" for x in os.getloadavg())
+    args = parser(400, 34, workers=False).parse_args()
+    load = load_text()
     t0 = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         rows = run(args.seed, args.cases)
     lines = section(rows, args.seed, time.perf_counter() - t0, args.cases, load)
-    old = args.out.read_text() if args.out.exists() else ""
-    if MARKER in old:
-        head, rest = old.split(MARKER, 1)
-        tail = rest[rest.find("\n## "):] if "\n## " in rest else ""
-        text = head + "\n".join(lines).rstrip("\n") + "\n" + tail
-    else:
-        text = old.rstrip("\n") + "\n\n" + "\n".join(lines)
-    args.out.write_text(text)
+    replace_section(args.out, MARKER, lines)
     print("\n".join(lines))
 
 

@@ -9,7 +9,10 @@ whether the loop is stable just below the answer and unstable just above it:
   most :data:`EIG_MAX_STATES` and the radius is decided beyond its own rounding bound;
 * ``argument principle``: otherwise, the number of closed-loop poles outside the unit circle, from the
   winding of the return difference 1 + C·G around the unit circle (any delay up to the 10,000-sample
-  limit; no radius, a count).
+  limit; no radius, a count).  A closed-loop pole that double precision places within its own reach of the
+  circle (at K_cr·(1 ± 1e-6) the crossing pole may sit 1e-17 off it) is decided in 50-digit mpmath on an arc
+  around it (optim.stability.circle_reach, the plant sampled again in mpmath by optim.stability.closed_loop_mp);
+  where even that cannot place it, the point is not decided and the verdict is ``not_checkable``.
 
 A contradiction is a verdict, never an exception: the caller returns it as ``contradicted``.
 """
@@ -28,6 +31,7 @@ from scipy.optimize import minimize_scalar
 from models.device import Device
 from optim.stability.closed_loop import (
     SampledPlant,
+    UnstableCount,
     circle_poles,
     count_outside,
     radius_excess,
@@ -35,10 +39,12 @@ from optim.stability.closed_loop import (
     stiffness_closed_loop,
     unstable_count,
 )
+from optim.stability.closed_loop_mp import PRECISE_DIGITS, mp_return_difference
 from optim.stability.closed_loop_rendered import (
     filter_poles,
     filter_polynomials,
     rendered_closed_loop,
+    rendered_controller,
     rendered_return_difference,
     rendered_states,
 )
@@ -158,10 +164,18 @@ def _check_point(device: Device, plant: SampledPlant, alpha: float, beta: float,
         ex = radius_excess(stiffness_closed_loop(plant, alpha, beta))
         if ex.decided_stable or ex.decided_unstable:
             return _Point(ex.decided_stable, 1.0 + ex.excess, None, EIGEN, None)
-    cnt = unstable_count(device, plant, alpha, beta)
+    cnt = unstable_count(device, plant, alpha, beta, mp_return_difference(device, alpha, beta, PRECISE_DIGITS),
+                         PRECISE_DIGITS)
+    return _counted(cnt)
+
+
+def _counted(cnt: UnstableCount) -> _Point:
+    """The argument principle's verdict; the poles it decided in mpmath (below double precision's reach) named in
+    the method."""
+    method = f"{ARGUMENT}; {cnt.precise}" if cnt.precise else ARGUMENT
     if cnt.count is None:
-        return _Point(None, None, None, ARGUMENT, cnt.reason)
-    return _Point(cnt.count == 0, None, cnt.count, ARGUMENT, None)
+        return _Point(None, None, None, method, cnt.reason)
+    return _Point(cnt.count == 0, None, cnt.count, method, None)
 
 
 #: the closed loop's verdict at one (α, β): eigenvalues with their rounding bound up to EIG_MAX_STATES states, else
@@ -179,11 +193,11 @@ def _rendered_point(device: Device, plant: SampledPlant, alpha: float, beta: flo
             return _Point(ex.decided_stable, 1.0 + ex.excess, None, EIGEN, None)
     m1, pairs = circle_poles(device)
     poles = np.concatenate([1.0 + np.linalg.eigvals(plant.e), filter_poles(spec, t)])
+    num, den = rendered_controller(spec, t, alpha, beta, mu)
+    precise = mp_return_difference(device, alpha, beta, PRECISE_DIGITS, (tuple(num), tuple(den)))
     cnt = count_outside(lambda th: rendered_return_difference(plant, spec, t, alpha, beta, mu, th), poles, plant.d,
-                        m1, pairs)
-    if cnt.count is None:
-        return _Point(None, None, None, ARGUMENT, cnt.reason)
-    return _Point(cnt.count == 0, None, cnt.count, ARGUMENT, None)
+                        m1, pairs, precise, PRECISE_DIGITS)
+    return _counted(cnt)
 
 
 def claimed_epsilon(method: str, error_estimate: float | None, linear_factor: float = 1.0) -> float | None:

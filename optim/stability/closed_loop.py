@@ -19,12 +19,14 @@ which keeps its relative precision where 1 + q would round it away.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.linalg import eig, expm, matrix_balance
 
 from models.device import Device
+from optim.stability.circle_reach import precise_correction
 
 __all__ = [
     "circle_poles",
@@ -34,8 +36,10 @@ __all__ = [
     "count_outside",
     "discretise",
     "plant_response",
+    "plant_rounding",
     "radius_excess",
     "sampled_plant",
+    "split_delay_samples",
     "stiffness_closed_loop",
     "unstable_count",
 ]
@@ -83,6 +87,10 @@ def _split(samples: float) -> tuple[int, float]:
     if abs(samples - whole) <= 64 * np.finfo(float).eps * max(1.0, samples):
         return int(whole), 0.0
     return int(math.floor(samples)), float(samples - math.floor(samples))
+
+
+#: (whole, fraction) of a delay in samples, a fraction within a few ulp of a whole sample snapped to it
+split_delay_samples = _split
 
 
 def _psi(a: np.ndarray, sigma: float) -> tuple[np.ndarray, np.ndarray]:
@@ -209,6 +217,9 @@ class UnstableCount:
     samples: int
     """evaluations of the return difference it took."""
     reason: str | None = None
+    precise: str | None = None
+    """the closed-loop poles within double precision's reach of the circle that were decided in mpmath (where and how
+    far off the circle), None when there were none."""
 
 
 _MAX_ROUNDS = 80
@@ -238,13 +249,37 @@ def circle_poles(device: Device) -> tuple[int, tuple[float, ...]]:
 def plant_response(plant: SampledPlant, theta: np.ndarray) -> np.ndarray:
     """G(e^{iθ}) = z^{−d}·c((z − 1)I − E)⁻¹(Γ0 + Γ1 z⁻¹) at each θ [rad/sample], z − 1 computed without
     cancellation."""
+    _, _, x = _resolvent_solve(plant, theta)
+    return (x @ plant.c) * np.exp(-1j * plant.d * theta)
+
+
+def _resolvent_solve(plant: SampledPlant, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(z − 1, (z − 1)I − E, x = ((z − 1)I − E)⁻¹(Γ0 + Γ1 z⁻¹)) at each θ, z − 1 without cancellation."""
     n = plant.e.shape[0]
     zm1 = -2.0 * np.sin(theta / 2) ** 2 + 1j * np.sin(theta)
     zinv = np.exp(-1j * theta)
     mats = zm1[:, None, None] * np.eye(n) - plant.e[None, :, :]
     rhs = plant.g0[None, :] + plant.g1[None, :] * zinv[:, None]
-    x = np.linalg.solve(mats, rhs[:, :, None])[:, :, 0]
-    return (x @ plant.c) * np.exp(-1j * plant.d * theta)
+    return zm1, mats, np.linalg.solve(mats, rhs[:, :, None])[:, :, 0]
+
+
+#: the a-priori rounding bound's constant (:func:`plant_rounding`): generous against the measured errors
+_ROUNDING_K = 64.0
+
+
+def plant_rounding(plant: SampledPlant, theta: np.ndarray) -> np.ndarray:
+    """A bound on the error of the double G(e^{jθ}) (:func:`plant_response`) from the rounding of E, Γ0, Γ1 (the
+    matrix exponential, backward stable: ~u·‖·‖ each) and of the solve: first order, normwise,
+    K·u·‖cR‖·(‖E‖ + |z − 1|)·‖RΓ̃‖ + K·u·‖cR‖·(‖Γ0‖ + ‖Γ1‖), R = ((z − 1)I − E)⁻¹, Γ̃ = Γ0 + Γ1 z⁻¹.  Sharp beside a
+    lightly damped mode (the pole's own rounding), pessimistic beside z = 1 (whose poles the structure keeps exact):
+    it only decides when verify may skip the mpmath look (optim.stability.circle_reach)."""
+    n = plant.e.shape[0]
+    zm1, mats, x = _resolvent_solve(plant, theta)
+    y = np.linalg.solve(np.swapaxes(mats, 1, 2), np.broadcast_to(plant.c.astype(complex), (theta.size, n))[:, :, None])
+    ny, nx = np.linalg.norm(y[:, :, 0], axis=1), np.linalg.norm(x, axis=1)
+    ne = np.linalg.norm(plant.e)
+    ng = np.linalg.norm(plant.g0) + np.linalg.norm(plant.g1)
+    return _ROUNDING_K * np.finfo(float).eps * ny * ((ne + np.abs(zm1)) * nx + ng)
 
 
 def _return_difference(plant: SampledPlant, alpha: float, beta: float, theta: np.ndarray) -> np.ndarray:
@@ -254,15 +289,23 @@ def _return_difference(plant: SampledPlant, alpha: float, beta: float, theta: np
     return 1.0 + ctrl * g
 
 
-def unstable_count(device: Device, plant: SampledPlant, alpha: float, beta: float) -> UnstableCount:
-    """Number of closed-loop poles outside the unit circle of the stiffness loop (see :func:`count_outside`)."""
+def unstable_count(device: Device, plant: SampledPlant, alpha: float, beta: float,
+                   precise: Callable | None = None, digits: int = 50) -> UnstableCount:
+    """Number of closed-loop poles outside the unit circle of the stiffness loop (see :func:`count_outside`);
+    ``precise``: F(θ) in mpmath (optim.stability.closed_loop_mp), for the poles within double precision's reach."""
     m1, pair_angles = _circle_poles(device)
+
+    def rounding(th: np.ndarray) -> np.ndarray:
+        ctrl = np.abs(alpha + beta * (-np.expm1(-1j * th)))
+        return ctrl * plant_rounding(plant, th) + 4.0 * np.finfo(float).eps * (1.0 + np.abs(
+            _return_difference(plant, alpha, beta, th) - 1.0))
     return count_outside(lambda th: _return_difference(plant, alpha, beta, th), 1.0 + np.linalg.eigvals(plant.e),
-                         plant.d, m1, pair_angles)
+                         plant.d, m1, pair_angles, precise, digits, rounding)
 
 
 def count_outside(ret_diff, open_loop_poles: np.ndarray, d: int, m1: int,
-                  pair_angles: tuple[float, ...] = ()) -> UnstableCount:
+                  pair_angles: tuple[float, ...] = (), precise: Callable | None = None,
+                  digits: int = 50, rounding: Callable | None = None) -> UnstableCount:
     """Number of closed-loop poles outside the unit circle: Z_out = m_on − wind(F).
 
     F = 1 + L (``ret_diff(θ)`` = F(e^{jθ})) has the open-loop poles as its poles; those strictly inside do not
@@ -270,6 +313,11 @@ def count_outside(ret_diff, open_loop_poles: np.ndarray, d: int, m1: int,
     by small indentations, each adding +π per multiplicity to arg F.  Real coefficients: the lower half
     circle mirrors the upper, so wind(F)·2π = 2·Δarg over the upper arcs + π·m1 + 2π·(pairs).
     The samples are refined by bisection wherever arg F turns by more than π/3 between neighbours.
+
+    ``precise``: F(θ) in mpmath (``digits`` digits, θ an mpf).  Given, every closed-loop pole that double precision
+    places within its own reach of the circle is decided in mpmath, and so is every arc that double precision
+    cannot refine (optim.stability.circle_reach); without it, the count stands on double precision alone.
+    ``rounding(θ)``: an a-priori bound on the double F's error, which spares the mpmath look at poles well beyond it.
     """
     dist0 = np.abs(open_loop_poles - 1.0)
     small = [float(v) for v in dist0 if v > 0.0]
@@ -300,8 +348,9 @@ def count_outside(ret_diff, open_loop_poles: np.ndarray, d: int, m1: int,
             steps = np.geomspace(max(dist, 1e-300) * 1e-3, 0.2, 300)
             near.append(np.concatenate([ang - steps, ang + steps]))
     near_pts = np.concatenate(near) if near else np.zeros(0)
-    total = 0.0
     evaluated = 0
+    segments: list[tuple[np.ndarray, np.ndarray]] = []
+    unresolved: list[float] = []
     for a, b in zip(cuts[0::2], cuts[1::2]):
         # uniform for the delay's rotation, logarithmic towards each end for what happens near a pole
         th = np.unique(np.concatenate([np.linspace(a, b, n_uniform), np.geomspace(a, b, 1500),
@@ -310,15 +359,24 @@ def count_outside(ret_diff, open_loop_poles: np.ndarray, d: int, m1: int,
         th = th[(th >= a) & (th <= b)]
         vals = ret_diff(th)
         evaluated += th.size
+        frozen = np.zeros(0)            # left ends of the intervals double precision cannot refine
         for _ in range(_MAX_ROUNDS):
             step = np.angle(vals[1:] / vals[:-1])
             bad = np.nonzero(np.abs(step) > math.pi / 3)[0]
+            bad = bad[~np.isin(th[bad], frozen)]
             if bad.size == 0:
                 break
             width = th[bad + 1] - th[bad]
-            if np.any(width <= 8 * np.finfo(float).eps * th[bad + 1]):
-                return UnstableCount(None, evaluated, "arg F turns faster than double precision resolves: a pole "
-                                                      "lies within rounding of the unit circle")
+            floor = width <= 8 * np.finfo(float).eps * th[bad + 1]
+            if np.any(floor):
+                if precise is None:
+                    return UnstableCount(None, evaluated, "arg F turns faster than double precision resolves: a "
+                                                          "pole lies within rounding of the unit circle")
+                frozen = np.concatenate([frozen, th[bad[floor]]])
+                unresolved += [float(v) for v in 0.5 * (th[bad[floor]] + th[bad[floor] + 1])]
+                bad = bad[~floor]
+                if bad.size == 0:
+                    break
             mid = 0.5 * (th[bad] + th[bad + 1])
             new = ret_diff(mid)
             evaluated += mid.size
@@ -328,9 +386,17 @@ def count_outside(ret_diff, open_loop_poles: np.ndarray, d: int, m1: int,
             return UnstableCount(None, evaluated, f"arg F not resolved after {_MAX_ROUNDS} bisections")
         if not np.all(np.isfinite(vals)) or np.any(vals == 0):
             return UnstableCount(None, evaluated, "the return difference vanished or overflowed on the circle")
-        total += float(np.sum(np.angle(vals[1:] / vals[:-1])))
+        segments.append((th, vals))
+    total = sum(float(np.sum(np.angle(v[1:] / v[:-1]))) for _, v in segments)
+    note = None
+    if precise is not None:
+        fix = precise_correction(segments, ret_diff, precise, digits, unresolved, open_loop_poles, rounding)
+        if fix.reason is not None:
+            return UnstableCount(None, evaluated, fix.reason)
+        total += fix.turn
+        note = fix.note
     wind = (2.0 * total + math.pi * m1 + 2.0 * math.pi * 2 * len(pair_angles) / 2) / (2.0 * math.pi)
     k = round(wind)
     if abs(wind - k) > 0.05:
-        return UnstableCount(None, evaluated, f"the winding number {wind:.3f} is not an integer")
-    return UnstableCount(int(m1 + 2 * len(pair_angles) - k), evaluated)
+        return UnstableCount(None, evaluated, f"the winding number {wind:.3f} is not an integer", note)
+    return UnstableCount(int(m1 + 2 * len(pair_angles) - k), evaluated, None, note)

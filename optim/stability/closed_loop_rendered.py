@@ -21,8 +21,8 @@ from scipy import signal
 from models.velocity_filter import BackwardDifference, LowPass, MovingAverage, TransferFunctionFilter
 from optim.stability.closed_loop import SampledPlant, add_delay_chain, add_plant_rows, plant_response
 
-__all__ = ["filter_polynomials", "rendered_closed_loop", "rendered_states", "rendered_return_difference",
-           "filter_poles"]
+__all__ = ["filter_polynomials", "rendered_closed_loop", "rendered_controller", "rendered_states",
+           "rendered_return_difference", "filter_poles"]
 
 
 def filter_polynomials(spec, sample_time: float) -> tuple[np.ndarray, np.ndarray]:
@@ -62,6 +62,10 @@ def _controller(spec, sample_time: float, alpha: float, beta: float, mu: float) 
     p[:num.size] += mu * num
     p[1:num.size + 1] -= mu * num
     return p, den
+
+
+#: (P, D) of the controller's difference equation D(w)·u = −P(w)·y, ascending powers of w = z⁻¹ (dimensionless)
+rendered_controller = _controller
 
 
 def rendered_states(plant: SampledPlant, spec, sample_time: float) -> int:

@@ -69,22 +69,28 @@ def test_no_near_lossless_answer_is_contradicted():
     assert seen >= 40
 
 
-# δ ≈ 2e-14, the cable damping ≈ 4e-19, no delay: the closed loop cannot decide the exact rung's K_cr = 1.98e-8 N/m
-# (arg F turns faster than double precision resolves).  In this regime the answers are chaotic: a probe cable at
-# δ ≈ 1e-16 gave 1.19e-10 N/m against the 40-digit reference's 1.98e-10, and 3.1e-11 (then contradicted and refused)
-# after this session's cable changes moved its last bits.
+# δ ≈ 2e-14, the cable damping ≈ 4e-19, no delay: the exact rung's K_cr = 1.98086e-8 N/m is 3.2e-4 too high (the
+# 40-digit reference: 1.98023e-8).  Double precision cannot decide the closed loop there (arg F turns faster than it
+# resolves: the crossing pole sits 4e-18 off the circle at K_cr(1 − 1e-6)); until issue 34's mpmath look
+# (optim.stability.circle_reach) the answer was kept, said unconfirmed with no bound; now the closed loop decides it,
+# in 50 digits, and the answer is refused (422 on device.cable, naming method 'reference').  In this regime the answers
+# are chaotic: a probe cable at δ ≈ 1e-16 gave 1.19e-10 N/m against the 40-digit reference's 1.98e-10.
 UNDECIDABLE = Device(mass=10.467717038195227, damping=6.42033885002709e-11, sample_time=0.0032546726120633654,
                      cable=dict(motor_mass=2.9508128219020167, motor_damping=2.6225363899531133e-11,
                                 body_mass=7.51690421629321, body_damping=3.797802460073977e-11,
                                 stiffness=10988.463865641284, damping=3.981325739080376e-19))
 
 
-def test_an_answer_the_closed_loop_cannot_decide_claims_no_bound():
+def test_an_answer_the_closed_loop_contradicts_in_mpmath_is_refused():
     from optim.stability.analysis import analyse_stability
+    from optim.stability.reference import reference_critical_stiffness
 
-    res = critical_stiffness(UNDECIDABLE, 0.0)
-    assert res.unconfirmed is not None
-    a = analyse_stability(UNDECIDABLE)
-    assert a.error_estimate == math.inf and "NOT confirmed by the closed loop" in a.error_source
+    with pytest.raises(InputError) as exc:
+        critical_stiffness(UNDECIDABLE, 0.0)
+    assert exc.value.field == "device.cable" and "does not confirm" in str(exc.value) and "reference" in str(exc.value)
+    # the 40-digit reference's answer is the one the closed loop confirms (its pole ∓1.3e-20 off the circle)
+    ref = reference_critical_stiffness(UNDECIDABLE, 0.0).critical_stiffness
+    assert ref == pytest.approx(1.980233512e-8, rel=1e-9)
+    assert verify_critical_stiffness(UNDECIDABLE, 0.0, ref).verdict == "confirmed"
     # an ordinary damped cable keeps its claim
     assert analyse_stability(Device(preset="lhifam")).error_estimate == 1e-12

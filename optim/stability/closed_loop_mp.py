@@ -1,0 +1,136 @@
+"""The sampled plant of optim.stability.closed_loop in mpmath: the same continuous model, the same coordinates.
+
+``verify`` decides a closed-loop pole that double precision cannot place (optim/verification.py) with this twin of
+optim.stability.closed_loop.sampled_plant: the device's continuous state space written out in mpmath from its
+physical parameters (time in samples, masses in units of m), discretised by mpmath's matrix exponential of the
+augmented matrix, the fractional delay in two input matrices.  The inputs are the device's doubles, taken as exact.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from functools import lru_cache
+
+import mpmath as mp
+
+from models.device import Device
+from optim.stability.closed_loop import split_delay_samples
+
+__all__ = ["MpPlant", "PRECISE_DIGITS", "mp_plant", "mp_plant_response", "mp_return_difference"]
+
+#: digits of verify's mpmath decisions (the issue's audit tracked roots in 50)
+PRECISE_DIGITS = 50
+
+
+@dataclass(frozen=True)
+class MpPlant:
+    """x[k+1] = x[k] + E x[k] + Γ0 u[k−d] + Γ1 u[k−d−1], y = x[0], in mpmath numbers (see closed_loop.SampledPlant)."""
+
+    e: mp.matrix
+    g0: mp.matrix
+    g1: mp.matrix
+    d: int
+    f: mp.mpf
+    digits: int
+
+
+def _continuous(device: Device) -> tuple[mp.matrix, mp.matrix]:
+    m, t = mp.mpf(device.mass), mp.mpf(device.sample_time)
+    cb = device.cable
+    if cb is None:
+        delta = mp.mpf(device.damping) * t / m
+        return mp.matrix([[0, 1], [0, -delta]]), mp.matrix([0, 1])
+    mr, md = mp.mpf(cb.motor_mass) / m, mp.mpf(cb.body_mass) / m
+    br, bd, bc = (mp.mpf(cb.motor_damping) * t / m, mp.mpf(cb.body_damping) * t / m, mp.mpf(cb.damping) * t / m)
+    kc = mp.mpf(cb.stiffness) * t * t / m
+    a = mp.matrix([[0, 1, 0, -md],
+                   [0, -(br + bd), 0, -(bd * mr - br * md)],
+                   [0, 0, 0, 1],
+                   [0, br / mr - bd / md, -kc / md - kc / mr, -(bd * mr) / md - bc / md - bc / mr - br * md / mr]])
+    return a, mp.matrix([0, 1, 0, -1 / mr])
+
+
+def _psi(a: mp.matrix, sigma) -> tuple[mp.matrix, mp.matrix]:
+    """(e^{Aσ}, Ψ(σ) = ∫₀^σ e^{As} ds) in the working precision: the series Ψ(τ) = τ·Σ (Aτ)^k/(k + 1)! at
+    τ = σ/2^s (‖Aτ‖₁ ≤ 1/2), then s doublings Ψ(2τ) = (I + e^{Aτ})·Ψ(τ), e^{2Aτ} = (e^{Aτ})² (4×4 products: an
+    eighth of the augmented exponential's cost)."""
+    n = a.rows
+    eye = mp.eye(n)
+    norm = mp.mnorm(a, 1) * abs(sigma)
+    s = max(0, int(mp.ceil(mp.log(norm, 2))) + 1) if norm > 0 else 0
+    tau = mp.mpf(sigma) / 2 ** s
+    y = a * tau
+    term, total, k = eye, eye, 1
+    tol = mp.mpf(10) ** (-mp.mp.dps)
+    while mp.mnorm(term, 1) > tol:
+        k += 1
+        term = term * y / k
+        total += term
+    psi = total * tau
+    phi = eye + a * psi
+    for _ in range(s):
+        psi = (eye + phi) * psi
+        phi = phi * phi
+    return phi, psi
+
+
+@lru_cache(maxsize=32)
+def mp_plant(device: Device, digits: int = PRECISE_DIGITS) -> MpPlant:
+    """The plant sampled in ``digits`` digits (its numbers carry digits + 10 while built; kept per device: a verify
+    checks one device at two or three gains)."""
+    with mp.workdps(digits + 10):
+        d, frac = split_delay_samples(device.delay / device.sample_time)
+        # the fraction of the exact quotient of the inputs (the double quotient rounds it)
+        f = mp.mpf(device.delay) / mp.mpf(device.sample_time) - d if frac > 0.0 else mp.mpf(0)
+        a, b = _continuous(device)
+        _, psi1 = _psi(a, mp.mpf(1))
+        e = a * psi1
+        for i in range(a.rows):
+            e[i, 0] = mp.mpf(0)           # nothing depends on the motor position (A's first column is zero)
+        if f == 0:
+            return MpPlant(e, psi1 * b, mp.zeros(a.rows, 1), d, f, digits)
+        ex_late, psi_late = _psi(a, 1 - f)
+        _, psi_early = _psi(a, f)
+        return MpPlant(e, psi_late * b, ex_late * psi_early * b, d, f, digits)
+
+
+def mp_plant_response(plant: MpPlant, theta) -> mp.mpc:
+    """G(e^{jθ}) = z^{−d}·c((z − 1)I − E)⁻¹(Γ0 + Γ1 z⁻¹), c = e₀ᵀ, in the plant's digits (θ an mpf or a float)."""
+    with mp.workdps(plant.digits + 10):
+        th = mp.mpf(theta)
+        n = plant.e.rows
+        zm1 = -2 * mp.sin(th / 2) ** 2 + 1j * mp.sin(th)
+        zinv = mp.expj(-th)
+        mat = mp.matrix(n, n)
+        for i in range(n):
+            for j in range(n):
+                mat[i, j] = -plant.e[i, j]
+            mat[i, i] += zm1
+        x = mp.lu_solve(mat, plant.g0 + plant.g1 * zinv)
+        return x[0] * mp.expj(-plant.d * th)
+
+
+def mp_return_difference(device: Device, alpha: float, beta: float, digits: int = PRECISE_DIGITS,
+                         controller: tuple[tuple[float, ...], tuple[float, ...]] | None = None) -> Callable:
+    """θ ↦ F(e^{jθ}) = 1 + C(z)·G(z) in mpmath (θ an mpf), the plant sampled in ``digits`` digits.
+
+    C = α + β(1 − z⁻¹) (the wall); ``controller`` = (P, D): C = P(w)/D(w) in ascending powers of w = z⁻¹ instead
+    (a rendered wall's difference equation, optim.stability.closed_loop_rendered); the doubles are taken as exact."""
+    with mp.workdps(digits + 10):
+        a, b = mp.mpf(alpha), mp.mpf(beta)
+        num = [mp.mpf(c) for c in controller[0]] if controller else []
+        den = [mp.mpf(c) for c in controller[1]] if controller else []
+
+    def poly(coeffs, w):
+        out = mp.mpf(0)
+        for c in reversed(coeffs):
+            out = out * w + c
+        return out
+
+    def f(theta):
+        with mp.workdps(digits + 10):
+            w = mp.expj(-theta)
+            ctrl = poly(num, w) / poly(den, w) if controller else a + b * (1 - w)
+            return 1 + ctrl * mp_plant_response(mp_plant(device, digits), theta)   # built at the first call
+    return f
