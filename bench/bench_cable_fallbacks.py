@@ -64,9 +64,9 @@ def classify(cases: int, seed: int) -> tuple[Counter, Counter, dict]:
                 return "brackets: " + (_label(cable_brackets.last_reason[0]) if twin is None else "twin differs")
 
             if _cable_b_max(dev, plant)[1] != "fast":
-                r = why(0.0, True, _theta_min(dev, 0.0)) or "?"
-                b_why[r] += 1
-                examples["B " + r].append((i, dev, b))
+                rb = why(0.0, True, _theta_min(dev, 0.0)) or "?"
+                b_why[rb] += 1
+                examples["B " + rb].append((i, dev, b))
             r: str | None = None
             if b > 0.0 and b >= bm * (1.0 - NEAR_B_MAX):
                 r = "near B_max"
