@@ -16,7 +16,7 @@ compiled): the same values, so the same bits.
 The loop travels as arrays (optim.stability.cable_loop.loop_arrays, built once per device with its CableLoop): per factor (Q's numerator's
 c_k, then its denominator's ζ_i) a row of reals (sign, |c|, gap, err, inside, arg(−c), ω-bounds, the four angles,
 NaN where None) and a row of complex (w, c, 1/(−c)); the modal form's 3 modes (λ, r0, r1, e12, c2) then c1, g0₁,
-g1₁; the numbers s, arg L, |L|, d; and the split angles.
+g1₁; the numbers s, arg L, |L|, d and whether a factor is near the unit circle; and the split angles.
 """
 
 from __future__ import annotations
@@ -44,7 +44,7 @@ _NOSKIP = -(1 << 62)
 # columns of their complex rows
 (C_W, C_C, C_INV) = range(3)
 # the loop's numbers
-(N_S, N_LEAD_ARG, N_LEAD_ABS, N_D) = range(4)
+(N_S, N_LEAD_ARG, N_LEAD_ABS, N_D, N_NEAR) = range(5)
 
 
 # ---------------------------------------------------------------------------------------------------- evaluations
@@ -662,10 +662,7 @@ def min_crossing(fr, fc, modal, nums, splits, beta, theta_lo, damper):
     ranges = np.empty((nf, 2))
     pieces = 0
     log_beta = math.log(beta) if beta > 0.0 else -math.inf
-    near = False
-    for i in range(nf):
-        if fr[i, R_FERR] > 0.0:
-            near = True
+    near = nums[N_NEAR] > 0.0
     while top > 0:
         if top + 3 > st_a.shape[0]:
             st_a, st_b, st_skip = _grown(st_a), _grown(st_b), _grown(st_skip)
@@ -762,7 +759,8 @@ def min_crossing(fr, fc, modal, nums, splits, beta, theta_lo, damper):
                     top += 1
                     continue
             f_min, f_max = _range(fa, fb, dlo, dhi, b - a)
-            f_min, f_max = f_min - e, f_max + e
+            if near:
+                f_min, f_max = f_min - e, f_max + e
             if level0 + _TWO_PI * math.ceil((f_min - level0) / _TWO_PI) > f_max:
                 continue
         mid = math.sqrt(a * b) if b > 1000.0 * a else 0.5 * (a + b)

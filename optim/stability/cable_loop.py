@@ -230,7 +230,8 @@ def loop_arrays(loop: CableLoop) -> tuple[np.ndarray, np.ndarray, np.ndarray, np
     """(reals, complex, modal, numbers, splits) of ``loop``, as optim.stability.cable_kernel reads them: per factor
     (Q's numerator's c_k, then its denominator's ζ_i) a row of reals (sign, |c|, gap, err, inside, arg(−c), the two
     bounds of (1 − |c|²)/2, the four angles t_near, t_far, t_smax, t_smin, NaN where None, ferr) and a row of complex (w,
-    c, 1/(−c)); the modal form's 3 modes (λ, r0, r1, e12, c2) then c1, g0₁, g1₁; the numbers s, arg L, |L|, d; and
+    c, 1/(−c)); the modal form's 3 modes (λ, r0, r1, e12, c2) then c1, g0₁, g1₁; the numbers s, arg L, |L|, d, and
+    1 where a factor is near the unit circle (else 0); and
     the split angles."""
     fr = np.array([[float(f.sign), f.mag, f.gap, f.err, 1.0 if f.inside else 0.0, f.base, f.om_lo, f.om_hi,
                     _nan(f.t_near), _nan(f.t_far), _nan(f.t_smax), _nan(f.t_smin), f.ferr]
@@ -238,7 +239,8 @@ def loop_arrays(loop: CableLoop) -> tuple[np.ndarray, np.ndarray, np.ndarray, np
     fc = np.array([[f.w, f.c, f.inv_neg_c] for f in loop.factors], dtype=complex)
     modes, c1, g0_1, g1_1 = loop.modal
     modal = np.array([v for mode in modes for v in mode] + [c1, g0_1, g1_1], dtype=complex)
-    nums = np.array([float(loop.s), loop.lead_arg, loop.lead_abs, float(loop.d)])
+    nums = np.array([float(loop.s), loop.lead_arg, loop.lead_abs, float(loop.d),
+                     1.0 if any(f.ferr > 0.0 for f in loop.factors) else 0.0])
     return fr, fc, modal, nums, np.array(loop.splits, dtype=float)
 
 
