@@ -384,6 +384,13 @@ def cable_min_crossing(loop: CableLoop, beta: float, theta_lo: float, damper: bo
                 return None
             if got[1] > 0.0 and not (nyq > 0.0 and math.pi - got[0] <= 1e-9):
                 out.append(got)
+        elif near:
+            # a root left unpolished as above the least: unless beside a near factor its value may be that much low
+            zm1 = expm1j(t)
+            e = _ferr(loop, [abs(zm1 - f.w) for f in loop.factors])
+            if e > MAX_NEAR_ERROR and v * (1.0 - e) <= best * (1.0 + 1e-6):
+                last_reason[0] = "near factor: a root above the least too ill-conditioned"
+                return None
     if near:
         for t, _ in out:
             zm1 = expm1j(t)

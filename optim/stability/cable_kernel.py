@@ -784,6 +784,12 @@ def min_crossing(fr, fc, modal, nums, splits, beta, theta_lo, damper):
                     return 0, 0.0, 0.0, pieces
                 if not have or v < bv or (v == bv and t < bt):
                     have, bt, bv = True, t, v
+        elif near:
+            # a root left unpolished as above the least: unless beside a near factor its value may be that much low
+            _dist_sin(fr, fc, fd_t[j], da, sa)
+            e = _ferr(fr, da)
+            if e > MAX_NEAR_ERROR and fd_v[j] * (1.0 - e) <= best * (1.0 + 1e-6):
+                return 0, 0.0, 0.0, pieces
     if not have:
         return 1, 0.0, 0.0, pieces
     return 2, bt, bv, pieces
