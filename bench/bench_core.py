@@ -442,9 +442,10 @@ def render(rows: list[Row], batch: BatchRow | None = None, cables: CableFallback
             f"{cables.devices - cables.b_max_fast:,} ({100.0 * (cables.devices - cables.b_max_fast) / cables.devices:.1f} %) |",
             "",
             "The median includes the 40-digit re-solves near B_max (optim.stability.near_b_max: a third of the devices "
-            "sit within 1e-4…1e-1 of B_max). The remaining fallbacks are cables whose resonance lies within "
-            "cable_loop.MIN_MODE_GAP (1e-8) of the unit circle (cable damping ≲ 1e-8 of critical), where a bracket was "
-            "once found wrong, and B within 1e-6 of B_max.",
+            "sit within 1e-4…1e-1 of B_max). The remaining fallbacks are cables whose binding crossover lies beside a "
+            "resonance within 1e-8 of the unit circle (cable damping ≲ 1e-8 of critical), conditioned past "
+            "cable_loop.MAX_NEAR_ERROR, a factor within 1e3 of its own error of the circle, and B within 1e-6 of "
+            "B_max (bench/bench_cable_fallbacks.py tabulates the reasons).",
             "",
         ]
     if cable_batch is not None:

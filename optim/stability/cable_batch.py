@@ -10,8 +10,9 @@ delay share it: a study's delay axis), then one compiled call
 the cable brackets, ≈ 10–30 µs a row.
 
 A row is handed to margins.critical_stiffness itself, device by device, wherever the brackets do not answer it
-alone: the factored loop is not trusted (cable_loop None: an undamped cable, a mode within MIN_MODE_GAP of the unit
-circle), the pieces do not resolve, B > 0 with no crossover found, B within NEAR_B_MAX of B_max (the bounded scan's
+alone: the factored loop is not trusted (cable_loop None: an undamped cable, a factor within 1e3 of its own error
+of the unit circle), the pieces do not resolve (or an answer beside a factor near the circle is conditioned past
+cable_loop.MAX_NEAR_ERROR), B > 0 with no crossover found, B within NEAR_B_MAX of B_max (the bounded scan's
 band), B above half of B_max (where K_cr may be a cancellation that the 40-digit re-solve settles:
 optim.stability.near_b_max) or a mode within NEAR_LOSSLESS_GAP of the circle.  Those rows say their path
 (``"bounded-scan"``, ``"scan"``) as margins does, and ``handed_off`` counts them.  Rigid devices are not taken here

@@ -34,8 +34,12 @@ Illinois to 4 ulp, as the scan does) and K = Re H there; dropped when the deriva
 range on the piece off every level; otherwise halved.  Pieces are taken by frequency, so the first crossover
 found bounds the rest.  The Nyquist point is the scan's (H(π) real: a crossover when positive).
 
-Where the factors are not trusted (the factored Q differs from the modal response by > 1e-9, a pole or zero
-within 1e-9 of the unit circle: an undamped cable, a sampling zero at −1) or the pieces do not resolve within
+Beside a factor near the unit circle (optim.stability.cable_loop: a resonance within 1e-8, a zero of G within
+1e-9) the modal response is known only to e = Σ ferr/|e^{jθ} − c|: there a value F or log R read at a piece's end
+within e of a level (or of log β) sends the device to the bounded scan, F's range on a piece is widened by e, and
+so is an answer whose crossover has e > cable_loop.MAX_NEAR_ERROR (issue 32: its conditioning, the scan's own
+there, no worse than the old 1e-8 gap admitted).  Where the factors are not trusted (the factored Q differs from the modal response by > 1e-9, a factor
+within 1e3 of its own error of the unit circle: an undamped cable) or the pieces do not resolve within
 a budget, ``None`` is returned and the caller runs the bounded scan (optim.stability.fast_cable), saying so in
 the answer's ``path``.  The evaluations (F at one angle, the Newton solve, the polish on Im H, the device's β-free
 work kept between calls) are optim.stability.cable_points'.
@@ -49,7 +53,7 @@ from __future__ import annotations
 
 import math
 
-from optim.stability.cable_loop import CableLoop, Factor, cable_loop, inverse_response_at
+from optim.stability.cable_loop import MAX_NEAR_ERROR, CableLoop, Factor, cable_loop, expm1j, inverse_response_at
 from optim.stability.cable_points import (
     MEMO_MAX,
     Point,
@@ -73,6 +77,8 @@ _TWO_PI = 2.0 * math.pi
 #: bench_core's 1,000 random cables, 50–200 samples, fell back to the bounded scan at 400; they need up to 19,292;
 #: compiled (optim.stability.cable_kernel) a piece costs ≈ 1 µs)
 MAX_PIECES = 20_000
+#: why the last call returned None (a debug label for bench/bench_cable_fallbacks.py; never in an answer)
+last_reason: list[str] = [""]
 _PAD = 1e-9          # relative padding of every bound (the factors are known to ~cond·ε ≤ 1e-12)
 
 
@@ -195,6 +201,16 @@ def _dlogr_bounds(loop: CableLoop, a: float, b: float, pa: Point, pb: Point, ran
     return lo - pad, hi + pad
 
 
+def _ferr(loop: CableLoop, dist: list) -> float:
+    """The modal response's relative error bound at a point whose distances to the factors are ``dist``: Σ ferr/dist
+    over the near factors (optim.stability.cable_loop's docstring)."""
+    e = 0.0
+    for f, d in zip(loop.factors, dist):
+        if f.ferr > 0.0:
+            e += f.ferr / d
+    return e
+
+
 def _solve(fun, level: float, lo: float, hi: float, x: float) -> float:
     """fast_rigid's bracketed Newton (fun non-decreasing, fun(lo) < level ≤ fun(hi)), stopped at a relative step
     of 1e-12: _polish then pins the root on Im H itself, to 4 ulp."""
@@ -266,6 +282,7 @@ def cable_min_crossing(loop: CableLoop, beta: float, theta_lo: float, damper: bo
         return got
 
     pts = {x: pt(x) for x in cuts}
+    near = any(f.ferr > 0.0 for f in loop.factors)
     # pieces by frequency; the flag: R ≥ β proved on the piece (R = β at its end, R monotone)
     stack = [(cuts[i], cuts[i + 1], False, None) for i in range(len(cuts) - 2, -1, -1)]
     pieces = 0
@@ -274,6 +291,7 @@ def cable_min_crossing(loop: CableLoop, beta: float, theta_lo: float, damper: bo
         a, b, above, skip = stack.pop()
         pieces += 1
         if pieces > MAX_PIECES or not (b - a > 4.0 * _EPS * b):
+            last_reason[0] = "budget" if pieces > MAX_PIECES else f"piece too narrow at {a:.6g}"
             return None
         pa, pb = pts[a], pts[b]
         rmin, rmax, ranges = bounds_r(a, b)
@@ -290,6 +308,10 @@ def cable_min_crossing(loop: CableLoop, beta: float, theta_lo: float, damper: bo
             if dl_lo > 0.0 or dl_hi < 0.0:
                 up = dl_lo > 0.0
                 ra, rb = math.log(pa.base(loop)[3]), math.log(pb.base(loop)[3])
+                if near:
+                    if abs(ra - log_beta) <= _ferr(loop, pa.dist) or abs(rb - log_beta) <= _ferr(loop, pb.dist):
+                        last_reason[0] = "near factor: R within its error of beta"
+                        return None
                 low_end, high_end = (ra, rb) if up else (rb, ra)
                 if high_end <= log_beta:
                     continue
@@ -305,6 +327,7 @@ def cable_min_crossing(loop: CableLoop, beta: float, theta_lo: float, damper: bo
                 else:
                     ts = _solve(lambda x: tuple(-v for v in log_r(loop, x)), -log_beta, a, b, x0)
                 if not a < ts < b:
+                    last_reason[0] = "R = beta split outside"
                     return None
                 pts[ts] = pt(ts)
                 stack.append((ts, b, True, skip) if up else (a, ts, True, skip))
@@ -314,6 +337,18 @@ def cable_min_crossing(loop: CableLoop, beta: float, theta_lo: float, damper: bo
             dlo, dhi = _bounds_d(loop, beta, a, b, pa, pb, rmin,
                                  rmax, ranges, cslope)
             (fa, dfa, _), (fb, dfb, _) = f_at(a), f_at(b)
+            e = 0.0
+            if near:
+                # F read within its error of a level at an end: which side of it is not known (at π, H is real and
+                # F a multiple of π: the Nyquist point, the scan's own; after a root, its level is not this piece's)
+                e_a, e_b = _ferr(loop, pa.dist), _ferr(loop, pb.dist)
+                e = max(e_a, e_b)
+                n_a = math.floor((fa - level0) / _TWO_PI + 0.5)
+                n_b = math.floor((fb - level0) / _TWO_PI + 0.5)
+                if (abs(fa - (level0 + _TWO_PI * n_a)) <= e_a and n_a != skip) or \
+                        (abs(fb - (level0 + _TWO_PI * n_b)) <= e_b and b != math.pi):
+                    last_reason[0] = "near factor: a level within F's error"
+                    return None
             if dlo > 0.0 or dhi < 0.0:
                 got = _first_root(loop, beta, damper, cslope, level0, a, b, fa, fb, dlo > 0.0, nyq, skip, dfa, dfb)
                 if got is False:
@@ -333,6 +368,7 @@ def cable_min_crossing(loop: CableLoop, beta: float, theta_lo: float, damper: bo
                     stack.append((t, b, above, k))
                     continue
             f_min, f_max = _range(fa, fb, dlo, dhi, b - a)
+            f_min, f_max = f_min - e, f_max + e
             if level0 + _TWO_PI * math.ceil((f_min - level0) / _TWO_PI) > f_max:
                 continue                          # F's range on [a, b] holds no level
         mid = math.sqrt(a * b) if b > 1000.0 * a else 0.5 * (a + b)   # geometric across decades (low θ)
@@ -344,9 +380,23 @@ def cable_min_crossing(loop: CableLoop, beta: float, theta_lo: float, damper: bo
         if v <= best * (1.0 + 1e-6):
             got = polish(loop, beta, damper, t, piece)
             if got is None:
+                last_reason[0] = "polish failed"
                 return None
             if got[1] > 0.0 and not (nyq > 0.0 and math.pi - got[0] <= 1e-9):
                 out.append(got)
+        elif near:
+            # a root left unpolished as above the least: unless beside a near factor its value may be that much low
+            zm1 = expm1j(t)
+            e = _ferr(loop, [abs(zm1 - f.w) for f in loop.factors])
+            if e > MAX_NEAR_ERROR and v * (1.0 - e) <= best * (1.0 + 1e-6):
+                last_reason[0] = "near factor: a root above the least too ill-conditioned"
+                return None
+    if near:
+        for t, _ in out:
+            zm1 = expm1j(t)
+            if _ferr(loop, [abs(zm1 - f.w) for f in loop.factors]) > MAX_NEAR_ERROR:
+                last_reason[0] = "near factor: crossover too ill-conditioned"
+                return None
     if not out:
         return None, pieces
     return min(out, key=lambda c: (c[1], c[0])), pieces

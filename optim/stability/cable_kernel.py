@@ -16,7 +16,7 @@ compiled): the same values, so the same bits.
 The loop travels as arrays (optim.stability.cable_loop.loop_arrays, built once per device with its CableLoop): per factor (Q's numerator's
 c_k, then its denominator's ζ_i) a row of reals (sign, |c|, gap, err, inside, arg(−c), ω-bounds, the four angles,
 NaN where None) and a row of complex (w, c, 1/(−c)); the modal form's 3 modes (λ, r0, r1, e12, c2) then c1, g0₁,
-g1₁; the numbers s, arg L, |L|, d; and the split angles.
+g1₁; the numbers s, arg L, |L|, d and whether a factor is near the unit circle; and the split angles.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ import math
 
 import numpy as np
 
-from optim.stability.cable_loop import CableLoop
+from optim.stability.cable_loop import MAX_NEAR_ERROR, CableLoop
 from optim.stability.compiled import kernel
 
 __all__ = ["min_crossing", "batch_rows", "cable_min_crossing_compiled", "compile_kernels", "MAX_PIECES", "inverse_response"]
@@ -40,11 +40,11 @@ _PAD = 1e-9
 _NOSKIP = -(1 << 62)
 
 # columns of the factors' real rows
-(R_SIGN, R_MAG, R_GAP, R_ERR, R_INSIDE, R_BASE, R_OMLO, R_OMHI, R_NEAR, R_FAR, R_SMAX, R_SMIN) = range(12)
+(R_SIGN, R_MAG, R_GAP, R_ERR, R_INSIDE, R_BASE, R_OMLO, R_OMHI, R_NEAR, R_FAR, R_SMAX, R_SMIN, R_FERR) = range(13)
 # columns of their complex rows
 (C_W, C_C, C_INV) = range(3)
 # the loop's numbers
-(N_S, N_LEAD_ARG, N_LEAD_ABS, N_D) = range(4)
+(N_S, N_LEAD_ARG, N_LEAD_ABS, N_D, N_NEAR) = range(5)
 
 
 # ---------------------------------------------------------------------------------------------------- evaluations
@@ -592,6 +592,23 @@ def _first_root(fr, fc, modal, nums, beta, damper, cslope, level0, a, b, fa, fb,
 # ---------------------------------------------------------------------------------------------------- the pieces
 
 @kernel
+def _ferr(fr, dist):
+    """cable_brackets._ferr: Σ ferr/dist over the factors near the unit circle."""
+    e = 0.0
+    for i in range(fr.shape[0]):
+        if fr[i, R_FERR] > 0.0:
+            e += fr[i, R_FERR] / dist[i]
+    return e
+
+
+@kernel
+def _too_near(fr, fc, t, dist, sin):
+    """A crossover at θ = t too ill-conditioned by the factors near the unit circle (cable_brackets' last check)."""
+    _dist_sin(fr, fc, t, dist, sin)
+    return _ferr(fr, dist) > MAX_NEAR_ERROR
+
+
+@kernel
 def _grown(x):
     """``x`` copied into an array twice as long."""
     out = np.empty(2 * x.shape[0], dtype=x.dtype)
@@ -649,6 +666,7 @@ def min_crossing(fr, fc, modal, nums, splits, beta, theta_lo, damper):
     ranges = np.empty((nf, 2))
     pieces = 0
     log_beta = math.log(beta) if beta > 0.0 else -math.inf
+    near = nums[N_NEAR] > 0.0
     while top > 0:
         if top + 3 > st_a.shape[0]:
             st_a, st_b, st_skip = _grown(st_a), _grown(st_b), _grown(st_skip)
@@ -675,6 +693,9 @@ def min_crossing(fr, fc, modal, nums, splits, beta, theta_lo, damper):
                 up = dl_lo > 0.0
                 ra = math.log(_base(fr, fc, modal, nums, a)[3])
                 rb = math.log(_base(fr, fc, modal, nums, b)[3])
+                if near:
+                    if abs(ra - log_beta) <= _ferr(fr, da) or abs(rb - log_beta) <= _ferr(fr, db):
+                        return 0, 0.0, 0.0, pieces
                 if up:
                     low_end, high_end = ra, rb
                 else:
@@ -708,6 +729,18 @@ def min_crossing(fr, fc, modal, nums, splits, beta, theta_lo, damper):
             fa, dfa, _ra = _assemble(beta, cslope, a, pa[0], pa[1], pa[2], pa[3])
             pb = _base(fr, fc, modal, nums, b)
             fb, dfb, _rb = _assemble(beta, cslope, b, pb[0], pb[1], pb[2], pb[3])
+            e = 0.0
+            if near:
+                e_a = _ferr(fr, da)
+                e_b = _ferr(fr, db)
+                e = e_a
+                if e_b > e:
+                    e = e_b
+                n_a = math.floor((fa - level0) / _TWO_PI + 0.5)
+                n_b = math.floor((fb - level0) / _TWO_PI + 0.5)
+                if (abs(fa - (level0 + _TWO_PI * n_a)) <= e_a and n_a != skip) or \
+                        (abs(fb - (level0 + _TWO_PI * n_b)) <= e_b and b != math.pi):
+                    return 0, 0.0, 0.0, pieces
             if dlo > 0.0 or dhi < 0.0:
                 status, t, v, k = _first_root(fr, fc, modal, nums, beta, damper, cslope, level0, a, b, fa, fb,
                                               dlo > 0.0, nyq, skip, dfa, dfb)
@@ -730,6 +763,8 @@ def min_crossing(fr, fc, modal, nums, splits, beta, theta_lo, damper):
                     top += 1
                     continue
             f_min, f_max = _range(fa, fb, dlo, dhi, b - a)
+            if near:
+                f_min, f_max = f_min - e, f_max + e
             if level0 + _TWO_PI * math.ceil((f_min - level0) / _TWO_PI) > f_max:
                 continue
         mid = math.sqrt(a * b) if b > 1000.0 * a else 0.5 * (a + b)
@@ -741,14 +776,24 @@ def min_crossing(fr, fc, modal, nums, splits, beta, theta_lo, damper):
     bt = bv = 0.0
     if nyq > 0.0:
         have, bt, bv = True, math.pi, nyq
+        if near and _too_near(fr, fc, math.pi, da, sa):
+            return 0, 0.0, 0.0, pieces
     for j in range(nfound):
         if fd_v[j] <= best * (1.0 + 1e-6):
             ok, t, v = _polish(fr, fc, modal, nums, beta, damper, fd_t[j], fd_a[j], fd_b[j], fd_lev[j], fd_up[j])
             if not ok:
                 return 0, 0.0, 0.0, pieces
             if v > 0.0 and not (nyq > 0.0 and math.pi - t <= 1e-9):
+                if near and _too_near(fr, fc, t, da, sa):
+                    return 0, 0.0, 0.0, pieces
                 if not have or v < bv or (v == bv and t < bt):
                     have, bt, bv = True, t, v
+        elif near:
+            # a root left unpolished as above the least: unless beside a near factor its value may be that much low
+            _dist_sin(fr, fc, fd_t[j], da, sa)
+            e = _ferr(fr, da)
+            if e > MAX_NEAR_ERROR and fd_v[j] * (1.0 - e) <= best * (1.0 + 1e-6):
+                return 0, 0.0, 0.0, pieces
     if not have:
         return 1, 0.0, 0.0, pieces
     return 2, bt, bv, pieces

@@ -5,8 +5,16 @@ G_n(z) = L·Π(z − ζ_i) / ((z − 1)·Π(z − c_k)) · z^{−d−m}, c_k = 1
 polynomial in w (computed: each carries an error estimate that every bound allows for), the c_k the modes
 themselves (exact: the scan's modal response uses them).  Also the scalar modal response (1/G_n at one θ, in Python
 numbers) the brackets evaluate.  ``cable_loop`` returns None where the factors are not trusted: Q = z/(z − 1)/G_n
-from the factors differs from the modal response by > 1e-9 at a few angles, or a zero of G (a pole of H) lies
-within 1e-9 of the unit circle, or any factor within 1e3 of its own error of it.
+from the factors differs from the modal response by > 1e-9 at a few angles, or any factor lies within 1e3 of its own
+error of the unit circle.
+
+A resonance within MIN_MODE_GAP of the circle, or a zero of G within MIN_CIRCLE_GAP of it, is "near" (issue 32:
+they were refused, and were 3.5 % of random damped cables' fallbacks to the bounded scan): beside it the modal
+response (the scan's function, whose values F and R the brackets read) is known only to ≈ ferr/|e^{jθ} − c|
+relative (ferr = 8ε|w| + 2·err: the rounding of e^{jθ} − 1 and of λ, ≈ ε|w| each, in e^{jθ} − 1 − λ, 2× padded; for
+a zero, its root's error), which the brackets allow for (optim.stability.cable_brackets: a level or β within that
+of a value they read, or an answer whose crossover is worse conditioned than MAX_NEAR_ERROR, send the device to the
+bounded scan).
 """
 
 from __future__ import annotations
@@ -18,16 +26,21 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.polynomial import polynomial as P
 
-__all__ = ["CableLoop", "cable_loop", "loop_arrays", "MIN_CIRCLE_GAP", "MIN_MODE_GAP", "Factor", "expm1j", "inverse_response_at"]
+__all__ = ["CableLoop", "cable_loop", "loop_arrays", "MIN_CIRCLE_GAP", "MIN_MODE_GAP", "MAX_NEAR_ERROR", "Factor", "expm1j", "inverse_response_at"]
 
 _EPS = 2.220446049250313e-16
 _TWO_PI = 2.0 * math.pi
-#: zeros of G closer than this to the unit circle (| |ζ| − 1 |): not trusted (the caller scans)
+#: zeros of G closer than this to the unit circle (| |ζ| − 1 |) are near (module docstring; they were refused)
 MIN_CIRCLE_GAP = 1e-9
-#: modes (poles of G) closer than this to the unit circle: the bounded scan answers.  The brackets gave K_cr 3.7e-4
-#: too high on a cable whose resonance pole sat 2.4e-11 from the circle (δ = 1e-9; design property run of
-#: 2026-12-01, seed 17 case 2741, at B = 0.35·B_max; the scan and the closed loop agree on the lower K_cr)
+#: resonances (poles of G) closer than this to the unit circle are near (until issue 32 every such device was the
+#: bounded scan's).  The brackets gave B_max 7.8e-7 too high on a
+#: cable whose resonance pole sat 2.4e-11 from the circle, its damper crossover 4.2e-10 from it (δ = 1e-9; design
+#: property run of 2026-12-01, seed 17 case 2741; the 40-digit reference and the closed loop agree on the lower one)
 MIN_MODE_GAP = 1e-8
+#: the most relative error of the modal response (Σ ferr/|e^{jθ} − c| over the near factors) an answer's crossover may
+#: have: what a crossover MIN_MODE_GAP from a resonance at |w| = 2 had when MIN_MODE_GAP refused the nearer ones
+#: (16ε·2/1e-8 = 7.1e-7).  Case 2741 above: 8ε·0.57/4.2e-10 = 2.4e-6, the bounded scan's
+MAX_NEAR_ERROR = 16.0 * _EPS * 2.0 / MIN_MODE_GAP
 
 
 def _mode_gap_floor(f: Factor) -> float:
@@ -37,6 +50,15 @@ def _mode_gap_floor(f: Factor) -> float:
     every cable with δ < 1e-8 took the bounded scan (210 of bench_core's 235 fallbacks in 1,000 random cables,
     issue 32); tests/optim/stability/test_cable_slow_pole.py holds them to the scan."""
     return MIN_MODE_GAP if f.w.imag != 0.0 else 0.0
+
+
+def _near(f: Factor) -> Factor:
+    """``f`` marked near the circle (module docstring) when it is: a resonance within MIN_MODE_GAP, a zero of G within
+    MIN_CIRCLE_GAP (the real slow pole sits at θ = 0, below every piece: _mode_gap_floor)."""
+    floor = MIN_CIRCLE_GAP if f.sign < 0 else _mode_gap_floor(f)
+    if not f.gap < floor:
+        return f
+    return replace(f, ferr=8.0 * _EPS * abs(f.w) + 2.0 * f.err)
 
 
 def _angles_in(base: float) -> float | None:
@@ -68,6 +90,7 @@ class Factor:
     t_far: float | None    # the farthest (arg c + π)
     t_smax: float | None   # where |c| sin(θ − arg c) is largest (arg c + π/2)
     t_smin: float | None   # and least (arg c − π/2)
+    ferr: float = 0.0      # near the circle (module docstring): the modal response's relative error ≲ ferr/|e^{jθ} − c|
 
 
 @dataclass(frozen=True)
@@ -148,9 +171,14 @@ def cable_loop(plant) -> CableLoop | None:
     return cache["cable_loop"]
 
 
+#: why the last ``_build`` returned None (a debug label for bench/bench_cable_fallbacks.py; never in an answer)
+last_reason: list[str] = [""]
+
+
 def _build(plant) -> CableLoop | None:
     modal = plant.modal_form()
     if modal is None or len(modal[0]) != 3:
+        last_reason[0] = "no modal form"
         return None
     lam = modal[0]
     m = 1 if plant.f > 0.0 else 0
@@ -158,6 +186,7 @@ def _build(plant) -> CableLoop | None:
     while coef.size > 1 and coef[-1] == 0.0:
         coef = coef[:-1]
     if coef.size < 2 or not np.all(np.isfinite(coef)):
+        last_reason[0] = "numerator degenerate"
         return None
     wz = P.polyroots(coef)
     # the modes λ are the scan's own (its modal response uses them): exact here; the roots in w are computed, and
@@ -167,10 +196,15 @@ def _build(plant) -> CableLoop | None:
             for v in wz]
     factors = tuple(_factor(complex(v), 1, 0.0) for v in lam) + \
         tuple(_factor(complex(v), -1, e) for v, e in zip(wz, errs))
-    # a pole of G (or a zero of Q) this near the unit circle: H (nearly) infinite or zero there; scan instead
-    if any(f.gap < (MIN_CIRCLE_GAP if f.sign < 0 else max(_mode_gap_floor(f), 1e3 * f.err)) or f.gap < 1e3 * f.err
-           or not f.gap > 0.0 for f in factors):
-        return None
+    # a factor within 1e3 of its own error of the unit circle: H (nearly) infinite or zero there, not resolved by
+    # its factors; scan instead.  Nearer than the old gaps (MIN_CIRCLE_GAP, MIN_MODE_GAP) is "near" (module docstring)
+    for f in factors:
+        if f.gap < 1e3 * f.err or not f.gap > 0.0:
+            kind = "zero" if f.sign < 0 else "resonance pole" if f.w.imag != 0.0 else "real pole"
+            last_reason[0] = (f"{kind} near circle (gap {f.gap:.1e}, err {f.err:.1e}, "
+                              f"{'near -1' if f.c.real < 0 and abs(f.c.imag) < 1e-3 else ''})")
+            return None
+    factors = tuple(_near(f) for f in factors)
     lead = float(coef[-1])
     hot = [(f.w, f.inside, f.base, f.inv_neg_c, f.om2, f.c.real, f.c.imag) for f in factors]
     loop = CableLoop(factors, plant.d + m + 1, 0.0 if lead > 0 else math.pi, abs(lead), _py_modal(modal), plant.d,
@@ -183,6 +217,7 @@ def _build(plant) -> CableLoop | None:
         q = _q(loop, t)
         ref = inverse_response_at(loop.modal, plant.d, t) / (-expm1j(-t))
         if not abs(q / ref - 1.0) < 1e-9:
+            last_reason[0] = f"factor mismatch {abs(q / ref - 1.0):.1e} at {t}"
             return None
     return replace(loop, arrays=loop_arrays(loop))
 
@@ -194,15 +229,18 @@ def _nan(x: float | None) -> float:
 def loop_arrays(loop: CableLoop) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(reals, complex, modal, numbers, splits) of ``loop``, as optim.stability.cable_kernel reads them: per factor
     (Q's numerator's c_k, then its denominator's ζ_i) a row of reals (sign, |c|, gap, err, inside, arg(−c), the two
-    bounds of (1 − |c|²)/2, the four angles t_near, t_far, t_smax, t_smin, NaN where None) and a row of complex (w,
-    c, 1/(−c)); the modal form's 3 modes (λ, r0, r1, e12, c2) then c1, g0₁, g1₁; the numbers s, arg L, |L|, d; and
+    bounds of (1 − |c|²)/2, the four angles t_near, t_far, t_smax, t_smin, NaN where None, ferr) and a row of complex (w,
+    c, 1/(−c)); the modal form's 3 modes (λ, r0, r1, e12, c2) then c1, g0₁, g1₁; the numbers s, arg L, |L|, d, and
+    1 where a factor is near the unit circle (else 0); and
     the split angles."""
     fr = np.array([[float(f.sign), f.mag, f.gap, f.err, 1.0 if f.inside else 0.0, f.base, f.om_lo, f.om_hi,
-                    _nan(f.t_near), _nan(f.t_far), _nan(f.t_smax), _nan(f.t_smin)] for f in loop.factors])
+                    _nan(f.t_near), _nan(f.t_far), _nan(f.t_smax), _nan(f.t_smin), f.ferr]
+                   for f in loop.factors])
     fc = np.array([[f.w, f.c, f.inv_neg_c] for f in loop.factors], dtype=complex)
     modes, c1, g0_1, g1_1 = loop.modal
     modal = np.array([v for mode in modes for v in mode] + [c1, g0_1, g1_1], dtype=complex)
-    nums = np.array([float(loop.s), loop.lead_arg, loop.lead_abs, float(loop.d)])
+    nums = np.array([float(loop.s), loop.lead_arg, loop.lead_abs, float(loop.d),
+                     1.0 if any(f.ferr > 0.0 for f in loop.factors) else 0.0])
     return fr, fc, modal, nums, np.array(loop.splits, dtype=float)
 
 

@@ -181,8 +181,9 @@ def _cable_b_max_uncached(device: Device, plant: StateSpaceZOH) -> tuple[float, 
     # The cable brackets on the damper loop (optim.stability.cable_kernel, compiled; issue 32), where the factored
     # loop is trusted; else, or where they do not close or find no crossover, the bounded scan
     # (optim.stability.fast_cable: the scan's brackets, only the binding one(s) solved), said in the path.  (They
-    # answered B_max 3e-7 too high on a cable with δ = 1e-9 before cable_loop refused resonances within
-    # MIN_MODE_GAP of the unit circle: design property run, seed 17 case 2741, now the bounded scan's;
+    # answered B_max 7.8e-7 too high on a cable with δ = 1e-9, its damper crossover 4.2e-10 from a resonance 2.4e-11
+    # from the unit circle: design property run, seed 17 case 2741, the bounded scan's since cable_loop refused such
+    # resonances, and since issue 32 because that crossover is conditioned past cable_loop.MAX_NEAR_ERROR;
     # tests/optim/stability/test_cable_near_b_max.py.)
     loop = cable_loop(plant)
     if loop is not None:

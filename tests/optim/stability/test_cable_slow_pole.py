@@ -2,7 +2,7 @@
 no absolute damping) take the cable brackets (issue 32: they were a fifth of the random cables' fallbacks to the
 bounded scan), held to the scan of every crossover exactly as test_cable_brackets holds the others (B_max and K_cr at
 B = 0, below B_max and within 1e-4 of it, to 1e-12 widened by their own conditioning).  Their resonances stay
-above MIN_MODE_GAP here (those still take the bounded scan)."""
+above MIN_MODE_GAP here (those near the circle: test_cable_near_circle.py)."""
 
 from __future__ import annotations
 
