@@ -131,11 +131,12 @@ def pytest_configure_node(node) -> None:
     node.workerinput["zwidth_serial_lock"] = str(SERIAL_LOCK)
 
 
-@pytest.hookimpl(wrapper=True)
+@pytest.hookimpl(wrapper=True, tryfirst=True)
 def pytest_runtest_protocol(item: pytest.Item, nextitem: pytest.Item | None):
     """In an xdist worker: the test runs under the session's lock, shared, or exclusive when it is marked
     ``serial`` (a reader-writer lock across the workers: a serial test waits for the tests running in the other
-    workers to end, and they wait for it)."""
+    workers to end, and they wait for it).  Outermost (tryfirst), so that the wait counts neither in the test's
+    reported phases nor against pytest-timeout's limit."""
     if SERIAL_LOCK is None or not hasattr(item.config, "workerinput"):
         return (yield)
     import fcntl
