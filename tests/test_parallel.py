@@ -15,8 +15,6 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 
-pytestmark = pytest.mark.slow       # starts a pytest with two workers: seconds
-
 INNER = '''
 import json, os, time
 from pathlib import Path
@@ -50,6 +48,22 @@ def test_alone(i):
 '''
 
 
+def test_scripts_test_sh_runs_pytest_on_every_core_with_the_pinned_xdist():
+    """The README's test command (and each of .ci/run's calls) runs on pytest-xdist, the user's arguments last."""
+    import tomllib
+
+    import xdist
+
+    exec_lines = [line for line in (ROOT / "scripts" / "test.sh").read_text().splitlines()
+                  if line.startswith("exec ") and " -m pytest " in line]
+    assert len(exec_lines) == 1
+    assert " -n auto " in exec_lines[0] and " --dist worksteal " in exec_lines[0] and exec_lines[0].endswith('"$@"')
+    extra = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["optional-dependencies"]["test"]
+    assert "pytest-xdist" in extra
+    assert f"pytest-xdist=={xdist.__version__}" in (ROOT / "constraints.txt").read_text().splitlines()
+
+
+@pytest.mark.slow       # starts a pytest with two workers: seconds
 def test_a_serial_test_runs_alone_and_each_worker_has_its_own_store(tmp_path):
     (tmp_path / "test_inner.py").write_text(textwrap.dedent(INNER))
     (tmp_path / "pytest.ini").write_text("[pytest]\nmarkers =\n    serial: alone\n")
