@@ -9,11 +9,19 @@
   and every CLI call stores its studies there; the user's store (``~/.local/share/zwidth/studies.db``, or wherever
   platformdirs and the user's own ``ZWIDTH_DATABASE_URL`` put it) is fingerprinted first and checked unchanged at
   the end of the session (a change is reported; tests/service/test_store_isolation.py proves by study id that the
-  suite's studies land in the temporary store and never in the user's).
+  suite's studies land in the temporary store and never in the user's).  Under pytest-xdist (scripts/test.sh runs
+  ``-n auto``) every process (the controller and each worker) takes its own temporary store; the user's store is the
+  one the controller's environment named before the session (passed to each worker), not the controller's temporary
+  one that a worker inherits in its environment.
+* Parallel runs (issue 32): a test marked ``serial`` (it measures a wall-clock budget, or needs the whole machine)
+  runs with no other test beside it.  Each worker holds a shared lock on one file of the session while it runs a
+  test (setup, call, teardown), a ``serial`` test an exclusive one: the other workers wait between two of their
+  tests while it runs.  Without xdist nothing is locked.
 """
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import tempfile
@@ -44,6 +52,13 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     if unmarked:
         raise pytest.UsageError("tests that start a server process must be marked slow (the fast loop skips them): "
                                 + ", ".join(unmarked[:10]) + (" …" if len(unmarked) > 10 else ""))
+    if hasattr(config, "workerinput"):
+        # Under pytest-xdist: the modules holding a serial test first (whole, so that their module fixtures are
+        # built once).  A serial test waits for the test running in each other worker to end; at the start that is
+        # one of the first tests of that worker's share, later it may be one of minutes (the schemathesis fuzz ran
+        # 20 min at load 13–19).  Every worker sorts the same collection the same way, as xdist requires.
+        serial_modules = {item.nodeid.split("::")[0] for item in items if item.get_closest_marker("serial")}
+        items.sort(key=lambda item: item.nodeid.split("::")[0] not in serial_modules)
 
 
 # ------------------------------------------------------------------------------------------------ the study store
@@ -54,6 +69,11 @@ _saved: dict[str, str | None] = {}
 USER_STORES: dict[Path, tuple | None] = {}
 #: The session's temporary directory (the study store is studies.db in it).
 SESSION_STORE_DIR: Path | None = None
+#: The values of ``_ISOLATING`` in the environment the user started pytest from (a worker's own environment holds
+#: the controller's temporary ones).
+ORIGINAL_ENV: dict[str, str | None] = {}
+#: The file whose lock keeps ``serial`` tests alone (the controller's, shared by its workers); None without xdist.
+SERIAL_LOCK: Path | None = None
 
 
 def user_stores(environ=os.environ) -> list[Path]:
@@ -84,14 +104,49 @@ def fingerprint(path: Path) -> tuple | None:
 
 
 def pytest_configure(config: pytest.Config) -> None:
-    global SESSION_STORE_DIR
-    for path in user_stores():
-        USER_STORES[path] = fingerprint(path)
-    SESSION_STORE_DIR = Path(tempfile.mkdtemp(prefix="zwidth-test-store-"))
+    global SESSION_STORE_DIR, SERIAL_LOCK
+    worker = getattr(config, "workerinput", None)         # set by pytest-xdist in its workers only
     for name in _ISOLATING:
         _saved[name] = os.environ.get(name)
+    ORIGINAL_ENV.update(json.loads(worker["zwidth_original_env"]) if worker else _saved)
+    users_env = {k: v for k, v in os.environ.items() if k not in _ISOLATING}
+    users_env.update({k: v for k, v in ORIGINAL_ENV.items() if v is not None})
+    for path in user_stores(users_env):
+        USER_STORES[path] = fingerprint(path)
+    SESSION_STORE_DIR = Path(tempfile.mkdtemp(prefix="zwidth-test-store-"))
+    if worker:
+        SERIAL_LOCK = Path(worker["zwidth_serial_lock"])
+    elif config.pluginmanager.hasplugin("xdist"):
+        SERIAL_LOCK = SESSION_STORE_DIR / "serial.lock"
+        SERIAL_LOCK.touch()
     os.environ["XDG_DATA_HOME"] = str(SESSION_STORE_DIR / "data")
     os.environ["ZWIDTH_DATABASE_URL"] = f"sqlite:///{SESSION_STORE_DIR / 'studies.db'}"
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_configure_node(node) -> None:
+    """pytest-xdist, in the controller, for each worker it starts: what the worker cannot learn from its own
+    environment."""
+    node.workerinput["zwidth_original_env"] = json.dumps(ORIGINAL_ENV)
+    node.workerinput["zwidth_serial_lock"] = str(SERIAL_LOCK)
+
+
+@pytest.hookimpl(wrapper=True, tryfirst=True)
+def pytest_runtest_protocol(item: pytest.Item, nextitem: pytest.Item | None):
+    """In an xdist worker: the test runs under the session's lock, shared, or exclusive when it is marked
+    ``serial`` (a reader-writer lock across the workers: a serial test waits for the tests running in the other
+    workers to end, and they wait for it).  Outermost (tryfirst), so that the wait counts neither in the test's
+    reported phases nor against pytest-timeout's limit."""
+    if SERIAL_LOCK is None or not hasattr(item.config, "workerinput"):
+        return (yield)
+    import fcntl
+
+    with open(SERIAL_LOCK, "rb") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX if item.get_closest_marker("serial") is not None else fcntl.LOCK_SH)
+        try:
+            return (yield)
+        finally:
+            fcntl.flock(lock, fcntl.LOCK_UN)
 
 
 def changed_user_stores() -> list[str]:

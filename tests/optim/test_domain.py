@@ -96,6 +96,7 @@ def test_first_order_cutoff_scaling_law_holds_down_to_the_limit():
     assert k[1] / k[0] == pytest.approx(10.0, rel=1e-3)
 
 
+@pytest.mark.serial   # a wall-clock budget: alone under pytest-xdist (tests/conftest.py)
 def test_the_linear_rung_is_quick_at_the_lowest_cutoff():
     """It marched in steps of 0.3·θ_c above 0.05 rad: ~1/θ_c steps, a hang for a tiny cutoff (fuzz finding)."""
     import time

@@ -21,6 +21,7 @@ STUDY = {"problem": "stability", "base": {"device": LHIFAM_RIGID, "requirements"
          "sweep": {"device.delay": [0.0, 0.001]}}
 
 
+@pytest.mark.serial   # a wall-clock budget: alone under pytest-xdist (tests/conftest.py)
 def test_a_locked_store_answers_503_within_the_request_budget(tmp_path):
     """The busy wait is min(ZWIDTH_STUDY_BUSY_TIMEOUT, ZWIDTH_REQUEST_TIMEOUT): here the 2 s budget binds."""
     db = tmp_path / "s.db"
@@ -54,6 +55,7 @@ def test_studies_past_the_active_cap_are_429_with_retry_after(tmp_path, monkeypa
         assert c.post("/v1/studies", json=STUDY).status_code == 202     # a place is free again
 
 
+@pytest.mark.serial   # a wall-clock budget: alone under pytest-xdist (tests/conftest.py)
 @pytest.mark.slow
 def test_the_503_is_answered_before_the_worker_is_replaced():
     """The re-fork of a replacement worker is slowed to 3 s (CPU contention): the caller still has its 503 at the
@@ -81,15 +83,18 @@ def test_the_503_is_answered_before_the_worker_is_replaced():
 @pytest.mark.parametrize("damping", [0.0, 5.0])
 def test_the_inline_cost_model_holds_for_undamped_cables(delay_samples, damping):
     """Undamped-cable analyses were estimated at 11 ms and took 80 ms (inline, unbounded).  Measured (the best of
-    3, on the loaded 2-core machine) within 3× the estimate."""
+    3) within 3× the estimate, in CPU time of this process: the estimate models compute, and wall time on the
+    shared 2-core machine (another xdist worker, other jobs) was 3.3× the CPU time at load 9.5 (140 ms wall,
+    43 ms CPU against the 47 ms estimate, 2026-12-03).  A slower analysis still fails it: CPU time counts every
+    thread of the process, so it can only over-count."""
     base = Device(preset="lhifam")
     cable = {**base.cable.model_dump(), "damping": 0.0, "body_damping": 0.0}
     dev = Device(cable=cable, sample_time=0.001, delay=delay_samples * 0.001)
     analyse_stability(dev, 1000.0, damping)        # compiled kernels warm
     best = float("inf")
     for _ in range(3):
-        t0 = time.perf_counter()
+        t0 = time.process_time()
         analyse_stability(dev, 1000.0, damping)
-        best = min(best, (time.perf_counter() - t0) * 1e3)
+        best = min(best, (time.process_time() - t0) * 1e3)
     est = stability_cost_ms(dev, "exact", damping, 1000)
     assert best <= 3.0 * est, (best, est)

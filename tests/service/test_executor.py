@@ -27,6 +27,7 @@ def executor():
         ex.shutdown()
 
 
+@pytest.mark.serial   # a wall-clock budget: alone under pytest-xdist (tests/conftest.py)
 @pytest.mark.slow
 def test_timeout_fires_and_the_worker_is_replaced(executor):
     device = Device(**LHIFAM_RIGID)
@@ -113,6 +114,7 @@ def test_cost_estimates_send_the_cheap_paths_inline():
     assert boundary_cost_ms(rigid, 50) > inline
 
 
+@pytest.mark.serial   # a wall-clock budget: alone under pytest-xdist (tests/conftest.py)
 @pytest.mark.slow
 def test_http_timeout_answers_503_and_the_next_request_is_served_normally():
     """A 40-digit reference analysis of a cable device takes seconds: with a 0.3 s budget it is stopped."""
@@ -156,6 +158,7 @@ def _alive(pid: int) -> bool:
         return False
 
 
+@pytest.mark.serial   # a wall-clock budget: alone under pytest-xdist (tests/conftest.py)
 @pytest.mark.slow
 def test_a_full_queue_refuses_at_once_with_busy():
     """Past workers + max_queue calls in the system a new call is refused at once (503 + Retry-After), not
@@ -181,6 +184,7 @@ def test_a_full_queue_refuses_at_once_with_busy():
         ex.shutdown()
 
 
+@pytest.mark.serial   # a wall-clock budget: alone under pytest-xdist (tests/conftest.py)
 @pytest.mark.slow
 def test_awaiting_calls_hold_no_thread_and_the_wait_counts_against_the_budget():
     """40 requests waiting for one busy worker: no thread per request (the server's pool has 40), and the
@@ -213,6 +217,7 @@ def test_awaiting_calls_hold_no_thread_and_the_wait_counts_against_the_budget():
     assert ex.state().depth == 0                       # the withdrawn calls left the queue
 
 
+@pytest.mark.serial   # a wall-clock budget: alone under pytest-xdist (tests/conftest.py)
 def test_warm_up_makes_the_first_design_fast():
     """Issue 20: after warm-up (what /readyz waits for) the first stiffness design costs no process start
     nor solver construction (≈ 9 s cold in-process)."""
@@ -231,6 +236,7 @@ def test_warm_up_makes_the_first_design_fast():
     assert not ex.state().warm
 
 
+@pytest.mark.serial   # a wall-clock budget: alone under pytest-xdist (tests/conftest.py)
 @pytest.mark.slow
 def test_http_sheds_load_at_once_past_the_queue_depth_and_readyz_shows_the_queue():
     """ZWIDTH_COMPUTE_QUEUE = 0 and one worker: while a reference analysis holds it, the next expensive request

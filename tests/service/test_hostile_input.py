@@ -73,6 +73,7 @@ def client():
         yield c
 
 
+@pytest.mark.serial   # a wall-clock budget: alone under pytest-xdist (tests/conftest.py)
 def test_the_80_kb_and_1_mb_bodies_answer_at_once_through_the_app(client):
     for size in (80_000, 1_000_000 - 100):
         t0 = time.perf_counter()
@@ -144,6 +145,7 @@ def test_doc_pages_cannot_be_framed(client, path):
     assert r.headers["x-frame-options"] == "DENY"
 
 
+@pytest.mark.serial   # a wall-clock budget: alone under pytest-xdist (tests/conftest.py)
 def test_an_unauthenticated_body_is_never_read():
     """Auth runs on the headers, before the body is counted or scanned: 401 for the 1 MB hostile body at once,
     and for a body that never arrives."""
@@ -174,6 +176,7 @@ def _read_all(sock: socket.socket, timeout: float) -> bytes:
         return out + b"<open>"
 
 
+@pytest.mark.serial   # a wall-clock budget: alone under pytest-xdist (tests/conftest.py)
 @pytest.mark.slow
 def test_50_stalled_chunked_bodies_are_answered_408_and_closed_while_healthz_answers(tmp_path):
     """50 connections that start a chunked body and stall were held 45 s (never closed)."""
@@ -207,6 +210,7 @@ def test_50_stalled_chunked_bodies_are_answered_408_and_closed_while_healthz_ans
         server.stop()
 
 
+@pytest.mark.serial   # a wall-clock budget: alone under pytest-xdist (tests/conftest.py)
 @pytest.mark.slow
 def test_the_80_kb_body_does_not_freeze_a_live_server(tmp_path):
     """Reproducer: unauthenticated, 80 kB of the hostile shape froze the whole server (and /healthz) 13-15 s; here

@@ -48,6 +48,7 @@ def server():
         s.stop()
 
 
+@pytest.mark.serial   # a wall-clock budget: alone under pytest-xdist (tests/conftest.py)
 def test_readiness_then_the_first_stiffness_design_is_fast(server):
     ready = _wait_ready(server.url)
     assert ready["warm"] is True and ready["queue"]["workers"] == 2 and ready["queue"]["depth"] == 0
@@ -61,6 +62,7 @@ def test_readiness_then_the_first_stiffness_design_is_fast(server):
     assert elapsed <= 1.0, f"first design after readiness took {elapsed:.2f} s"
 
 
+@pytest.mark.serial   # a wall-clock budget: alone under pytest-xdist (tests/conftest.py)
 def test_the_bode_reproducer_holds_the_budget_and_memory(server):
     _wait_ready(server.url)
     with httpx.Client(base_url=server.url, timeout=60) as c:   # the server's own caches first
