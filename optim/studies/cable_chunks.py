@@ -1,16 +1,17 @@
 """Damped cable points of a study chunk, grouped so that each group shares everything but the delay (issue 32).
 
-A cable study sweeps e.g. ``device.cable.stiffness`` × ``device.delay`` × ``requirements.damping``: consecutive
-points of a chunk are the same cable at many delays and virtual dampings.  This module groups a chunk's damped
+A cable study sweeps e.g. ``device.cable.stiffness`` × ``device.delay`` × ``device.cable.damping``: consecutive
+points of a chunk are the same cable at many delays (and virtual dampings).  This module groups a chunk's damped
 cable points by their device without its delay (mass, damping, cable, sample time: what a cable's modal factoring
-depends on) and hands each group to ONE function, :func:`cable_group_critical`, with the group's base device, the
-delays [s] and the virtual dampings B [N·s/m] of its points.  That function is the swap point for a batch cable
-K_cr (``cable_critical_stiffness_batch``, written beside optim.stability's cable numerics): it must return, for
-every point, what optim.stability.margins answers for that device alone (K_cr, the binding crossover's angle ωT and
-B_max), so a study's rows never depend on the chunk they are in.
+depends on) and answers every group of the chunk in ONE optim.stability.cable_batch.cable_critical_stiffness_batch
+call told the groups: one compiled call for all the chunk's rows, each group's plant sampled and factored once per
+fractional part of its delays (the whole delays share it).  Every point gets what optim.stability.margins answers
+for that device alone (K_cr, the binding crossover's angle ωT and B_max), so a study's rows never depend on the
+chunk they are in.
 
-:func:`cable_group_critical` answers a group by optim.stability.cable_batch.cable_critical_stiffness_batch, which
-holds its rows to margins' per-device answers (tests/optim/studies/test_cable_chunks.py compares them).
+:func:`cable_group_critical` answers one group alone (a swap point: ``critical_arrays(..., group_critical)`` takes
+the groups one by one through it); tests/optim/studies/test_cable_chunks.py holds the chunk-wide call, the group by
+group one and the ungrouped batch to the same bits.
 
 Undamped cables (every cable damping 0) are not grouped here: they stay with optim.robust.batch's scan.
 """
