@@ -74,7 +74,23 @@ def fractional_study(problem: str, points: int, seed: int = 0) -> dict:
                       "device.delay": {"start": 0.0, "stop": 0.02, "num": max(1, points // n_mass)}}}
 
 
-GRIDS = {"whole": grid_study, "fractional": fractional_study}
+#: the cable grid's cable dampings (device.cable.damping, 2 … 30 N·s/m evenly) and whole delays (0 … 20 samples)
+CABLE_DAMPINGS, CABLE_DELAYS = 50, 21
+
+
+def cable_study(problem: str, points: int) -> dict:
+    """Issue 32's cable study: the lhifam preset (two-mass cable, T = 1 ms) over cable stiffness (20 … 120 kN/m,
+    points/1050 of them) × delay (0 … 20 whole samples) × cable damping (50 of them, 2 … 30 N·s/m), the wall of
+    grid_study.  Every (cable stiffness, cable damping) pair is its own modal factoring; its 21 delays share it."""
+    n_k = max(1, points // (CABLE_DELAYS * CABLE_DAMPINGS))
+    return {"problem": problem,
+            "base": {"device": {"preset": "lhifam"}, "requirements": {"stiffness": 1500.0, "damping": 2.0}},
+            "sweep": {"device.cable.stiffness": {"start": 20000.0, "stop": 120000.0, "num": n_k},
+                      "device.delay": [i * 0.001 for i in range(CABLE_DELAYS)],
+                      "device.cable.damping": {"start": 2.0, "stop": 30.0, "num": CABLE_DAMPINGS}}}
+
+
+GRIDS = {"whole": grid_study, "fractional": fractional_study, "cable": cable_study}
 
 
 def stiffness_study(points: int) -> dict:
@@ -314,7 +330,7 @@ def http_study(problem: str, points: int, dask_address: str | None = None, timeo
         srv = LiveServer(env, ready_path="/v1/studies", timeout=180, port=port)
         try:
             with httpx.Client(base_url=srv.url, timeout=120) as client:
-                _submit_and_wait(client, srv, grid_study(problem, 2100), timeout)     # pool or cluster warm
+                _submit_and_wait(client, srv, GRIDS[grid](problem, 2100), timeout)   # pool or cluster warm
                 c0 = _cpu_seconds(srv, dask_address)
                 st, peak = _submit_and_wait(client, srv, GRIDS[grid](problem, points), timeout)
                 cpu = _cpu_seconds(srv, dask_address) - c0
@@ -330,12 +346,13 @@ def http_study(problem: str, points: int, dask_address: str | None = None, timeo
                    cpu, grid)
 
 
-def measure_http(points: int, dask: bool = True, port: int | None = None) -> list[HttpRow]:
+def measure_http(points: int, dask: bool = True, port: int | None = None,
+                 grids: tuple[str, ...] = tuple(GRIDS)) -> list[HttpRow]:
     rows = []
     for problem in ("critical_stiffness", "stability"):
-        rows.append(http_study(problem, points, port=port))
-        rows.append(http_study(problem, points, grid="fractional", port=port))     # issue 32: any grid
-        if dask:
+        for grid in grids:       # issue 32: any grid, and the cable one
+            rows.append(http_study(problem, points, grid=grid, port=port))
+        if dask and "whole" in grids:
             from bench.dask_cluster import local_dask_cluster
 
             with local_dask_cluster(workers=2) as address:
@@ -345,6 +362,8 @@ def measure_http(points: int, dask: bool = True, port: int | None = None) -> lis
 
 #: issue 20's targets through the HTTP contract, 2 workers [points/s]
 HTTP_GOALS = {"critical_stiffness": 300_000, "stability": 50_000}
+#: issue 32's targets on the cable grid
+CABLE_GOALS = {"critical_stiffness": 20_000, "stability": 5_000}
 
 
 def render_http(rows: list[HttpRow]) -> str:
@@ -361,18 +380,33 @@ def render_http(rows: list[HttpRow]) -> str:
              "",
              "*Grid*: `whole` is that mass × delay grid; `fractional` (issue 32) is 400 random masses (0.5 … 10 kg) × "
              "delays evenly spaced on 0 … 20 ms (2,500 of them for 1M points: nearly every delay a fraction of a "
-             "sample, so every plant has the two-zero numerator of a fractional delay), the same wall.",
+             "sample, so every plant has the two-zero numerator of a fractional delay), the same wall. `cable` "
+             "(issue 32) is the `lhifam` preset (two-mass cable) over device.cable.stiffness (20 … 120 kN/m, 952 of "
+             "them for 1M points) × device.delay (0 … 20 whole samples) × device.cable.damping (50 of them, 2 … 30 "
+             "N·s/m), the same wall: every (cable stiffness, cable damping) pair is its own modal factoring, shared by "
+             "its 21 delays (optim.studies.cable_chunks); its targets are issue 32's (≥ 20,000 points/s for "
+             "`critical_stiffness`, ≥ 5,000 for `stability`).",
+             "",
+             "To rerun this table alone (a few minutes on an idle 2-core machine; the in-process table above is kept): "
+             "`PYTHONPATH=. python -m bench.bench_studies --no-runner --no-dask --http-points 1000000` "
+             "(`--grids cable` for the cable grid alone).",
              "",
              "| problem | grid | executor | points | started → finished [s] | points/s | target | points per CPU-s "
              "| failed | service peak RSS [MiB] | with pool [MiB] | largest chunk |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         pool = f"{r.all_peak_mib:.0f}" if r.all_peak_mib is not None else "—"
-        goal = HTTP_GOALS.get(r.problem)
+        goal = (CABLE_GOALS if r.grid == "cable" else HTTP_GOALS).get(r.problem)
         cpu = f"{r.cpu_rate:.0f}" if r.cpu_rate else "—"
         lines.append(f"| {r.problem} | {r.grid} | {r.executor} | {r.points} | {r.seconds:.2f} | {r.rate:.0f} | "
                      f"{'≥ %d' % goal if goal else '—'} | {cpu} | {r.failed} | {r.service_peak_mib:.0f} | {pool} | "
                      f"{r.chunk} |")
+    for r in rows:
+        if r.grid == "cable" and r.cpu_rate:
+            goal = CABLE_GOALS[r.problem]
+            lines += ["", f"{r.problem}, cable grid: {r.rate:.0f} points/s measured ({'met' if r.rate >= goal else 'not met'}"
+                      f" against ≥ {goal}); {r.cpu_rate:.0f} points per CPU-s of the server and its pool, so two free "
+                      f"cores ≈ {2 * r.cpu_rate:.0f} points/s."]
     for prob in HTTP_GOALS:
         whole = [r for r in rows if r.problem == prob and r.grid == "whole" and r.cpu_rate and r.all_peak_mib]
         frac = [r for r in rows if r.problem == prob and r.grid == "fractional" and r.cpu_rate and r.all_peak_mib]
@@ -441,6 +475,10 @@ def render(rows: list[Row], note: str = "", load: tuple[float, float] | None = N
     return "\n".join(lines) + "\n"
 
 
+def _utc_now() -> str:
+    return datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--points", type=int, default=400,
@@ -453,6 +491,8 @@ def main() -> None:
     ap.add_argument("--http-points", type=int, default=210_000,
                     help="points of the mass × delay studies through the HTTP contract (0: skip that table)")
     ap.add_argument("--no-runner", action="store_true", help="skip the in-process runner table")
+    ap.add_argument("--grids", default=",".join(GRIDS),
+                    help=f"comma-separated grids of the HTTP table, of {', '.join(GRIDS)} (default: all)")
     ap.add_argument("--port", type=int, default=None, help="the live server's loopback port (default: a free one)")
     ap.add_argument("--huge", type=int, nargs="?", const=10_000_000, default=None,
                     help="also a study of this many points (default 10 million) on a local Dask cluster, peak RSS "
@@ -468,7 +508,11 @@ def main() -> None:
         text = render(rows, load=(before, os.getloadavg()[0]))
     if args.http_points:
         before = os.getloadavg()[0]
-        http_rows = measure_http(args.http_points, dask=not args.no_dask, port=args.port)
+        grids = tuple(g.strip() for g in args.grids.split(",") if g.strip())
+        unknown = [g for g in grids if g not in GRIDS]
+        if unknown:
+            ap.error(f"--grids: unknown grid(s) {', '.join(unknown)}; known: {', '.join(GRIDS)}")
+        http_rows = measure_http(args.http_points, dask=not args.no_dask, port=args.port, grids=grids)
         if args.huge:
             from bench.dask_cluster import local_dask_cluster
 
@@ -478,7 +522,7 @@ def main() -> None:
             print(f"huge study: {huge.points} points in {huge.seconds:.1f} s ({huge.rate:.0f}/s), service peak RSS "
                   f"{huge.service_peak_mib:.0f} MiB (bound 1024 MiB: {'met' if huge.service_peak_mib <= 1024 else 'not met'})")
         text += render_http(http_rows) + (f"\nLoad average (1 min) {before:.1f} before and {os.getloadavg()[0]:.1f} "
-                                          "after the HTTP runs.\n")
+                                          f"after the HTTP runs ({_utc_now()} UTC).\n")
     if args.no_runner and Path(args.out).exists():    # keep the runner table already in the file
         old = Path(args.out).read_text()
         text = old.split("\n## Through the HTTP contract", 1)[0].rstrip("\n") + "\n" + text

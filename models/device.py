@@ -5,6 +5,7 @@ from __future__ import annotations
 import copy
 import math
 from decimal import Decimal
+from functools import lru_cache
 from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
@@ -125,8 +126,21 @@ def preset_names() -> list[str]:
     return sorted(PRESETS)
 
 
+_SCALARS = (str, int, float, bool, type(None))
+
+
+def _fresh(value: Any) -> Any:
+    """A copy of a preset's value that shares nothing mutable with it (dicts copied level by level, scalars kept:
+    a study validates one device per point, and deepcopy was most of that)."""
+    if type(value) is dict:
+        return {k: v if type(v) in _SCALARS else _fresh(v) for k, v in value.items()}
+    if type(value) in _SCALARS:
+        return value
+    return copy.deepcopy(value)
+
+
 def _merge(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
-    out = copy.deepcopy(base)
+    out = _fresh(base)
     for key, value in over.items():
         if isinstance(value, dict) and isinstance(out.get(key), dict):
             out[key] = _merge(out[key], value)
@@ -137,7 +151,15 @@ def _merge(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
 
 def _decimal_sum(a: Any, b: Any) -> float:
     """a + b as the user wrote them (0.3 + 5.1 is 5.4, not 5.3999999999999995)."""
+    if type(a) is float and type(b) is float and a and b:
+        return _nonzero_decimal_sum(a, b)        # a study's points repeat a few masses: ≈ 2 µs each saved
     return float(Decimal(repr(float(a))) + Decimal(repr(float(b))))
+
+
+@lru_cache(maxsize=4096)
+def _nonzero_decimal_sum(a: float, b: float) -> float:
+    """_decimal_sum of two nonzero floats (cached by value: no signed zero to tell apart)."""
+    return float(Decimal(repr(a)) + Decimal(repr(b)))
 
 
 def _close(a: float, b: float) -> bool:

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from models.device import Device
+from models.discretize import split_delay
 from optim.errors import InputError
 from optim.stability.cable_kernel import batch_rows
 from optim.stability.cable_loop import CableLoop, cable_loop
@@ -66,10 +67,17 @@ def _as_vector(damping: float | np.ndarray, n: int) -> np.ndarray:
     return b
 
 
-def cable_critical_stiffness_batch(devices: Sequence[Device], damping: float | np.ndarray = 0.0) -> CableBatch:
+def cable_critical_stiffness_batch(devices: Sequence[Device], damping: float | np.ndarray = 0.0,
+                                   groups: Sequence[int] | None = None) -> CableBatch:
     """K_cr(B), θ and B_max of every cable device in ``devices`` at its virtual damping (a scalar, or one per device)
     [N·s/m]: margins.critical_stiffness's answers, rows solved together by the compiled cable brackets where they
-    answer alone, the rest handed to margins device by device (module docstring)."""
+    answer alone, the rest handed to margins device by device (module docstring).
+
+    ``groups`` (optional, one int per device): devices with the same number are the caller's promise that they are
+    equal but for their delay (a study chunk's cable × delay grid, optim.studies.cable_chunks).  Then the plant is
+    sampled once per group and fractional part of the delay, not once per device: the rows' numbers are the same
+    (the factored loop of a plant depends on its fractional delay alone; the whole samples d are the loop's numbers
+    s and d), only the per-device sampling is saved."""
     n = len(devices)
     bvec = _as_vector(damping, n)
     kcr = np.full(n, math.nan)
@@ -83,23 +91,34 @@ def cable_critical_stiffness_batch(devices: Sequence[Device], damping: float | n
     # rows of one sampled plant (at several B) solve its damper-only loop once: the first such row's index
     seen: dict[tuple, int] = {}
     same: list[int] = []
+    # (group, fractional delay) -> the key of its sampled plant (with ``groups``: one plant sampled per pair)
+    sampled: dict[tuple[int, float], tuple] = {}
+    if groups is not None and len(groups) != n:
+        raise InputError("groups", f"one group number per device: {len(groups)} for {n} devices")
+    blist = bvec.tolist()
     for i, dev in enumerate(devices):
         if dev.cable is None:
             raise InputError("devices", f"device {i} has no cable: rigid devices take optim.stability.fast_batch")
-        if is_undamped_cable(dev) or dev.damping + bvec[i] <= 0.0:
+        if is_undamped_cable(dev) or dev.damping + blist[i] <= 0.0:
             continue
-        plant = loop_plant(dev)
-        key = (plant.a.tobytes(), plant.b.tobytes(), plant.c.tobytes(), plant.f)
+        if groups is None:
+            plant = loop_plant(dev)
+            d, key = plant.d, _plant_key(plant)
+        else:
+            d, f = split_delay(dev.delay_samples)      # as stiffness_loop_plant splits it
+            known = sampled.get((groups[i], f))
+            key = sampled[(groups[i], f)] = _plant_key(loop_plant(dev)) if known is None else known
         if key not in shared:
+            plant = loop_plant(dev)
             loop = cable_loop(plant)
             shared[key] = loop if loop is not None and mode_gap(plant) >= NEAR_LOSSLESS_GAP else None
         got = shared[key]
         if got is None:
             continue
         rows.append(i)
-        first = seen.setdefault((key, plant.d), len(arrays))
+        first = seen.setdefault((key, d), len(arrays))
         arrays.append(arrays[first] if first < len(arrays) else
-                      got.arrays if got.d == plant.d else _with_whole_delay(got, plant.d))
+                      got.arrays if got.d == d else _with_whole_delay(got, d))
         same.append(first)
     taken = set(rows)
     handoff = [i for i in range(n) if i not in taken]
@@ -117,28 +136,24 @@ def cable_critical_stiffness_batch(devices: Sequence[Device], damping: float | n
         fr, fc, modal, nums, splits, f_off, s_off = _stack(arrays)
         st_b, th_b, al_b, st_k, th_k, al_k = batch_rows(fr, fc, modal, nums, splits, f_off, s_off, betas, lo_b, lo_k,
                                                         np.array(same, dtype=np.int64))
-        for j, i in enumerate(rows):
-            b = float(bvec[i])
-            if st_b[j] != 2:
-                handoff.append(i)                 # B_max: the bounded scan's (margins)
-                continue
-            bm = float(al_b[j]) * float(bs[j])
-            if b > 0.0 and b >= bm:
-                kcr[i], ang[i], bmax[i] = 0.0, math.nan, bm
-                continue
-            if b > 0.0 and (b >= bm * (1.0 - NEAR_B_MAX) or b > 0.5 * bm or st_k[j] != 2):
-                handoff.append(i)                 # near B_max, or no crossover found at B > 0: margins decides
-                continue
-            if st_k[j] == 0:
-                handoff.append(i)
-                continue
-            bmax[i] = bm
-            if st_k[j] == 1:
-                kcr[i] = math.inf
-            else:
-                kcr[i] = float(al_k[j]) * float(ks[j])
-                t = devices[i].sample_time
-                ang[i] = float(th_k[j]) / t * t          # ω·T as margins' ω = θ/T gives it
+        # each row's case, elementwise (the same float operations as margins' scalar ones, so the same bits)
+        b = bvec[idx]
+        ok_b = st_b == 2
+        bm = al_b * bs
+        dead = ok_b & (b > 0.0) & (b >= bm)
+        near = ok_b & ~dead & (b > 0.0) & ((b >= bm * (1.0 - NEAR_B_MAX)) | (b > 0.5 * bm) | (st_k != 2))
+        solved = ok_b & ~dead & ~near & (st_k != 0)
+        # B_max from the brackets where they gave it (the value margins.max_stable_damping's own brackets give);
+        # the rows near B_max or without a crossover are handed to margins with it, the rest to margins whole
+        bmax[idx[ok_b]] = bm[ok_b]
+        kcr[idx[dead]], ang[idx[dead]] = 0.0, math.nan
+        inf = solved & (st_k == 1)
+        fin = solved & (st_k == 2)
+        kcr[idx[inf]] = math.inf
+        t = np.array([d.sample_time for d in devs])
+        kcr[idx[fin]] = al_k[fin] * ks[fin]
+        ang[idx[fin]] = th_k[fin] / t[fin] * t[fin]          # ω·T as margins' ω = θ/T gives it
+        handoff += idx[~(dead | solved)].tolist()
     for i in sorted(handoff):
         dev, b = devices[i], float(bvec[i])
         bm = bmax[i] if math.isfinite(bmax[i]) else max_stable_damping(dev)
@@ -149,6 +164,11 @@ def cable_critical_stiffness_batch(devices: Sequence[Device], damping: float | n
         bmax[i] = bm
         paths[i] = res.path
     return CableBatch(kcr, ang, bmax, tuple(paths), len(handoff))
+
+
+def _plant_key(plant) -> tuple:
+    """What a sampled cable plant's factored loop depends on: its matrices and fractional delay (not d)."""
+    return (plant.a.tobytes(), plant.b.tobytes(), plant.c.tobytes(), plant.f)
 
 
 def _with_whole_delay(loop: CableLoop, d: int) -> tuple:

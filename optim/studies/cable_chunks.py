@@ -1,16 +1,17 @@
 """Damped cable points of a study chunk, grouped so that each group shares everything but the delay (issue 32).
 
-A cable study sweeps e.g. ``device.cable.stiffness`` × ``device.delay`` × ``requirements.damping``: consecutive
-points of a chunk are the same cable at many delays and virtual dampings.  This module groups a chunk's damped
+A cable study sweeps e.g. ``device.cable.stiffness`` × ``device.delay`` × ``device.cable.damping``: consecutive
+points of a chunk are the same cable at many delays (and virtual dampings).  This module groups a chunk's damped
 cable points by their device without its delay (mass, damping, cable, sample time: what a cable's modal factoring
-depends on) and hands each group to ONE function, :func:`cable_group_critical`, with the group's base device, the
-delays [s] and the virtual dampings B [N·s/m] of its points.  That function is the swap point for a batch cable
-K_cr (``cable_critical_stiffness_batch``, written beside optim.stability's cable numerics): it must return, for
-every point, what optim.stability.margins answers for that device alone (K_cr, the binding crossover's angle ωT and
-B_max), so a study's rows never depend on the chunk they are in.
+depends on) and answers every group of the chunk in ONE optim.stability.cable_batch.cable_critical_stiffness_batch
+call told the groups: one compiled call for all the chunk's rows, each group's plant sampled and factored once per
+fractional part of its delays (the whole delays share it).  Every point gets what optim.stability.margins answers
+for that device alone (K_cr, the binding crossover's angle ωT and B_max), so a study's rows never depend on the
+chunk they are in.
 
-:func:`cable_group_critical` answers a group by optim.stability.cable_batch.cable_critical_stiffness_batch, which
-holds its rows to margins' per-device answers (tests/optim/studies/test_cable_chunks.py compares them).
+:func:`cable_group_critical` answers one group alone (a swap point: ``critical_arrays(..., group_critical)`` takes
+the groups one by one through it); tests/optim/studies/test_cable_chunks.py holds the chunk-wide call, the group by
+group one and the ungrouped batch to the same bits.
 
 Undamped cables (every cable damping 0) are not grouped here: they stay with optim.robust.batch's scan.
 """
@@ -20,6 +21,7 @@ from __future__ import annotations
 from typing import Callable, Sequence
 
 import numpy as np
+from pydantic import BaseModel
 
 from models.device import Device
 from optim.robust.batch import BatchCritical, batch_critical_stiffness
@@ -38,8 +40,20 @@ def is_grouped_cable(device: Device) -> bool:
 
 
 def group_key(device: Device) -> tuple:
-    """What the points of one group share: the device without its delay (hashable, exact values)."""
-    return tuple(sorted((k, repr(v)) for k, v in device.model_dump(exclude={"delay"}).items()))
+    """What the points of one group share: the device without its delay (hashable, exact values: every field but the
+    delay in the model's order, a nested block as its fields'; a zero float with its sign; no dump per point)."""
+    return tuple(_exact(v) for k, v in device.__dict__.items() if k != "delay")
+
+
+def _exact(v: object) -> object:
+    t = type(v)
+    if t is float:
+        return v if v else repr(v)          # -0.0 == 0.0: the zero's sign kept apart
+    if v is None or t is str:
+        return v
+    if isinstance(v, BaseModel):
+        return (t.__name__, *(x if type(x) is float and x else _exact(x) for x in v.__dict__.values()))
+    return (t.__name__, repr(v))
 
 
 def cable_group_critical(base: Device, delays: np.ndarray, damping: np.ndarray
@@ -59,7 +73,9 @@ def cable_group_critical(base: Device, delays: np.ndarray, damping: np.ndarray
 def critical_arrays(devices: Sequence[Device], damping: np.ndarray,
                     group_critical: GroupCritical | None = None) -> BatchCritical:
     """optim.robust.batch.batch_critical_stiffness of a chunk, its damped cables taken group by group (the points
-    sharing everything but the delay) through ``group_critical`` (default :func:`cable_group_critical`)."""
+    sharing everything but the delay): through ``group_critical`` one group at a time when one is given, else every
+    group in one cable_critical_stiffness_batch call told the groups (the same numbers as :func:`cable_group_critical`
+    group by group; tests/optim/studies/test_cable_chunks.py)."""
     fn = group_critical or cable_group_critical
     n = len(devices)
     b = np.broadcast_to(np.asarray(damping, float), (n,)).copy()
@@ -76,8 +92,16 @@ def critical_arrays(devices: Sequence[Device], damping: np.ndarray,
         sub = batch_critical_stiffness([devices[i] for i in rest], b[rest])
         kcr[rest], ang[rest], bmax[rest] = sub.critical_stiffness, sub.crossover_angle, sub.max_stable_damping
         scanned = sub.scanned
-    for idx in groups.values():
-        delays = np.array([devices[i].delay for i in idx])
-        k, a, bm = fn(devices[idx[0]], delays, b[idx])
-        kcr[idx], ang[idx], bmax[idx] = k, a, bm
+    if group_critical is None and groups:
+        # every group of the chunk in one call (one compiled call for all their rows), each group's plant sampled
+        # once per fractional delay: the numbers cable_group_critical gives group by group (tested)
+        idx = [i for members in groups.values() for i in members]
+        gid = [g for g, members in enumerate(groups.values()) for _ in members]
+        got = cable_critical_stiffness_batch([devices[i] for i in idx], b[idx], groups=gid)
+        kcr[idx], ang[idx], bmax[idx] = got.critical_stiffness, got.crossover_angle, got.max_stable_damping
+        return BatchCritical(kcr, ang, bmax, scanned)
+    for members in groups.values():
+        delays = np.array([devices[i].delay for i in members])
+        k, a, bm = fn(devices[members[0]], delays, b[members])
+        kcr[members], ang[members], bmax[members] = k, a, bm
     return BatchCritical(kcr, ang, bmax, scanned)

@@ -29,7 +29,7 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 from pydantic import BaseModel, ValidationError
 
-from models.device import Device
+from models.device import MAX_DELAY_SAMPLES, Device
 from optim.errors import InputError, from_validation
 from optim.solver_info import plain
 
@@ -606,10 +606,28 @@ def _evaluate_chunk_batch(prob: Problem, device: Mapping[str, Any], requirements
     checked: dict[tuple, str | None] = {}
     req_axes = [j for j, (path, _) in enumerate(axes) if path.startswith("requirements.")]
     validate = Device.model_validate
+    # A swept delay: the points that differ only in their delay share one validated device, copied with each delay
+    # (what validation would give: the delay is a plain float field, and its one rule that involves other fields,
+    # the samples limit, is checked here with the sample time; any other delay is validated whole, so its error
+    # reads as validation's)
+    delay_axis = next((j for j, (path, _) in enumerate(axes) if path == "device.delay"), None)
+    others = [j for j in range(len(axes)) if j != delay_axis]
+    by_rest: dict[tuple, Device] = {}
     for _, values in rows:
         dev_in, req = build(values)
         try:
-            dev = validate(dev_in)
+            dev = None
+            if delay_axis is not None:
+                delay = values[delay_axis]
+                rest = tuple([values[j] for j in others])
+                known = by_rest.get(rest)
+                if (known is not None and type(delay) is float and 0.0 <= delay < math.inf
+                        and delay / known.sample_time <= MAX_DELAY_SAMPLES):
+                    dev = known.model_copy(update={"delay": delay})
+            if dev is None:
+                dev = validate(dev_in)
+                if delay_axis is not None:
+                    by_rest.setdefault(rest, dev)
         except ValueError as exc:
             errors.append(f"invalid device: {_first_error(exc)}")
             continue

@@ -23,7 +23,7 @@ import numpy as np
 
 from models.device import Device
 from models.plants import Q_criterion
-from optim.robust.batch import batch_critical_stiffness
+from optim.robust.batch import rigid_critical_stiffness
 from optim.stability.analysis import EXACT_REL_ERROR, MODE_MATTERS_RTOL
 from optim.stability.passivity import batch_required_damping, passivity_samples
 from optim.studies.cable_chunks import critical_arrays
@@ -53,14 +53,23 @@ def _same_class(devices: Sequence[Device], requirements: Sequence[Mapping[str, A
     rigid = np.full(n, np.nan)
     cable = [i for i, d in enumerate(devices) if d.cable is not None]
     if cable:
-        rigid[cable] = batch_critical_stiffness([devices[i].rigid() for i in cable], b[cable]).critical_stiffness
+        # the rigid model's K_cr from arrays (m, b, T, t_d: all it depends on), no rigid Device per point; the rows
+        # the fast path leaves open get their rigid Devices (rigid_critical_stiffness: batch_critical_stiffness's
+        # numbers bit for bit)
+        cd = [devices[i] for i in cable]
+        rigid[cable] = rigid_critical_stiffness(
+            np.array([d.mass for d in cd]), np.array([d.damping for d in cd]), np.array([d.sample_time for d in cd]),
+            np.array([d.delay for d in cd]), b[cable], lambda rows: [cd[r].rigid() for r in rows]).critical_stiffness
     required = np.full(n, np.nan)
     with_k = [i for i, r in enumerate(requirements) if r.get("stiffness") is not None]
     d_used = {i: passivity_samples(devices[i]) for i in with_k}
     for d in sorted({v[0] for v in d_used.values()}):
         idx = [i for i in with_k if d_used[i][0] == d]
         half_tk = np.array([float(requirements[i]["stiffness"]) * devices[i].sample_time / 2 for i in idx])
-        required[idx] = batch_required_damping(d, half_tk, b[idx])[0]
+        # each row of batch_required_damping is its own computation: the distinct (K·T/2, B) pairs once (a cable grid
+        # repeats one wall over every cable)
+        pairs, inverse = np.unique(np.column_stack([half_tk, b[idx]]), axis=0, return_inverse=True)
+        required[idx] = batch_required_damping(d, pairs[:, 0], pairs[:, 1])[0][inverse.reshape(-1)]
     out = []
     for i, (dev, req) in enumerate(zip(devices, requirements)):
         base, error = row(dev, req, float(res.critical_stiffness[i]), float(res.crossover_angle[i]),

@@ -56,21 +56,44 @@ def test_the_swap_point_gets_each_group_whole_and_its_answers_land_on_their_rows
 
 def test_a_study_chunk_hands_every_damped_cable_of_the_chunk_to_one_class():
     """by_delay_class keeps a chunk's damped cables together whatever their delays (0 … 12 samples here), so a
-    group holds every delay of its cable."""
+    group holds every delay of its cable; every group goes to ONE cable batch call, told its groups."""
     import optim.studies.cable_chunks as cc
 
     devs, b = _chunk()
     calls = []
-    orig = cc.cable_group_critical
+    orig = cc.cable_critical_stiffness_batch
 
-    def spy(base, delays, damping):
-        calls.append(len(delays))
-        return orig(base, delays, damping)
+    def spy(devices, damping, groups=None):
+        calls.append(list(groups))
+        return orig(devices, damping, groups=groups)
 
-    cc.cable_group_critical = spy
+    cc.cable_critical_stiffness_batch = spy
     try:
         out = evaluate_batch(devs, [{"damping": float(x)} for x in b])
     finally:
-        cc.cable_group_critical = orig
-    assert sorted(calls) == [6, 6]
+        cc.cable_critical_stiffness_batch = orig
+    assert len(calls) == 1
+    assert sorted(calls[0].count(g) for g in set(calls[0])) == [6, 6]
     assert all(err is None for _, err in out)
+
+
+def test_the_grouped_call_equals_the_group_by_group_swap_point_bit_for_bit():
+    """A grid of whole and fractional delays (several points per fractional part, several B per point): one call
+    told the groups gives cable_group_critical's numbers group by group, and the ungrouped batch's."""
+    from optim.stability.cable_batch import cable_critical_stiffness_batch
+
+    devs, b = [], []
+    for stiffness, damping in ((4e4, 15.0), (79500.0, 6.0), (79500.0, 15.0)):
+        for delay in (0.0, 0.001, 0.0025, 0.0035, 0.003, 0.0125):
+            for virtual in (0.0, 2.0, 30.0):
+                devs.append(Device(cable={**CABLE, "stiffness": stiffness, "damping": damping}, delay=delay))
+                b.append(virtual)
+    b = np.array(b)
+    with np.errstate(all="ignore"):
+        chunk = critical_arrays(devs, b)
+        by_group = critical_arrays(devs, b, cable_group_critical)
+        flat = cable_critical_stiffness_batch(devs, b)
+    for name in ("critical_stiffness", "crossover_angle", "max_stable_damping"):
+        assert np.array_equal(getattr(chunk, name), getattr(by_group, name), equal_nan=True), name
+        assert np.array_equal(getattr(chunk, name), getattr(flat, name), equal_nan=True), name
+    assert np.all(chunk.critical_stiffness[b < 30.0] > 0)
