@@ -113,7 +113,8 @@ body = {"problem": "critical_stiffness", "base": {"device": {"mass": 5.4, "dampi
         "sweep": {"device.delay": [0.0, 0.001, 0.002, 0.003]}}
 req = urllib.request.Request(base, data=json.dumps(body).encode(), headers={"Content-Type": "application/json"})
 study = json.load(urllib.request.urlopen(req, timeout=30))
-deadline = time.monotonic() + 120
+# a fresh install: the server and each study worker compile every numba kernel first (no cache yet)
+deadline = time.monotonic() + 300
 while time.monotonic() < deadline:
     status = json.load(urllib.request.urlopen(f"{base}/{study['id']}", timeout=10))
     if status["status"] in ("done", "failed", "cancelled"):

@@ -1,4 +1,4 @@
-"""The suite under pytest-xdist (scripts/test.sh runs ``-n auto``; issue 32): a test marked ``serial`` runs with no
+"""The suite under pytest-xdist (``bash scripts/test.sh -n auto``; issue 32): a test marked ``serial`` runs with no
 other test beside it, and every worker has its own study store while the user's store stays the one the user's
 environment names (tests/conftest.py)."""
 
@@ -48,8 +48,9 @@ def test_alone(i):
 '''
 
 
-def test_scripts_test_sh_runs_pytest_on_every_core_with_the_pinned_xdist():
-    """The README's test command (and each of .ci/run's calls) runs on pytest-xdist, the user's arguments last."""
+def test_scripts_test_sh_passes_the_users_arguments_and_xdist_is_pinned():
+    """The README's test command runs pytest with the user's arguments (one process unless ``-n`` is given), and
+    pytest-xdist is pinned, so ``bash scripts/test.sh -n auto`` works on a fresh machine."""
     import tomllib
 
     import xdist
@@ -57,7 +58,7 @@ def test_scripts_test_sh_runs_pytest_on_every_core_with_the_pinned_xdist():
     exec_lines = [line for line in (ROOT / "scripts" / "test.sh").read_text().splitlines()
                   if line.startswith("exec ") and " -m pytest " in line]
     assert len(exec_lines) == 1
-    assert " -n auto " in exec_lines[0] and " --dist worksteal " in exec_lines[0] and exec_lines[0].endswith('"$@"')
+    assert exec_lines[0].endswith('"$@"')
     extra = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["optional-dependencies"]["test"]
     assert "pytest-xdist" in extra
     assert f"pytest-xdist=={xdist.__version__}" in (ROOT / "constraints.txt").read_text().splitlines()

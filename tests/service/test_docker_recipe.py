@@ -37,6 +37,7 @@ def test_dockerfile_shape():
 
 @pytest.mark.slow
 @pytest.mark.e2e
+@pytest.mark.serial   # a fresh install compiles every kernel in the server and each study worker: alone under xdist
 def test_docker_recipe_installs_and_serves_in_a_fresh_venv():
     """~1 min with a warm pip cache; runs in CI (scripts/test.sh runs every marker).  The server uses a
     throw-away PostgreSQL, as docker-compose.yml's service does, and runs a study through it."""

@@ -88,6 +88,7 @@ def clients():
 
 
 @pytest.mark.slow
+@pytest.mark.serial   # a 0.02 s wall-clock budget and its message: alone under pytest-xdist (tests/conftest.py)
 @pytest.mark.parametrize("name", list(CASES))
 def test_expensive_request_answers_503_and_the_next_one_is_served(clients, name):
     (path, body), (cheap_path, cheap_body) = CASES[name]
