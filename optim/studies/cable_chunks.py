@@ -100,10 +100,20 @@ def critical_arrays(devices: Sequence[Device], damping: np.ndarray,
     kcr, ang, bmax = np.full(n, np.inf), np.full(n, np.nan), np.full(n, np.inf)
     groups: dict[tuple, list[int]] = {}
     rest = []
-    blocks: dict[int, tuple] = {}      # ids of blocks of ``devices``, alive for this call
+    # group_key made once per set of field objects (ids of the objects of ``devices``, alive for this call): a chunk's
+    # devices copied from one device with each delay share every other field's object; equal values held in other
+    # objects only make the same key again
+    blocks: dict[int, tuple] = {}
+    by_ids: dict[tuple, tuple] = {}
     for i, dev in enumerate(devices):
         if is_grouped_cable(dev):
-            groups.setdefault(group_key(dev, blocks), []).append(i)
+            fields = dict(dev.__dict__)
+            del fields["delay"]
+            ids = tuple(map(id, fields.values()))
+            key = by_ids.get(ids)
+            if key is None:
+                key = by_ids[ids] = group_key(dev, blocks)
+            groups.setdefault(key, []).append(i)
         else:
             rest.append(i)
     scanned = 0
