@@ -39,7 +39,7 @@ def is_grouped_cable(device: Device) -> bool:
     return device.cable is not None and not is_undamped_cable(device)
 
 
-def group_key(device: Device, blocks: dict[int, tuple] | None = None) -> tuple:
+def group_key(device: Device, blocks: dict[int, object] | None = None) -> tuple:
     """What the points of one group share: the device without its delay (hashable, exact values: every field but the
     delay in the model's order, a nested block as its fields'; a zero float with its sign; no dump per point).
 
@@ -47,7 +47,7 @@ def group_key(device: Device, blocks: dict[int, tuple] | None = None) -> tuple:
     devices copied with each delay share their cable block: its key is made once)."""
     if blocks is None:
         return tuple(_exact(v) for k, v in device.__dict__.items() if k != "delay")
-    out = []
+    out: list[object] = []
     for k, v in device.__dict__.items():
         if k == "delay":
             continue
@@ -103,7 +103,7 @@ def critical_arrays(devices: Sequence[Device], damping: np.ndarray,
     # group_key made once per set of field objects (ids of the objects of ``devices``, alive for this call): a chunk's
     # devices copied from one device with each delay share every other field's object; equal values held in other
     # objects only make the same key again
-    blocks: dict[int, tuple] = {}
+    blocks: dict[int, object] = {}
     by_ids: dict[tuple, tuple] = {}
     for i, dev in enumerate(devices):
         if is_grouped_cable(dev):

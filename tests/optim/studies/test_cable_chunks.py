@@ -107,7 +107,7 @@ def test_group_key_with_a_memo_of_blocks_is_the_key_without_it():
             Device(cable={**CABLE, "damping": 0.0}, delay=0.003), Device(cable={**CABLE, "damping": -0.0}),
             Device(cable={**CABLE, "motor_damping": 0.0}), Device(cable={**CABLE, "motor_damping": -0.0}),
             Device(cable=CABLE, delay=0.003, sample_time=0.0005), Device(mass=5.4, damping=3.5, delay=0.002)]
-    memo: dict[int, tuple] = {}
+    memo: dict[int, object] = {}
     keys = [group_key(d, memo) for d in devs]
     assert keys == [group_key(d) for d in devs]
     assert keys[0] == keys[1] == keys[2]
