@@ -32,7 +32,7 @@ from models.device import Device
 from models.discretize import StateSpaceZOH, split_delay
 from optim.errors import InputError
 from optim.stability.cable_kernel import batch_rows
-from optim.stability.cable_loop import CableLoop, cable_loop
+from optim.stability.cable_loop import CableLoop, cable_loop, with_whole_delay
 from optim.stability.crossovers import theta_min
 from optim.stability.margins import (
     NEAR_B_MAX,
@@ -192,11 +192,15 @@ _WHOLE_DELAY_FREE = ("m", "modal", "angles", "mode_gap")
 def _at_whole_delay(plant: StateSpaceZOH, d: int) -> StateSpaceZOH:
     """The sampled plant of the same device with d whole samples of delay: what loop_plant gives for it (a, b, c, f and
     the zeros are the device's without its delay, d its whole samples), with the cached parts that do not depend on d
-    (_WHOLE_DELAY_FREE) taken along, so a handed-off row does not sample and diagonalise its plant again."""
+    (_WHOLE_DELAY_FREE) taken along, and its factored loop moved to d, so a handed-off row does not sample, diagonalise
+    and factor its plant again."""
     if plant.d == d:
         return plant
     new = dataclasses.replace(plant, d=d, _cache={})
     new._cache.update({k: plant._cache[k] for k in _WHOLE_DELAY_FREE if k in plant._cache})
+    loop = plant._cache.get("cable_loop")
+    if loop is not None:          # its factored loop at d (cable_loop.with_whole_delay: what cable_loop would build)
+        new._cache["cable_loop"] = with_whole_delay(loop, d)
     return new
 
 
