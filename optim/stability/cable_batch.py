@@ -21,6 +21,7 @@ optim.stability.near_b_max) or a mode within NEAR_LOSSLESS_GAP of the circle.  T
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -28,10 +29,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from models.device import Device
-from models.discretize import split_delay
+from models.discretize import StateSpaceZOH, split_delay
 from optim.errors import InputError
 from optim.stability.cable_kernel import batch_rows
-from optim.stability.cable_loop import CableLoop, cable_loop
+from optim.stability.cable_loop import CableLoop, cable_loop, with_whole_delay
 from optim.stability.crossovers import theta_min
 from optim.stability.margins import (
     NEAR_B_MAX,
@@ -93,6 +94,9 @@ def cable_critical_stiffness_batch(devices: Sequence[Device], damping: float | n
     same: list[int] = []
     # (group, fractional delay) -> the key of its sampled plant (with ``groups``: one plant sampled per pair)
     sampled: dict[tuple[int, float], tuple] = {}
+    # the sampled plant of each key, and each row's (key, whole delay d): a handed-off row takes its plant from there
+    plants: dict[tuple, StateSpaceZOH] = {}
+    row_plant: dict[int, tuple[tuple, int]] = {}
     if groups is not None and len(groups) != n:
         raise InputError("groups", f"one group number per device: {len(groups)} for {n} devices")
     blist = bvec.tolist()
@@ -101,17 +105,23 @@ def cable_critical_stiffness_batch(devices: Sequence[Device], damping: float | n
             raise InputError("devices", f"device {i} has no cable: rigid devices take optim.stability.fast_batch")
         if is_undamped_cable(dev) or dev.damping + blist[i] <= 0.0:
             continue
+        fresh = None
         if groups is None:
-            plant = loop_plant(dev)
-            d, key = plant.d, _plant_key(plant)
+            fresh = loop_plant(dev)
+            d, key = fresh.d, _plant_key(fresh)
         else:
             d, f = split_delay(dev.delay_samples)      # as stiffness_loop_plant splits it
             known = sampled.get((groups[i], f))
-            key = sampled[(groups[i], f)] = _plant_key(loop_plant(dev)) if known is None else known
+            if known is None:
+                fresh = loop_plant(dev)
+                known = sampled[(groups[i], f)] = _plant_key(fresh)
+            key = known
         if key not in shared:
-            plant = loop_plant(dev)
+            plant = fresh if fresh is not None else loop_plant(dev)
             loop = cable_loop(plant)
+            plants[key] = plant
             shared[key] = loop if loop is not None and mode_gap(plant) >= NEAR_LOSSLESS_GAP else None
+        row_plant[i] = (key, d)
         got = shared[key]
         if got is None:
             continue
@@ -157,7 +167,10 @@ def cable_critical_stiffness_batch(devices: Sequence[Device], damping: float | n
     for i in sorted(handoff):
         dev, b = devices[i], float(bvec[i])
         bm = bmax[i] if math.isfinite(bmax[i]) else max_stable_damping(dev)
-        res = critical_stiffness(dev, b, b_max=bm if b > 0.0 else None)
+        known_plant = row_plant.get(i)
+        res = critical_stiffness(dev, b, b_max=bm if b > 0.0 else None,
+                                 plant=None if known_plant is None else _at_whole_delay(plants[known_plant[0]],
+                                                                                         known_plant[1]))
         kcr[i] = res.critical_stiffness
         w = res.crossover_frequency
         ang[i] = math.nan if w is None else w * dev.sample_time
@@ -169,6 +182,26 @@ def cable_critical_stiffness_batch(devices: Sequence[Device], damping: float | n
 def _plant_key(plant) -> tuple:
     """What a sampled cable plant's factored loop depends on: its matrices and fractional delay (not d)."""
     return (plant.a.tobytes(), plant.b.tobytes(), plant.c.tobytes(), plant.f)
+
+
+#: what a sampled cable plant keeps in its cache that depends on its matrices and fractional delay alone, not on d
+#: (models.discretize.StateSpaceZOH: accurate_matrices, modal_form, pole_angles; undamped_cable.mode_gap)
+_WHOLE_DELAY_FREE = ("m", "modal", "angles", "mode_gap")
+
+
+def _at_whole_delay(plant: StateSpaceZOH, d: int) -> StateSpaceZOH:
+    """The sampled plant of the same device with d whole samples of delay: what loop_plant gives for it (a, b, c, f and
+    the zeros are the device's without its delay, d its whole samples), with the cached parts that do not depend on d
+    (_WHOLE_DELAY_FREE) taken along, and its factored loop moved to d, so a handed-off row does not sample, diagonalise
+    and factor its plant again."""
+    if plant.d == d:
+        return plant
+    new = dataclasses.replace(plant, d=d, _cache={})
+    new._cache.update({k: plant._cache[k] for k in _WHOLE_DELAY_FREE if k in plant._cache})
+    loop = plant._cache.get("cable_loop")
+    if loop is not None:          # its factored loop at d (cable_loop.with_whole_delay: what cable_loop would build)
+        new._cache["cable_loop"] = with_whole_delay(loop, d)
+    return new
 
 
 def _with_whole_delay(loop: CableLoop, d: int) -> tuple:

@@ -212,14 +212,26 @@ def _build(plant) -> CableLoop | None:
                      tuple(h for h, f in zip(hot, factors) if f.sign > 0),
                      tuple(h for h, f in zip(hot, factors) if f.sign < 0),
                      tuple(f.w for f in factors if f.sign > 0), tuple(f.w for f in factors if f.sign < 0))
-    # the factored Q against the modal response (the scan's own evaluation) at a few angles
+    return _checked(loop)
+
+
+def _checked(loop: CableLoop) -> CableLoop | None:
+    """``loop`` with its arrays when its factored Q agrees with the modal response (the scan's own evaluation) at a
+    few angles, at its d whole samples of delay; else None (last_reason says why)."""
     for t in (1e-3, 0.1, 0.7, 1.3, 2.1, 2.9, 3.1):
         q = _q(loop, t)
-        ref = inverse_response_at(loop.modal, plant.d, t) / (-expm1j(-t))
+        ref = inverse_response_at(loop.modal, loop.d, t) / (-expm1j(-t))
         if not abs(q / ref - 1.0) < 1e-9:
             last_reason[0] = f"factor mismatch {abs(q / ref - 1.0):.1e} at {t}"
             return None
     return replace(loop, arrays=loop_arrays(loop))
+
+
+def with_whole_delay(loop: CableLoop, d: int) -> CableLoop | None:
+    """What cable_loop gives for the same sampled plant with d whole samples of delay instead of ``loop.d`` (issue 32):
+    the modal form, the factors and the splits depend on the fractional delay alone, so only s = d + m + 1 and d
+    change, and the check against the modal response is made again at d (None where it fails, as there)."""
+    return _checked(replace(loop, s=loop.s - loop.d + d, d=d, arrays=()))
 
 
 def _nan(x: float | None) -> float:

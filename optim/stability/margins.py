@@ -203,17 +203,20 @@ def _dead_reason(damping: float, b_max: float) -> str:
             "no positive stiffness is stable")
 
 
-def critical_stiffness(device: Device, damping: float = 0.0, *, b_max: float | None = None) -> CriticalStiffness:
+def critical_stiffness(device: Device, damping: float = 0.0, *, b_max: float | None = None,
+                       plant: RigidZOH | StateSpaceZOH | None = None) -> CriticalStiffness:
     """Exact K_cr(B) (the binding crossover refined to double precision, the minimum over all of them).
 
     Rigid devices take the fast path of optim.stability.fast_rigid, damped cable devices that of
     optim.stability.cable_brackets (``path="fast"``); where their bounds do not close, a cable takes the bounded
     scan (``path="bounded-scan"``), a rigid device every crossover of a scan (``path="scan"``).
     ``b_max``: the caller's ``max_stable_damping(device)`` of this same device, when it has it (a design
-    calls this many times on one device); computed here otherwise."""
+    calls this many times on one device); computed here otherwise.  ``plant``: the caller's loop_plant(device) (the
+    same numbers: optim.stability.cable_batch hands a row over with its group's sampled plant), else made here."""
     if not (math.isfinite(damping) and damping >= 0.0):
         raise InputError("damping", "virtual damping B must be finite and ≥ 0")
-    plant = loop_plant(device)
+    if plant is None:
+        plant = loop_plant(device)
     if device.damping + damping <= 0.0:
         return CriticalStiffness(0.0, None, (), damping, 0.0, reason=NO_DAMPING_REASON)
     if is_undamped_cable(device):

@@ -39,10 +39,28 @@ def is_grouped_cable(device: Device) -> bool:
     return device.cable is not None and not is_undamped_cable(device)
 
 
-def group_key(device: Device) -> tuple:
+def group_key(device: Device, blocks: dict[int, object] | None = None) -> tuple:
     """What the points of one group share: the device without its delay (hashable, exact values: every field but the
-    delay in the model's order, a nested block as its fields'; a zero float with its sign; no dump per point)."""
-    return tuple(_exact(v) for k, v in device.__dict__.items() if k != "delay")
+    delay in the model's order, a nested block as its fields'; a zero float with its sign; no dump per point).
+
+    ``blocks``: the caller's memo of nested blocks' keys by their id(), for devices it holds alive meanwhile (a chunk's
+    devices copied with each delay share their cable block: its key is made once)."""
+    if blocks is None:
+        return tuple(_exact(v) for k, v in device.__dict__.items() if k != "delay")
+    out: list[object] = []
+    for k, v in device.__dict__.items():
+        if k == "delay":
+            continue
+        if type(v) is float and v:               # _exact's value for a nonzero float, without the call
+            out.append(v)
+        elif isinstance(v, BaseModel):
+            got = blocks.get(id(v))
+            if got is None:
+                got = blocks[id(v)] = _exact(v)
+            out.append(got)
+        else:
+            out.append(_exact(v))
+    return tuple(out)
 
 
 def _exact(v: object) -> object:
@@ -82,9 +100,20 @@ def critical_arrays(devices: Sequence[Device], damping: np.ndarray,
     kcr, ang, bmax = np.full(n, np.inf), np.full(n, np.nan), np.full(n, np.inf)
     groups: dict[tuple, list[int]] = {}
     rest = []
+    # group_key made once per set of field objects (ids of the objects of ``devices``, alive for this call): a chunk's
+    # devices copied from one device with each delay share every other field's object; equal values held in other
+    # objects only make the same key again
+    blocks: dict[int, object] = {}
+    by_ids: dict[tuple, tuple] = {}
     for i, dev in enumerate(devices):
         if is_grouped_cable(dev):
-            groups.setdefault(group_key(dev), []).append(i)
+            fields = dict(dev.__dict__)
+            del fields["delay"]
+            ids = tuple(map(id, fields.values()))
+            key = by_ids.get(ids)
+            if key is None:
+                key = by_ids[ids] = group_key(dev, blocks)
+            groups.setdefault(key, []).append(i)
         else:
             rest.append(i)
     scanned = 0

@@ -613,8 +613,13 @@ def _evaluate_chunk_batch(prob: Problem, device: Mapping[str, Any], requirements
     delay_axis = next((j for j, (path, _) in enumerate(axes) if path == "device.delay"), None)
     others = [j for j in range(len(axes)) if j != delay_axis]
     by_rest: dict[tuple, Device] = {}
+    # no swept requirement (nor controller value): every point's requirements are the base's, one dict for all (the
+    # problems read it, never change it); a point's device dict is built only where its device is validated
+    fixed_req = None
+    if rows and not any(path.startswith(("requirements.", "controller.")) for path, _ in axes):
+        fixed_req = build(rows[0][1])[1]
     for _, values in rows:
-        dev_in, req = build(values)
+        dev_in, req = build(values) if fixed_req is None else (None, fixed_req)
         try:
             dev = None
             if delay_axis is not None:
@@ -625,7 +630,7 @@ def _evaluate_chunk_batch(prob: Problem, device: Mapping[str, Any], requirements
                         and delay / known.sample_time <= MAX_DELAY_SAMPLES):
                     dev = known.model_copy(update={"delay": delay})
             if dev is None:
-                dev = validate(dev_in)
+                dev = validate(build(values)[0] if dev_in is None else dev_in)
                 if delay_axis is not None:
                     by_rest.setdefault(rest, dev)
         except ValueError as exc:

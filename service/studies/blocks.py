@@ -72,6 +72,22 @@ def _kind(v: Any) -> str | None:
     return "json"
 
 
+def _kinds(values: list) -> set[str]:
+    """The kinds (_kind) of a column's values, None left out: one value of each Python type looked at."""
+    return {k for k in map(_kind, dict(zip(map(type, values), values)).values()) if k is not None}
+
+
+#: a column whose values are all of these Python types: arrow's type for it (no per-value conversion needed)
+_PLAIN = {frozenset({bool}): lambda: _pa().bool_(), frozenset({bool, type(None)}): lambda: _pa().bool_(),
+          frozenset({float}): lambda: _pa().float64(), frozenset({float, type(None)}): lambda: _pa().float64()}
+
+
+def _pa():
+    import pyarrow as pa
+
+    return pa
+
+
 def _column(values: list, kinds: set[str]):
     """(arrow array, field metadata) of one result key's values (None where a point lacks it)."""
     import pyarrow as pa
@@ -79,6 +95,9 @@ def _column(values: list, kinds: set[str]):
     meta = {b"kinds": ",".join(sorted(kinds)).encode()}
     if not kinds:
         return pa.nulls(len(values)), meta
+    plain = _PLAIN.get(frozenset(map(type, values)))
+    if plain is not None:     # Python bools or floats (and None) only: arrow takes the list as it is
+        return pa.array(values, plain()), meta
     if kinds == {"bool"}:
         return pa.array([None if v is None else bool(v) for v in values], pa.bool_()), meta
     if kinds == {"int"} and all(v is None or _INT64[0] <= v <= _INT64[1] for v in values):
@@ -111,11 +130,15 @@ def encode_block(start: int, values: np.ndarray, results: Sequence[dict | None],
     has = [bool(r is not None) for r in results]
     arrays += [pa.array(has, pa.bool_()), pa.array(list(errors), pa.string())]
     fields += [pa.field("has_result", pa.bool_()), pa.field("error", pa.string())]
+    # every result with every key (the usual case: a problem's rows have the same keys): no presence column to make
+    full = all(len(r) == len(cols) for r in results if r)
     for key, col in cols.items():
-        kinds = {k for k in map(_kind, col) if k is not None}
+        kinds = _kinds(col)
         arr, meta = _column(col, kinds)
         arrays.append(arr)
         fields.append(pa.field(f"r:{key}", arr.type, metadata=meta))
+        if full:
+            continue
         present = [bool(r) and key in r for r in results]
         if any(r and not p for r, p in zip(results, present)):
             arrays.append(pa.array(present, pa.bool_()))
@@ -216,7 +239,7 @@ def encode_columns(start: int, values: np.ndarray, has_result: np.ndarray, colum
         ok = has if valid is None else has & np.asarray(valid, bool)
         if isinstance(vals, list):
             col = [v if o else None for v, o in zip(vals, ok.tolist())]
-            kinds = {k for k in map(_kind, col) if k is not None}
+            kinds = _kinds(col)
             arr, meta = _column(col, kinds)
         elif not ok.any():
             arr, meta = pa.nulls(len(has)), {b"kinds": b""}

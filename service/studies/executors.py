@@ -8,6 +8,7 @@ writes.  Workers build their own CasADi solvers: nothing symbolic crosses a proc
 from __future__ import annotations
 
 import concurrent.futures as cf
+import gc
 import multiprocessing
 import os
 from concurrent.futures.process import BrokenProcessPool
@@ -36,11 +37,17 @@ class Executor(Protocol):
 def study_worker_init(parent: int) -> None:
     """Initializer of the study pool's workers: die with the server, below its priority (batch_worker_init), and
     the numerics' compiled kernels loaded now (numba's cache, ≈ 0.2-0.5 s; compiled ≈ 3-10 s where no cache is
-    written), when the pool starts, not inside the first chunk of a study (a cable grid's first chunk paid ≈ 9 s)."""
+    written), when the pool starts, not inside the first chunk of a study (a cable grid's first chunk paid ≈ 9 s),
+    and what they imported frozen out of the garbage collector's generations (gc.freeze)."""
     batch_worker_init(parent)
     from optim.stability.kernels import compile_kernels
 
     compile_kernels()
+    # The objects of the imports (numpy, scipy, pydantic, the models: ≈ 200k) out of the cyclic collector's reach: a
+    # chunk of cable points allocates enough to run a few full collections, each of which walked all of them (issue
+    # 32).  Nothing frozen is garbage: the modules live as long as the worker.
+    gc.collect()
+    gc.freeze()
 
 
 class LocalExecutor:

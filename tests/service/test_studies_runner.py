@@ -183,6 +183,28 @@ def test_adaptive_chunk_size():
     assert runner.adaptive_size(64, 10.0, 1000, 4) == 1
 
 
+def test_chunk_ends_align_to_the_grids_first_axis_blocks():
+    """Issue 32: a chunk ends on a multiple of the points sharing the first axis's value (a damped cable's delays are
+    then never split over two chunks that each factor the cable) when that keeps it within half and twice its size."""
+    from service.studies.runner import aligned_stop, grid_stride
+
+    assert aligned_stop(1050, 2050, 10**6, 1050, 16384) == 2100      # a chunk under load: one block, not 2 halves
+    assert aligned_stop(1, 1061, 10**6, 1050, 16384) == 1050         # after the first 1-point chunk
+    assert aligned_stop(37000, 53384, 10**6, 1050, 16384) == 52500   # down: up would pass the largest chunk
+    assert aligned_stop(0, 1, 10**6, 1050, 16384) == 1               # the 1-point chunk stays one point
+    assert aligned_stop(0, 300, 10**6, 1050, 16384) == 300           # far from a multiple: as planned
+    assert aligned_stop(2000, 2100, 2100, 1050, 16384) == 2100       # the end of the gap is the end
+    assert aligned_stop(5, 10, 10**6, 1, 64) == 10                   # one axis / hypercube: no stride
+    plan = plan_from_request({"problem": "critical_stiffness", "base": {"device": {"preset": "lhifam"}},
+                              "sweep": {"device.cable.stiffness": {"start": 2e4, "stop": 1.2e5, "num": 3},
+                                        "device.delay": [0.0, 0.001, 0.002],
+                                        "device.cable.damping": [2.0, 3.0]}})
+    assert grid_stride(plan) == 6
+    runner = StudyRunner(None, lambda: None, chunk_size=64)
+    ends = [start + len(values) for start, values, _ in runner._blocks(plan, [], {"per_point": 0.0625}, 1)]
+    assert ends == [6, 12, 18], ends                                 # 8-point chunks (8, 16, 18): ends moved to 6, 12
+
+
 def test_pace_trusts_larger_chunks_and_halves_on_equal_ones():
     pace = {"per_point": None}
     StudyRunner.update_pace(pace, 0.004, 1)          # a 1-point chunk: its fixed cost reads as a slow point

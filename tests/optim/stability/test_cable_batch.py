@@ -75,3 +75,41 @@ def test_a_whole_delay_axis_shares_the_factoring_and_answers_as_margins():
         assert got.critical_stiffness[i] == want.critical_stiffness, (i, dev, bi)
         assert got.max_stable_damping[i] == bm
         assert got.path[i] == want.path
+
+
+def test_rows_handed_off_in_a_group_take_its_plant_at_their_delay_and_answer_as_margins():
+    """A grouped delay axis with B above half of B_max (rows margins answers): each such row is given its group's
+    sampled plant moved to its own whole delay (cable_batch._at_whole_delay), which has loop_plant's numbers, and its
+    answer is margins' own, bit for bit (issue 32: the handed-off rows no longer sample and diagonalise again)."""
+    from optim.stability.cable_batch import _at_whole_delay
+    from optim.stability.cable_loop import cable_loop
+    from optim.stability.margins import loop_plant
+
+    devs = [Device(preset="lhifam", delay=d * 1e-3) for d in (0, 2, 5, 9, 14, 20)]
+    bms = [max_stable_damping(d) for d in devs]
+    b = np.array([f * bm for bm in bms for f in (0.3, 0.6, 0.9)])
+    rows = [d for d in devs for _ in range(3)]
+    got = cable_critical_stiffness_batch(rows, b, groups=[0] * len(rows))
+    assert got.handed_off >= len(devs)
+    for i, (dev, bi) in enumerate(zip(rows, b)):
+        want = critical_stiffness(dev, float(bi), b_max=max_stable_damping(dev))
+        assert got.critical_stiffness[i] == want.critical_stiffness, (i, dev.delay, bi)
+        assert got.max_stable_damping[i] == bms[i // 3]
+        assert got.path[i] == want.path
+    first = loop_plant(devs[0])
+    assert cable_loop(first) is not None
+    for dev in devs[1:]:
+        moved, fresh = _at_whole_delay(first, loop_plant(dev).d), loop_plant(dev)
+        for name in ("a", "b", "c"):
+            assert np.array_equal(getattr(moved, name), getattr(fresh, name))
+        assert (moved.d, moved.f, moved.zeros_hint) == (fresh.d, fresh.f, fresh.zeros_hint)
+        assert "modal" in moved._cache
+        for x, y in zip(moved.modal_form(), fresh.modal_form()):
+            assert np.array_equal(x, y)
+        if "cable_loop" in first._cache:
+            got, want = moved._cache["cable_loop"], cable_loop(fresh)      # moved to d: what cable_loop builds at d
+            assert (got is None) == (want is None)
+            if want is not None:
+                assert got == want and (got.s, got.d) == (want.s, want.d)
+                for x, y in zip(got.arrays, want.arrays):
+                    assert np.array_equal(x, y, equal_nan=True)

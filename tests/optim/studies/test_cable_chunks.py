@@ -97,3 +97,18 @@ def test_the_grouped_call_equals_the_group_by_group_swap_point_bit_for_bit():
         assert np.array_equal(getattr(chunk, name), getattr(by_group, name), equal_nan=True), name
         assert np.array_equal(getattr(chunk, name), getattr(flat, name), equal_nan=True), name
     assert np.all(chunk.critical_stiffness[b < 30.0] > 0)
+
+
+def test_group_key_with_a_memo_of_blocks_is_the_key_without_it():
+    """critical_arrays' memo (blocks by id) keys every device as group_key alone does: the delay left out, a zero's
+    sign kept, a shared cable block keyed once, and devices that differ anywhere but the delay apart."""
+    base = Device(cable=CABLE, delay=0.003)
+    devs = [base, base.model_copy(update={"delay": 0.011}), base.model_copy(update={"delay": 0.0}),
+            Device(cable={**CABLE, "damping": 0.0}, delay=0.003), Device(cable={**CABLE, "damping": -0.0}),
+            Device(cable={**CABLE, "motor_damping": 0.0}), Device(cable={**CABLE, "motor_damping": -0.0}),
+            Device(cable=CABLE, delay=0.003, sample_time=0.0005), Device(mass=5.4, damping=3.5, delay=0.002)]
+    memo: dict[int, object] = {}
+    keys = [group_key(d, memo) for d in devs]
+    assert keys == [group_key(d) for d in devs]
+    assert keys[0] == keys[1] == keys[2]
+    assert len(set(keys[2:])) == len(devs) - 2
