@@ -226,7 +226,9 @@ class StudyRunner:
             while at < hi:
                 size = largest if pace is None else self.adaptive_size(largest, pace["per_point"], remaining,
                                                                        parallel)
-                stop = aligned_stop(at, min(hi, at + size), hi, stride, largest)
+                # a chunk of one point (the first, which measures the pace, or one point's worth of the time
+                # budget) stays one point: aligning would double it
+                stop = min(hi, at + size) if size <= 1 else aligned_stop(at, min(hi, at + size), hi, stride, largest)
                 values = plan.values(at, stop)
                 yield at, values, block_hash(at, values)
                 remaining -= stop - at
