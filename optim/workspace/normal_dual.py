@@ -25,7 +25,7 @@ import numpy as np
 
 from optim.stability.compiled import kernel
 
-from .normal_kernel import AT_D, mode_response
+from .normal_kernel import AT_D, circle_point, mode_response
 
 __all__ = ["dual_worst", "normal_at", "compile_kernels"]
 
@@ -41,13 +41,7 @@ _SEMI = 1e-12        # C's small extreme eigenvalue below this fraction of the o
 def _hmat(w, modes, theta, out):
     """out[0:6] = A(θ), out[6:12] = C(θ) as (00, 01, 02, 11, 12, 22): H = Σ R_i w_i w_iᵀ, R_i as the compiled
     kernel's (RigidZOH.response, the Nyquist value in closed form)."""
-    sn = math.sin(theta)
-    z = complex(math.cos(theta), sn)
-    sh = math.sin(0.5 * theta)
-    zm1 = complex(-2.0 * sh * sh, sn)
-    dt = modes[0, AT_D] * theta
-    lead = complex(math.cos(dt), math.sin(dt))
-    zinv = 1.0 / z
+    z, zm1, zinv, lead = circle_point(theta, modes[0, AT_D])
     for k in range(12):
         out[k] = 0.0
     for i in range(modes.shape[0]):

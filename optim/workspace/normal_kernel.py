@@ -21,7 +21,7 @@ import numpy as np
 from models.discretize import RigidZOH
 from optim.stability.compiled import kernel
 
-__all__ = ["mode_numbers", "mode_response", "critical_kernel", "compile_kernels"]
+__all__ = ["mode_numbers", "mode_response", "circle_point", "weighted_response", "critical_kernel", "compile_kernels"]
 
 # the columns of a mode's numbers
 (AT_FRAC, AT_A, AT_C, AT_OMP, AT_PHI12, AT_G0P, AT_G0V, AT_G1P, AT_G1V, AT_D, AT_NYQ) = range(11)
@@ -58,22 +58,34 @@ def mode_response(v, theta, z, zm1, zinv, lead):
 
 
 @kernel
-def _k(crow, modes, theta, t, b):
-    """K(θ) = −1/(T²·Σ c_i R_i(θ)) − B(1 − e^{−jθ})/T of one normal (weights ``crow``), each R_i as
-    RigidZOH.response(θ) (the modes share the delay, so z, z − 1 and the delay's phase are computed once)."""
+def circle_point(theta, d):
+    """(z, z − 1, 1/z, the delay's phase e^{jdθ}) at z = e^{jθ}, shared by the modes of one plant (d: the modes'
+    whole delay in samples, mode_numbers' AT_D); z − 1 = −2 sin²(θ/2) + j sin θ, its conjugate e^{−jθ} − 1."""
     sn = math.sin(theta)
     z = complex(math.cos(theta), sn)
     sh = math.sin(0.5 * theta)
     zm1 = complex(-2.0 * sh * sh, sn)
-    dt = modes[0, AT_D] * theta
+    dt = d * theta
     lead = complex(math.cos(dt), math.sin(dt))
-    zinv = 1.0 / z
+    return z, zm1, 1.0 / z, lead
+
+
+@kernel
+def weighted_response(weights, modes, theta):
+    """(Σ weights_i R_i(θ), z − 1): the plant along one normal, each R_i by :func:`mode_response`."""
+    z, zm1, zinv, lead = circle_point(theta, modes[0, AT_D])
     g = complex(0.0, 0.0)
     for i in range(modes.shape[0]):
-        v = modes[i]
-        r = mode_response(v, theta, z, zm1, zinv, lead)
-        g += crow[i] * r
-    one_minus = complex(2.0 * sh * sh, sn)        # 1 − e^{−jθ}
+        g += weights[i] * mode_response(modes[i], theta, z, zm1, zinv, lead)
+    return g, zm1
+
+
+@kernel
+def _k(crow, modes, theta, t, b):
+    """K(θ) = −1/(T²·Σ c_i R_i(θ)) − B(1 − e^{−jθ})/T of one normal (weights ``crow``), each R_i as
+    RigidZOH.response(θ) (the modes share the delay, so z, z − 1 and the delay's phase are computed once)."""
+    g, zm1 = weighted_response(crow, modes, theta)
+    one_minus = -zm1.conjugate()                  # 1 − e^{−jθ}
     return -1.0 / (t * t * g) - b * one_minus / t
 
 

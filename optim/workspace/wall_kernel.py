@@ -24,7 +24,7 @@ import numpy as np
 from optim.stability.compiled import kernel
 from optim.stability.crossovers import LIN_STEP, LOG_END, LOG_MIN_SAMPLES, LOG_PER_DECADE, STEPS_PER_DELAY_TURN
 
-from .normal_kernel import AT_D, mode_response
+from .normal_kernel import weighted_response
 
 __all__ = ["wall_crossings", "plain_scan_grid", "compile_kernels", "KIND_STIFFNESS", "KIND_DAMPER"]
 
@@ -64,18 +64,9 @@ def plain_scan_grid(theta_min, delay_samples):
 @kernel
 def _h(wts, modes, theta, beta, kind):
     """H(θ) of the wall loop (``kind``), G_n = Σ wts_i R_i(θ) (the normalised weights c_i·m_e)."""
-    sn = math.sin(theta)
-    z = complex(math.cos(theta), sn)
-    sh = math.sin(0.5 * theta)
-    zm1 = complex(-2.0 * sh * sh, sn)
-    dt = modes[0, AT_D] * theta
-    lead = complex(math.cos(dt), math.sin(dt))
-    zinv = 1.0 / z
-    g = complex(0.0, 0.0)
-    for i in range(modes.shape[0]):
-        g += wts[i] * mode_response(modes[i], theta, z, zm1, zinv, lead)
+    g, zm1 = weighted_response(wts, modes, theta)
     inv = -1.0 / g
-    em1 = complex(-2.0 * sh * sh, -sn)          # e^{−jθ} − 1 (numpy's expm1(−jθ))
+    em1 = zm1.conjugate()                       # e^{−jθ} − 1 (numpy's expm1(−jθ))
     if kind == KIND_STIFFNESS:
         return inv + complex(beta * em1.real, beta * em1.imag)
     return inv / (-em1)
