@@ -13,5 +13,9 @@ WANT="$(cat pyproject.toml constraints.txt | sha256sum | cut -d' ' -f1) ${1:-}"
 if [ "$(cat "$STAMP" 2>/dev/null)" != "$WANT" ]; then
     .venv/bin/python -m pip install -q --upgrade pip
     .venv/bin/python -m pip install -q -c constraints.txt -e ".${1:-}"
+    # numba's kernels compiled now, into its cache beside the sources (≈ 60 s of CPU once, service/kernel_cache.py):
+    # otherwise the first server, test or design after a fresh install pays it, past a request's budget.
+    echo "zwidth: compiling the numerics' kernels (once per install, ≈ 1 min)" >&2
+    .venv/bin/python -c "from service.kernel_cache import compile_kernels_once; compile_kernels_once()"
     echo "$WANT" > "$STAMP"
 fi

@@ -14,10 +14,10 @@ import gc
 from models.device import PRESETS, Device
 from optim.stability.analysis import analyse_stability
 from optim.stability.boundary import stability_boundary
-from optim.stability.kernels import compile_kernels
 from optim.stiffness import design_stiffness
+from service.kernel_cache import compile_kernels_once
 
-compile_kernels()   # the compiled loops (numba): compiled, or loaded from its cache, once
+compile_kernels_once()   # the compiled loops (numba): compiled, or loaded from its cache, once
 
 for _name in sorted(PRESETS):
     _device = Device(preset=_name)

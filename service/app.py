@@ -20,14 +20,13 @@ from typing import AsyncIterator
 from fastapi import Depends, FastAPI
 from fastapi.middleware.cors import CORSMiddleware
 
-from optim.stability.kernels import compile_kernels
-
 from . import routes
 from .auth import UNAUTHORIZED, BearerAuthMiddleware, bearer_auth
 from .body_guard import BodyGuardMiddleware
 from .docs import install_docs
 from .errors import ERROR_RESPONSES, NOT_FOUND, install_error_handlers
 from .executor import BoundedExecutor
+from .kernel_cache import compile_kernels_once
 from .logs import configure_logging
 from .middleware import BodyLimitMiddleware, RequestContextMiddleware
 from .route_names import name_routes, plain_descriptions
@@ -83,7 +82,7 @@ def _warm_up(executor: BoundedExecutor) -> None:
     compute workers.  In between, everything imported and compiled so far is frozen out of the garbage collector
     (it lives as long as the process): a full collection over it took ≈ 0.1 s (≈ 270k objects), a pause in
     whichever request triggered it; frozen, ≈ 0."""
-    compile_kernels()
+    compile_kernels_once()
     gc.freeze()
     executor.warm_up()
 

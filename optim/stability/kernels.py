@@ -11,8 +11,9 @@ __all__ = ["compile_kernels"]
 
 
 def compile_kernels() -> None:
-    """Compile every kernel now, or load it from numba's cache (≈ 0.2 s cached, ≈ 3 s compiling): a process that
-    calls this before it serves answers its first analysis at full speed."""
+    """Compile every kernel now, or load it from numba's cache (≈ 1-2 s cached; compiling all of them
+    costs ≈ 60 s of CPU, 2026-12-04: the service compiles them once per install, service.kernel_cache): a process
+    that calls this before it serves answers its first analysis at full speed."""
     rigid_kernel.compile_kernels()
     rigid_tail.compile_kernels()
     passivity_kernel.compile_kernels()

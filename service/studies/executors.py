@@ -40,9 +40,9 @@ def study_worker_init(parent: int) -> None:
     written), when the pool starts, not inside the first chunk of a study (a cable grid's first chunk paid ≈ 9 s),
     and what they imported frozen out of the garbage collector's generations (gc.freeze)."""
     batch_worker_init(parent)
-    from optim.stability.kernels import compile_kernels
+    from service.kernel_cache import compile_kernels_once
 
-    compile_kernels()
+    compile_kernels_once()
     # The objects of the imports (numpy, scipy, pydantic, the models: ≈ 200k) out of the cyclic collector's reach: a
     # chunk of cable points allocates enough to run a few full collections, each of which walked all of them (issue
     # 32).  Nothing frozen is garbage: the modules live as long as the worker.
