@@ -21,10 +21,11 @@ from models.errors import InputError
 from models.kinematics import KinematicModel
 from models.velocity_filter import Rendering
 
-from .normal_search import dual_normal, worst_normal
+from .normal_search import dual_normal, undamped_normal, worst_normal
 from .wall_plant import (
     WallCritical,
     WallModes,
+    check_mode_rates,
     one_dof_critical_stiffness,
     one_dof_equivalent,
     pose_eig,
@@ -207,8 +208,15 @@ def workspace_points(model: KinematicModel, poses: list[np.ndarray],
                                                         "every direction it generically can)")
             continue
         pose_normals: list[np.ndarray]
+        eig = pose_eig(mass, model.joint_damping)
+        check_mode_rates(eig[0], sample_time)
+        if normals == "worst" and damping == 0.0 and rendering is None:
+            n0 = undamped_normal(jac, eig, sample_time, delay)
+            if n0 is not None:     # K_cr = 0 along n0 (a ≤ τ·c₀): the worst, decided exactly
+                modes = wall_modes(mass, jac, model.joint_damping, n0, eig)
+                points.append(_point(q, n0, modes, sample_time, delay, damping))
+                continue
         if normals == "worst" and rank == 3 and damping == 0.0:
-            eig = pose_eig(mass, model.joint_damping)
             dual = dual_normal(mass, jac, model.joint_damping, sample_time, delay, eig)
             if dual is not None:
                 modes = wall_modes(mass, jac, model.joint_damping, dual[0], eig)
@@ -221,7 +229,7 @@ def workspace_points(model: KinematicModel, poses: list[np.ndarray],
         else:
             pose_normals = given
         for i, n_vec in enumerate(pose_normals):
-            modes = wall_modes(mass, jac, model.joint_damping, n_vec)
+            modes = wall_modes(mass, jac, model.joint_damping, n_vec, eig)
             if not modes.c:
                 raise InputError(f"normals.{i}", f"the device cannot move along this normal at pose {j} "
                                                  "(Jᵀn = 0): no wall can be rendered there")
