@@ -63,6 +63,9 @@ def test_planar_preset_matches_the_numerics(client):
     ({"device": {"kinematics": {"urdf": '<?xml version="1.0"?><!DOCTYPE r [<!ENTITY x SYSTEM "file:///etc/passwd">'
                                         ']><robot name="&x;"/>', "end_effector": "x"}},
       "poses": {"explicit": [[0.0]]}, "normals": [[0, 1, 0]]}, ["body", "device", "kinematics", "urdf"]),
+    ({"device": {"kinematics": {"preset": "phantom-premium-1.5", "joint_damping": [1e-300, 1e-300, 1e-300]}},
+      "poses": {"explicit": [[0.1, 0.2, 0.3]]}, "normals": "worst"},
+     ["body", "device", "kinematics", "joint_damping"]),         # λ·T < 1e-9: was a 500 (complex division by 0)
 ])
 def test_bad_input_names_its_field(client, body, field):
     r = client.post("/v1/analysis/workspace", json=body)
