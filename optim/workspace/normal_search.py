@@ -157,7 +157,10 @@ def undamped_normal(jac: np.ndarray, eig: tuple[np.ndarray, np.ndarray], sample_
     a = (w[:, ~zero] / lam[~zero]) @ w[:, ~zero].T
     tau = delay + 0.5 * sample_time
     vals, vecs = np.linalg.eigh(a - tau * u)
-    if vals[0] >= 0.0:
+    # clearly negative: a rounding-sized eigenvalue (a direction J does not reach, where A and U both vanish, or
+    # a = τ·c₀ to 1e-12) is left to the search and the exact scan
+    scale = float(np.max(np.abs(np.linalg.eigvalsh(a + tau * u))))
+    if not vals[0] < -1e-12 * scale:
         return None
     n = vecs[:, 0]
     return n / np.linalg.norm(n)
