@@ -183,3 +183,20 @@ def test_undamped_phantom_against_dense_sampling_and_the_mimo_loop():
             else:
                 assert wall_spectral_radius(mass, jac, arm.joint_damping, n, k * (1 - 1e-6), 0.0, T, TD) < 1.0
                 assert wall_spectral_radius(mass, jac, arm.joint_damping, n, k * (1 + 1e-6), 0.0, T, TD) > 1.0
+
+
+def test_a_design_with_an_undamped_joint_is_decided_by_the_mimo_loop():
+    """PHANToM with joint damping (0, 5e-4, 5e-4), 4 poses, verify: at B* the worst normals lie where the undamped
+    joint is not seen; they are taken exactly there (not 1e-9 short of it, where the undamped pole sat 1e-16 from
+    z = 1 and the MIMO check read "unstable" from rounding), so every worst case is stable by a clear margin."""
+    from optim.workspace.analysis import PoseSpec
+    from optim.workspace.design import workspace_design_job
+
+    design, checks = workspace_design_job(None, "phantom-premium-1.5", None, None, [0.0, 5e-4, 5e-4],
+                                          PoseSpec(lhs_samples=4, lhs_seed=3), "worst", T, TD, 1.0, None, None, 1,
+                                          True)
+    assert design.damping > 0.0 and design.stiffness > 0.0
+    assert len(checks) == len(design.worst_cases) + 1           # every worst case, then the denser set's worst
+    for c in checks:
+        assert abs(c.spectral_radius - 1.0) > 1e-9, c          # decided, not a rounding-sized reading
+    assert all(c.stable for c in checks[:len(design.worst_cases)])
