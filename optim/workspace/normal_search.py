@@ -218,7 +218,9 @@ def worst_normal(mass: np.ndarray, jac: np.ndarray, damping_q: np.ndarray, rank:
         step /= _ZOOM
         # converged: below _STEP_SETTLED, two levels in a row gain less than 1e-13 relative at every start (a level's
         # gain bounds the rest's, which shrink geometrically with the step whether the minimum is smooth or a kink)
-        still = np.all(before - best_v <= 1e-13 * np.abs(best_v))
+        # (a start with no crossover in the window stays at inf: inf − inf is no gain, not NaN)
+        gain = np.where(np.isinf(before) & np.isinf(best_v), 0.0, before - np.where(np.isinf(before), 0.0, best_v))
+        still = np.all(gain <= 1e-13 * np.abs(best_v))
         quiet = quiet + 1 if still else 0
         if step < _STEP_SETTLED and quiet >= 2:
             break
