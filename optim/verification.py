@@ -685,10 +685,9 @@ def _ff_point(loop, force_gain: float) -> _Point:
         ex = radius_excess(feedforward_closed_loop(loop, force_gain))
         if ex.decided_stable or ex.decided_unstable:
             return _Point(ex.decided_stable, 1.0 + ex.excess, None, EIGEN, None)
-    cnt = feedforward_unstable_count(loop, force_gain)
-    if cnt.count is None:
-        return _Point(None, None, None, ARGUMENT, cnt.reason)
-    return _Point(cnt.count == 0, None, cnt.count, ARGUMENT, None)
+    # a closed-loop pole within double precision's reach of the circle is decided in 50-digit mpmath (the plant
+    # sampled again by optim.stability.closed_loop_mp.mp_sampled), as the stiffness count does
+    return _counted(feedforward_unstable_count(loop, force_gain, PRECISE_DIGITS))
 
 
 def verify_critical_force_gain(device: Device, human, critical: float | None, order: int | None = None,

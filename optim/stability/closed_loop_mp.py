@@ -17,7 +17,8 @@ import mpmath as mp
 from models.device import Device
 from optim.stability.closed_loop import split_delay_samples
 
-__all__ = ["MpPlant", "PRECISE_DIGITS", "mp_plant", "mp_plant_response", "mp_return_difference"]
+__all__ = ["MpPlant", "MpSampled", "PRECISE_DIGITS", "mp_plant", "mp_plant_response", "mp_return_difference",
+           "mp_sampled", "mp_sampled_response"]
 
 #: digits of verify's mpmath decisions (the issue's audit tracked roots in 50)
 PRECISE_DIGITS = 50
@@ -134,3 +135,61 @@ def mp_return_difference(device: Device, alpha: float, beta: float, digits: int 
             ctrl = poly(num, w) / poly(den, w) if controller else a + b * (1 - w)
             return 1 + ctrl * mp_plant_response(mp_plant(device, digits), theta)   # built at the first call
     return f
+
+
+@dataclass(frozen=True)
+class MpSampled:
+    """Any continuous (A, B, C, D) sampled in mpmath (see closed_loop.discretise): x[k+1] = x[k] + E x[k] +
+    Γ0 u[k−d] + Γ1 u[k−d−1], y = c·x + direct·u[k−d−1] (a direct term acts through the sample before the hold)."""
+
+    e: mp.matrix
+    g0: mp.matrix
+    g1: mp.matrix
+    c: mp.matrix
+    direct: mp.mpf
+    d: int
+    f: mp.mpf
+    digits: int
+
+
+def mp_sampled(a, b, c, direct: float, delay: float, sample_time: float, digits: int = PRECISE_DIGITS) -> MpSampled:
+    """The twin of closed_loop.discretise in ``digits`` digits for a continuous state space given in doubles (time
+    in samples), taken as exact: the feedforward loop's plant (models.feedforward.feedforward_state_space), whose
+    entries are the device's and the grasp's parameters in one or two double operations.  The delay's fraction is
+    the exact quotient of ``delay`` and ``sample_time`` [s] (as in :func:`mp_plant`)."""
+    with mp.workdps(digits + 10):
+        n = len(b)
+        am = mp.matrix(n, n)
+        for i in range(n):
+            for j in range(n):
+                am[i, j] = mp.mpf(float(a[i][j]))
+        bm = mp.matrix([mp.mpf(float(x)) for x in b]) if n else mp.matrix(0, 1)
+        cm = mp.matrix([[mp.mpf(float(x)) for x in c]]) if n else mp.matrix(1, 0)
+        d, frac = split_delay_samples(delay / sample_time)
+        f = mp.mpf(delay) / mp.mpf(sample_time) - d if frac > 0.0 else mp.mpf(0)
+        _, psi1 = _psi(am, mp.mpf(1))
+        e = am * psi1
+        if f == 0:
+            return MpSampled(e, psi1 * bm, mp.zeros(n, 1), cm, mp.mpf(direct), d, f, digits)
+        ex_late, psi_late = _psi(am, 1 - f)
+        _, psi_early = _psi(am, f)
+        return MpSampled(e, psi_late * bm, ex_late * psi_early * bm, cm, mp.mpf(direct), d, f, digits)
+
+
+def mp_sampled_response(plant: MpSampled, theta) -> mp.mpc:
+    """G(e^{jθ}) = z^{−d}·c((z − 1)I − E)⁻¹(Γ0 + Γ1 z⁻¹) + direct·z^{−d−1} in the plant's digits."""
+    with mp.workdps(plant.digits + 10):
+        th = mp.mpf(theta)
+        n = plant.e.rows
+        zm1 = -2 * mp.sin(th / 2) ** 2 + 1j * mp.sin(th)
+        zinv = mp.expj(-th)
+        mat = mp.matrix(n, n)
+        for i in range(n):
+            for j in range(n):
+                mat[i, j] = -plant.e[i, j]
+            mat[i, i] += zm1
+        x = mp.lu_solve(mat, plant.g0 + plant.g1 * zinv)
+        g = mp.mpf(0)
+        for i in range(n):
+            g += plant.c[0, i] * x[i]
+        return g * mp.expj(-plant.d * th) + plant.direct * mp.expj(-(plant.d + 1) * th)

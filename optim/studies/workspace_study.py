@@ -103,7 +103,8 @@ def evaluate_one(device: Device, req: Mapping[str, Any]) -> dict[str, Any]:
         res = workspace_map(model, pose, normal, device.sample_time, device.delay,
                             float(req.get("damping") or 0.0), explicit=True)
     except InputError as exc:   # the request's field names (poses.explicit.0, normals.0) as the study's
-        field = "pose" if exc.field.startswith("poses") else "normal" if exc.field.startswith("normals") else exc.field
+        field = ("pose" if exc.field.startswith("poses") else "normal" if exc.field.startswith("normals") else
+                 exc.field.removeprefix("device.kinematics."))     # joint_damping: a mode's λ·T below 1e-9
         raise InputError(field, exc.rule) from None
     p = res.worst
     return {"critical_stiffness": p.critical_stiffness if math.isfinite(p.critical_stiffness) else None,

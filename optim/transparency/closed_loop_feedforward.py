@@ -9,6 +9,7 @@ delayed forces, and the loop u = −K_f·D·y closed as a state matrix (or its r
 
 from __future__ import annotations
 
+import mpmath as mp
 import numpy as np
 from scipy import signal
 
@@ -22,16 +23,21 @@ from optim.stability.closed_loop import (
     count_outside,
     discretise,
 )
+from optim.stability.closed_loop_mp import PRECISE_DIGITS, MpSampled, mp_sampled, mp_sampled_response
 
-__all__ = ["FeedforwardLoop", "feedforward_closed_loop", "feedforward_loop", "feedforward_unstable_count"]
+__all__ = ["FeedforwardLoop", "feedforward_closed_loop", "feedforward_loop", "feedforward_unstable_count",
+           "precise_return_difference"]
 
 
 class FeedforwardLoop:
-    """The sampled G_1 (with its direct term acting through u[k−d−1]) and the filter's state space."""
+    """The sampled G_1 (with its direct term acting through u[k−d−1]) and the filter's state space; ``continuous``
+    = (A, B, C, D, delay [s], T [s]): what the mpmath twin of the plant is sampled from (:meth:`precise_plant`)."""
 
     def __init__(self, plant: SampledPlant, direct: float, order: int | None, cutoff_hz: float | None,
-                 sample_time: float):
+                 sample_time: float, continuous: tuple | None = None):
         self.plant, self.direct = plant, direct
+        self.continuous = continuous
+        self._precise: dict[int, MpSampled] = {}
         if order is None:
             self.zpk = (np.zeros(0), np.zeros(0), 1.0)
             self.ss = (np.zeros((0, 0)), np.zeros(0), np.zeros(0), 1.0)
@@ -41,6 +47,15 @@ class FeedforwardLoop:
             a, b, c, d = signal.zpk2ss(z, p, k)
             self.ss = (np.asarray(a, float), np.asarray(b, float).ravel(), np.asarray(c, float).ravel(),
                        float(np.squeeze(d)))
+
+    def precise_plant(self, digits: int) -> MpSampled | None:
+        """G_1 sampled again in ``digits``-digit mpmath (optim.stability.closed_loop_mp.mp_sampled), built once."""
+        if self.continuous is None:
+            return None
+        if digits not in self._precise:
+            a, b, c, dd, delay, t = self.continuous
+            self._precise[digits] = mp_sampled(a, b, c, dd, delay, t, digits)
+        return self._precise[digits]
 
     @property
     def states(self) -> int:
@@ -57,7 +72,7 @@ def feedforward_loop(device: Device, human: Human, order: int | None = None,
                      cutoff_hz: float | None = None) -> FeedforwardLoop:
     a, b, c, dd = feedforward_state_space(device, human)
     return FeedforwardLoop(discretise(a, b, c, device.delay / device.sample_time), float(dd), order, cutoff_hz,
-                           device.sample_time)
+                           device.sample_time, (a, b, c, float(dd), device.delay, device.sample_time))
 
 
 def feedforward_closed_loop(loop: FeedforwardLoop, force_gain: float) -> np.ndarray:
@@ -97,15 +112,43 @@ def _return_difference(loop: FeedforwardLoop, force_gain: float, theta: np.ndarr
     return 1.0 + force_gain * filt * g
 
 
-def feedforward_unstable_count(loop: FeedforwardLoop, force_gain: float) -> UnstableCount:
+def precise_return_difference(loop: FeedforwardLoop, force_gain: float, digits: int = PRECISE_DIGITS):
+    """θ ↦ 1 + K_f·D(z)·G_1(z) in mpmath (θ an mpf): G_1 from :meth:`FeedforwardLoop.precise_plant`, D(z) from the
+    same zeros, poles and gain as the double loop (the doubles taken as exact); None without the continuous plant."""
+    plant = loop.precise_plant(digits)
+    if plant is None:
+        return None
+    with mp.workdps(digits + 10):
+        zeros = [mp.mpc(complex(x)) for x in loop.zpk[0]]
+        poles = [mp.mpc(complex(x)) for x in loop.zpk[1]]
+        gain, kf = mp.mpf(loop.zpk[2]), mp.mpf(force_gain)
+
+    def f(theta):
+        with mp.workdps(digits + 10):
+            z = mp.expj(theta)
+            filt = gain
+            for q in zeros:
+                filt *= z - q
+            for q in poles:
+                filt /= z - q
+            return 1 + kf * filt * mp_sampled_response(plant, theta)
+    return f
+
+
+def feedforward_unstable_count(loop: FeedforwardLoop, force_gain: float, digits: int | None = PRECISE_DIGITS
+                               ) -> UnstableCount:
     """Poles of the feedforward loop outside the unit circle, by the argument principle.
 
     Open-loop poles exactly at z = 1 (a grasp without stiffness on an undamped device) are indented; other
-    poles on the circle (an undamped mode) make the count not checkable."""
+    poles on the circle (an undamped mode) make the count not checkable.  A closed-loop pole that double precision
+    places within its own reach of the circle is decided in ``digits``-digit mpmath (optim.stability.circle_reach,
+    as verify's stiffness count does); ``digits=None``: double precision alone."""
     q = 1.0 + np.linalg.eigvals(loop.plant.e)
     m1 = int(np.sum(q == 1.0))
     rest = q[q != 1.0]
     if np.any(np.abs(np.abs(rest) - 1.0) < 1e-14):
         return UnstableCount(None, 0, "an open-loop pole lies on the unit circle away from z = 1")
     poles = np.concatenate([q, loop.zpk[1].astype(complex)])
-    return count_outside(lambda th: _return_difference(loop, force_gain, th), poles, loop.plant.d, m1)
+    precise = None if digits is None else precise_return_difference(loop, force_gain, digits)
+    return count_outside(lambda th: _return_difference(loop, force_gain, th), poles, loop.plant.d, m1,
+                         precise=precise, digits=digits or PRECISE_DIGITS)

@@ -4,12 +4,14 @@
 The joint-space plant M q̈ + D q̇ = Jᵀ f with three Cartesian force inputs and three position
 outputs, its exact ZOH with a fractional input delay from one augmented matrix exponential (scipy.linalg.expm), the
 Cartesian wall f_k = −K n nᵀ y_k − (B/T) n nᵀ (y_k − y_{k−1}) and the delay line as states.  Its eigenvalues decide
-stability.
+stability, less the z = 1 poles of undamped joints the wall does not move (:func:`unmoved`: left out exactly, by
+deflating the invariant subspace, not by a tolerance on |z|).
 """
 
 from __future__ import annotations
 
-__all__ = ["closed_loop_matrix", "wall_spectral_radius", "rendered_closed_loop_matrix", "rendered_wall_spectral_radius"]
+__all__ = ["closed_loop_matrix", "wall_spectral_radius", "rendered_closed_loop_matrix", "rendered_wall_spectral_radius",
+           "unmoved"]
 
 import math
 
@@ -78,10 +80,42 @@ def closed_loop_matrix(mass: np.ndarray, jac: np.ndarray, damping_q: np.ndarray,
     return out
 
 
+def unmoved(jac: np.ndarray, damping_q: np.ndarray, normal: np.ndarray) -> np.ndarray:
+    """An orthonormal basis (columns) of the joint velocities no wall along n moves: Dv = 0 and nᵀJv = 0 (undamped
+    joints the wall does not see).  Each is a state (p = 0, v) the loop maps to itself: an eigenvalue exactly 1
+    that is no part of the wall's loop (its computed copy lands at 1 ± 1e-16 and would decide "unstable")."""
+    nq = len(damping_q)
+    zero = np.flatnonzero(np.asarray(damping_q) == 0.0)
+    if not zero.size:
+        return np.zeros((nq, 0))
+    row = (normal @ jac)[zero]                     # nᵀJ on the undamped joints
+    scale = float(np.max(np.abs(normal @ jac))) if nq else 0.0
+    keep = np.eye(len(zero))
+    if np.linalg.norm(row) > 1e-14 * max(scale, 1e-300):
+        _, _, vt = np.linalg.svd(row[None, :])
+        keep = vt[1:].T                            # the undamped joints' combinations with nᵀJv = 0
+    out = np.zeros((nq, keep.shape[1]))
+    out[zero] = keep
+    return out
+
+
+def _deflated(matrix: np.ndarray, basis: np.ndarray) -> np.ndarray:
+    """The loop's matrix on the quotient by the invariant states (0, v), v in ``basis`` (state rows 1…nq are the
+    joint velocities): Qᵀ·matrix·Q with Q orthogonal, its first columns those states, less their rows and columns."""
+    k = basis.shape[1]
+    if k == 0:
+        return matrix
+    s = np.zeros((matrix.shape[0], k))
+    s[1:1 + basis.shape[0]] = basis
+    q, _ = np.linalg.qr(np.concatenate([s, np.eye(matrix.shape[0])], axis=1))
+    return (q.T @ matrix @ q)[k:, k:]
+
+
 def wall_spectral_radius(mass: np.ndarray, jac: np.ndarray, damping_q: np.ndarray, normal: np.ndarray,
                          stiffness: float, damping: float, sample_time: float, delay: float) -> float:
-    """max |z| over the closed loop's eigenvalues."""
-    eig = np.linalg.eigvals(closed_loop_matrix(mass, jac, damping_q, normal, stiffness, damping, sample_time, delay))
+    """max |z| over the closed loop's eigenvalues, less the unmoved z = 1 poles (:func:`unmoved`)."""
+    loop = closed_loop_matrix(mass, jac, damping_q, normal, stiffness, damping, sample_time, delay)
+    eig = np.linalg.eigvals(_deflated(loop, unmoved(jac, damping_q, np.asarray(normal, dtype=float))))
     return float(np.max(np.abs(eig)))
 
 
@@ -149,4 +183,5 @@ def rendered_wall_spectral_radius(mass: np.ndarray, jac: np.ndarray, damping_q: 
     """max |z| over the rendered wall's closed loop (:func:`rendered_closed_loop_matrix`)."""
     q = rendered_closed_loop_matrix(mass, jac, damping_q, normal, stiffness, damping, sample_time, delay, spec,
                                     virtual_mass)
+    q = _deflated(q, unmoved(jac, damping_q, np.asarray(normal, dtype=float)))
     return float(np.max(np.abs(np.linalg.eigvals(q))))

@@ -13,7 +13,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import scipy.linalg
 import scipy.optimize
 
 from models.discretize import RigidZOH, split_delay
@@ -22,8 +21,9 @@ from optim.stability.crossovers import scan_grid, theta_min
 from .normal_dual import dual_worst, normal_at
 from .normal_kernel import critical_kernel, mode_numbers
 from .wall_kernel import plain_scan_grid
+from .wall_plant import pose_eig
 
-__all__ = ["worst_normal", "dual_normal"]
+__all__ = ["worst_normal", "dual_normal", "undamped_normal"]
 
 _CIRCLE = 180
 _SPHERE = 1200
@@ -42,7 +42,7 @@ class _PoseLoop:
 
     def __init__(self, mass: np.ndarray, jac: np.ndarray, damping_q: np.ndarray, sample_time: float, delay: float,
                  damping: float):
-        lam, vec = scipy.linalg.eigh(np.diag(damping_q), mass)
+        lam, vec = pose_eig(mass, damping_q)                 # undamped joints: exact zeros
         self.w = jac @ vec                                   # 3 × modes
         self.t, self.b = sample_time, damping
         d, f = split_delay(delay / sample_time)
@@ -122,7 +122,7 @@ def dual_normal(mass: np.ndarray, jac: np.ndarray, damping_q: np.ndarray, sample
     """B = 0, J of rank 3: the worst normal by duality (optim.workspace.normal_dual) and the K [N/m] it predicts
     there, 1/(T² d*); None when no positive crossing was found.  The caller certifies it by the exact scan.
     ``eig``: wall_plant.pose_eig(mass, damping_q) when the caller has it."""
-    lam, vec = scipy.linalg.eigh(np.diag(damping_q), mass) if eig is None else eig
+    lam, vec = pose_eig(mass, damping_q) if eig is None else eig
     w = np.ascontiguousarray(jac @ vec)
     d, f = split_delay(delay / sample_time)
     plants = [RigidZOH(max(float(li), 0.0) * sample_time, d, f) for li in lam]
@@ -136,6 +136,34 @@ def dual_normal(mass: np.ndarray, jac: np.ndarray, damping_q: np.ndarray, sample
     # d* is accurate where −A + μ*C's top two eigenvalues meet (normal_dual._lmax deflates there) and at a crossing's
     # birth (C semidefinite: normal_dual._birth); the exact scan at the normal still decides (the caller)
     return normal_at(h, mu), 1.0 / (sample_time ** 2 * best)
+
+
+def undamped_normal(jac: np.ndarray, eig: tuple[np.ndarray, np.ndarray], sample_time: float, delay: float
+                    ) -> np.ndarray | None:
+    """B = 0 with undamped joints: a normal of K_cr = 0, decided exactly (no search), or None when there is none.
+
+    Along n the undamped modes weigh c₀ = nᵀUn (U = Σ w_i w_iᵀ over λ_i = 0) and the damped ones give
+    a = nᵀAn (A = Σ w_i w_iᵀ/λ_i over λ_i > 0), w_i = J v_i; K_cr = 0 where a ≤ τ·c₀, τ = t_d + T/2
+    (wall_plant.undamped_unstable).  The lowest eigenvector of the quadratic form A − τU is such a normal whenever
+    one exists (its eigenvalue is then ≤ 0); with three joints or fewer and J of full rank that is every pose with
+    an undamped joint (A's null direction, nᵀCn = 0 for the damping form C = Σ λ_i w_i w_iᵀ, sees an undamped mode).
+    The exact scan at the normal (wall_plant.wall_critical_stiffness applies the same rule) gives the answer."""
+    lam, vec = eig
+    zero = lam == 0.0
+    if not zero.any():
+        return None
+    w = jac @ vec
+    u = w[:, zero] @ w[:, zero].T
+    a = (w[:, ~zero] / lam[~zero]) @ w[:, ~zero].T
+    tau = delay + 0.5 * sample_time
+    vals, vecs = np.linalg.eigh(a - tau * u)
+    # clearly negative: a rounding-sized eigenvalue (a direction J does not reach, where A and U both vanish, or
+    # a = τ·c₀ to 1e-12) is left to the search and the exact scan
+    scale = float(np.max(np.abs(np.linalg.eigvalsh(a + tau * u))))
+    if not vals[0] < -1e-12 * scale:
+        return None
+    n = vecs[:, 0]
+    return n / np.linalg.norm(n)
 
 
 def worst_normal(mass: np.ndarray, jac: np.ndarray, damping_q: np.ndarray, rank: int, sample_time: float,
@@ -190,7 +218,9 @@ def worst_normal(mass: np.ndarray, jac: np.ndarray, damping_q: np.ndarray, rank:
         step /= _ZOOM
         # converged: below _STEP_SETTLED, two levels in a row gain less than 1e-13 relative at every start (a level's
         # gain bounds the rest's, which shrink geometrically with the step whether the minimum is smooth or a kink)
-        still = np.all(before - best_v <= 1e-13 * np.abs(best_v))
+        # (a start with no crossover in the window stays at inf: inf − inf is no gain, not NaN)
+        gain = np.where(np.isinf(before) & np.isinf(best_v), 0.0, before - np.where(np.isinf(before), 0.0, best_v))
+        still = np.all(gain <= 1e-13 * np.abs(best_v))
         quiet = quiet + 1 if still else 0
         if step < _STEP_SETTLED and quiet >= 2:
             break

@@ -18,6 +18,7 @@ import numpy as np
 import scipy.linalg
 
 from models.discretize import RigidZOH, split_delay
+from models.errors import InputError
 from optim.stability.crossovers import positive_real_crossings, scan_grid, theta_min
 from optim.stability.fast_rigid import fast_rigid
 from optim.stability.margins import NO_DAMPING_REASON
@@ -25,7 +26,8 @@ from optim.stability.margins import NO_DAMPING_REASON
 from .normal_kernel import mode_numbers
 from .wall_kernel import KIND_DAMPER, KIND_STIFFNESS, plain_scan_grid, wall_crossings
 
-__all__ = ["WallModes", "wall_modes", "pose_eig", "one_dof_critical_stiffness", "WallCritical", "wall_critical_stiffness", "one_dof_equivalent",
+__all__ = ["WallModes", "wall_modes", "pose_eig", "check_mode_rates", "undamped_unstable", "UNDAMPED_REASON",
+           "MIN_MODE_RATE", "one_dof_critical_stiffness", "WallCritical", "wall_critical_stiffness", "one_dof_equivalent",
            "max_stable_damping"]
 
 #: A mode whose weight c_i is below this fraction of Σ c_i is not seen along n (rounding of the projection).
@@ -53,8 +55,32 @@ class WallModes:
 
 
 def pose_eig(mass: np.ndarray, damping: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(Λ, V) of (D, M): DV = MVΛ, VᵀMV = I (every normal at the pose shares them)."""
-    lam, vec = scipy.linalg.eigh(np.diag(damping), mass)
+    """(Λ, V) of (D, M): DV = MVΛ, VᵀMV = I (every normal at the pose shares them).
+
+    Undamped joints (D_jj = 0 exactly) give exact zero eigenvalues, first: their modes span {v : Dv = 0} (the
+    vectors on those joints, M-orthonormalised by M_ZZ's Cholesky factor); the damped modes live in its M-orthogonal
+    complement, v = (x, −M_ZZ⁻¹M_ZP x), where vᵀMv = xᵀSx (S = M_PP − M_PZ M_ZZ⁻¹ M_ZP, the Schur complement) and
+    vᵀDv = xᵀD_P x: eigh(D_P, S) has every eigenvalue > 0.  (eigh of the full pair returns ±1e-17-sized values for
+    them, which a mode's c_i/λ_i turns into a damping the joint does not have.)"""
+    damping = np.asarray(damping, dtype=float)
+    zero = damping == 0.0
+    if not zero.any():
+        return scipy.linalg.eigh(np.diag(damping), mass)
+    n = len(damping)
+    zi, pi = np.flatnonzero(zero), np.flatnonzero(~zero)
+    m_zz, m_zp, m_pp = mass[np.ix_(zi, zi)], mass[np.ix_(zi, pi)], mass[np.ix_(pi, pi)]
+    chol = np.linalg.cholesky(m_zz)                                        # M_ZZ = L Lᵀ
+    vec = np.zeros((n, n))
+    vec[zi, :len(zi)] = np.linalg.inv(chol).T                              # (L⁻ᵀ)ᵀ M_ZZ L⁻ᵀ = I
+    lam = np.zeros(n)
+    if len(pi):
+        back = np.linalg.solve(m_zz, m_zp)                                 # M_ZZ⁻¹ M_ZP
+        schur = m_pp - m_zp.T @ back
+        schur = 0.5 * (schur + schur.T)
+        lam_p, x = scipy.linalg.eigh(np.diag(damping[pi]), schur)
+        vec[pi, len(zi):] = x
+        vec[zi, len(zi):] = -back @ x
+        lam[len(zi):] = lam_p
     return lam, vec
 
 
@@ -68,6 +94,37 @@ def wall_modes(mass: np.ndarray, jac: np.ndarray, damping: np.ndarray, normal: n
     total = float(np.sum(c))
     keep = c > _UNSEEN * total
     return WallModes(tuple(float(x) for x in c[keep]), tuple(max(float(x), 0.0) for x in lam[keep]))
+
+
+#: Joint damping so small that a damped mode's λ·T is below this (but not 0) is refused: its K_cr ~ λ·m/T would
+#: be a number no double-precision scan resolves (give 0 for an undamped joint).
+MIN_MODE_RATE = 1e-9
+
+UNDAMPED_REASON = ("the wall sees an undamped mode (a joint without damping) and too little damping beside it: "
+                   "with B = 0 every positive stiffness is unstable (a < τ·c₀: the undamped modes' weight c₀ times "
+                   "the loop's delay τ = t_d + T/2 exceeds a = Σ c_i/λ_i of the damped ones); give the wall a "
+                   "virtual damping B or the joints damping")
+
+
+def check_mode_rates(lam: np.ndarray, sample_time: float) -> None:
+    """InputError on ``device.kinematics.joint_damping`` when a mode's 0 < λ·T < MIN_MODE_RATE."""
+    tiny = (lam > 0.0) & (lam * sample_time < MIN_MODE_RATE)
+    if np.any(tiny):
+        raise InputError("device.kinematics.joint_damping",
+                         f"damping so small that a mode decays at λ·T = {float(np.max(lam[tiny] * sample_time)):.3g}"
+                         f" < {MIN_MODE_RATE:g} per sample (not resolvable in double precision): give 0 for an "
+                         "undamped joint, or a damping with λ·T ≥ 1e-9")
+
+
+def undamped_unstable(modes: WallModes, sample_time: float, delay: float) -> bool:
+    """B = 0 and an undamped mode seen along n: K_cr = 0 when a ≤ τ·c₀ (c₀ = Σ c_i of the undamped modes,
+    a = Σ c_i/λ_i of the damped ones, τ = t_d + T/2).  Small K puts the loop's poles at s ≈ ±j√(K c₀) with real part
+    −K(a − τ c₀)/2: G_n e^{−sτ} = (c₀ + (a − τ c₀)s + O(s²))/s² (the ZOH is e^{−sT/2}(1 + O(s²)) on 1/s²)."""
+    c0 = math.fsum(ci for ci, li in zip(modes.c, modes.lam) if li == 0.0)
+    if c0 == 0.0:
+        return False
+    a = math.fsum(ci / li for ci, li in zip(modes.c, modes.lam) if li > 0.0)
+    return a <= (delay + 0.5 * sample_time) * c0
 
 
 @dataclass(frozen=True)
@@ -89,6 +146,13 @@ def _grid(modes: WallModes, sample_time: float, delay_samples: float, beta: floa
     # low-frequency damping 1/Σ(c_i/λ_i) (zero when an undamped mode is seen)
     low = 0.0 if any(li == 0.0 for li in modes.lam) else \
         sample_time / (m * math.fsum(ci / li for ci, li in zip(modes.c, modes.lam)))
+    if low == 0.0 and beta == 0.0:
+        # an undamped mode seen and a > τ·c₀ (undamped_unstable is False): the lowest crossover is at θ ~ √r with
+        # r = a/(τ c₀) − 1 the margin of the small-K rule; the scan starts below it
+        c0 = math.fsum(ci for ci, li in zip(modes.c, modes.lam) if li == 0.0)
+        a = math.fsum(ci / li for ci, li in zip(modes.c, modes.lam) if li > 0.0)
+        tau = (delay_samples + 0.5) * sample_time
+        low = min(max(a / (tau * c0) - 1.0, 0.0), 1.0)
     damp = min([low] + deltas) + beta
     if compiled:
         return plain_scan_grid(theta_min(float(damp), float(delay_samples)), float(delay_samples))
@@ -133,6 +197,8 @@ def wall_critical_stiffness(modes: WallModes, sample_time: float, delay: float, 
     The scan is compiled (optim.workspace.wall_kernel); ``compiled=False`` runs its Python twin (the oracle)."""
     if damping == 0.0 and all(li == 0.0 for li in modes.lam):
         return WallCritical(0.0, None, (), NO_DAMPING_REASON)
+    if damping == 0.0 and undamped_unstable(modes, sample_time, delay):
+        return WallCritical(0.0, None, (), UNDAMPED_REASON)
     d_samples = delay / sample_time
     d, f = split_delay(d_samples)
     m = modes.effective_mass

@@ -21,10 +21,11 @@ from models.errors import InputError
 from models.kinematics import KinematicModel
 from models.velocity_filter import Rendering
 
-from .normal_search import dual_normal, worst_normal
+from .normal_search import dual_normal, undamped_normal, worst_normal
 from .wall_plant import (
     WallCritical,
     WallModes,
+    check_mode_rates,
     one_dof_critical_stiffness,
     one_dof_equivalent,
     pose_eig,
@@ -169,6 +170,30 @@ def merge_points(parts: Sequence[Sequence[WorkspacePoint]], normals: object) -> 
     return WorkspaceMap(points, worst, worst.critical_stiffness, "worst" if normals == "worst" else "given")
 
 
+def _unseen_undamped(mass: np.ndarray, jac: np.ndarray, damping_q: np.ndarray, eig: tuple[np.ndarray, np.ndarray],
+                     n: np.ndarray, sample_time: float, delay: float, damping: float) -> np.ndarray:
+    """The search's normal, or its projection off the undamped modes' directions (w_i = J v_i, λ_i = 0) when that is
+    no higher.  With B > 0 the worst normal often lies where the undamped modes are not seen (K_cr is continuous as
+    their weight c₀ → 0): the polish ends a rounding-sized c₀ short of it (nᵀJe_z ~ 1e-9), where the undamped
+    mode's pole sits 1e-17 inside z = 1 and the MIMO check reads its side from rounding; the projection sees them
+    exactly not at all (mimo_loop.unmoved then leaves the pole out)."""
+    lam, vec = eig
+    zero = lam == 0.0
+    if not zero.any():
+        return n
+    w = jac @ vec[:, zero]
+    basis, sv, _ = np.linalg.svd(w, full_matrices=False)
+    basis = basis[:, sv > 1e-12 * max(float(sv[0]) if sv.size else 0.0, 1e-300)]
+    proj = n - basis @ (basis.T @ n)
+    norm = float(np.linalg.norm(proj))
+    if norm < 1e-6 or not np.any(np.abs(proj @ jac) > 0.0):
+        return n
+    proj = proj / norm
+    k_n = wall_critical_stiffness(wall_modes(mass, jac, damping_q, n, eig), sample_time, delay, damping)
+    k_p = wall_critical_stiffness(wall_modes(mass, jac, damping_q, proj, eig), sample_time, delay, damping)
+    return proj if k_p.critical_stiffness <= k_n.critical_stiffness * (1.0 + 1e-9) else n
+
+
 def workspace_points(model: KinematicModel, poses: list[np.ndarray],
                      normals: list[Sequence[float]] | Literal["worst"], sample_time: float, delay: float,
                      damping: float = 0.0, *, explicit: bool = False, part: tuple[int, int] = (0, 1),
@@ -207,8 +232,15 @@ def workspace_points(model: KinematicModel, poses: list[np.ndarray],
                                                         "every direction it generically can)")
             continue
         pose_normals: list[np.ndarray]
+        eig = pose_eig(mass, model.joint_damping)
+        check_mode_rates(eig[0], sample_time)
+        if normals == "worst" and damping == 0.0 and rendering is None:
+            n0 = undamped_normal(jac, eig, sample_time, delay)
+            if n0 is not None:     # K_cr = 0 along n0 (a ≤ τ·c₀): the worst, decided exactly
+                modes = wall_modes(mass, jac, model.joint_damping, n0, eig)
+                points.append(_point(q, n0, modes, sample_time, delay, damping))
+                continue
         if normals == "worst" and rank == 3 and damping == 0.0:
-            eig = pose_eig(mass, model.joint_damping)
             dual = dual_normal(mass, jac, model.joint_damping, sample_time, delay, eig)
             if dual is not None:
                 modes = wall_modes(mass, jac, model.joint_damping, dual[0], eig)
@@ -217,11 +249,12 @@ def workspace_points(model: KinematicModel, poses: list[np.ndarray],
                     points.append(_point(q, dual[0], modes, sample_time, delay, damping, full))
                     continue
         if normals == "worst":
-            pose_normals = [worst_normal(mass, jac, model.joint_damping, rank, sample_time, delay, damping)]
+            n_w = worst_normal(mass, jac, model.joint_damping, rank, sample_time, delay, damping)
+            pose_normals = [_unseen_undamped(mass, jac, model.joint_damping, eig, n_w, sample_time, delay, damping)]
         else:
             pose_normals = given
         for i, n_vec in enumerate(pose_normals):
-            modes = wall_modes(mass, jac, model.joint_damping, n_vec)
+            modes = wall_modes(mass, jac, model.joint_damping, n_vec, eig)
             if not modes.c:
                 raise InputError(f"normals.{i}", f"the device cannot move along this normal at pose {j} "
                                                  "(Jᵀn = 0): no wall can be rendered there")

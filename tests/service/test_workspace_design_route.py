@@ -32,6 +32,15 @@ def test_bad_workspace_names_the_field(client):
     assert "end_effector" in str(r.json()["detail"][0]["loc"])
 
 
+def test_unresolvable_joint_damping_names_the_field(client):
+    """Joint damping 1e-300 (λ·T < 1e-9, not 0): a 422 on the workspace's joint_damping (it was a 500)."""
+    bad = {**WS, "kinematics": {"preset": "phantom-premium-1.5", "joint_damping": [1e-300, 1e-300, 1e-300]},
+           "poses": {"explicit": [[0.1, 0.2, 0.3]]}, "normals": "worst"}
+    r = client.post("/v1/design/stiffness", json={"device": DEVICE, "requirements": {"workspace": bad}})
+    assert r.status_code == 422, r.text
+    assert r.json()["detail"][0]["loc"] == ["body", "requirements", "workspace", "kinematics", "joint_damping"]
+
+
 @pytest.mark.slow
 def test_workspace_design_through_http(client):
     r = client.post("/v1/design/stiffness", json={"device": DEVICE, "verify": True,

@@ -63,6 +63,9 @@ def test_planar_preset_matches_the_numerics(client):
     ({"device": {"kinematics": {"urdf": '<?xml version="1.0"?><!DOCTYPE r [<!ENTITY x SYSTEM "file:///etc/passwd">'
                                         ']><robot name="&x;"/>', "end_effector": "x"}},
       "poses": {"explicit": [[0.0]]}, "normals": [[0, 1, 0]]}, ["body", "device", "kinematics", "urdf"]),
+    ({"device": {"kinematics": {"preset": "phantom-premium-1.5", "joint_damping": [1e-300, 1e-300, 1e-300]}},
+      "poses": {"explicit": [[0.1, 0.2, 0.3]]}, "normals": "worst"},
+     ["body", "device", "kinematics", "joint_damping"]),         # λ·T < 1e-9: was a 500 (complex division by 0)
 ])
 def test_bad_input_names_its_field(client, body, field):
     r = client.post("/v1/analysis/workspace", json=body)
@@ -111,3 +114,18 @@ def test_a_split_request_is_the_one_worker_answer(client):
         "device": {"kinematics": {"urdf": urdf, "end_effector": "tip"}}, "poses": {"explicit": poses},
         "normals": [[0, 1, 0]]})
     assert r.status_code == 422 and r.json()["detail"][0]["loc"] == ["body", "poses", "explicit", 70]
+
+
+def test_an_undamped_joint_gives_zero_with_the_reason(client):
+    """The PHANToM with joint damping (0, 0, 0.002) at B = 0: the worst normal's K_cr is 0 with the reason (the search
+    used to answer ~1e-4 N/m), and the 1-DOF approximation's error is null there (no relative error of 0)."""
+    r = client.post("/v1/analysis/workspace", json={
+        "device": {"sample_time": 0.001, "delay": 0.0005,
+                   "kinematics": {"preset": "phantom-premium-1.5", "joint_damping": [0.0, 0.0, 0.002]}},
+        "poses": {"explicit": [[0.1, 0.2, 0.3]]}, "normals": "worst"})
+    assert r.status_code == 200, r.text
+    body = r.json()
+    assert body["minimum_critical_stiffness"] == 0.0
+    p = body["points"][0]
+    assert p["critical_stiffness"] == 0.0 and p["one_dof_relative_error"] is None
+    assert "undamped" in p["reason"]

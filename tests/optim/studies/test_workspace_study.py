@@ -51,3 +51,12 @@ def test_bad_requirements_name_the_field(req, field):
     with pytest.raises(StudyInputError) as info:
         plan_study("workspace_critical_stiffness", DEVICE, req, {"requirements.joint_0": [0.0, 0.1]})
     assert field in info.value.field
+
+
+def test_unresolvable_joint_damping_is_the_points_error_naming_the_field():
+    """A joint damping whose mode decays at λ·T < 1e-9 (not 0): the point's error names joint_damping (it was a
+    K_cr of ~1e-16 N/m, or a crash at 1e-300)."""
+    req = {"preset": "planar-2link", "joint_0": 0.0, "joint_1": 1.0, "joint_damping": [1e-300, 1e-300]}
+    rows = evaluate_chunk("workspace_critical_stiffness", DEVICE, req, [("requirements.joint_1", "float")],
+                          [(0, [1.0])])
+    assert rows[0][2] is None and "joint_damping" in str(rows[0][3])
