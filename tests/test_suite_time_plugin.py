@@ -8,6 +8,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[1]
 
 TESTS = '''
@@ -39,6 +41,7 @@ def _rows(section: str) -> dict[str, tuple[float, float, float]]:
     return out
 
 
+@pytest.mark.slow   # a pytest subprocess and 0.8 s of deliberate CPU (≈ 3 s of CPU): a tool's test, not the fast loop's
 def test_cpu_and_children_cpu_are_measured_and_ranked(tmp_path):
     (tmp_path / "test_known.py").write_text(TESTS, encoding="utf-8")
     md = tmp_path / "out.md"
