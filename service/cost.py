@@ -16,10 +16,12 @@ the 40-digit reference rung ≈ 0.12 s plus 12 ms per sample of delay (10× for 
 from __future__ import annotations
 
 from models.device import Device
+from models.velocity_filter import Rendering
 
 from .errors import NumericInputError
 
-__all__ = ["REFERENCE_REQUEST_BUDGET_DELAY_SAMPLES", "check_reference_cost", "stability_cost_ms", "boundary_cost_ms", "bode_cost_ms",
+__all__ = ["REFERENCE_REQUEST_BUDGET_DELAY_SAMPLES", "RENDERED_COST_FACTOR", "check_reference_cost",
+           "rendered_cost_ms", "filter_cost_ms", "stability_cost_ms", "boundary_cost_ms", "bode_cost_ms",
            "stiffness_design_cost_ms", "inertia_design_cost_ms", "force_feedforward_cost_ms", "simulation_cost_ms"]
 
 #: Request-time budget of ``method = reference`` on the analysis routes: the loop delay an HTTP request may ask
@@ -65,6 +67,30 @@ def stability_cost_ms(device: Device, method: str, damping: float, grid_points: 
     if device.cable is None:
         return (0.1 + 0.004 * device.delay_samples) * (2.0 if damping > 0 else 1.0)
     return _exact_ms(device, damping) * 2.0  # the cable's analysis adds the rigid K_cr
+
+
+#: A rendered wall takes the scan (and the K → 0⁺ loop's two): its cost estimate is today's path's times this, plus
+#: :func:`filter_cost_ms` per analysis.
+RENDERED_COST_FACTOR = 10
+
+
+def filter_cost_ms(rendered: Rendering) -> float:
+    """Extra cost [ms] of one rendered analysis for its velocity filter's order n (the coefficients of R and D
+    beyond the first: a moving average of n samples has n − 1, each a zero on the unit circle the scan resolves
+    and a state of the loop).  Measured (CPU time, one exact analysis of a rigid device, compiled kernels warm,
+    the 2-core machine at load ≈ 5, 2026-12-04): n = 50: 26 ms, 100: 50 ms, 200: 150 ms, 400: 415 ms,
+    1000: 2.3 s (a cable device 3.2 s); estimated 0.5 n + 2.5e-3 n² ms (31, 75, 200, 600, 3000 ms).  Before,
+    a 1000-sample average of a rigid device was estimated at 1 ms and ran on the event loop for seconds."""
+    n = len(rendered.velocity.r) + len(rendered.velocity.d) - 2
+    return 0.5 * n + 2.5e-3 * n * n
+
+
+def rendered_cost_ms(base_ms: float, rendered: Rendering | None, calls: float = 1.0) -> float:
+    """Estimated cost [ms] of a call estimated at ``base_ms`` for today's wall, for the wall ``rendered`` (None:
+    today's wall, ``base_ms``) making ``calls`` rendered analyses: the scan's factor and the filter's order."""
+    if rendered is None:
+        return base_ms
+    return base_ms * RENDERED_COST_FACTOR + calls * filter_cost_ms(rendered)
 
 
 def nonlinear_cost_ms(device: Device, damping: float) -> float:

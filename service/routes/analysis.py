@@ -22,6 +22,7 @@ from ..cost import (
     check_reference_cost,
     nonlinear_cost_ms,
     nonlinear_verify_cost_ms,
+    rendered_cost_ms,
     stability_cost_ms,
     verify_cost_ms,
 )
@@ -32,8 +33,6 @@ from ..schemas.common import device_examples
 from ..schemas.verification import verification_out
 
 router = APIRouter(prefix="/v1/analysis", tags=["analysis"])
-#: a rendered wall takes the scan (and the K → 0⁺ loop's two): its cost estimate is today's path's times this
-RENDERED_COST_FACTOR = 10
 
 
 def field_error(exc: ValueError, prefix: str = "") -> InputError:
@@ -119,16 +118,15 @@ async def stability(req: Annotated[StabilityRequest, Body(openapi_examples=_STAB
     args = (rendered,) if rendered is not None else ()
     try:
         res = await compute.arun(analyse_stability, req.device, k, b, req.method, req.grid_points, *args,
-                                 cost_ms=stability_cost_ms(req.device, req.method, b, req.grid_points)
-                                 * (1 if rendered is None else RENDERED_COST_FACTOR))
+                                 cost_ms=rendered_cost_ms(stability_cost_ms(req.device, req.method, b,
+                                                                           req.grid_points), rendered))
     except ValueError as exc:
         raise field_error(exc) from exc
     out = _shallow(res)   # non-finite numbers answer null (FiniteModel)
     if req.device.nonlinear:
         try:
             nl = await compute.arun(analyse_nonlinear, req.device, k, b, rendered,
-                                    cost_ms=nonlinear_cost_ms(req.device, b)
-                                    * (1 if rendered is None else RENDERED_COST_FACTOR))
+                                    cost_ms=rendered_cost_ms(nonlinear_cost_ms(req.device, b), rendered, calls=300))
         except ValueError as exc:
             raise field_error(exc) from exc
         out["nonlinear"] = nonlinear_out(nl)
@@ -157,8 +155,8 @@ async def boundary(req: Annotated[BoundaryRequest, Body(openapi_examples=device_
     rendered = _rendering(req.controller, req.device)
     try:
         res = await compute.arun(stability_boundary, req.device, req.damping_max, req.points, rendered,
-                                 cost_ms=boundary_cost_ms(req.device, req.points)
-                                 * (1 if rendered is None else RENDERED_COST_FACTOR))
+                                 cost_ms=rendered_cost_ms(boundary_cost_ms(req.device, req.points), rendered,
+                                                          calls=req.points + 25))
     except ValueError as exc:
         raise field_error(exc) from exc
     verification = None

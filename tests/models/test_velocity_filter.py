@@ -118,3 +118,19 @@ def test_a_cutoff_too_low_to_represent_is_refused():
         with pytest.raises(InputError) as exc:
             velocity_transfer(LowPass(kind="low_pass", cutoff_hz=5e-324, order=order), T)
         assert exc.value.field == "velocity_filter.cutoff_hz"
+
+
+def test_the_stability_kernels_load_without_scipy_signal():
+    """scipy.signal (≈ 0.6 s of CPU to import) is imported by the order-2 low pass only: a process that loads the
+    analysis (a compute worker, a study's pool worker) does not pay for it (1.8 → 1.2 s of CPU, 2026-12-04)."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    code = ("import sys, optim.stability.analysis, optim.stability.boundary; "
+            "print('scipy.signal' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120,
+                         cwd=root, env={**os.environ, "PYTHONPATH": str(root)})
+    assert out.stdout.strip() == "False", out.stdout + out.stderr

@@ -6,13 +6,15 @@ undamped-cable analysis for 11 ms when it cost 80 ms."""
 from __future__ import annotations
 
 import sqlite3
+import threading
 import time
 
 import pytest
 
 from models.device import Device
+from models.velocity_filter import MovingAverage, rendering
 from optim.stability.analysis import analyse_stability
-from service.cost import stability_cost_ms
+from service.cost import filter_cost_ms, rendered_cost_ms, stability_cost_ms
 from service.executor import BoundedExecutor, ComputeTimeout
 
 from .conftest import LHIFAM_RIGID, make_client
@@ -98,3 +100,58 @@ def test_the_inline_cost_model_holds_for_undamped_cables(delay_samples, damping)
         best = min(best, (time.process_time() - t0) * 1e3)
     est = stability_cost_ms(dev, "exact", damping, 1000)
     assert best <= 3.0 * est, (best, est)
+
+
+#: A wall rendered with the longest moving average a request may ask (1000 samples): one exact analysis of the
+#: rigid LHIFAM costs ≈ 2.3 s of CPU (2026-12-04); it was estimated at 1 ms (today's wall × 10) and ran on the
+#: event loop, 4.5–7.8 s past a 1 s budget, every other request waiting.
+LONG_AVERAGE = {"device": LHIFAM_RIGID, "controller": {"stiffness": 1000, "damping": 5, "velocity_filter": {
+    "kind": "moving_average", "samples": 1000}}}
+
+
+def test_the_rendered_cost_grows_with_the_filter_order():
+    """The estimate sends a long average to a worker (over the inline threshold) and keeps today's wall and a short
+    filter's estimate where they were; measured costs in filter_cost_ms's docstring (within ≈ 2× of 0.5 n +
+    2.5e-3 n² ms, n the filter's order)."""
+    dev = Device(**LHIFAM_RIGID)
+    base = stability_cost_ms(dev, "exact", 5.0, 1000)
+    long = rendering(MovingAverage(kind="moving_average", samples=1000), 0.0, dev.sample_time)
+    short = rendering(MovingAverage(kind="moving_average", samples=2), 0.0, dev.sample_time)
+    inline = BoundedExecutor(workers=1).inline_cost_ms
+    assert rendered_cost_ms(base, None) == base
+    assert rendered_cost_ms(base, long) > 1000.0 > inline            # ≈ 3 s
+    assert rendered_cost_ms(base, short) < inline                    # two samples: still inline (≈ 2 ms)
+    assert filter_cost_ms(long) == pytest.approx(0.5 * 999 + 2.5e-3 * 999 ** 2)
+    assert rendered_cost_ms(base, long, calls=45) == pytest.approx(10 * base + 45 * filter_cost_ms(long))
+
+
+@pytest.mark.serial   # a wall-clock budget: alone under pytest-xdist (tests/conftest.py)
+def test_a_long_moving_average_answers_within_the_budget_and_leaves_the_loop_free():
+    """The analysis goes to a worker: the request answers 503 at its 1 s budget (or 200 within it, on a fast
+    machine) and, while it runs, /healthz answers at once (the event loop is free)."""
+    with make_client(request_timeout=1.0, compute_workers=1, access_log=False) as c:
+        executor = c.app.state.executor
+        executor.warm_up()                     # the forkserver's first start is not part of the request
+        replaced = executor.replaced
+        out = {}
+
+        def long_request():
+            t0 = time.monotonic()
+            out["r"] = c.post("/v1/analysis/stability", json=LONG_AVERAGE)
+            out["took"] = time.monotonic() - t0
+
+        worker = threading.Thread(target=long_request)
+        worker.start()
+        time.sleep(0.3)                        # the long request is being computed
+        t0 = time.monotonic()
+        health = c.get("/healthz")
+        health_took = time.monotonic() - t0
+        worker.join(30.0)
+    r = out["r"]
+    assert health.status_code == 200 and health_took < 0.5, health_took      # was blocked for seconds
+    assert out["took"] < 3.0, out["took"]                                    # was 4.5–7.8 s
+    if r.status_code == 503:
+        assert "within the request time budget of 1 s" in r.json()["detail"], r.text
+        assert executor.replaced == replaced + 1
+    else:
+        assert r.status_code == 200 and out["took"] < 1.5, (r.status_code, r.text[:300])

@@ -90,7 +90,8 @@ def test_the_session_store_is_temporary_and_not_the_users():
         assert all(p.is_relative_to(suite.SESSION_STORE_DIR) for p in suite.user_stores(env))
 
 
-def test_a_study_through_the_test_client_lands_in_the_temporary_store(users_store_untouched):
+def test_a_study_through_the_test_client_lands_in_the_temporary_store(users_store_untouched, monkeypatch):
+    monkeypatch.setenv("ZWIDTH_STUDY_WORKERS", "1")     # one pool worker is enough to find the study by its id
     with make_client() as client:
         r = client.post("/v1/studies", json=small_study(2))
         assert r.status_code == 202, r.text
@@ -105,7 +106,7 @@ def test_a_server_process_and_the_cli_use_the_temporary_store(tmp_path, users_st
     out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, check=True,
                          env={**os.environ, "PYTHONPATH": str(ROOT)})
     assert _store_of(out.stdout.strip()).is_relative_to(suite.SESSION_STORE_DIR)
-    server = LiveServer(timeout=60.0)         # as the suite's live-server fixtures start one
+    server = LiveServer({"ZWIDTH_STUDY_WORKERS": "1"}, timeout=60.0)   # as the suite's fixtures start one (1 pool worker)
     try:
         assert server.database_url is not None and server.database_url != Settings().database_url
         r = httpx.post(server.url + "/v1/studies", json=small_study(2), timeout=30)
@@ -132,8 +133,8 @@ def test_a_live_server_from_a_users_environment_leaves_the_users_store_untouched
     db.close()
     before = suite.fingerprint(store)
     monkeypatch.delenv("ZWIDTH_DATABASE_URL")          # the user's shell: no store named, the default one
-    server = LiveServer({"HOME": str(home), "XDG_DATA_HOME": None, "ZWIDTH_PRESTART_WORKERS": "false"},
-                        timeout=60.0)
+    server = LiveServer({"HOME": str(home), "XDG_DATA_HOME": None, "ZWIDTH_PRESTART_WORKERS": "false",
+                         "ZWIDTH_STUDY_WORKERS": "1"}, timeout=60.0)
     try:
         r = httpx.post(server.url + "/v1/studies", json=small_study(2), timeout=30)
         assert r.status_code == 202, r.text
