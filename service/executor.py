@@ -72,6 +72,9 @@ PRELOAD = ("numpy", "scipy.optimize", "service.executor", "service.compute_worke
 #: Longest wait past the budget for a started call's own end (its worker's start-up is not counted in the budget):
 #: the answer is a 503 by then whatever the worker does (the dispatcher kills it at its own deadline).
 OVERRUN_GRACE = 1.0
+#: How long :meth:`BoundedExecutor.shutdown` lets calls in flight (and workers starting) end by themselves before it
+#: kills their processes.
+SHUTDOWN_GRACE = 1.0
 #: Inline (cheap) calls running at once: more threads would only compete for the GIL with the event loop.
 INLINE_THREADS = 4
 #: Calls estimated below this [ms] run on the event loop (no thread hop); the rest of the inline ones in the pool.
@@ -408,7 +411,8 @@ class BoundedExecutor:
             self._closed = False
 
     def shutdown(self) -> None:
-        """Refuse new calls, fail the queued ones; calls in flight finish, then every worker is killed."""
+        """Refuse new calls, fail the queued ones; calls in flight get :data:`SHUTDOWN_GRACE` to finish (their
+        processes are killed after it, and so are workers still starting), then every worker is killed."""
         with self._lock:
             self._closed = True
             self.warm = False
@@ -426,8 +430,19 @@ class BoundedExecutor:
                 job.future.set_exception(ComputeUnavailable("the service is shutting down"))
         for _ in dispatchers:
             self._jobs.put(None)
-        for t in dispatchers:
-            if t is not threading.current_thread():
+        others = [t for t in dispatchers if t is not threading.current_thread()]
+        deadline = time.monotonic() + SHUTDOWN_GRACE
+        for t in others:
+            t.join(timeout=max(deadline - time.monotonic(), 0.0))
+        if any(t.is_alive() for t in others):
+            # A call still running past the grace, or a worker still starting (e.g. the replacement of one killed at
+            # its budget): its process is killed, so its dispatcher sees the pipe close and ends now, not after the
+            # call or the start-up (a test app's lifespan ended this way waited up to 10 s, the fuzz's teardowns).
+            with self._lock:
+                stuck = list(self._live.values())
+            for worker in stuck:
+                worker.process.kill()
+            for t in others:
                 t.join(timeout=10)
 
 def _executor_of(request: Request) -> BoundedExecutor:

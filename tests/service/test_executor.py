@@ -265,3 +265,22 @@ def test_http_sheds_load_at_once_past_the_queue_depth_and_readyz_shows_the_queue
         assert c.get("/healthz").status_code == 200
         held.join(30)
         assert c.get("/readyz").json()["queue"]["replaced"] == 1   # the held one was stopped at its budget
+
+
+def test_shutdown_does_not_wait_for_a_long_call():
+    """A call in flight gets SHUTDOWN_GRACE, then its worker is killed: a test app's lifespan (the fuzz ends one per
+    example) used to wait up to 10 s here, for a call or for a worker still starting."""
+    from service.executor import SHUTDOWN_GRACE
+
+    ex = BoundedExecutor(workers=1, timeout=60.0)
+    ex.warm_up()
+    fut = ex.submit(time.sleep, 30.0)
+    while ex.state().busy == 0:
+        time.sleep(0.005)
+    t0 = time.monotonic()
+    ex.shutdown()
+    took = time.monotonic() - t0
+    assert SHUTDOWN_GRACE <= took < SHUTDOWN_GRACE + 3.0
+    with pytest.raises(Exception):
+        fut.result(timeout=5)
+    assert not ex.state().warm
