@@ -23,6 +23,7 @@ from optim.stability.rendered_rigid import (
     LOOP_M,
     cable_real_crossings,
     rigid_real_crossings,
+    v_zero_at_pi,
 )
 from tests.optim.stability.filter_properties import KINDS, random_filter
 from tests.optim.stability.random_cables import random_cable
@@ -42,7 +43,8 @@ def _random_rigid(rng: np.random.Generator) -> Device:
 
 def _scan(dev, r, loop, alpha, beta, mu):
     h = (R.k_loop(dev, r, beta, mu), R._b_loop(dev, r, mu), R._m_loop(dev, r, alpha, beta))[loop]
-    return [(c.angle, c.value, c.outward) for c in R.real_crossings(h, R._grid(dev, r, beta))]
+    pole = loop != LOOP_K and v_zero_at_pi(r.velocity)          # as rendered.py's callers: π is a pole of h_B, h_M
+    return [(c.angle, c.value, c.outward) for c in R.real_crossings(h, R._grid(dev, r, beta), pole)]
 
 
 def test_certified_crossings_match_the_scan():
