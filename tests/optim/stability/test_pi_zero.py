@@ -178,3 +178,25 @@ def test_mass_range_is_not_cut_short_at_pi(device, samples, mass, stiffness, dam
         inside = check_point(dev, plant, alpha, beta, (spec, end - 1e-6 * gap)).stable
         outside = check_point(dev, plant, alpha, beta, (spec, end + 1e-6 * gap)).stable
         assert (inside, outside) == ((True, True) if end == before else (True, False)), end
+
+
+def test_a_transfer_function_with_its_zero_at_pi_answers_as_the_average_it_writes_out():
+    """V = (1 − z⁻²)/(2T) given as a transfer function (R = (½, ½): its zero on the circle sends h_B, h_M to the
+    scan) and as the 2-sample moving average (the certified path): the same B_max and mass range, two algorithms.
+    Before the fix the scan listed h_B(π) = 4800.01 (V's rounding, 1.2e-16j, over X) as a crossing."""
+    dev = Device(mass=1.0, damping=5.0, delay=2e-3)
+    k, b = 2000.0, 3.0
+    answers = []
+    for spec in (TransferFunctionFilter(kind="transfer_function", numerator=[0.5 / T, 0.0, -0.5 / T]),
+                 MovingAverage(kind="moving_average", samples=2)):
+        r = rendering(spec, 0.3, T)
+        assert v_zero_at_pi(r.velocity)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            assert all(c.angle < math.pi for c in R._damper_crossings(dev, r, r.mass / dev.mass))
+            answers.append((R.rendered_max_stable_damping(dev, r), R.rendered_mass_range(dev, k, b, r)))
+        R.clear_caches()
+    (b1, m1), (b2, m2) = answers
+    assert m1 is not None and m2 is not None
+    assert b1 == pytest.approx(b2, rel=1e-9) and math.isfinite(b1)
+    assert (m1.min, m1.max) == pytest.approx((m2.min, m2.max), rel=1e-9)
