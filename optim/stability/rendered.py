@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from fractions import Fraction
 from functools import lru_cache
 from typing import Literal, NamedTuple
 
@@ -54,15 +55,24 @@ from optim.stability.crossovers import (
     theta_min,
 )
 from optim.stability.margins import NO_DAMPING_REASON, CriticalStiffness, critical_from_crossings, loop_plant
-from optim.stability.rendered_rigid import LOOP_B, LOOP_K, LOOP_M, cable_real_crossings, rigid_real_crossings
+from optim.stability.rendered_rigid import (
+    LOOP_B,
+    LOOP_K,
+    LOOP_M,
+    cable_real_crossings,
+    rigid_real_crossings,
+    v_zero_at_pi,
+)
 from optim.stability.undamped_cable import is_undamped_cable
 
 __all__ = ["MassRange", "rendered_critical_stiffness", "rendered_max_stable_damping", "rendered_mass_range",
-           "real_crossings", "k_loop", "Decision", "Passage", "clear_caches", "band_crossings"]
+           "real_crossings", "k_loop", "Decision", "Passage", "clear_caches", "band_crossings", "velocity_response"]
 
 Decision = Literal["stable", "unstable", "undecided"]
 #: |V_n| or |A_n| below this counts as a zero of the estimate on the circle (a moving average's 2πk/n)
 _TINY = 1e-300
+#: π − math.pi (the float π's rounding), as math.pi − θ's correction in the factored V_n
+_PI_TAIL = 1.2246467991473532e-16
 
 
 @dataclass(frozen=True)
@@ -103,12 +113,51 @@ def k_loop(device: Device, rendering: Rendering, beta: float, mu: float):
     return h
 
 
+@lru_cache(maxsize=256)
+def _pi_factored(velocity: VelocityTransfer) -> tuple[int, tuple[float, ...]]:
+    """(m, R̃) with R = (1 + w)^m·R̃, R̃(−1) ≠ 0: R divided by 1 + w while the remainder is exactly 0 (rational
+    arithmetic on the float coefficients), R̃ rounded once (exact for the even average's (1, 0, 1, …, 1)/n and the
+    Butterworth's r₀)."""
+    q = [Fraction(c) for c in velocity.r]
+    m = 0
+    while len(q) > 1:
+        out = [q[0]]
+        for c in q[1:-1]:
+            out.append(c - out[-1])
+        if q[-1] - out[-1] != 0:
+            break
+        q, m = out, m + 1
+    return m, tuple(float(c) for c in q)
+
+
+def velocity_response(velocity: VelocityTransfer, theta: np.ndarray) -> np.ndarray:
+    """T·V(e^{jθ}), as ``VelocityTransfer.response`` (bit for bit) unless V(π) = 0 exactly (``v_zero_at_pi``);
+    then in the factored form V_n = (1 − w)(1 + w)^m·R̃(w)/D(w), 1 + w = −expm1(j(π − θ)) with π − θ taken as
+    (math.pi − θ) + (π − math.pi) (exact by Sterbenz on [π/2, π], then π's tail): no cancellation near z = −1, where
+    Horner's R(w) is rounding (its error ~ε·Σ|r_k| against |R| ~ |π − θ|^m).  At θ = math.pi it is V at that float
+    (|1 + w| ≈ 1.2e-16), as e^{−jθ} gives it."""
+    if not v_zero_at_pi(velocity):
+        return velocity.response(theta)
+    m, rt = _pi_factored(velocity)
+    theta = np.asarray(theta, dtype=float)
+    w = np.exp(-1j * theta)
+    out = -np.expm1(-1j * theta) * (-np.expm1(1j * ((math.pi - theta) + _PI_TAIL))) ** m
+    return out * _horner(rt, w) / _horner(velocity.d, w)
+
+
+def _horner(coeffs: tuple[float, ...], w: np.ndarray) -> np.ndarray:
+    out = np.full(np.shape(w), coeffs[-1], dtype=complex)
+    for c in coeffs[-2::-1]:
+        out = out * w + c
+    return out
+
+
 def _b_loop(device: Device, rendering: Rendering, mu: float):
     plant = loop_plant(device)
     vel = rendering.velocity
 
     def h(theta: np.ndarray) -> np.ndarray:
-        v = vel.response(theta)
+        v = velocity_response(vel, theta)
         with np.errstate(over="ignore", divide="ignore"):
             return (-plant.inverse_response(theta) - mu * v * -np.expm1(-1j * theta)) / _safe(v)
     return h
@@ -119,7 +168,7 @@ def _m_loop(device: Device, rendering: Rendering, alpha: float, beta: float):
     vel = rendering.velocity
 
     def h(theta: np.ndarray) -> np.ndarray:
-        v = vel.response(theta)
+        v = velocity_response(vel, theta)
         a = v * -np.expm1(-1j * theta)
         with np.errstate(over="ignore", divide="ignore"):
             return (-plant.inverse_response(theta) - alpha - beta * v) / _safe(a)
@@ -138,11 +187,17 @@ class Passage(NamedTuple):
     dz/dg = 1/h'(z) = jz/(dh/dθ) and its radial part Re(z̄·dz/dg) has the sign of d Im h/dθ."""
 
 
-def real_crossings(h, grid: np.ndarray) -> list[Passage]:
+def real_crossings(h, grid: np.ndarray, pole_at_pi: bool = False) -> list[Passage]:
     """Every θ ∈ (0, π] where h is real and non-zero, with its value (both signs) and the poles' direction: the scan
     of optim.stability.crossovers.positive_real_crossings (one refinement of the grid, every sign change of Im h
-    refined to 4 ulp, near-tangencies, exact zeros on a sample, the Nyquist point) without its Re h > 0 filter."""
+    refined to 4 ulp, near-tangencies, exact zeros on a sample, the Nyquist point) without its Re h > 0 filter.
+
+    ``pole_at_pi``: θ = π is a pole of h (h_B, h_M where V(π) = 0 exactly, ``v_zero_at_pi``): π is not listed and
+    its sample (h's rounding over V's exact 0) joins no bracket.  Near the pole Im h keeps one sign (h ≈ jb/(π − θ)
+    for a simple zero of V, a/(π − θ)² + jb/(π − θ) with a, b real for a double one: h(2π − θ) = conj h(θ))."""
     grid, values = refine_grid(h, grid)
+    if pole_at_pi and grid[-1] == math.pi:
+        grid, values = grid[:-1], values[:-1]
     im, re = values.imag, values.real
     found: list[Passage] = []
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -167,7 +222,7 @@ def real_crossings(h, grid: np.ndarray) -> list[Passage]:
         if re[i] != 0.0:
             out = 2 if (im[i - 1] < 0 < im[i + 1]) else -2 if (im[i - 1] > 0 > im[i + 1]) else 0
             found.append(Passage(float(grid[i]), float(re[i]), out))
-    v_pi = complex(h(np.array([math.pi]))[0]).real
+    v_pi = 0.0 if pole_at_pi else complex(h(np.array([math.pi]))[0]).real
     if v_pi != 0.0:
         found = [c for c in found if math.pi - c.angle > 1e-9]
         below = im[-2] if grid[-1] == math.pi else im[-1]
@@ -212,7 +267,8 @@ def _mass_crossings(device: Device, rendering: Rendering, beta: float) -> tuple[
     fast = _certified(device, rendering, LOOP_M, 0.0, beta, 0.0)
     if fast is not None:
         return tuple(fast)
-    return tuple(real_crossings(_m_loop(device, rendering, 0.0, beta), _grid(device, rendering, beta)))
+    return tuple(real_crossings(_m_loop(device, rendering, 0.0, beta), _grid(device, rendering, beta),
+                                v_zero_at_pi(rendering.velocity)))
 
 
 @lru_cache(maxsize=1024)
@@ -221,7 +277,8 @@ def _damper_crossings(device: Device, rendering: Rendering, mu: float) -> tuple[
     fast = _certified(device, rendering, LOOP_B, 0.0, 0.0, mu)
     if fast is not None:
         return tuple(fast)
-    return tuple(real_crossings(_b_loop(device, rendering, mu), _grid(device, rendering, 0.0)))
+    return tuple(real_crossings(_b_loop(device, rendering, mu), _grid(device, rendering, 0.0),
+                                v_zero_at_pi(rendering.velocity)))
 
 
 def clear_caches() -> None:
@@ -332,7 +389,8 @@ def rendered_mass_range(device: Device, stiffness: float, damping: float, render
     mu = rendering.mass / device.mass
     passages = _certified(device, rendering, LOOP_M, alpha, beta, mu)
     if passages is None:
-        passages = real_crossings(_m_loop(device, rendering, alpha, beta), _grid(device, rendering, beta))
+        passages = real_crossings(_m_loop(device, rendering, alpha, beta), _grid(device, rendering, beta),
+                                  v_zero_at_pi(rendering.velocity))
     values = [c.value for c in passages if c.outward != 0]
     lo = max((v for v in values if v < mu), default=-math.inf)
     hi = min((v for v in values if v > mu), default=math.inf)

@@ -56,6 +56,7 @@ exceed |h| by more than _CABLE_CONDITION at a root, the scan answers, as before.
 from __future__ import annotations
 
 import math
+from fractions import Fraction
 from functools import lru_cache
 
 import numpy as np
@@ -66,7 +67,8 @@ from optim.stability.cable_kernel import inverse_response as _inv_response
 from optim.stability.cable_loop import cable_loop
 from optim.stability.compiled import kernel
 
-__all__ = ["LOOP_K", "LOOP_B", "LOOP_M", "rigid_real_crossings", "cable_real_crossings", "compile_kernels", "MAX_PIECES", "MAX_DEGREE"]
+__all__ = ["LOOP_K", "LOOP_B", "LOOP_M", "rigid_real_crossings", "cable_real_crossings", "compile_kernels", "MAX_PIECES",
+           "MAX_DEGREE", "v_zero_at_pi"]
 
 LOOP_K, LOOP_B, LOOP_M = 0, 1, 2
 #: a cable loop's certified crossings are given up (the scan answers) where h's terms exceed |h| by more than this
@@ -120,6 +122,17 @@ def _parts_filter(velocity: VelocityTransfer) -> tuple:
     for x in (r, d, r_q, p_mul):
         x.setflags(write=False)
     return None, None, r, d, r_q, p_mul, avg_n, circle, None
+
+
+@lru_cache(maxsize=1024)
+def v_zero_at_pi(velocity: VelocityTransfer) -> bool:
+    """V(e^{jπ}) = 0 exactly: R(−1) = Σ (−1)^k r_k = 0 in rational arithmetic on the filter's coefficients (every
+    float is a rational; D(−1) ≠ 0, D's roots lying inside the circle).  True for every order-2 Butterworth
+    (scipy's b = b₀·(1, 2, 1) exactly: checked on 20,000 random cutoffs) and every moving average of even length
+    (n equal coefficients 1/n), false for the other kinds; a transfer function's R decides for itself.  Where true,
+    θ = π is a pole of h_B and h_M (V_n and A_n vanish, −1/G_n(π) does not): no finite gain puts a closed-loop pole
+    at z = −1 (1 + C·G there is 1 + K·G(−1), whatever B and M), so π is no crossing of those loops."""
+    return sum((Fraction(c) if k % 2 == 0 else -Fraction(c) for k, c in enumerate(velocity.r)), Fraction(0)) == 0
 
 
 def butter_form(r: tuple[float, ...]) -> bool:
@@ -498,10 +511,12 @@ def _cable_condition(theta, loop, nums, modal, r, dd, alpha, beta, mu):
 
 
 @kernel
-def _crossings(loop, alpha, beta, mu, p1, dg, r, d, r_q, p_mul, avg_n, nums, modal, pad, max_pieces, max_degree):
+def _crossings(loop, alpha, beta, mu, p1, dg, r, d, r_q, p_mul, avg_n, nums, modal, pad, max_pieces, max_degree,
+               pole_at_pi):
     """rigid_real_crossings in one compiled call: (count, rows θ, h(θ), outward), count −1 where the certificate
     does not close (the caller scans).  ``pad``: the relative error of the plant's polynomial coefficients beyond
-    their rounding (a cable's computed zeros), added to every bound."""
+    their rounding (a cable's computed zeros), added to every bound.  ``pole_at_pi``: θ = π is a pole of h (V(π) = 0
+    exactly, ``v_zero_at_pi``, on h_B or h_M), never listed (h's rounding there is no gain)."""
     none = np.empty((0, 3))
     P, Q = _loop_polys(loop, alpha, beta, mu, p1, dg, r, d, r_q, p_mul, False)
     Pa, Qa = _loop_polys(loop, alpha, beta, mu, p1, dg, r, d, r_q, p_mul, True)
@@ -570,7 +585,9 @@ def _crossings(loop, alpha, beta, mu, p1, dg, r, d, r_q, p_mul, avg_n, nums, mod
             # f'(θ) = −sin θ·p'(cos θ): Im h rises through the root where p' < 0
             out[found, 2] = 2.0 if pieces[i, 4] < 0.0 else -2.0
             found += 1
-    v_pi = _h(math.pi, loop, nums, modal, r, d, alpha, beta, mu).real   # nan where V(π) = 0 (h_B, h_M infinite there)
+    if pole_at_pi:
+        return found, out
+    v_pi = _h(math.pi, loop, nums, modal, r, d, alpha, beta, mu).real
     if math.isfinite(v_pi) and v_pi != 0.0 and abs(v_pi) < 1e250:
         out[found, 0] = math.pi
         out[found, 1] = v_pi
@@ -583,15 +600,16 @@ def rigid_real_crossings(plant: RigidZOH, rendering: Rendering, loop: int, alpha
                          mu: float) -> list[tuple[float, float, int]] | None:
     """Every θ ∈ (0, π] where the loop's h is real (module docstring), as (θ, h(θ), outward) by θ: outward +2/−2 for
     a pair leaving/entering as the moving gain rises (the sign of d Im h/dθ), ±1 at θ = π; None where the
-    certificate does not close (the caller scans).  The Nyquist point is listed when h(π) is finite and non-zero.
-    One compiled call (``_crossings``) on the (plant, filter)'s polynomial data, built once (``_parts``)."""
+    certificate does not close (the caller scans).  The Nyquist point is listed when h(π) is finite and non-zero, and
+    never on h_B, h_M where V(π) = 0 exactly (``v_zero_at_pi``: a pole of h there).  One compiled call (``_crossings``) on the (plant, filter)'s polynomial data, built once (``_parts``)."""
     if plant.delta == 0.0:
         return None                                   # M̃ vanishes at w = −1: a pole of h at π
     p1, dg, r, d, r_q, p_mul, avg_n, circle, nums = _parts(plant, rendering.velocity)
     if circle and loop != LOOP_K:
         return None                          # a zero of R on the circle: a pole of h_B, h_M there
     count, out = _crossings(loop, float(alpha), float(beta), float(mu), p1, dg, r, d, r_q, p_mul, avg_n, nums,
-                            _NO_MODAL, 0.0, MAX_PIECES, MAX_DEGREE)
+                            _NO_MODAL, 0.0, MAX_PIECES, MAX_DEGREE,
+                            loop != LOOP_K and v_zero_at_pi(rendering.velocity))
     if count < 0:
         return None
     return [(t, v, int(o)) for t, v, o in out[:count].tolist()]
@@ -661,7 +679,7 @@ def cable_real_crossings(plant: StateSpaceZOH, rendering: Rendering, loop: int, 
     if circle and loop != LOOP_K:
         return None
     count, out = _crossings(loop, float(alpha), float(beta), float(mu), p1, dg, r, d, r_q, p_mul, avg_n, nums,
-                            modal, pad, MAX_PIECES, MAX_DEGREE)
+                            modal, pad, MAX_PIECES, MAX_DEGREE, loop != LOOP_K and v_zero_at_pi(rendering.velocity))
     if count < 0:
         return None
     return [(t, v, int(o)) for t, v, o in out[:count].tolist()]

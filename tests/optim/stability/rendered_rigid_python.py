@@ -27,6 +27,7 @@ from optim.stability.rendered_rigid import (
     _taylor_table,
     average_zero_angles,
     butter_form,
+    v_zero_at_pi,
 )
 
 LOOP_B, LOOP_M = 1, 2
@@ -201,10 +202,13 @@ def rigid_real_crossings_python(plant: RigidZOH, rendering: Rendering, loop: int
         return None
     # f'(θ) = −sin θ·p'(cos θ): Im h rises through the root where p' < 0
     found = [(float(roots[i, 0]), float(roots[i, 1]), 2 if out[i, 4] < 0.0 else -2) for i in range(count)]
-    try:
-        v_pi = complex(_h(math.pi, loop, nums, _NO_MODAL, r, dd, alpha, beta, mu)).real
-    except ZeroDivisionError:          # V(π) = 0 (a Butterworth, an even moving average): h_B, h_M infinite there
-        v_pi = math.inf
+    if loop != LOOP_K and v_zero_at_pi(rendering.velocity):
+        v_pi = math.inf                # V(π) = 0 exactly (a Butterworth, an even moving average): a pole of h_B, h_M
+    else:
+        try:
+            v_pi = complex(_h(math.pi, loop, nums, _NO_MODAL, r, dd, alpha, beta, mu)).real
+        except ZeroDivisionError:
+            v_pi = math.inf
     if math.isfinite(v_pi) and v_pi != 0.0:
         found.append((math.pi, v_pi, 1 if _clenshaw(a, -1.0) < 0.0 else -1))
     return [x for x in found if math.isfinite(x[1]) and abs(x[1]) < 1e250 and x[1] != 0.0]
