@@ -8,8 +8,17 @@ if [ -f scripts/system-deps.sh ]; then bash scripts/system-deps.sh; fi
 # Bytecode and pytest's rewritten test modules are kept in __pycache__ (git-ignored) for the next run, even where the
 # environment sets PYTHONDONTWRITEBYTECODE: collecting the fast loop then costs ≈ 6 s of CPU per process, not ≈ 12 s.
 unset PYTHONDONTWRITEBYTECODE
-# One process by default: on two workers (pytest-xdist, pinned) the full suite took 1,506 s against 1,538 s in one
-# process (CI rehearsals, 2026-12-03): its long tail (the fuzz, the e2e tests) decides, so the proven order stays the
-# default.  `bash scripts/test.sh -n auto --dist worksteal …` runs on every core; tests marked serial then run with no
-# other test beside them (tests/conftest.py).
+# Two pytest-xdist workers by default (`--dist worksteal`; ZWIDTH_TEST_WORKERS=1 or your own `-n …` / `-p no:xdist`
+# overrides it): the fast loop took 114 s on two workers against 145 s in one process (load ≈ 4, 2026-12-04,
+# docs/suite_time.md), and the full suite's long tail (the API fuzz, the docker recipe) now runs beside the rest.
+# Tests marked serial (a wall-clock budget) run with no other test beside them (tests/conftest.py).
+workers=${ZWIDTH_TEST_WORKERS:-2}
+for arg in "$@"; do
+    case "$arg" in
+        -n|-n*|--numprocesses|--numprocesses=*|no:xdist) workers=1 ;;
+    esac
+done
+if [ "$workers" -gt 1 ]; then
+    set -- -n "$workers" --dist worksteal "$@"
+fi
 exec .venv/bin/python -m pytest "$@"
