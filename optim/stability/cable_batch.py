@@ -195,8 +195,8 @@ def _plant_key(plant) -> tuple:
 
 
 #: what a sampled cable plant keeps in its cache that depends on its matrices and fractional delay alone, not on d
-#: (models.discretize.StateSpaceZOH: accurate_matrices, modal_form, pole_angles; undamped_cable.mode_gap)
-_WHOLE_DELAY_FREE = ("m", "modal", "angles", "mode_gap")
+#: (models.discretize.StateSpaceZOH: accurate_matrices, modal_form, pole_angles, zero_hints; undamped_cable.mode_gap)
+_WHOLE_DELAY_FREE = ("m", "modal", "angles", "mode_gap", "zeros")
 
 
 def _at_whole_delay(plant: StateSpaceZOH, d: int) -> StateSpaceZOH:
