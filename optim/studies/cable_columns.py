@@ -45,7 +45,7 @@ def evaluate_cable_columns(problem: str, device: Mapping[str, Any], requirements
     """(handled, columns, errors) of the chunk's points as optim.studies.columns.evaluate_columns gives them, or None
     when the chunk is not for the cable column path (module docstring)."""
     from optim.studies.columns import critical_columns, scatter_columns
-    from optim.studies.problems import point_builder
+    from optim.studies.problems import point_builder, with_delay
 
     if problem != "critical_stiffness":
         return None
@@ -95,7 +95,7 @@ def evaluate_cable_columns(problem: str, device: Mapping[str, Any], requirements
                 known = by_rest.get(rest)
                 if (known is not None and type(delay) is float and 0.0 <= delay < math.inf
                         and delay / known.sample_time <= MAX_DELAY_SAMPLES):
-                    dev = known.model_copy(update={"delay": delay})
+                    dev = with_delay(known, delay)
             if dev is None:
                 dev = validate(build(vals)[0])
                 if delay_axis is not None:
