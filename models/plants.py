@@ -60,9 +60,9 @@ def stiffness_loop_plant(device: Device) -> RigidZOH | StateSpaceZOH:
         mu_r=c.motor_mass / m, mu_d=c.body_mass / m,
         delta_r=c.motor_damping * t / m, delta_d=c.body_damping * t / m,
         kappa=c.stiffness * t * t / m, delta_c=c.damping * t / m)
-    # Anti-resonance of G_r: the roots of p_d(s), as angles per sample.
-    zeros = np.roots([c.body_mass, c.body_damping + c.damping, c.stiffness]) * t
-    return StateSpaceZOH(a=a, b=b, c=cc, d=d, f=f, zeros_hint=tuple(float(abs(z.imag)) for z in zeros))
+    # Anti-resonance of G_r: the roots of p_d(s), as angles per sample (found when first asked for)
+    return StateSpaceZOH(a=a, b=b, c=cc, d=d, f=f, zeros_poly=(c.body_mass, c.body_damping + c.damping, c.stiffness),
+                         zeros_scale=t)
 
 
 def Q_criterion(device: Device) -> float:

@@ -86,7 +86,12 @@ def cable_critical_stiffness_batch(devices: Sequence[Device], damping: float | n
     bmax = np.full(n, math.nan)
     paths = ["fast"] * n
     rows: list[int] = []
-    arrays: list[tuple] = []
+    # each factored loop's arrays once (the kernel finds a row's by its index in ``loops``), and each row's index and
+    # whole delay d (its numbers s and d: the loop's own moved to d, _row_nums)
+    loops: list[tuple] = []
+    loop_of: dict[tuple, int] = {}
+    row_loop: list[int] = []
+    row_d: list[int] = []
     # devices that differ only in their whole delay share the factored loop (its numbers s and d aside)
     shared: dict[tuple, CableLoop | None] = {}
     # rows of one sampled plant (at several B) solve its damper-only loop once: the first such row's index
@@ -125,11 +130,14 @@ def cable_critical_stiffness_batch(devices: Sequence[Device], damping: float | n
         got = shared[key]
         if got is None:
             continue
+        li = loop_of.get(key)
+        if li is None:
+            li = loop_of[key] = len(loops)
+            loops.append(got.arrays)
+        same.append(seen.setdefault((key, d), len(rows)))
         rows.append(i)
-        first = seen.setdefault((key, d), len(arrays))
-        arrays.append(arrays[first] if first < len(arrays) else
-                      got.arrays if got.d == d else _with_whole_delay(got, d))
-        same.append(first)
+        row_loop.append(li)
+        row_d.append(d)
     taken = set(rows)
     handoff = [i for i in range(n) if i not in taken]
     if rows:
@@ -143,8 +151,10 @@ def cable_critical_stiffness_batch(devices: Sequence[Device], damping: float | n
         # crossovers.theta_min's array form: the scalar form's bits, elementwise (as margins._theta_min's δ + β)
         lo_b = np.atleast_1d(theta_min(delta, ds))
         lo_k = np.atleast_1d(theta_min(delta + betas, ds))
-        fr, fc, modal, nums, splits, f_off, s_off = _stack(arrays)
-        st_b, th_b, al_b, st_k, th_k, al_k = batch_rows(fr, fc, modal, nums, splits, f_off, s_off, betas, lo_b, lo_k,
+        fr, fc, modal, nums, splits, f_off, s_off = _stack(loops)
+        li = np.array(row_loop, dtype=np.int64)
+        st_b, th_b, al_b, st_k, th_k, al_k = batch_rows(fr, fc, modal, _row_nums(nums, li, np.array(row_d)), splits,
+                                                        f_off, s_off, li, betas, lo_b, lo_k,
                                                         np.array(same, dtype=np.int64))
         # each row's case, elementwise (the same float operations as margins' scalar ones, so the same bits)
         b = bvec[idx]
@@ -185,8 +195,8 @@ def _plant_key(plant) -> tuple:
 
 
 #: what a sampled cable plant keeps in its cache that depends on its matrices and fractional delay alone, not on d
-#: (models.discretize.StateSpaceZOH: accurate_matrices, modal_form, pole_angles; undamped_cable.mode_gap)
-_WHOLE_DELAY_FREE = ("m", "modal", "angles", "mode_gap")
+#: (models.discretize.StateSpaceZOH: accurate_matrices, modal_form, pole_angles, zero_hints; undamped_cable.mode_gap)
+_WHOLE_DELAY_FREE = ("m", "modal", "angles", "mode_gap", "zeros")
 
 
 def _at_whole_delay(plant: StateSpaceZOH, d: int) -> StateSpaceZOH:
@@ -204,14 +214,14 @@ def _at_whole_delay(plant: StateSpaceZOH, d: int) -> StateSpaceZOH:
     return new
 
 
-def _with_whole_delay(loop: CableLoop, d: int) -> tuple:
-    """The arrays of ``loop`` (cable_loop.loop_arrays) for the same plant with d whole samples of delay: only the
-    numbers s = d + m + 1 and d differ (the modal form, its factors and splits depend on the fractional part alone)."""
-    fr, fc, modal, nums, splits = loop.arrays
-    nums = nums.copy()
-    nums[0] = float(d + (loop.s - loop.d))          # N_S: d + m + 1
-    nums[3] = float(d)                               # N_D
-    return fr, fc, modal, nums, splits
+def _row_nums(nums: np.ndarray, loop: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """Each row's numbers (cable_loop.loop_arrays): its loop's (``nums[loop]``) with d whole samples of delay, where
+    only s = d + m + 1 and d differ (the modal form, its factors and splits depend on the fractional part alone).
+    s − d (= m + 1) and d are small integers: each float is exact, the bits of float(d + m + 1) and float(d)."""
+    out = nums[loop]
+    out[:, 0] = d + (out[:, 0] - out[:, 3])          # N_S: d + m + 1
+    out[:, 3] = d                                     # N_D
+    return out
 
 
 def _stack(arrays) -> tuple[np.ndarray, ...]:

@@ -800,10 +800,13 @@ def min_crossing(fr, fc, modal, nums, splits, beta, theta_lo, damper):
 
 
 @kernel
-def batch_rows(fr_all, fc_all, modal_all, nums_all, splits_all, f_off, s_off, betas, lo_b, lo_k, same):
+def batch_rows(fr_all, fc_all, modal_all, nums_all, splits_all, f_off, s_off, loop, betas, lo_b, lo_k, same):
     """min_crossing on every row (optim.stability.cable_batch): the damper-only loop from lo_b, then the K loop at
-    betas from lo_k; (status, θ, value) of each, as min_crossing's.  ``same[i]`` < i: row i's loop is row same[i]'s
-    (one plant at several B), whose damper-only loop's answer it takes."""
+    betas from lo_k; (status, θ, value) of each, as min_crossing's.  Row i's factored loop is loop[i]'s (its factors
+    fr/fc between f_off[loop[i]] and f_off[loop[i] + 1], its modal form and splits likewise: one per sampled plant,
+    shared by the rows of its delays and dampings); its numbers (s, arg L, |L|, d, near) are nums_all[i], the row's own
+    (the whole delay d moves s and d alone).  ``same[i]`` < i: row i's loop and numbers are row same[i]'s (one plant at
+    several B), whose damper-only loop's answer it takes."""
     n = betas.shape[0]
     st_b = np.zeros(n, dtype=np.int64)
     st_k = np.zeros(n, dtype=np.int64)
@@ -812,18 +815,21 @@ def batch_rows(fr_all, fc_all, modal_all, nums_all, splits_all, f_off, s_off, be
     th_k = np.zeros(n)
     al_k = np.zeros(n)
     for i in range(n):
-        fr = fr_all[f_off[i]:f_off[i + 1]]
-        fc = fc_all[f_off[i]:f_off[i + 1]]
-        splits = splits_all[s_off[i]:s_off[i + 1]]
+        g = loop[i]
+        fr = fr_all[f_off[g]:f_off[g + 1]]
+        fc = fc_all[f_off[g]:f_off[g + 1]]
+        splits = splits_all[s_off[g]:s_off[g + 1]]
+        modal = modal_all[g]
+        nums = nums_all[i]
         j = same[i]
         if j < i:
             s, t, v = st_b[j], th_b[j], al_b[j]
         else:
-            s, t, v, _p = min_crossing(fr, fc, modal_all[i], nums_all[i], splits, 0.0, lo_b[i], True)
+            s, t, v, _p = min_crossing(fr, fc, modal, nums, splits, 0.0, lo_b[i], True)
         st_b[i], th_b[i], al_b[i] = s, t, v
         if s == 2 and betas[i] >= v:
             continue                       # β ≥ β_max: no K loop to solve
-        s, t, v, _p = min_crossing(fr, fc, modal_all[i], nums_all[i], splits, betas[i], lo_k[i], False)
+        s, t, v, _p = min_crossing(fr, fc, modal, nums, splits, betas[i], lo_k[i], False)
         st_k[i], th_k[i], al_k[i] = s, t, v
     return st_b, th_b, al_b, st_k, th_k, al_k
 
@@ -851,4 +857,5 @@ def compile_kernels() -> None:
         fr, fc, modal, nums, splits = loop.arrays
         off = np.array([0, fr.shape[0]], dtype=np.int64)
         batch_rows(fr, fc, modal[None, :], nums[None, :], splits, off, np.array([0, splits.shape[0]], dtype=np.int64),
-                   np.array([1e-3]), np.array([1e-6]), np.array([1e-6]), np.zeros(1, dtype=np.int64))
+                   np.zeros(1, dtype=np.int64), np.array([1e-3]), np.array([1e-6]), np.array([1e-6]),
+                   np.zeros(1, dtype=np.int64))

@@ -26,7 +26,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.polynomial import polynomial as P
 
-__all__ = ["CableLoop", "cable_loop", "loop_arrays", "MIN_CIRCLE_GAP", "MIN_MODE_GAP", "MAX_NEAR_ERROR", "Factor", "expm1j", "inverse_response_at"]
+__all__ = ["CableLoop", "cable_loop", "loop_arrays", "MIN_CIRCLE_GAP", "MIN_MODE_GAP", "MAX_NEAR_ERROR", "Factor", "expm1j", "inverse_response_at",
+           "root_errors"]
 
 _EPS = 2.220446049250313e-16
 _TWO_PI = 2.0 * math.pi
@@ -163,6 +164,27 @@ def _numerator_w(modal, fractional: bool) -> np.ndarray:
     return np.array([v.real for v in out])
 
 
+def root_errors(coef: list[float], roots: list[complex]) -> list[float]:
+    """64ε·Σ|a_k||w|^k/|p'(w)| of each root w of p (ascending real coefficients ``coef``), in Python numbers: the
+    bits of numpy.polynomial's ``64ε·polyval(|w|, |coef|)/max(|polyval(w, polyder(coef))|, 1e-300)`` (the same Horner
+    steps, each rounded alike: tests/optim/stability/test_cable_loop_errs.py), without its array set-up per call
+    (≈ 60 µs of a new cable's factoring, issue 32)."""
+    n = len(coef)
+    mags = [abs(a) for a in coef]
+    der = [coef[k] * k for k in range(1, n)]          # polyder: a_k·k
+    out = []
+    for w in roots:
+        x = abs(w)
+        num = mags[-1] + x * 0
+        for k in range(n - 2, -1, -1):
+            num = mags[k] + num * x
+        dp = der[-1] + w * 0
+        for k in range(n - 3, -1, -1):
+            dp = der[k] + dp * w
+        out.append(float(64.0 * _EPS * num / max(abs(dp), 1e-300)))
+    return out
+
+
 def cable_loop(plant) -> CableLoop | None:
     """The factored form of a cable ``plant`` (models.discretize.StateSpaceZOH), cached on it; None when untrusted."""
     cache = plant._cache
@@ -191,9 +213,7 @@ def _build(plant) -> CableLoop | None:
     wz = P.polyroots(coef)
     # the modes λ are the scan's own (its modal response uses them): exact here; the roots in w are computed, and
     # each is off by ≲ ε·Σ|a_k||w|^k/|p'(w)| (padded 64×), which every distance bound allows for
-    dcoef = P.polyder(coef)
-    errs = [float(64.0 * _EPS * P.polyval(abs(v), np.abs(coef)) / max(abs(P.polyval(v, dcoef)), 1e-300))
-            for v in wz]
+    errs = root_errors(coef.tolist(), [complex(v) for v in wz])
     factors = tuple(_factor(complex(v), 1, 0.0) for v in lam) + \
         tuple(_factor(complex(v), -1, e) for v, e in zip(wz, errs))
     # a factor within 1e3 of its own error of the unit circle: H (nearly) infinite or zero there, not resolved by

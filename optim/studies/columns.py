@@ -30,7 +30,7 @@ from optim.robust.batch import rigid_critical_stiffness
 from optim.stability.analysis import EXACT_REL_ERROR
 from optim.stability.passivity import batch_required_damping
 
-__all__ = ["Columns", "evaluate_columns", "COLUMN_PATHS"]
+__all__ = ["Columns", "evaluate_columns", "critical_columns", "scatter_columns", "COLUMN_PATHS"]
 
 #: swept paths the column path takes
 COLUMN_PATHS = ("device.mass", "device.damping", "device.sample_time", "device.delay",
@@ -80,7 +80,13 @@ def evaluate_columns(problem: str, device: Mapping[str, Any], requirements: Mapp
     ``handled[i]`` is False for a point left to the per-point path (its columns hold nothing); ``errors[i]``
     is the reason of a handled point that failed (its columns hold nothing either).  ``make_devices(rows)``
     gives the validated Devices of some points (for the rows the fast path leaves to the scan)."""
-    if problem not in ("critical_stiffness", "stability") or any(p not in COLUMN_PATHS for p, _ in axes):
+    if problem not in ("critical_stiffness", "stability"):
+        return None
+    if device.get("cable") is not None or "preset" in device:
+        # damped cables, critical_stiffness: optim.studies.cable_columns (the same Devices and batch, as columns)
+        from optim.studies.cable_columns import evaluate_cable_columns
+        return evaluate_cable_columns(problem, device, requirements, axes, values)
+    if any(p not in COLUMN_PATHS for p, _ in axes):
         return None
     base = _plain_rigid(device)
     if base is None or base.cable is not None or set(requirements) - {"stiffness", "damping"}:
@@ -119,7 +125,14 @@ def evaluate_columns(problem: str, device: Mapping[str, Any], requirements: Mapp
             res = rigid_critical_stiffness(m, bp, t, td, b, lambda sub: make_devices([int(rows[i]) for i in sub]))
     except (ArithmeticError, ValueError, InputError):
         return None   # the per-point path bisects down to the point that raises
-    sub_cols, sub_err = _critical_columns(problem, m, bp, t, td, b, k, res)
+    sub_cols, sub_err = critical_columns(problem, m, bp, t, td, b, k, res)
+    out, errors = scatter_columns(n, rows, sub_cols, sub_err)
+    return handled, out, errors
+
+
+def scatter_columns(n: int, rows: np.ndarray, sub_cols: Columns, sub_err: list[str | None]
+                    ) -> tuple[Columns, list[str | None]]:
+    """The columns and errors of the points ``rows`` (of a chunk of n) placed at their rows; the others hold nothing."""
     out: Columns = {}
     for key, (vals, valid) in sub_cols.items():
         if isinstance(vals, list):
@@ -135,10 +148,14 @@ def evaluate_columns(problem: str, device: Mapping[str, Any], requirements: Mapp
     errors: list[str | None] = [None] * n
     for i, e in zip(rows.tolist(), sub_err):
         errors[i] = e
-    return handled, out, errors
+    return out, errors
 
 
-def _critical_columns(problem: str, m, bp, t, td, b, k, res) -> tuple[Columns, list[str | None]]:
+def critical_columns(problem: str, m, bp, t, td, b, k, res) -> tuple[Columns, list[str | None]]:
+    """The results of points as columns, from their K_cr, crossover angle and B_max (``res``), physical damping ``bp``,
+    sample time ``t``, delay ``td``, wall B ``b`` and K ``k`` (None: no wall stiffness): the floating-point operations
+    of critical_study.row (and, for ``stability``, stability_study's rigid rows), elementwise.  ``m`` (the mass) is
+    not read.  Also the errors (a NaN fails its point)."""
     kcr, ang, bmax = res.critical_stiffness, res.crossover_angle, res.max_stable_damping
     n = len(kcr)
     good = ~(np.isnan(kcr) | np.isnan(bmax))            # critical_study.row: a NaN fails its point

@@ -107,3 +107,23 @@ def test_array_forms_equal_the_scalar_ones():
     ds = np.concatenate([rng.uniform(0, 50, 300), [0.003 / 0.001, 2.9999999, 7.0, 0.0, 1e4 - 1e-13]])
     whole, frac = split_delay_array(ds)
     assert [(int(a), float(b)) for a, b in zip(whole, frac)] == [split_delay(float(x)) for x in ds]
+
+
+def test_cable_plant_zeros_found_when_asked_are_the_eager_ones():
+    """Issue 32: a cable plant keeps its zeros' polynomial and finds them when zero_angles() is first asked; they are
+    the bits the eager np.roots gave (the anti-resonance of G_r, as angles per sample), and cached."""
+    import numpy as np
+
+    from models.device import Device
+    from models.discretize import fold_angle
+    from models.plants import stiffness_loop_plant
+
+    for preset, delay in (("lhifam", 0.0), ("lhifam", 0.0037)):
+        dev = Device(preset=preset, delay=delay)
+        c, t = dev.cable, dev.sample_time
+        eager = tuple(float(abs(z.imag)) for z in np.roots([c.body_mass, c.body_damping + c.damping, c.stiffness]) * t)
+        plant = stiffness_loop_plant(dev)
+        assert "zeros" not in plant._cache
+        assert plant.zero_hints() == eager and len(eager) == 2 and eager[0] > 0.0
+        assert plant.zero_angles() == tuple(fold_angle(abs(w)) for w in eager)
+        assert plant._cache["zeros"] is plant.zero_hints()

@@ -143,3 +143,72 @@ def test_a_chunk_evaluated_in_parts_is_the_chunk_evaluated_whole(problem, monkey
     assert whole.failed == parts.failed > 0
     assert _decoded(parts) == _decoded(whole)
     assert parts.data == whole.data
+
+
+CABLE_AXES = [("device.cable.stiffness", "float"), ("device.delay", "float"), ("device.cable.damping", "float"),
+              ("requirements.stiffness", "float"), ("requirements.damping", "float")]
+
+
+def _cable_points(seed: int, n: int) -> np.ndarray:
+    """Grid-like cable points (each cable at several delays, as a study chunk has them) with some the model or the
+    wall's rules refuse: a negative delay, > 10,000 samples of delay, a wall K of 0, a negative wall B."""
+    rng = np.random.default_rng(seed)
+    cables = np.column_stack([rng.uniform(2e4, 1.2e5, n // 6 + 1), rng.uniform(0.5, 30.0, n // 6 + 1)])
+    pick = np.repeat(np.arange(len(cables)), 6)[:n]
+    delay = np.where(rng.random(n) < 0.7, rng.integers(0, 21, n) * 1e-3, rng.uniform(0, 0.02, n))
+    delay[rng.random(n) < 0.03] = -1e-3
+    delay[rng.random(n) < 0.03] = 11.0
+    k = np.where(rng.random(n) < 0.05, 0.0, rng.uniform(100.0, 2e5, n))
+    b = np.where(rng.random(n) < 0.2, 0.0, rng.uniform(0.0, 400.0, n))
+    b[rng.random(n) < 0.03] = -1.0
+    return np.column_stack([cables[pick, 0], delay, cables[pick, 1], k, b])
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_cable_columns_equal_the_per_point_path_bit_for_bit(seed):
+    """Issue 32: a damped cable grid's critical_stiffness chunk as columns (optim.studies.cable_columns) has every
+    point's row of the per-point path, refused points' errors included, in any chunk."""
+    base = {"preset": "lhifam"}
+    values = _cable_points(seed, 120)
+    handled, _, _ = evaluate_columns("critical_stiffness", base, {}, CABLE_AXES, values, None)
+    bad = (values[:, 1] < 0) | (values[:, 1] > 10.0) | (values[:, 3] <= 0) | (values[:, 4] < 0)
+    assert np.array_equal(handled, ~bad) and handled.sum() > 80
+    block = evaluate_block("critical_stiffness", base, {}, CABLE_AXES, 3, values, "h")
+    ref = _rows_path("critical_stiffness", base, {}, CABLE_AXES, 3, values)
+    assert block.failed == ref.failed >= bad.sum() > 0
+    rows = _decoded(ref)
+    assert _decoded(block) == rows
+    # kcr 0 (B ≥ B_max), finite values, and the margin are all among the rows compared
+    assert any("'critical_stiffness': 0.0" in r for r in rows) and any("gain_margin_db': -" in r for r in rows)
+    alone = [evaluate_block("critical_stiffness", base, {}, CABLE_AXES, 3 + i, values[i:i + 1], "h") for i in (0, 5, 77)]
+    assert [_decoded(b)[0] for b in alone] == [rows[0], rows[5], rows[77]]
+    assert _decoded(evaluate_block("critical_stiffness", base, {}, CABLE_AXES, 4, values[1:40], "h")) == rows[1:40]
+
+
+def test_cable_columns_with_base_requirements_and_the_bench_grid():
+    """The bench's grid (cable stiffness × whole delays × cable damping, the wall in the base requirements) and a
+    cable block given whole (no preset), against the per-point path; stability and undamped cables are not taken."""
+    from bench.bench_studies import cable_study
+    from optim.studies.problems import plan_study
+    from service.studies.blocks import evaluate_planned
+
+    req = cable_study("critical_stiffness", 1_000_000)
+    plan = plan_study(req["problem"], req["base"]["device"], req["base"]["requirements"], req["sweep"])
+    axes = [(a.path, a.kind) for a in plan.axes]
+    for start, n in ((0, 130), (500_017, 60)):
+        values = plan.values(start, start + n)
+        block = evaluate_planned(plan, start, n)
+        assert _decoded(block) == _decoded(_rows_path(plan.problem, plan.device, plan.requirements, axes, start,
+                                                      values))
+    from models.device import Device
+    cable = Device(preset="lhifam").model_dump(exclude={"preset"})
+    values = _cable_points(2, 36)[:, :3]
+    for req in ({}, {"damping": 2.0}, {"stiffness": 1500, "damping": 2.0}):
+        block = evaluate_block("critical_stiffness", cable, req, CABLE_AXES[:3], 0, values, "h")
+        assert _decoded(block) == _decoded(_rows_path("critical_stiffness", cable, req, CABLE_AXES[:3], 0, values))
+    assert evaluate_columns("stability", cable, {}, CABLE_AXES[:3], values, None) is None
+    # an undamped cable point (no damping anywhere) is left to the per-point path
+    undamped = dict(cable, damping=0.0, cable=dict(cable["cable"], motor_damping=0.0, body_damping=0.0))
+    got = evaluate_columns("critical_stiffness", undamped, {}, [("device.cable.damping", "float")],
+                           np.array([[0.0], [1.0]]), None)
+    assert got is not None and got[0].tolist() == [False, True]

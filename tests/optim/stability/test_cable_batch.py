@@ -102,7 +102,8 @@ def test_rows_handed_off_in_a_group_take_its_plant_at_their_delay_and_answer_as_
         moved, fresh = _at_whole_delay(first, loop_plant(dev).d), loop_plant(dev)
         for name in ("a", "b", "c"):
             assert np.array_equal(getattr(moved, name), getattr(fresh, name))
-        assert (moved.d, moved.f, moved.zeros_hint) == (fresh.d, fresh.f, fresh.zeros_hint)
+        assert (moved.d, moved.f, moved.zeros_hint, moved.zero_hints()) == (fresh.d, fresh.f, fresh.zeros_hint,
+                                                                            fresh.zero_hints())
         assert "modal" in moved._cache
         for x, y in zip(moved.modal_form(), fresh.modal_form()):
             assert np.array_equal(x, y)

@@ -202,3 +202,26 @@ def test_studies_refuse_what_they_would_ignore(device, sweep, field):
     with pytest.raises(StudyInputError) as exc:
         plan_study("stability", device, {}, sweep)
     assert exc.value.field == field
+
+
+def test_with_delay_is_model_copy_with_the_delay():
+    """problems.with_delay (issue 32: a study point's device, copied with its delay) makes what
+    model_copy(update={"delay": …}) makes: the same fields (nested blocks shared, as its shallow copy shares them),
+    fields set, extra and private state, equality, hash and dump; the original is unchanged."""
+    from models.device import Device
+    from optim.studies.problems import with_delay
+
+    for dev in (Device(mass=5.4, damping=3.5), Device(preset="lhifam", delay=0.002),
+                Device.model_validate(Device(preset="lhifam").model_dump(exclude={"preset"}))):
+        before = dev.model_dump()
+        for delay in (0.0, 0.0037, 0.02):
+            got, want = with_delay(dev, delay), dev.model_copy(update={"delay": delay})
+            assert type(got) is type(want)
+            assert got.__dict__ == want.__dict__ and all(got.__dict__[k] is want.__dict__[k] for k in got.__dict__)
+            assert got.__pydantic_fields_set__ == want.__pydantic_fields_set__
+            assert (got.__pydantic_extra__, got.__pydantic_private__) == (want.__pydantic_extra__,
+                                                                          want.__pydantic_private__)
+            assert got == want and hash(got) == hash(want) and got.model_dump() == want.model_dump()
+            assert got.delay == delay and got.delay_samples == want.delay_samples
+            assert got.__pydantic_fields_set__ is not dev.__pydantic_fields_set__
+        assert dev.model_dump() == before
