@@ -152,9 +152,9 @@ def cable_critical_stiffness_batch(devices: Sequence[Device], damping: float | n
         lo_b = np.atleast_1d(theta_min(delta, ds))
         lo_k = np.atleast_1d(theta_min(delta + betas, ds))
         fr, fc, modal, nums, splits, f_off, s_off = _stack(loops)
-        li = np.array(row_loop, dtype=np.int64)
-        st_b, th_b, al_b, st_k, th_k, al_k = batch_rows(fr, fc, modal, _row_nums(nums, li, np.array(row_d)), splits,
-                                                        f_off, s_off, li, betas, lo_b, lo_k,
+        loop_idx = np.array(row_loop, dtype=np.int64)
+        st_b, th_b, al_b, st_k, th_k, al_k = batch_rows(fr, fc, modal, _row_nums(nums, loop_idx, np.array(row_d)),
+                                                        splits, f_off, s_off, loop_idx, betas, lo_b, lo_k,
                                                         np.array(same, dtype=np.int64))
         # each row's case, elementwise (the same float operations as margins' scalar ones, so the same bits)
         b = bvec[idx]
