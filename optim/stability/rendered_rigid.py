@@ -456,6 +456,30 @@ def _poly_w(c, w):
 
 
 @kernel
+def _equal(r):
+    """R = c·(1 + w + … + w^{n−1}), n ≥ 2 (``equal_form``)."""
+    if r.size < 2 or r[0] == 0.0:
+        return False
+    for i in range(1, r.size):
+        if r[i] != r[0]:
+            return False
+    return True
+
+
+@kernel
+def _one_minus_w_power(n, theta):
+    """1 − e^{−jnθ} = 2 sin²(r/2) + j sin r, r = nθ − 2πm reduced in extended precision (as
+    optim.stability.rendered._one_minus_w_power: Veltkamp's split of θ, 2π in three pieces, Sterbenz)."""
+    split = theta * 134217729.0
+    t1 = split - (split - theta)
+    t2 = theta - t1
+    m = float(round(n * theta / (2.0 * math.pi)))
+    r = (((n * t1 - m * 6.2831853069365025) + n * t2) - m * 2.4308402025215864e-10) - m * 8.089064995183803e-21
+    s = math.sin(0.5 * r)
+    return complex(2.0 * s * s, math.sin(r))
+
+
+@kernel
 def _h(theta, loop, nums, modal, r, dd, alpha, beta, mu):
     """The loop's h(θ), accurate (models.discretize.RigidZOH.inverse_response, models.velocity_filter):
     nums = (1 − p, a, c, Φ₁₂, Γ0p, Γ0v, Γ1p, Γ1v, d, fractional, has Nyquist value, the value, cable); a cable's
@@ -488,7 +512,10 @@ def _h(theta, loop, nums, modal, r, dd, alpha, beta, mu):
     dv = _poly_w(dd, w)
     if dv == 0.0:
         return nan
-    v = omw * _poly_w(r, w) / dv
+    if _equal(r):
+        v = r[0] * _one_minus_w_power(r.size, theta) / dv        # c(1 − wⁿ)/D: accurate next to 2πk/n
+    else:
+        v = omw * _poly_w(r, w) / dv
     acc = v * omw
     if loop == 0:
         return -inv - beta * v - mu * acc
