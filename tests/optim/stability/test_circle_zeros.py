@@ -225,3 +225,30 @@ def test_the_stability_route_answers_as_the_functions_with_a_12_sample_average()
 
 def test_a_butterworth_has_no_other_circle_zero():
     assert circle_zero_angles(rendering(LowPass(kind="low_pass", cutoff_hz=50.0, order=2), 0.0, T).velocity) == ()
+
+
+def test_a_genuine_crossing_next_to_a_pole_is_kept():
+    """A wall of the property run (bench/bench_pi_zero_properties.py, seed 32, wall 1276): a 30-sample average's
+    h_M at M = 0 crosses the real axis at 2π/3·(1 + 9.95e-10), next to its pole at 2π/3 (h ≈ c/(θ − θ_p) + d with c
+    almost real), μ ≈ −1.66e9.  It is listed, and Im h with V and A in mpmath (40 digits) changes sign across it (θ·(1 ± 1e-13))."""
+    dev = Device(mass=25.51090179514382, damping=0.025905306586363683, sample_time=0.00038395469355095396,
+                 delay=0.035323831806687765)
+    r = rendering(MovingAverage(kind="moving_average", samples=30), 0.8146204202288145 * dev.mass, dev.sample_time)
+    R.clear_caches()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        found = [c for c in R._mass_crossings(dev, r, 0.0) if abs(c.angle - 2.0 * math.pi / 3.0) < 1e-8]
+    assert len(found) == 1
+    c = found[0]
+    assert abs(c.angle / (2.0 * math.pi / 3.0) - 1.0) > R.POLE_GAP and c.value == pytest.approx(-1.662e9, rel=1e-3)
+    plant = R.loop_plant(dev)
+    signs = []
+    for rel in (-1e-13, 1e-13):
+        t = c.angle * (1.0 + rel)
+        x = complex(-plant.inverse_response(np.array([t]))[0])
+        with mp.workdps(40):
+            w = mp.exp(-1j * mp.mpf(t))
+            h = mp.mpc(x) / ((1 - w ** 30) / 30 * (1 - w))
+            signs.append(mp.sign(h.imag))
+            assert abs(h.real / c.value - 1) < 1e-3
+    assert signs[0] * signs[1] < 0
