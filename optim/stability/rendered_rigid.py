@@ -117,7 +117,8 @@ def _parts_filter(velocity: VelocityTransfer) -> tuple:
         r_q, p_mul = _average_q(len(r))
         avg_n = len(r)
     else:
-        circle = _circle_zeros(velocity.r)   # a zero of R on the circle: a pole of h_B, h_M there
+        # a root of R within 1e-6 of the circle: the scan answers h_B, h_M (whose poles circle_zero_angles decides)
+        circle = _circle_zeros(velocity.r)
         r_q, p_mul = r, np.ones(1)
     for x in (r, d, r_q, p_mul):
         x.setflags(write=False)
@@ -484,7 +485,9 @@ def _h(theta, loop, nums, modal, r, dd, alpha, beta, mu):
     """The loop's h(θ), accurate (models.discretize.RigidZOH.inverse_response, models.velocity_filter):
     nums = (1 − p, a, c, Φ₁₂, Γ0p, Γ0v, Γ1p, Γ1v, d, fractional, has Nyquist value, the value, cable); a cable's
     1/G_n is its modal form's (``modal``: optim.stability.cable_kernel._inv_response, the cable K_cr's own).  nan
-    where a division is by 0 (a zero of the plant's numerator, of D, or of V or A on the circle for h_B, h_M)."""
+    where a division is by 0 (a zero of the plant's numerator, of D, or of V or A on the circle for h_B, h_M).  V is
+    c(1 − wⁿ)/D where R's coefficients are all equal (a moving average: ``_one_minus_w_power``, accurate next to
+    its zeros 2πk/n, as optim.stability.rendered.velocity_response), else (1 − w)R/D by Horner."""
     nan = complex(math.nan, math.nan)
     omp = nums[0]
     s = math.sin(0.5 * theta)
