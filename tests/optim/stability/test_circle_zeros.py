@@ -252,3 +252,21 @@ def test_a_genuine_crossing_next_to_a_pole_is_kept():
             signs.append(mp.sign(h.imag))
             assert abs(h.real / c.value - 1) < 1e-3
     assert signs[0] * signs[1] < 0
+
+
+@pytest.mark.parametrize("n", [12, 25])
+def test_the_workspace_walls_scan_lists_no_pole(n):
+    """optim.workspace.wall_rendered.RenderedWall (always scanned) on one mode of the scanned device: no B or M
+    crossing within 1e-9 of a pole, each a sign change, and B_max as the 1-DOF analysis (eigenvalue-checked above)."""
+    from optim.workspace.wall_plant import WallModes
+    from optim.workspace.wall_rendered import RenderedWall
+    m, b = SCANNED.mass, SCANNED.damping
+    r = _average(n, 0.1)
+    wall = RenderedWall(WallModes((1 / m,), (b / m,)), T, SCANNED.delay, r)
+    R.clear_caches()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        for found in (wall._damper_passages(), wall._damper_passages(wall.mu), wall._mass_passages(0.05)):
+            assert found
+            assert all(abs(c.angle - p) > 1e-9 * p for c in found for p in _poles(n))
+        assert wall.max_stable_damping() == pytest.approx(R.rendered_max_stable_damping(SCANNED, r), rel=1e-9)
