@@ -21,8 +21,14 @@ the filter's specification, no code shared with the crossings):
 temporary directory, this file run against it) and then on this tree, in one invocation: the before/after table.
 B and K are drawn as fractions of the version's own B_max and K_cr, so walls differ only where those answers do.
 
+A second family (``--averages N``, seed + 1): moving averages of 3–40 samples, odd and even alike, whose zeros
+e^{2πjk/n} on the circle are poles of h_B and h_M at every 2πk/n < π (the scan, with V by Horner, listed a pole's own
+sample as a crossing: a 16-sample average at 6π/16 with h_B ≈ −2e16); the same checks, plus the count of listed
+B and M crossings within 1e-9 of a pole (each run's own listing: none is a crossing).
+
 Writes docs/properties_filter_pi.md (generated; never edit by hand).  Usage:
-    PYTHONPATH=. python -m bench.bench_pi_zero_properties [--cases 3000] [--seed 31] [--baseline COMMIT]
+    PYTHONPATH=. python -m bench.bench_pi_zero_properties [--cases 3000] [--averages 1500] [--seed 31]
+        [--baseline COMMIT]
 """
 
 from __future__ import annotations
@@ -90,14 +96,16 @@ def _stepped(claims_at) -> str:
     return "undetermined"
 
 
-def _walls(cases: int, seed: int):
+def _walls(cases: int, seed: int, family: str = "pi"):
     from models.velocity_filter import LowPass, MovingAverage
     from tests.optim.stability.filter_properties import random_device
     rng = np.random.default_rng(seed)
     for i in range(cases):
         dev = random_device(rng)
-        kind = ("moving_average_even", "low_pass_2")[i % 2]
-        if kind == "moving_average_even":
+        kind = ("moving_average_even", "low_pass_2")[i % 2] if family == "pi" else "moving_average_3_40"
+        if kind == "moving_average_3_40":
+            spec = MovingAverage(kind="moving_average", samples=int(rng.integers(3, 41)))
+        elif kind == "moving_average_even":
             spec = MovingAverage(kind="moving_average", samples=2 * int(rng.integers(1, 11)))
         else:
             spec = LowPass(kind="low_pass", cutoff_hz=float(10 ** rng.uniform(-3, math.log10(0.45)) / dev.sample_time),
@@ -106,7 +114,21 @@ def _walls(cases: int, seed: int):
         yield i, kind, dev, spec, mass, float(rng.uniform(0.0, 1.0)), float(rng.uniform(0.05, 0.95))
 
 
-def run(cases: int, seed: int) -> dict:
+def _at_poles(dev, r, beta: float, mu: float, rel: float) -> int:
+    """B and M crossings the analysis lists within ``rel``·θ_p of a pole θ_p = 2πk/n < π of h_B, h_M (every
+    listing of the walk: the K = 0⁺ loop's at M = 0, at this M and at this B).  Within 1e-12: a pole's own sample
+    (the scan's fake); within 1e-9 a genuine crossing can sit (h ≈ c/(θ − θ_p) + d with c almost real: a 30-sample
+    average's h_M at 2π/3·(1 + 9.95e-10), μ = −1.66e9, a sign change of Im h with V in mpmath,
+    tests/optim/stability/test_circle_zeros.py)."""
+    from optim.stability import rendered as R
+    n = len(r.velocity.r)
+    poles = [2.0 * math.pi * k / n for k in range(1, (n + 1) // 2)]
+    found = [*R._damper_crossings(dev, r, 0.0), *R._damper_crossings(dev, r, mu), *R._mass_crossings(dev, r, 0.0),
+             *R._mass_crossings(dev, r, beta)]
+    return sum(1 for c in found if any(abs(c.angle - p) <= rel * p for p in poles))
+
+
+def run(cases: int, seed: int, family: str = "pi") -> dict:
     """Every wall's B_max and mass-range labels (the worker: imports whatever tree PYTHONPATH gives)."""
     from models.errors import InputError
     from models.velocity_filter import rendering
@@ -116,8 +138,9 @@ def run(cases: int, seed: int) -> dict:
     from optim.verification import check_point
 
     out: dict = {"walls": 0, "b_max": Counter(), "mass": Counter(), "refused": Counter(), "contradicted": [],
-                 "undetermined": [], "cable": 0, "negative_mass": 0, "ms": []}
-    for i, kind, dev, spec, mass, ub, uk in _walls(cases, seed):
+                 "undetermined": [], "cable": 0, "negative_mass": 0, "ms": [], "at_poles_own": 0,
+                 "at_pole_walls_own": 0, "at_poles_near": 0, "at_pole_walls_near": 0}
+    for i, kind, dev, spec, mass, ub, uk in _walls(cases, seed, family):
         t, m = dev.sample_time, dev.mass
         case = f"{kind} {spec!r} M={mass!r} device={dev.model_dump(exclude_none=True)!r}"
         t0 = time.perf_counter()
@@ -149,6 +172,14 @@ def run(cases: int, seed: int) -> dict:
             out[label.split()[0]].append(f"B_max={b_max!r} ({label}): {case}")
         top = b_max if math.isfinite(b_max) and b_max > 0 else 10 * max(dev.damping, 1e-3)
         damping = ub * top
+        if family != "pi":
+            for rel, key in ((1e-12, "own"), (1e-9, "near")):
+                try:
+                    bad = _at_poles(dev, r, damping / dev.damping_scale, mu, rel)
+                except InputError:
+                    bad = 0
+                out[f"at_poles_{key}"] += bad
+                out[f"at_pole_walls_{key}"] += bad > 0
         try:
             kc = rendered_critical_stiffness(dev, damping, r).critical_stiffness
             if kc is None or kc == 0.0:
@@ -184,14 +215,14 @@ def run(cases: int, seed: int) -> dict:
     return out
 
 
-def _worker(tree: Path, cases: int, seed: int) -> dict:
+def _worker(tree: Path, cases: int, seed: int, family: str = "pi") -> dict:
     """This file's ``run`` in a subprocess importing ``tree`` (its own numba cache)."""
     with tempfile.NamedTemporaryFile(suffix=".json", delete=False) as f:
         path = f.name
     env = dict(os.environ, PYTHONPATH=str(tree), NUMBA_CACHE_DIR=str(Path(tempfile.gettempdir()) / "pi_zero_numba"))
     t0 = time.perf_counter()
     subprocess.run([sys.executable, str(Path(__file__).resolve()), "--worker", path, "--cases", str(cases),
-                    "--seed", str(seed)], env=env, cwd=str(tree), check=True)
+                    "--seed", str(seed), "--family", family], env=env, cwd=str(tree), check=True)
     data = json.loads(Path(path).read_text())
     data["wall_s"] = time.perf_counter() - t0
     os.unlink(path)
@@ -206,9 +237,10 @@ def _split(c: dict, word: str) -> str:
     return f"{total} ({plain} / " + " / ".join(map(str, steps)) + ")"
 
 
-def _column(d: dict) -> list[str]:
+def _column(d: dict, family: str = "pi") -> list[str]:
     ms = np.array(d["ms"]) if d["ms"] else np.zeros(1)
-    return [str(d["walls"]), str(d["cable"]), str(d["negative_mass"]),
+    extra = [] if family == "pi" else [f"{d[f'at_poles_{k}']} ({d[f'at_pole_walls_{k}']} walls)" for k in ("own", "near")]
+    return [str(d["walls"]), str(d["cable"]), str(d["negative_mass"]), *extra,
             _split(d["b_max"], "confirmed"), _split(d["b_max"], "contradicted"),
             *[str(d["b_max"].get(k, 0)) for k in ("undetermined", "undecided")],
             _split(d["mass"], "confirmed"), _split(d["mass"], "contradicted"), str(d["mass"].get("undetermined", 0)),
@@ -228,6 +260,8 @@ def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--cases", type=int, default=3000)
     ap.add_argument("--seed", type=int, default=31)
+    ap.add_argument("--averages", type=int, default=1500, help="walls of the second family (averages of 3–40)")
+    ap.add_argument("--family", default="pi", help=argparse.SUPPRESS)
     ap.add_argument("--baseline", help="a commit to run the same walls on first (the before column)")
     ap.add_argument("--out", type=Path, default=OUT, help="where the table goes (a reduced run: not the doc)")
     ap.add_argument("--worker", help=argparse.SUPPRESS)
@@ -235,10 +269,12 @@ def main() -> None:
     if args.worker:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)
-            data = run(args.cases, args.seed)
+            data = run(args.cases, args.seed, args.family)
         Path(args.worker).write_text(json.dumps(data))
         return
-    columns: list[tuple[str, dict]] = []
+    families = [(f, n, args.seed + j) for j, (f, n) in enumerate((("pi", args.cases), ("averages", args.averages)))
+                if n > 0]
+    columns: dict[str, list[tuple[str, dict]]] = {f: [] for f, _, _ in families}
     load = os.getloadavg()
     if args.baseline:
         commit = subprocess.run(["git", "rev-parse", "--short", args.baseline], cwd=ROOT, check=True,
@@ -246,44 +282,54 @@ def main() -> None:
         with tempfile.TemporaryDirectory() as tmp:
             archive = subprocess.run(["git", "archive", commit], cwd=ROOT, check=True, capture_output=True).stdout
             subprocess.run(["tar", "-x", "-C", tmp], input=archive, check=True)
-            columns.append((f"before ({commit})", _worker(Path(tmp), args.cases, args.seed)))
+            for f, n, seed in families:
+                columns[f].append((f"before ({commit})", _worker(Path(tmp), n, seed, f)))
     head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, check=True, capture_output=True,
                           text=True).stdout.strip()
-    columns.append((f"this tree (HEAD {head})", _worker(ROOT, args.cases, args.seed)))
+    dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=ROOT, check=True,
+                           capture_output=True, text=True).stdout.strip()
+    for f, n, seed in families:
+        columns[f].append((f"this tree (HEAD {head}{' + changes' if dirty else ''})", _worker(ROOT, n, seed, f)))
     load_end = os.getloadavg()
     lines = [
-        "# Property run: velocity filters with V(π) = 0 (even moving averages, order-2 Butterworth)",
+        "# Property runs: velocity filters with zeros on the unit circle (V(π) = 0; moving averages' 2πk/n)",
         "",
-        f"Generated by `bench/bench_pi_zero_properties.py --cases {args.cases} --seed {args.seed}"
-        + (f" --baseline {args.baseline}`" if args.baseline else "`")
+        f"Generated by `bench/bench_pi_zero_properties.py --cases {args.cases} --averages {args.averages} --seed "
+        f"{args.seed}" + (f" --baseline {args.baseline}`" if args.baseline else "`")
         + f" on {platform.machine()}, load average {load[0]:.1f} at the start and {load_end[0]:.1f} at the end "
         "(a shared machine: times are upper bounds).  Devices from tests/optim/stability/filter_properties.py "
         "(rigid and cable, δ log-uniform in [1e-7, 1], delays 0–120 samples whole and fractional, T 0.1–10 ms); "
-        "filters alternate: moving averages of 2–20 samples (even) and order-2 Butterworth low-passes with f·T "
-        "log-uniform in [1e-3, 0.45]; M uniform in [−0.9, 1]·m; B uniform in [0, B_max(M)] (10·max(b, 1e-3) where "
+        "M uniform in [−0.9, 1]·m; B uniform in [0, B_max(M)] (10·max(b, 1e-3) where "
         "B_max is not finite and positive), K uniform in [0.05, 0.95]·K_cr(B).  The checks (module docstring): B_max "
         "by the K = 0⁺ loop's eigenvalues at B_max·(1 ∓ s), each end e of the virtual-mass range by the closed loop "
         "at e ∓ s·(e − M) (eigenvalues, else the argument principle), s the first of "
         + ", ".join(f"{s:g}" for s in _STEPS) + " at which both sides are decided (a pole 1e-6 off B_max is often "
-        "within the eigenvalues' rounding bound of the circle).  Every column runs the same walls (same seed); B and K "
-        "are fractions of each version's own B_max and K_cr.",
+        "within the eigenvalues' rounding bound of the circle).  Every column of a table runs the same walls (same "
+        "seed); B and K are fractions of each version's own B_max and K_cr.",
         "",
-        "| quantity | " + " | ".join(name for name, _ in columns) + " |",
-        "|---|" + "---|" * len(columns),
     ]
-    cols = [_column(d) for _, d in columns]
-    lines += [f"| {row} | " + " | ".join(c[j] for c in cols) + " |" for j, row in enumerate(_ROWS)]
-    lines.append("")
-    for name, d in columns:
-        if d["contradicted"]:
-            lines += [f"Contradicted, {name} (first 15 of {len(d['contradicted'])}):", ""]
-            lines += [f"- `{c}`" for c in d["contradicted"][:15]] + [""]
-        if d["undetermined"]:
-            lines += [f"Undetermined, {name} (first 5 of {len(d['undetermined'])}):", ""]
-            lines += [f"- `{c}`" for c in d["undetermined"][:5]] + [""]
-        if d["refused"]:
-            lines += [f"Refused, {name}:", ""] + [f"- {c} ({n})" for c, n in Counter(d["refused"]).most_common()]
-            lines.append("")
+    titles = {"pi": ("## V(π) = 0: even moving averages (2–20 samples) and order-2 Butterworth low-passes "
+                     f"(f·T log-uniform in [1e-3, 0.45]), alternating; seed {args.seed}"),
+              "averages": ("## Moving averages of 3–40 samples (odd and even): zeros at every 2πk/n; seed "
+                           f"{args.seed + 1}")}
+    for f, _, _ in families:
+        rows = _ROWS if f == "pi" else _ROWS[:3] + ["B and M crossings listed within 1e-12·θ of a pole θ = 2πk/n < π (its own sample)",
+                                    "… within 1e-9·θ (a genuine crossing can sit there: module docstring)"] + _ROWS[3:]
+        lines += [titles[f], "", "| quantity | " + " | ".join(name for name, _ in columns[f]) + " |",
+                  "|---|" + "---|" * len(columns[f])]
+        cols = [_column(d, f) for _, d in columns[f]]
+        lines += [f"| {row} | " + " | ".join(c[j] for c in cols) + " |" for j, row in enumerate(rows)]
+        lines.append("")
+        for name, d in columns[f]:
+            if d["contradicted"]:
+                lines += [f"Contradicted, {name} (first 15 of {len(d['contradicted'])}):", ""]
+                lines += [f"- `{c}`" for c in d["contradicted"][:15]] + [""]
+            if d["undetermined"]:
+                lines += [f"Undetermined, {name} (first 5 of {len(d['undetermined'])}):", ""]
+                lines += [f"- `{c}`" for c in d["undetermined"][:5]] + [""]
+            if d["refused"]:
+                lines += [f"Refused, {name}:", ""] + [f"- {c} ({n})" for c, n in Counter(d["refused"]).most_common()]
+                lines.append("")
     args.out.write_text("\n".join(lines))
     print(args.out.read_text())
 

@@ -60,19 +60,29 @@ from optim.stability.rendered_rigid import (
     LOOP_K,
     LOOP_M,
     cable_real_crossings,
+    circle_zero_angles,
+    equal_form,
     rigid_real_crossings,
     v_zero_at_pi,
 )
 from optim.stability.undamped_cable import is_undamped_cable
 
 __all__ = ["MassRange", "rendered_critical_stiffness", "rendered_max_stable_damping", "rendered_mass_range",
-           "real_crossings", "k_loop", "Decision", "Passage", "clear_caches", "band_crossings", "velocity_response"]
+           "real_crossings", "k_loop", "Decision", "Passage", "clear_caches", "band_crossings", "velocity_response",
+           "loop_poles", "POLE_GAP"]
 
 Decision = Literal["stable", "unstable", "undecided"]
 #: |V_n| or |A_n| below this counts as a zero of the estimate on the circle (a moving average's 2πk/n)
 _TINY = 1e-300
 #: π − math.pi (the float π's rounding), as math.pi − θ's correction in the factored V_n
 _PI_TAIL = 1.2246467991473532e-16
+#: 2π in three pieces (Cody–Waite): the first two of 32 bits, so m·piece is exact for m < 2²¹
+_TWO_PI_1 = 6.2831853069365025
+_TWO_PI_2 = 2.4308402025215864e-10
+_TWO_PI_3 = 8.089064995183803e-21
+#: the samples within this (relative) of a pole of h on the circle are dropped and the pole bracketed by two at
+#: θ_p·(1 ∓ POLE_GAP) (real_crossings)
+POLE_GAP = 1e-12
 
 
 @dataclass(frozen=True)
@@ -135,7 +145,15 @@ def velocity_response(velocity: VelocityTransfer, theta: np.ndarray) -> np.ndarr
     then in the factored form V_n = (1 − w)(1 + w)^m·R̃(w)/D(w), 1 + w = −expm1(j(π − θ)) with π − θ taken as
     (math.pi − θ) + (π − math.pi) (exact by Sterbenz on [π/2, π], then π's tail): no cancellation near z = −1, where
     Horner's R(w) is rounding (its error ~ε·Σ|r_k| against |R| ~ |π − θ|^m).  At θ = math.pi it is V at that float
-    (|1 + w| ≈ 1.2e-16), as e^{−jθ} gives it."""
+    (|1 + w| ≈ 1.2e-16), as e^{−jθ} gives it.
+
+    Where R = c·(1 + w + … + w^{n−1}) (every moving average: ``equal_form``), V_n = c·(1 − wⁿ)/D exactly, with
+    1 − wⁿ = −expm1(−j·r), r = nθ − 2πm reduced in extended precision (``_one_minus_w_power``): accurate next to
+    each zero 2πk/n (π for even n included), where Horner's R is rounding (≈ 1e-17 against |R| → 0)."""
+    n, c = equal_form(velocity)
+    if n:
+        theta = np.asarray(theta, dtype=float)
+        return c * _one_minus_w_power(n, theta) / _horner(velocity.d, np.exp(-1j * theta))
     if not v_zero_at_pi(velocity):
         return velocity.response(theta)
     m, rt = _pi_factored(velocity)
@@ -143,6 +161,30 @@ def velocity_response(velocity: VelocityTransfer, theta: np.ndarray) -> np.ndarr
     w = np.exp(-1j * theta)
     out = -np.expm1(-1j * theta) * (-np.expm1(1j * ((math.pi - theta) + _PI_TAIL))) ** m
     return out * _horner(rt, w) / _horner(velocity.d, w)
+
+
+def _one_minus_w_power(n: int, theta: np.ndarray) -> np.ndarray:
+    """1 − e^{−jnθ} as −expm1(−j·r), r = nθ − 2πm (m the nearest integer to nθ/2π) computed without cancellation:
+    θ = θ₁ + θ₂ split (Veltkamp) so n·θ₁ and n·θ₂ are exact (n < 2²⁶), 2π in three pieces so m·piece is exact, and
+    n·θ₁ − m·2π₁ exact by Sterbenz (both within a factor 2 where m ≥ 1): r to a few ulp of itself."""
+    split = theta * 134217729.0                    # 2²⁷ + 1
+    t1 = split - (split - theta)
+    t2 = theta - t1
+    m = np.rint(n * theta / (2.0 * math.pi))
+    r = (((n * t1 - m * _TWO_PI_1) + n * t2) - m * _TWO_PI_2) - m * _TWO_PI_3
+    return -np.expm1(-1j * r)
+
+
+def loop_poles(velocity: VelocityTransfer) -> tuple[float, ...]:
+    """The poles of h_B and h_M on the circle in (0, π) (V's zeros there, ``circle_zero_angles``); InputError on
+    ``velocity_filter`` where they are not decided (a transfer function whose R shares a factor with its reversal
+    other than (1 + w)^m): never a scan that could list a pole as a crossing."""
+    poles = circle_zero_angles(velocity)
+    if poles is None:
+        raise InputError("velocity_filter", "whether the velocity filter's V(z) has zeros on the unit circle (poles "
+                                            "of the damper's and the mass's loops) cannot be decided: its numerator "
+                                            "shares a factor with its reversal other than (1 + z⁻¹)^m")
+    return poles
 
 
 def _horner(coeffs: tuple[float, ...], w: np.ndarray) -> np.ndarray:
@@ -187,24 +229,46 @@ class Passage(NamedTuple):
     dz/dg = 1/h'(z) = jz/(dh/dθ) and its radial part Re(z̄·dz/dg) has the sign of d Im h/dθ."""
 
 
-def real_crossings(h, grid: np.ndarray, pole_at_pi: bool = False) -> list[Passage]:
+def real_crossings(h, grid: np.ndarray, pole_at_pi: bool = False, poles: tuple[float, ...] = ()) -> list[Passage]:
     """Every θ ∈ (0, π] where h is real and non-zero, with its value (both signs) and the poles' direction: the scan
     of optim.stability.crossovers.positive_real_crossings (one refinement of the grid, every sign change of Im h
     refined to 4 ulp, near-tangencies, exact zeros on a sample, the Nyquist point) without its Re h > 0 filter.
 
     ``pole_at_pi``: θ = π is a pole of h (h_B, h_M where V(π) = 0 exactly, ``v_zero_at_pi``): π is not listed and
     its sample (h's rounding over V's exact 0) joins no bracket.  Near the pole Im h keeps one sign (h ≈ jb/(π − θ)
-    for a simple zero of V, a/(π − θ)² + jb/(π − θ) with a, b real for a double one: h(2π − θ) = conj h(θ))."""
+    for a simple zero of V, a/(π − θ)² + jb/(π − θ) with a, b real for a double one: h(2π − θ) = conj h(θ)).
+
+    ``poles``: θ_p ∈ (0, π) where h has a pole (V's other zeros on the circle, ``loop_poles``: a moving average's
+    2πk/n).  The samples within POLE_GAP·θ_p of each are dropped (with V by Horner, h there was V's rounding, of any
+    phase: a 25-sample average's scan listed θ = 4π/25 at h ≈ −5e15), two are put at θ_p·(1 ∓ POLE_GAP), and the
+    bracket between them, across the pole, is never a crossing; the crossings on either side are bracketed as
+    anywhere else.  (Next to a simple pole h ≈ c/(θ − θ_p): within POLE_GAP of it |h| is ≳ 1e12 times its size a
+    radian away, and Im h keeps the sign of Im c on each side unless c is real.)"""
+    if poles:
+        sides = np.array([p * (1.0 + s * POLE_GAP) for p in poles for s in (-1.0, 1.0)])
+        near = np.zeros(grid.shape, dtype=bool)
+        for p in poles:
+            near |= np.abs(grid - p) <= POLE_GAP * p
+        grid = np.union1d(grid[~near], sides)
     grid, values = refine_grid(h, grid)
     if pole_at_pi and grid[-1] == math.pi:
         grid, values = grid[:-1], values[:-1]
+    across = np.zeros(grid.size - 1, dtype=bool)      # brackets across a pole of h: no crossing
+    if poles:
+        keep = np.ones(grid.shape, dtype=bool)
+        for p in poles:
+            keep &= ~(np.abs(grid - p) < POLE_GAP * p * (1.0 - 1e-3))    # refine_grid's bisections toward the pole
+        grid, values = grid[keep], values[keep]
+        across = np.zeros(grid.size - 1, dtype=bool)
+        for p in poles:
+            across |= (grid[:-1] < p) & (grid[1:] > p)
     im, re = values.imag, values.real
     found: list[Passage] = []
     with np.errstate(divide="ignore", invalid="ignore"):
         turn = np.abs(np.angle(values[1:] / values[:-1]))
     # a sign change of Im h across which arg h jumps by ≈ π is a pole of h on the circle (a zero of V or A there:
     # a moving average's 2πk/n, the Butterworth's z = −1), where the moving gain → ±∞: not a crossing
-    idx = np.nonzero((np.sign(im[:-1]) * np.sign(im[1:]) < 0) & (turn < 0.5 * math.pi))[0]
+    idx = np.nonzero((np.sign(im[:-1]) * np.sign(im[1:]) < 0) & (turn < 0.5 * math.pi) & ~across)[0]
     if idx.size:
         roots = solve_brackets(lambda t: h(t).imag, grid[idx], grid[idx + 1], im[idx], im[idx + 1])
         found += [Passage(float(t), float(v), 2 if im[i + 1] > 0 else -2)
@@ -215,6 +279,8 @@ def real_crossings(h, grid: np.ndarray, pole_at_pi: bool = False) -> list[Passag
         pair = tangential_pairs(lambda t: sign * h(t), grid, sign * values)    # called here, not kept
         for j in range(0, len(pair) - 1, 2):
             first, second = pair[j], pair[j + 1]
+            if any(first.angle < p < second.angle for p in poles):
+                continue                       # a pole between them, not a tangency
             mid = complex(h(np.array([0.5 * (first.angle + second.angle)]))[0]).imag
             out = 2 if mid < 0 else -2
             found += [Passage(first.angle, sign * first.value, out), Passage(second.angle, sign * second.value, -out)]
@@ -268,7 +334,7 @@ def _mass_crossings(device: Device, rendering: Rendering, beta: float) -> tuple[
     if fast is not None:
         return tuple(fast)
     return tuple(real_crossings(_m_loop(device, rendering, 0.0, beta), _grid(device, rendering, beta),
-                                v_zero_at_pi(rendering.velocity)))
+                                v_zero_at_pi(rendering.velocity), loop_poles(rendering.velocity)))
 
 
 @lru_cache(maxsize=1024)
@@ -278,7 +344,7 @@ def _damper_crossings(device: Device, rendering: Rendering, mu: float) -> tuple[
     if fast is not None:
         return tuple(fast)
     return tuple(real_crossings(_b_loop(device, rendering, mu), _grid(device, rendering, 0.0),
-                                v_zero_at_pi(rendering.velocity)))
+                                v_zero_at_pi(rendering.velocity), loop_poles(rendering.velocity)))
 
 
 def clear_caches() -> None:
@@ -390,7 +456,7 @@ def rendered_mass_range(device: Device, stiffness: float, damping: float, render
     passages = _certified(device, rendering, LOOP_M, alpha, beta, mu)
     if passages is None:
         passages = real_crossings(_m_loop(device, rendering, alpha, beta), _grid(device, rendering, beta),
-                                  v_zero_at_pi(rendering.velocity))
+                                  v_zero_at_pi(rendering.velocity), loop_poles(rendering.velocity))
     values = [c.value for c in passages if c.outward != 0]
     lo = max((v for v in values if v < mu), default=-math.inf)
     hi = min((v for v in values if v > mu), default=math.inf)

@@ -68,7 +68,7 @@ from optim.stability.cable_loop import cable_loop
 from optim.stability.compiled import kernel
 
 __all__ = ["LOOP_K", "LOOP_B", "LOOP_M", "rigid_real_crossings", "cable_real_crossings", "compile_kernels", "MAX_PIECES",
-           "MAX_DEGREE", "v_zero_at_pi"]
+           "MAX_DEGREE", "v_zero_at_pi", "equal_form", "circle_zero_angles"]
 
 LOOP_K, LOOP_B, LOOP_M = 0, 1, 2
 #: a cable loop's certified crossings are given up (the scan answers) where h's terms exceed |h| by more than this
@@ -117,7 +117,8 @@ def _parts_filter(velocity: VelocityTransfer) -> tuple:
         r_q, p_mul = _average_q(len(r))
         avg_n = len(r)
     else:
-        circle = _circle_zeros(velocity.r)   # a zero of R on the circle: a pole of h_B, h_M there
+        # a root of R within 1e-6 of the circle: the scan answers h_B, h_M (whose poles circle_zero_angles decides)
+        circle = _circle_zeros(velocity.r)
         r_q, p_mul = r, np.ones(1)
     for x in (r, d, r_q, p_mul):
         x.setflags(write=False)
@@ -133,6 +134,86 @@ def v_zero_at_pi(velocity: VelocityTransfer) -> bool:
     θ = π is a pole of h_B and h_M (V_n and A_n vanish, −1/G_n(π) does not): no finite gain puts a closed-loop pole
     at z = −1 (1 + C·G there is 1 + K·G(−1), whatever B and M), so π is no crossing of those loops."""
     return sum((Fraction(c) if k % 2 == 0 else -Fraction(c) for k, c in enumerate(velocity.r)), Fraction(0)) == 0
+
+
+def equal_form(velocity: VelocityTransfer) -> tuple[int, float]:
+    """(n, c) when R = c·(1 + w + … + w^{n−1}) exactly, n ≥ 2 (every moving average, and a transfer function whose
+    R's coefficients are all equal): then V_n = (1 − w)R/D = c·(1 − wⁿ)/D, whose zeros on the circle are exactly
+    e^{2πjk/n}, k = 1 … n − 1; (0, 0.0) otherwise."""
+    r = velocity.r
+    if len(r) >= 2 and r[0] != 0.0 and all(c == r[0] for c in r):
+        return len(r), float(r[0])
+    return 0, 0.0
+
+
+@lru_cache(maxsize=1024)
+def circle_zero_angles(velocity: VelocityTransfer) -> tuple[float, ...] | None:
+    """θ ∈ (0, π) of V's zeros on the unit circle other than z = 1 and z = −1 (``v_zero_at_pi`` decides π), decided
+    exactly: 2πk/n (rounded once) for R = c·(1 + … + w^{n−1}) (``equal_form``); () where R has no zero on the circle
+    but z = −1 (``_no_other_circle_zero``: R's gcd with its reversal is (1 + w)^m, modulo a prime); None where that is
+    not decided (R shares another factor with its reversal: a zero on the circle, or a pair ζ, 1/ζ).  Each angle is a
+    pole of h_B and h_M (V, A vanish there; −1/G_n does not), never a crossing."""
+    n, _ = equal_form(velocity)
+    if n:
+        return average_zero_angles(n)
+    return () if _no_other_circle_zero(velocity.r) else None
+
+
+#: primes for the modular gcd (2⁶¹ − 1 and 2³¹ − 1)
+_PRIMES = (2305843009213693951, 2147483647)
+
+
+def _no_other_circle_zero(r: tuple[float, ...]) -> bool:
+    """True when every root of R on the unit circle is −1: deg gcd(R, R̃) = m (R̃ the reversed R, m the multiplicity
+    of −1, counted in rational arithmetic), with the gcd taken modulo a prime p dividing neither end coefficient
+    (then deg gcd over ℚ ≤ deg gcd mod p, and (1 + w)^m divides both).  A zero ζ ≠ ±1 on the circle of a real R is
+    also one of R̃ (R̃(ζ) = ζ^N·R(1/ζ) = ζ^N·R(ζ̄) = 0), so it would raise the gcd's degree.  False: not decided."""
+    q = [Fraction(c) for c in r]
+    while q and q[0] == 0:
+        q = q[1:]                                  # a factor w^j: no zero on the circle
+    if len(q) < 2:
+        return True
+    scale = 1
+    for c in q:
+        scale = scale * c.denominator // math.gcd(scale, c.denominator)
+    ints = [int(c * scale) for c in q]
+    m = _pi_multiplicity(q)
+    for p in _PRIMES:
+        if ints[0] % p == 0 or ints[-1] % p == 0:
+            continue
+        if _gcd_degree_mod(ints, ints[::-1], p) == m:
+            return True
+    return False
+
+
+def _pi_multiplicity(q: list[Fraction]) -> int:
+    """How many times 1 + w divides R exactly (synthetic division by w = −1 in rational arithmetic)."""
+    m = 0
+    while len(q) > 1:
+        out = [q[-1]]
+        for c in q[-2:0:-1]:
+            out.append(c - out[-1])                # dividing Σ q_k w^k by (w + 1) from the top
+        if q[0] - out[-1] != 0:
+            break
+        q, m = out[::-1], m + 1
+    return m
+
+
+def _gcd_degree_mod(a: list[int], b: list[int], p: int) -> int:
+    """deg gcd(a, b) over ℤ/p (ascending coefficients; Euclid on the descending lists)."""
+    def trim(x: list[int]) -> list[int]:
+        x = [c % p for c in x]
+        while x and x[0] == 0:
+            x = x[1:]
+        return x
+    x, y = trim(a[::-1]), trim(b[::-1])
+    while y:
+        inv = pow(y[0], p - 2, p)
+        while len(x) >= len(y) and x:
+            f = x[0] * inv % p
+            x = trim([xi - f * yi for xi, yi in zip(x, y + [0] * (len(x) - len(y)))])
+        x, y = y, x
+    return len(x) - 1
 
 
 def butter_form(r: tuple[float, ...]) -> bool:
@@ -376,11 +457,37 @@ def _poly_w(c, w):
 
 
 @kernel
+def _equal(r):
+    """R = c·(1 + w + … + w^{n−1}), n ≥ 2 (``equal_form``)."""
+    if r.size < 2 or r[0] == 0.0:
+        return False
+    for i in range(1, r.size):
+        if r[i] != r[0]:
+            return False
+    return True
+
+
+@kernel
+def _one_minus_w_power(n, theta):
+    """1 − e^{−jnθ} = 2 sin²(r/2) + j sin r, r = nθ − 2πm reduced in extended precision (as
+    optim.stability.rendered._one_minus_w_power: Veltkamp's split of θ, 2π in three pieces, Sterbenz)."""
+    split = theta * 134217729.0
+    t1 = split - (split - theta)
+    t2 = theta - t1
+    m = float(round(n * theta / (2.0 * math.pi)))
+    r = (((n * t1 - m * 6.2831853069365025) + n * t2) - m * 2.4308402025215864e-10) - m * 8.089064995183803e-21
+    s = math.sin(0.5 * r)
+    return complex(2.0 * s * s, math.sin(r))
+
+
+@kernel
 def _h(theta, loop, nums, modal, r, dd, alpha, beta, mu):
     """The loop's h(θ), accurate (models.discretize.RigidZOH.inverse_response, models.velocity_filter):
     nums = (1 − p, a, c, Φ₁₂, Γ0p, Γ0v, Γ1p, Γ1v, d, fractional, has Nyquist value, the value, cable); a cable's
     1/G_n is its modal form's (``modal``: optim.stability.cable_kernel._inv_response, the cable K_cr's own).  nan
-    where a division is by 0 (a zero of the plant's numerator, of D, or of V or A on the circle for h_B, h_M)."""
+    where a division is by 0 (a zero of the plant's numerator, of D, or of V or A on the circle for h_B, h_M).  V is
+    c(1 − wⁿ)/D where R's coefficients are all equal (a moving average: ``_one_minus_w_power``, accurate next to
+    its zeros 2πk/n, as optim.stability.rendered.velocity_response), else (1 − w)R/D by Horner."""
     nan = complex(math.nan, math.nan)
     omp = nums[0]
     s = math.sin(0.5 * theta)
@@ -408,7 +515,10 @@ def _h(theta, loop, nums, modal, r, dd, alpha, beta, mu):
     dv = _poly_w(dd, w)
     if dv == 0.0:
         return nan
-    v = omw * _poly_w(r, w) / dv
+    if _equal(r):
+        v = r[0] * _one_minus_w_power(r.size, theta) / dv        # c(1 − wⁿ)/D: accurate next to 2πk/n
+    else:
+        v = omw * _poly_w(r, w) / dv
     acc = v * omw
     if loop == 0:
         return -inv - beta * v - mu * acc

@@ -26,7 +26,7 @@ from models.discretize import RigidZOH, split_delay
 from models.velocity_filter import Rendering
 from optim.errors import InputError
 from optim.stability.crossovers import positive_real_crossings, scan_grid, theta_min
-from optim.stability.rendered import Passage, real_crossings, velocity_response
+from optim.stability.rendered import Passage, loop_poles, real_crossings, velocity_response
 from optim.stability.rendered_rigid import v_zero_at_pi
 
 from .wall_plant import WallCritical, WallModes
@@ -91,7 +91,7 @@ class RenderedWall:
             v = velocity_response(vel, theta)
             with np.errstate(over="ignore", divide="ignore"):
                 return (self._inv(theta) - mu * v * -np.expm1(-1j * theta)) / np.where(np.abs(v) < _TINY, _TINY, v)
-        found = real_crossings(h, self._grid(0.0), v_zero_at_pi(vel))
+        found = real_crossings(h, self._grid(0.0), v_zero_at_pi(vel), loop_poles(vel))
         if mu == 0.0:
             self._damper = found
         return found
@@ -113,7 +113,7 @@ class RenderedWall:
             a = v * -np.expm1(-1j * theta)
             with np.errstate(over="ignore", divide="ignore"):
                 return (self._inv(theta) - beta * v) / np.where(np.abs(a) < _TINY, _TINY, a)
-        return real_crossings(h, self._grid(beta), v_zero_at_pi(vel))
+        return real_crossings(h, self._grid(beta), v_zero_at_pi(vel), loop_poles(vel))
 
     def _reduced(self, beta: float) -> int:
         """Unstable poles of the K = 0⁺ loop at (β, μ) (InputError when the count is not resolved)."""
