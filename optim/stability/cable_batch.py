@@ -30,6 +30,7 @@ import numpy as np
 
 from models.device import Device, with_delay
 from models.discretize import StateSpaceZOH, split_delay
+from models.plants import stiffness_loop_plant
 from optim.errors import InputError
 from optim.stability.cable_kernel import batch_rows
 from optim.stability.cable_loop import CableLoop, cable_loop, with_whole_delay
@@ -98,13 +99,19 @@ def cable_critical_stiffness_batch(devices: Sequence[Device], damping: float | n
 
 def cable_critical_stiffness_grouped(bases: Sequence[Device], group: np.ndarray, delays: np.ndarray,
                                      damping: float | np.ndarray = 0.0,
-                                     devices: Sequence[Device] | None = None) -> CableBatch:
+                                     devices: Sequence[Device] | None = None,
+                                     cache_plants: bool = True) -> CableBatch:
     """:func:`cable_critical_stiffness_batch` of the rows ``models.device.with_delay(bases[group[i]], delays[i])``
     without a Device per row (issue 32: a study chunk's cable × delay grid): each row's numbers (d = t_d/T, δ, the
     scales) are read from its base's fields by the same float operations as the Device's properties, elementwise;
     a base's plant is sampled once per fractional part of its rows' delays (the device of its first such row), and
     a row handed to margins gets its Device then (``devices[i]`` when the caller holds them).  Every base must have
-    a cable; a base's own delay is not read."""
+    a cable; a base's own delay is not read.
+
+    ``cache_plants=False`` samples the plants by models.plants.stiffness_loop_plant instead of margins.loop_plant
+    (the same plant; loop_plant keeps the last 4096 with their factored loops): a study's chunks never ask for a
+    group's plant again, and a worker that held 4096 of them (≈ 90k objects) spent ≈ 3-5 µs a point more in the
+    garbage collector's full passes (issue 32, docs/profile_cable_studies.md)."""
     n = len(group)
     bvec = _as_vector(damping, n)
     g = np.asarray(group, dtype=np.int64)
@@ -140,12 +147,13 @@ def cable_critical_stiffness_grouped(bases: Sequence[Device], group: np.ndarray,
     _, unit_first, unit_of = np.unique(unit_code, return_index=True, return_inverse=True)
     shared: dict[tuple, CableLoop | None] = {}
     plants: dict[tuple, StateSpaceZOH] = {}
+    sample = loop_plant if cache_plants else stiffness_loop_plant
     loops: list[tuple] = []
     loop_of: dict[tuple, int] = {}
     unit_key: list[tuple] = [()] * len(unit_first)
     unit_li = np.full(len(unit_first), -1, dtype=np.int64)
     for u in np.argsort(unit_first, kind="stable").tolist():      # in the rows' order (the caches' order)
-        plant = loop_plant(device(int(live_rows[unit_first[u]])))
+        plant = sample(device(int(live_rows[unit_first[u]])))
         key = _plant_key(plant)
         if key not in shared:
             loop = cable_loop(plant)

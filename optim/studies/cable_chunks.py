@@ -112,8 +112,9 @@ def grouped_arrays(bases: Sequence[Device], base_of: np.ndarray, delays: np.ndar
             g = by_key[key] = len(firsts)
             firsts.append(dev)
         group_of_base[j] = g
+    # the plants not kept (cache_plants=False): a study's chunk is the only one to ask for its groups' plants
     got = cable_critical_stiffness_grouped(firsts, group_of_base[np.asarray(base_of, dtype=np.int64)],
-                                           np.asarray(delays, dtype=float), b)
+                                           np.asarray(delays, dtype=float), b, cache_plants=False)
     return BatchCritical(got.critical_stiffness, got.crossover_angle, got.max_stable_damping, 0)
 
 
