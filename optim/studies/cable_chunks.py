@@ -13,6 +13,9 @@ chunk they are in.
 the groups one by one through it); tests/optim/studies/test_cable_chunks.py holds the chunk-wide call, the group by
 group one and the ungrouped batch to the same bits.
 
+:func:`grouped_arrays` takes a chunk already held as rows (base device, delay) (optim.studies.cable_columns: no
+Device per point, the plants not kept in margins.loop_plant's cache) and gives critical_arrays' numbers for them.
+
 Undamped cables (every cable damping 0) are not grouped here: they stay with optim.robust.batch's scan.
 """
 

@@ -4,10 +4,12 @@ A cable study (e.g. the lhifam preset over device.cable.stiffness × device.dela
 by the per-point path (optim.studies.problems.evaluate_chunk) as: one validated Device per set of the non-delay swept
 values, copied with each point's delay; every damped cable of the chunk in one
 optim.studies.cable_chunks.critical_arrays call; a row dict per point (critical_study.row) that the block then turns
-back into columns.  This module makes the same Devices the same way (the same validation, the same copies) and the
-same critical_arrays call, and writes the results straight as columns (optim.studies.columns.critical_columns: the
-same floating-point operations as critical_study.row, elementwise), so a point's results are bit for bit the
-per-point path's (tests/service/test_studies_blocks.py holds both paths against each other on cable grids).
+back into columns.  This module validates the same Devices the same way (one per set of non-delay values, the same
+rule for a copied delay) but holds each point as (its base device, its delay) without a copy per point, answers the
+chunk by optim.studies.cable_chunks.grouped_arrays (critical_arrays' numbers for those Devices, issue 32), and writes
+the results straight as columns (optim.studies.columns.critical_columns: the same floating-point operations as
+critical_study.row, elementwise), so a point's results are bit for bit the per-point path's
+(tests/service/test_studies_blocks.py holds both paths against each other on cable grids).
 
 Left to the per-point path (not handled): a point whose device does not validate, whose swept wall value breaks the
 stability problem's rules, or which is not a damped cable (an undamped cable's scan depends on its delay class:
