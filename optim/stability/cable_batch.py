@@ -28,8 +28,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from models.device import Device
+from models.device import Device, with_delay
 from models.discretize import StateSpaceZOH, split_delay
+from models.plants import stiffness_loop_plant
 from optim.errors import InputError
 from optim.stability.cable_kernel import batch_rows
 from optim.stability.cable_loop import CableLoop, cable_loop, with_whole_delay
@@ -42,7 +43,7 @@ from optim.stability.margins import (
 )
 from optim.stability.undamped_cable import NEAR_LOSSLESS_GAP, is_undamped_cable, mode_gap
 
-__all__ = ["CableBatch", "cable_critical_stiffness_batch"]
+__all__ = ["CableBatch", "cable_critical_stiffness_batch", "cable_critical_stiffness_grouped"]
 
 
 @dataclass(frozen=True)
@@ -78,84 +79,128 @@ def cable_critical_stiffness_batch(devices: Sequence[Device], damping: float | n
     equal but for their delay (a study chunk's cable × delay grid, optim.studies.cable_chunks).  Then the plant is
     sampled once per group and fractional part of the delay, not once per device: the rows' numbers are the same
     (the factored loop of a plant depends on its fractional delay alone; the whole samples d are the loop's numbers
-    s and d), only the per-device sampling is saved."""
+    s and d), only the per-device sampling is saved.  (:func:`cable_critical_stiffness_grouped` with each group's
+    first device as its base and each device's delay.)"""
     n = len(devices)
+    if groups is not None and len(groups) != n:
+        raise InputError("groups", f"one group number per device: {len(groups)} for {n} devices")
+    if groups is None:
+        bases, row_group = list(devices), np.arange(n, dtype=np.int64)
+    else:
+        first: dict[int, int] = {}
+        row_group = np.array([first.setdefault(g, len(first)) for g in groups], dtype=np.int64)
+        bases = [None] * len(first)
+        for i, g in enumerate(row_group.tolist()):
+            if bases[g] is None:
+                bases[g] = devices[i]
+    delays = np.array([dev.delay for dev in devices], dtype=float)
+    return cable_critical_stiffness_grouped(bases, row_group, delays, damping, devices=devices)
+
+
+def cable_critical_stiffness_grouped(bases: Sequence[Device], group: np.ndarray, delays: np.ndarray,
+                                     damping: float | np.ndarray = 0.0,
+                                     devices: Sequence[Device] | None = None,
+                                     cache_plants: bool = True) -> CableBatch:
+    """:func:`cable_critical_stiffness_batch` of the rows ``models.device.with_delay(bases[group[i]], delays[i])``
+    without a Device per row (issue 32: a study chunk's cable × delay grid): each row's numbers (d = t_d/T, δ, the
+    scales) are read from its base's fields by the same float operations as the Device's properties, elementwise;
+    a base's plant is sampled once per fractional part of its rows' delays (the device of its first such row), and
+    a row handed to margins gets its Device then (``devices[i]`` when the caller holds them).  Every base must have
+    a cable; a base's own delay is not read.
+
+    ``cache_plants=False`` samples the plants by models.plants.stiffness_loop_plant instead of margins.loop_plant
+    (the same plant; loop_plant keeps the last 4096 with their factored loops): a study's chunks never ask for a
+    group's plant again, and a worker that held 4096 of them (≈ 90k objects) spent ≈ 3-5 µs a point more in the
+    garbage collector's full passes (issue 32, docs/profile_cable_studies.md)."""
+    n = len(group)
     bvec = _as_vector(damping, n)
+    g = np.asarray(group, dtype=np.int64)
+    dl = np.asarray(delays, dtype=float)
     kcr = np.full(n, math.nan)
     ang = np.full(n, math.nan)
     bmax = np.full(n, math.nan)
     paths = ["fast"] * n
-    rows: list[int] = []
-    # each factored loop's arrays once (the kernel finds a row's by its index in ``loops``), and each row's index and
-    # whole delay d (its numbers s and d: the loop's own moved to d, _row_nums)
+
+    def device(i: int) -> Device:
+        return devices[i] if devices is not None else with_delay(bases[int(g[i])], float(dl[i]))
+
+    rigid = [j for j, base in enumerate(bases) if base.cable is None]
+    if rigid:
+        first = np.flatnonzero(np.isin(g, rigid))
+        i = int(first[0]) if len(first) else rigid[0]
+        raise InputError("devices", f"device {i} has no cable: rigid devices take optim.stability.fast_batch")
+    # each base's numbers (the Device properties' own float operations), then each row's by its base
+    st = np.array([b.sample_time for b in bases], dtype=float)
+    bdamp = np.array([b.damping for b in bases], dtype=float)
+    undamped = np.array([is_undamped_cable(b) for b in bases], dtype=bool)
+    ds_all = dl / st[g]                                   # Device.delay_samples: delay / sample_time
+    live = ~undamped[g] & ~(bdamp[g] + bvec <= 0.0)       # the rows the brackets may take
+    # whole samples d and fractional part f of each row's delay (split_delay, once per distinct value)
+    uds, inv = np.unique(ds_all[live], return_inverse=True)
+    split = [split_delay(v) for v in uds.tolist()]
+    d_live = np.array([s[0] for s in split], dtype=np.int64)[inv]
+    f_live = np.array([s[1] for s in split], dtype=float)[inv]
+    live_rows = np.flatnonzero(live)
+    # one sampled plant per (base, fractional delay): a "unit"; its key (plant matrices and f) shared by equal plants
+    fu, finv = np.unique(f_live, return_inverse=True)
+    unit_code = g[live_rows] * max(1, len(fu)) + finv
+    _, unit_first, unit_of = np.unique(unit_code, return_index=True, return_inverse=True)
+    shared: dict[tuple, CableLoop | None] = {}
+    plants: dict[tuple, StateSpaceZOH] = {}
+    sample = loop_plant if cache_plants else stiffness_loop_plant
     loops: list[tuple] = []
     loop_of: dict[tuple, int] = {}
-    row_loop: list[int] = []
-    row_d: list[int] = []
-    # devices that differ only in their whole delay share the factored loop (its numbers s and d aside)
-    shared: dict[tuple, CableLoop | None] = {}
-    # rows of one sampled plant (at several B) solve its damper-only loop once: the first such row's index
-    seen: dict[tuple, int] = {}
-    same: list[int] = []
-    # (group, fractional delay) -> the key of its sampled plant (with ``groups``: one plant sampled per pair)
-    sampled: dict[tuple[int, float], tuple] = {}
-    # the sampled plant of each key, and each row's (key, whole delay d): a handed-off row takes its plant from there
-    plants: dict[tuple, StateSpaceZOH] = {}
-    row_plant: dict[int, tuple[tuple, int]] = {}
-    if groups is not None and len(groups) != n:
-        raise InputError("groups", f"one group number per device: {len(groups)} for {n} devices")
-    blist = bvec.tolist()
-    for i, dev in enumerate(devices):
-        if dev.cable is None:
-            raise InputError("devices", f"device {i} has no cable: rigid devices take optim.stability.fast_batch")
-        if is_undamped_cable(dev) or dev.damping + blist[i] <= 0.0:
-            continue
-        fresh = None
-        if groups is None:
-            fresh = loop_plant(dev)
-            d, key = fresh.d, _plant_key(fresh)
-        else:
-            d, f = split_delay(dev.delay_samples)      # as stiffness_loop_plant splits it
-            known = sampled.get((groups[i], f))
-            if known is None:
-                fresh = loop_plant(dev)
-                known = sampled[(groups[i], f)] = _plant_key(fresh)
-            key = known
+    unit_key: list[tuple] = [()] * len(unit_first)
+    unit_li = np.full(len(unit_first), -1, dtype=np.int64)
+    for u in np.argsort(unit_first, kind="stable").tolist():      # in the rows' order (the caches' order)
+        plant = sample(device(int(live_rows[unit_first[u]])))
+        key = _plant_key(plant)
         if key not in shared:
-            plant = fresh if fresh is not None else loop_plant(dev)
             loop = cable_loop(plant)
             plants[key] = plant
             shared[key] = loop if loop is not None and mode_gap(plant) >= NEAR_LOSSLESS_GAP else None
-        row_plant[i] = (key, d)
-        got = shared[key]
-        if got is None:
-            continue
-        li = loop_of.get(key)
-        if li is None:
-            li = loop_of[key] = len(loops)
-            loops.append(got.arrays)
-        same.append(seen.setdefault((key, d), len(rows)))
-        rows.append(i)
-        row_loop.append(li)
-        row_d.append(d)
-    taken = set(rows)
-    handoff = [i for i in range(n) if i not in taken]
-    if rows:
-        idx = np.array(rows)
-        devs = [devices[i] for i in rows]
-        bs = np.array([d.damping_scale for d in devs])
-        ks = np.array([d.stiffness_scale for d in devs])
-        delta = np.array([d.delta for d in devs])
-        ds = np.array([d.delay_samples for d in devs])
+        unit_key[u] = key
+        if shared[key] is not None:
+            li = loop_of.get(key)
+            if li is None:
+                li = loop_of[key] = len(loops)
+                loops.append(shared[key].arrays)
+            unit_li[u] = li
+    # each live row's plant (a handed-off row takes it from there) and, for the rows the brackets take, their loop
+    row_li_live = unit_li[unit_of] if len(unit_of) else np.zeros(0, dtype=np.int64)
+    taken = row_li_live >= 0
+    idx = live_rows[taken]
+    handoff = np.flatnonzero(~live).tolist() + live_rows[~taken].tolist()
+
+    def row_plant(i: int) -> tuple[tuple, int] | None:
+        """(plant key, whole delay d) of a live row, None for a row the brackets never sampled."""
+        k = int(np.searchsorted(live_rows, i))
+        if k == len(live_rows) or live_rows[k] != i:
+            return None
+        return unit_key[int(unit_of[k])], int(d_live[k])
+
+    if len(idx):
+        loop_idx = row_li_live[taken]
+        d_rows = d_live[taken]
+        # rows of one sampled plant at one whole delay (at several B) solve its damper-only loop once: the first
+        # such row's position
+        pair = loop_idx * (int(d_rows.max()) + 1) + d_rows
+        _, pair_first, pair_of = np.unique(pair, return_index=True, return_inverse=True)
+        same = pair_first[pair_of].astype(np.int64)
+        gi = g[idx]
+        mass = np.array([b.mass for b in bases], dtype=float)
+        t = st[gi]
+        bs = (mass / st)[gi]                              # Device.damping_scale: m/T
+        ks = (mass / st**2)[gi]                           # Device.stiffness_scale: m/T²
+        delta = (bdamp * st / mass)[gi]                   # Device.delta: bT/m
+        ds = ds_all[idx]
         betas = bvec[idx] / bs
         # crossovers.theta_min's array form: the scalar form's bits, elementwise (as margins._theta_min's δ + β)
         lo_b = np.atleast_1d(theta_min(delta, ds))
         lo_k = np.atleast_1d(theta_min(delta + betas, ds))
         fr, fc, modal, nums, splits, f_off, s_off = _stack(loops)
-        loop_idx = np.array(row_loop, dtype=np.int64)
-        st_b, th_b, al_b, st_k, th_k, al_k = batch_rows(fr, fc, modal, _row_nums(nums, loop_idx, np.array(row_d)),
-                                                        splits, f_off, s_off, loop_idx, betas, lo_b, lo_k,
-                                                        np.array(same, dtype=np.int64))
+        st_b, th_b, al_b, st_k, th_k, al_k = batch_rows(fr, fc, modal, _row_nums(nums, loop_idx, d_rows), splits,
+                                                        f_off, s_off, loop_idx, betas, lo_b, lo_k, same)
         # each row's case, elementwise (the same float operations as margins' scalar ones, so the same bits)
         b = bvec[idx]
         ok_b = st_b == 2
@@ -170,14 +215,13 @@ def cable_critical_stiffness_batch(devices: Sequence[Device], damping: float | n
         inf = solved & (st_k == 1)
         fin = solved & (st_k == 2)
         kcr[idx[inf]] = math.inf
-        t = np.array([d.sample_time for d in devs])
         kcr[idx[fin]] = al_k[fin] * ks[fin]
         ang[idx[fin]] = th_k[fin] / t[fin] * t[fin]          # ω·T as margins' ω = θ/T gives it
         handoff += idx[~(dead | solved)].tolist()
     for i in sorted(handoff):
-        dev, b = devices[i], float(bvec[i])
+        dev, b = device(i), float(bvec[i])
         bm = bmax[i] if math.isfinite(bmax[i]) else max_stable_damping(dev)
-        known_plant = row_plant.get(i)
+        known_plant = row_plant(i)
         res = critical_stiffness(dev, b, b_max=bm if b > 0.0 else None,
                                  plant=None if known_plant is None else _at_whole_delay(plants[known_plant[0]],
                                                                                          known_plant[1]))

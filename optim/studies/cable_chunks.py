@@ -13,6 +13,9 @@ chunk they are in.
 the groups one by one through it); tests/optim/studies/test_cable_chunks.py holds the chunk-wide call, the group by
 group one and the ungrouped batch to the same bits.
 
+:func:`grouped_arrays` takes a chunk already held as rows (base device, delay) (optim.studies.cable_columns: no
+Device per point, the plants not kept in margins.loop_plant's cache) and gives critical_arrays' numbers for them.
+
 Undamped cables (every cable damping 0) are not grouped here: they stay with optim.robust.batch's scan.
 """
 
@@ -25,10 +28,11 @@ from pydantic import BaseModel
 
 from models.device import Device
 from optim.robust.batch import BatchCritical, batch_critical_stiffness
-from optim.stability.cable_batch import cable_critical_stiffness_batch
+from optim.stability.cable_batch import cable_critical_stiffness_batch, cable_critical_stiffness_grouped
 from optim.stability.undamped_cable import is_undamped_cable
 
-__all__ = ["GroupCritical", "cable_group_critical", "is_grouped_cable", "group_key", "critical_arrays"]
+__all__ = ["GroupCritical", "cable_group_critical", "is_grouped_cable", "group_key", "critical_arrays",
+           "grouped_arrays"]
 
 #: (base device, delays [s], virtual dampings B [N·s/m]) -> (K_cr [N/m], crossover angle ωT [rad], B_max [N·s/m])
 GroupCritical = Callable[[Device, np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]]
@@ -79,13 +83,42 @@ def cable_group_critical(base: Device, delays: np.ndarray, damping: np.ndarray
     """K_cr [N/m], crossover angle ωT [rad] (nan when K_cr is 0 or inf) and B_max [N·s/m] of the damped cable
     ``base`` at each (delay [s], B [N·s/m]) pair: each point as optim.stability.margins answers it alone.
 
-    By optim.stability.cable_batch.cable_critical_stiffness_batch: one compiled call for the group's rows (the
+    By optim.stability.cable_batch.cable_critical_stiffness_grouped: one compiled call for the group's rows (the
     factored loop shared by the whole delays), margins' own answers for the rows it hands off."""
-    devices = [base.model_copy(update={"delay": float(d)}) for d in delays]
     if base.cable is None or is_undamped_cable(base):
         raise ValueError("cable_group_critical takes damped cable devices only")
-    got = cable_critical_stiffness_batch(devices, np.asarray(damping, dtype=float))
+    delays = np.asarray(delays, dtype=float)
+    got = cable_critical_stiffness_grouped([base], np.zeros(len(delays), dtype=np.int64), delays,
+                                           np.asarray(damping, dtype=float))
     return got.critical_stiffness, got.crossover_angle, got.max_stable_damping
+
+
+def grouped_arrays(bases: Sequence[Device], base_of: np.ndarray, delays: np.ndarray,
+                   damping: np.ndarray) -> BatchCritical:
+    """:func:`critical_arrays` of the rows ``models.device.with_delay(bases[base_of[i]], delays[i])`` without a
+    Device per row (issue 32: a study chunk's bases are its validated devices, one per set of non-delay values):
+    bases equal but for their delay (group_key) are one group; every base must be a damped cable
+    (:func:`is_grouped_cable`).  The numbers are critical_arrays' of those Devices (tests/service/
+    test_studies_blocks.py, tests/optim/studies/test_cable_chunks.py)."""
+    n = len(base_of)
+    b = np.broadcast_to(np.asarray(damping, float), (n,)).copy()
+    blocks: dict[int, object] = {}
+    by_key: dict[tuple, int] = {}
+    firsts: list[Device] = []
+    group_of_base = np.empty(len(bases), dtype=np.int64)
+    for j, dev in enumerate(bases):
+        if not is_grouped_cable(dev):
+            raise ValueError("grouped_arrays takes damped cable devices only")
+        key = group_key(dev, blocks)
+        g = by_key.get(key)
+        if g is None:
+            g = by_key[key] = len(firsts)
+            firsts.append(dev)
+        group_of_base[j] = g
+    # the plants not kept (cache_plants=False): a study's chunk is the only one to ask for its groups' plants
+    got = cable_critical_stiffness_grouped(firsts, group_of_base[np.asarray(base_of, dtype=np.int64)],
+                                           np.asarray(delays, dtype=float), b, cache_plants=False)
+    return BatchCritical(got.critical_stiffness, got.crossover_angle, got.max_stable_damping, 0)
 
 
 def critical_arrays(devices: Sequence[Device], damping: np.ndarray,

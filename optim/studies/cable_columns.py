@@ -4,10 +4,12 @@ A cable study (e.g. the lhifam preset over device.cable.stiffness × device.dela
 by the per-point path (optim.studies.problems.evaluate_chunk) as: one validated Device per set of the non-delay swept
 values, copied with each point's delay; every damped cable of the chunk in one
 optim.studies.cable_chunks.critical_arrays call; a row dict per point (critical_study.row) that the block then turns
-back into columns.  This module makes the same Devices the same way (the same validation, the same copies) and the
-same critical_arrays call, and writes the results straight as columns (optim.studies.columns.critical_columns: the
-same floating-point operations as critical_study.row, elementwise), so a point's results are bit for bit the
-per-point path's (tests/service/test_studies_blocks.py holds both paths against each other on cable grids).
+back into columns.  This module validates the same Devices the same way (one per set of non-delay values, the same
+rule for a copied delay) but holds each point as (its base device, its delay) without a copy per point, answers the
+chunk by optim.studies.cable_chunks.grouped_arrays (critical_arrays' numbers for those Devices, issue 32), and writes
+the results straight as columns (optim.studies.columns.critical_columns: the same floating-point operations as
+critical_study.row, elementwise), so a point's results are bit for bit the per-point path's
+(tests/service/test_studies_blocks.py holds both paths against each other on cable grids).
 
 Left to the per-point path (not handled): a point whose device does not validate, whose swept wall value breaks the
 stability problem's rules, or which is not a damped cable (an undamped cable's scan depends on its delay class:
@@ -24,7 +26,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from models.device import MAX_DELAY_SAMPLES, Device
-from optim.studies.cable_chunks import critical_arrays, is_grouped_cable
+from optim.studies.cable_chunks import grouped_arrays, is_grouped_cable
 
 __all__ = ["evaluate_cable_columns", "CABLE_COLUMN_REQUIREMENTS"]
 
@@ -45,7 +47,7 @@ def evaluate_cable_columns(problem: str, device: Mapping[str, Any], requirements
     """(handled, columns, errors) of the chunk's points as optim.studies.columns.evaluate_columns gives them, or None
     when the chunk is not for the cable column path (module docstring)."""
     from optim.studies.columns import critical_columns, scatter_columns
-    from optim.studies.problems import point_builder, with_delay
+    from optim.studies.problems import point_builder
 
     if problem != "critical_stiffness":
         return None
@@ -75,48 +77,64 @@ def evaluate_cable_columns(problem: str, device: Mapping[str, Any], requirements
             ok &= np.isfinite(req["stiffness"]) & (req["stiffness"] > 0)
         if req["damping"] is not None:
             ok &= np.isfinite(req["damping"]) & (req["damping"] >= 0)
-    # the points' Devices exactly as optim.studies.problems._evaluate_chunk_batch makes them: the first point of each
-    # set of non-delay values validated whole, the others its copy with their delay (where the delay is a plain
-    # finite number within the samples limit; any other point validated whole)
+    # the points' devices as optim.studies.problems._evaluate_chunk_batch makes them: the first point of each set of
+    # non-delay values validated whole (a "base"), the others that base with their delay (where the delay is a plain
+    # finite number within the samples limit; any other point validated whole, its own base) — held as (base, delay)
+    # without a Device per point (grouped_arrays: the Device's numbers read from its base, issue 32)
     build = point_builder(device, requirements, axes)
     delay_axis = next((j for j, (path, _) in enumerate(axes) if path == "device.delay"), None)
     others = [j for j in range(len(axes)) if j != delay_axis]
-    by_rest: dict[tuple, Device] = {}
+    by_rest: dict[tuple, int] = {}
     validate = Device.model_validate
-    handled = np.zeros(n, bool)
+    bases: list[Device] = []
+    grouped: list[bool] = []
+    limits: list[float] = []
     rows: list[int] = []
-    devices: list[Device] = []
+    base_of: list[int] = []
+    delays: list[float] = []
+    okl = ok.tolist()
     for i, vals in enumerate(values.tolist()):
-        try:
-            dev = None
-            if delay_axis is not None:
-                delay = vals[delay_axis]
-                rest = tuple([vals[j] for j in others])
-                known = by_rest.get(rest)
-                if (known is not None and type(delay) is float and 0.0 <= delay < math.inf
-                        and delay / known.sample_time <= MAX_DELAY_SAMPLES):
-                    dev = with_delay(known, delay)
-            if dev is None:
+        j = None
+        if delay_axis is not None:
+            delay = vals[delay_axis]
+            rest = tuple([vals[k] for k in others])
+            j = by_rest.get(rest)
+            if j is not None and not (type(delay) is float and 0.0 <= delay < math.inf
+                                      and delay / limits[j] <= MAX_DELAY_SAMPLES):
+                j = None
+        if j is None:
+            try:
                 dev = validate(build(vals)[0])
-                if delay_axis is not None:
-                    by_rest.setdefault(rest, dev)
-        except ValueError:
-            continue
-        if ok[i] and is_grouped_cable(dev):
-            handled[i] = True
+            except ValueError:
+                continue
+            j = len(bases)
+            bases.append(dev)
+            grouped.append(is_grouped_cable(dev))
+            limits.append(dev.sample_time)
+            delay = dev.delay
+            if delay_axis is not None:
+                by_rest.setdefault(rest, j)
+        if okl[i] and grouped[j]:
             rows.append(i)
-            devices.append(dev)
+            base_of.append(j)
+            delays.append(delay)
+    handled = np.zeros(n, bool)
     idx = np.array(rows, dtype=np.int64)
+    handled[idx] = True
     b = req["damping"][idx] if req["damping"] is not None else np.zeros(len(idx))
     k = req["stiffness"][idx] if req["stiffness"] is not None else None
+    used = sorted(set(base_of))                    # the bases of handled points (grouped_arrays takes those alone)
+    renum = {j: u for u, j in enumerate(used)}
+    of = np.array([renum[j] for j in base_of], dtype=np.int64)
+    kept = [bases[j] for j in used]
+    td = np.array(delays, dtype=float)
     try:
         with np.errstate(all="ignore"):
-            res = critical_arrays(devices, b)
+            res = grouped_arrays(kept, of, td, b)
     except Exception:  # noqa: BLE001 - the per-point path bisects down to the point that raises, and words it
         return None
-    bp = np.array([d.damping for d in devices], dtype=float)
-    t = np.array([d.sample_time for d in devices], dtype=float)
-    td = np.array([d.delay for d in devices], dtype=float)
+    bp = np.array([d.damping for d in kept], dtype=float)[of]
+    t = np.array([d.sample_time for d in kept], dtype=float)[of]
     sub_cols, sub_err = critical_columns(problem, None, bp, t, td, b, k, res)
     out, errors = scatter_columns(n, idx, sub_cols, sub_err)
     return handled, out, errors

@@ -29,7 +29,7 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 from pydantic import BaseModel, ValidationError
 
-from models.device import MAX_DELAY_SAMPLES, Device
+from models.device import MAX_DELAY_SAMPLES, Device, with_delay
 from optim.errors import InputError, from_validation
 from optim.solver_info import plain
 
@@ -592,24 +592,6 @@ def evaluate_chunk(problem: str, device: Mapping[str, Any], requirements: Mappin
 
 
 _UNCHECKED = object()
-_set_attr = object.__setattr__
-
-
-def with_delay(device: Device, delay: float) -> Device:
-    """``device.model_copy(update={"delay": delay})`` (its fields, fields set, extra and private state: a shallow
-    copy with the delay replaced, nothing validated) without pydantic's generic copy (≈ 7 µs of a study point's
-    device, issue 32); tests/optim/studies/test_studies.py holds the two equal.  A model with extra or private
-    state takes model_copy itself."""
-    if device.__pydantic_extra__ is not None or device.__pydantic_private__ is not None:
-        return device.model_copy(update={"delay": delay})
-    new = object.__new__(type(device))
-    fields = device.__dict__.copy()
-    fields["delay"] = delay
-    _set_attr(new, "__dict__", fields)
-    _set_attr(new, "__pydantic_extra__", None)
-    _set_attr(new, "__pydantic_fields_set__", device.__pydantic_fields_set__ | {"delay"})
-    _set_attr(new, "__pydantic_private__", None)
-    return new
 
 
 def _evaluate_chunk_batch(prob: Problem, device: Mapping[str, Any], requirements: Mapping[str, Any],

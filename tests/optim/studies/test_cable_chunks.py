@@ -112,3 +112,40 @@ def test_group_key_with_a_memo_of_blocks_is_the_key_without_it():
     assert keys == [group_key(d) for d in devs]
     assert keys[0] == keys[1] == keys[2]
     assert len(set(keys[2:])) == len(devs) - 2
+
+
+def test_rows_as_base_and_delay_equal_the_devices_bit_for_bit():
+    """Issue 32: cable_batch.cable_critical_stiffness_grouped and cable_chunks.grouped_arrays (rows given as a base
+    device and a delay, no Device per row) answer what cable_critical_stiffness_batch answers for the Devices
+    with_delay(base, delay), each alone (its own plant sampled): K_cr, ωT, B_max and each row's path, by bits.
+    The rows hold whole and fractional delays, bases equal by value but distinct objects (one group), a base whose
+    own delay is none of its rows', and B from 0 to past B_max (rows handed to margins, "dead" rows)."""
+    from models.device import with_delay
+    from optim.stability.cable_batch import cable_critical_stiffness_batch, cable_critical_stiffness_grouped
+    from optim.studies.cable_chunks import grouped_arrays
+
+    bases = [Device(cable={**CABLE, "stiffness": 4e4}, delay=0.0123),
+             Device(cable={**CABLE, "stiffness": 79500.0}),
+             Device(cable={**CABLE, "stiffness": 79500.0}),          # equal to the one before: one group
+             Device(cable={**CABLE, "stiffness": 2.2e5, "damping": 2.0}, sample_time=0.0005)]
+    bmax = [float(cable_critical_stiffness_batch([b]).max_stable_damping[0]) for b in bases]
+    rng = np.random.default_rng(7)
+    base_of, delays, damping = [], [], []
+    for j in range(len(bases)):
+        for delay in (0.0, 0.001, 0.0025, 0.0037, 0.004, 0.012):
+            for frac in (0.0, 0.2, 0.49, 0.51, 0.9, 0.999, 1.0, 1.3):
+                base_of.append(j)
+                delays.append(delay)
+                damping.append(frac * bmax[j] if frac else 0.0)
+    order = rng.permutation(len(base_of))                      # rows of one group apart, as any chunk may have them
+    base_of, delays, damping = (np.array(x)[order] for x in (base_of, delays, damping))
+    devices = [with_delay(bases[j], float(d)) for j, d in zip(base_of, delays)]
+    ref = cable_critical_stiffness_batch(devices, damping)
+    got = cable_critical_stiffness_grouped(bases, base_of, delays, damping)
+    arr = grouped_arrays(bases, base_of, delays, damping)
+    for name in ("critical_stiffness", "crossover_angle", "max_stable_damping"):
+        x, y, z = getattr(got, name), getattr(ref, name), getattr(arr, name)
+        assert x.tobytes() == y.tobytes() == z.tobytes(), name
+    assert got.path == ref.path and got.handed_off == ref.handed_off
+    assert ref.handed_off > 0 and "fast" in ref.path               # both kinds of rows are here
+    assert np.any(ref.critical_stiffness == 0.0) and np.any(np.isfinite(ref.crossover_angle))
