@@ -25,6 +25,7 @@ import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 
@@ -89,10 +90,10 @@ def cable_critical_stiffness_batch(devices: Sequence[Device], damping: float | n
     else:
         first: dict[int, int] = {}
         row_group = np.array([first.setdefault(g, len(first)) for g in groups], dtype=np.int64)
-        bases = [None] * len(first)
+        bases = []
         for i, g in enumerate(row_group.tolist()):
-            if bases[g] is None:
-                bases[g] = devices[i]
+            if g == len(bases):      # groups are numbered in the order they first appear
+                bases.append(devices[i])
     delays = np.array([dev.delay for dev in devices], dtype=float)
     return cable_critical_stiffness_grouped(bases, row_group, delays, damping, devices=devices)
 
@@ -153,18 +154,19 @@ def cable_critical_stiffness_grouped(bases: Sequence[Device], group: np.ndarray,
     unit_key: list[tuple] = [()] * len(unit_first)
     unit_li = np.full(len(unit_first), -1, dtype=np.int64)
     for u in np.argsort(unit_first, kind="stable").tolist():      # in the rows' order (the caches' order)
-        plant = sample(device(int(live_rows[unit_first[u]])))
+        plant = cast(StateSpaceZOH, sample(device(int(live_rows[unit_first[u]]))))   # a cable device's plant
         key = _plant_key(plant)
         if key not in shared:
             loop = cable_loop(plant)
             plants[key] = plant
             shared[key] = loop if loop is not None and mode_gap(plant) >= NEAR_LOSSLESS_GAP else None
         unit_key[u] = key
-        if shared[key] is not None:
+        got = shared[key]
+        if got is not None:
             li = loop_of.get(key)
             if li is None:
                 li = loop_of[key] = len(loops)
-                loops.append(shared[key].arrays)
+                loops.append(got.arrays)
             unit_li[u] = li
     # each live row's plant (a handed-off row takes it from there) and, for the rows the brackets take, their loop
     row_li_live = unit_li[unit_of] if len(unit_of) else np.zeros(0, dtype=np.int64)
@@ -219,16 +221,16 @@ def cable_critical_stiffness_grouped(bases: Sequence[Device], group: np.ndarray,
         ang[idx[fin]] = th_k[fin] / t[fin] * t[fin]          # ω·T as margins' ω = θ/T gives it
         handoff += idx[~(dead | solved)].tolist()
     for i in sorted(handoff):
-        dev, b = device(i), float(bvec[i])
-        bm = bmax[i] if math.isfinite(bmax[i]) else max_stable_damping(dev)
+        dev, b_i = device(i), float(bvec[i])
+        bm_i = float(bmax[i]) if math.isfinite(bmax[i]) else max_stable_damping(dev)
         known_plant = row_plant(i)
-        res = critical_stiffness(dev, b, b_max=bm if b > 0.0 else None,
+        res = critical_stiffness(dev, b_i, b_max=bm_i if b_i > 0.0 else None,
                                  plant=None if known_plant is None else _at_whole_delay(plants[known_plant[0]],
                                                                                          known_plant[1]))
         kcr[i] = res.critical_stiffness
         w = res.crossover_frequency
         ang[i] = math.nan if w is None else w * dev.sample_time
-        bmax[i] = bm
+        bmax[i] = bm_i
         paths[i] = res.path
     return CableBatch(kcr, ang, bmax, tuple(paths), len(handoff))
 

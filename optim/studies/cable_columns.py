@@ -67,9 +67,9 @@ def evaluate_cable_columns(problem: str, device: Mapping[str, Any], requirements
     for key in ("stiffness", "damping"):
         v = requirements.get(key)
         req[key] = None if v is None else np.full(n, float(v))
-    for j, (path, _) in enumerate(axes):
+    for col, (path, _) in enumerate(axes):
         if path.startswith("requirements."):
-            req[path.split(".", 1)[1]] = values[:, j].copy()
+            req[path.split(".", 1)[1]] = values[:, col].copy()
     ok = np.ones(n, bool)
     with np.errstate(all="ignore"):
         # optim.studies.problems' stability rules (the wall's K > 0, B ≥ 0, finite): a point that breaks one is left
@@ -94,7 +94,7 @@ def evaluate_cable_columns(problem: str, device: Mapping[str, Any], requirements
     delays: list[float] = []
     okl = ok.tolist()
     for i, vals in enumerate(values.tolist()):
-        j = None
+        j: int | None = None
         if delay_axis is not None:
             delay = vals[delay_axis]
             rest = tuple([vals[k] for k in others])
