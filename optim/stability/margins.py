@@ -116,9 +116,25 @@ class CriticalStiffness:
 
 
 @lru_cache(maxsize=4096)
+def _loop_plant_cached(device: Device):
+    return stiffness_loop_plant(device)
+
+
+#: The last device asked for and its plant, by identity: the LRU cache's key is the Device, whose hash and equality
+#: walk its nested pydantic models (≈ 10 µs a call on a cable device, a third of a cable K_cr); a caller that asks
+#: again with the same (frozen) object skips both.  One tuple, swapped whole (safe across threads).
+_last_plant: tuple = (None, None)
+
+
 def loop_plant(device: Device):
     """The sampled plant of ``device`` (immutable; cached: a design or a boundary asks for it many times)."""
-    return stiffness_loop_plant(device)
+    global _last_plant
+    last = _last_plant
+    if last[0] is device:
+        return last[1]
+    plant = _loop_plant_cached(device)
+    _last_plant = (device, plant)
+    return plant
 
 
 def linear_estimate(device: Device, damping: float = 0.0) -> float:
