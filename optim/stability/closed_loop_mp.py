@@ -100,16 +100,22 @@ def mp_plant_response(plant: MpPlant, theta) -> mp.mpc:
     """G(e^{jθ}) = z^{−d}·c((z − 1)I − E)⁻¹(Γ0 + Γ1 z⁻¹), c = e₀ᵀ, in the plant's digits (θ an mpf or a float)."""
     with mp.workdps(plant.digits + 10):
         th = mp.mpf(theta)
-        n = plant.e.rows
-        zm1 = -2 * mp.sin(th / 2) ** 2 + 1j * mp.sin(th)
-        zinv = mp.expj(-th)
-        mat = mp.matrix(n, n)
-        for i in range(n):
-            for j in range(n):
-                mat[i, j] = -plant.e[i, j]
-            mat[i, i] += zm1
-        x = mp.lu_solve(mat, plant.g0 + plant.g1 * zinv)
+        x = _resolvent_solve(plant.e, plant.g0, plant.g1, th)
         return x[0] * mp.expj(-plant.d * th)
+
+
+def _resolvent_solve(e: mp.matrix, g0: mp.matrix, g1: mp.matrix, th) -> mp.matrix:
+    """x = ((z − 1)I − E)⁻¹(Γ0 + Γ1 z⁻¹) at z = e^{jθ}, z − 1 written as −2 sin²(θ/2) + j sin θ (no cancellation
+    near θ = 0), in the caller's working precision."""
+    n = e.rows
+    zm1 = -2 * mp.sin(th / 2) ** 2 + 1j * mp.sin(th)
+    zinv = mp.expj(-th)
+    mat = mp.matrix(n, n)
+    for i in range(n):
+        for j in range(n):
+            mat[i, j] = -e[i, j]
+        mat[i, i] += zm1
+    return mp.lu_solve(mat, g0 + g1 * zinv)
 
 
 def mp_return_difference(device: Device, alpha: float, beta: float, digits: int = PRECISE_DIGITS,
@@ -181,14 +187,7 @@ def mp_sampled_response(plant: MpSampled, theta) -> mp.mpc:
     with mp.workdps(plant.digits + 10):
         th = mp.mpf(theta)
         n = plant.e.rows
-        zm1 = -2 * mp.sin(th / 2) ** 2 + 1j * mp.sin(th)
-        zinv = mp.expj(-th)
-        mat = mp.matrix(n, n)
-        for i in range(n):
-            for j in range(n):
-                mat[i, j] = -plant.e[i, j]
-            mat[i, i] += zm1
-        x = mp.lu_solve(mat, plant.g0 + plant.g1 * zinv)
+        x = _resolvent_solve(plant.e, plant.g0, plant.g1, th)
         g = mp.mpf(0)
         for i in range(n):
             g += plant.c[0, i] * x[i]
