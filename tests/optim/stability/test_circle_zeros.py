@@ -27,6 +27,8 @@ from optim.stability.rendered_rigid import LOOP_B, LOOP_M, circle_zero_angles, r
 from optim.verification import check_point
 from tests.service.conftest import make_client
 
+from .test_pi_zero import _mp_v  # V in 50-digit mpmath, the same reference
+
 T = 1e-3
 #: a 60-sample delay: p's degree exceeds rendered_rigid.MAX_DEGREE, so h_B and h_M are scanned
 SCANNED = Device(mass=0.5, damping=2.0, sample_time=T, delay=0.06)
@@ -77,14 +79,6 @@ def test_transfer_functions_circle_zeros_decided_or_refused():
         R.clear_caches()
         R.rendered_max_stable_damping(SCANNED, quarter)
     assert exc.value.field == "velocity_filter"
-
-
-def _mp_v(vel, theta: float) -> complex:
-    with mp.workdps(50):
-        w = mp.exp(-1j * mp.mpf(theta))
-        r = mp.fsum(mp.mpf(c) * w ** k for k, c in enumerate(vel.r))
-        d = mp.fsum(mp.mpf(c) * w ** k for k, c in enumerate(vel.d))
-        return complex((1 - w) * r / d)
 
 
 @pytest.mark.parametrize("n", [3, 4, 7, 12, 13, 25, 40])
