@@ -32,7 +32,7 @@ from models.errors import InputError
 
 __all__ = ["BackwardDifference", "LowPass", "MovingAverage", "TransferFunctionFilter", "VelocityFilter",
            "VelocityTransfer", "Rendering", "velocity_transfer", "rendering", "filter_spec", "DEFAULT_RENDERING",
-           "MAX_FILTER_COEFFICIENTS", "MAX_AVERAGE_SAMPLES", "GAIN_RTOL", "POLE_MARGIN", "MAX_VIRTUAL_MASS"]
+           "MAX_FILTER_COEFFICIENTS", "MAX_AVERAGE_SAMPLES", "GAIN_RTOL", "POLE_MARGIN", "MAX_VIRTUAL_MASS", "poly_at"]
 
 #: Coefficients of a transfer_function's numerator or denominator, at most.
 MAX_FILTER_COEFFICIENTS = 64
@@ -111,7 +111,7 @@ class VelocityTransfer:
     def response(self, theta: np.ndarray) -> np.ndarray:
         """T·V(e^{jθ}) (dimensionless)."""
         w = np.exp(-1j * theta)
-        return -np.expm1(-1j * theta) * _poly(self.r, w) / _poly(self.d, w)
+        return -np.expm1(-1j * theta) * poly_at(self.r, w) / poly_at(self.d, w)
 
     def acceleration(self, theta: np.ndarray) -> np.ndarray:
         """T²·A(e^{jθ}) = T·V·(1 − e^{−jθ}) (dimensionless)."""
@@ -131,8 +131,8 @@ class VelocityTransfer:
         return tuple(float(c) for c in n)
 
 
-def _poly(coeffs: tuple[float, ...], w: np.ndarray) -> np.ndarray:
-    """Σ c_k w^k by Horner."""
+def poly_at(coeffs: tuple[float, ...], w: np.ndarray) -> np.ndarray:
+    """Σ c_k w^k by Horner (complex)."""
     out = np.full(np.shape(w), coeffs[-1], dtype=complex)
     for c in coeffs[-2::-1]:
         out = out * w + c

@@ -81,19 +81,26 @@ def mp_plant(device: Device, digits: int = PRECISE_DIGITS) -> MpPlant:
     """The plant sampled in ``digits`` digits (its numbers carry digits + 10 while built; kept per device: a verify
     checks one device at two or three gains)."""
     with mp.workdps(digits + 10):
-        d, frac = split_delay_samples(device.delay / device.sample_time)
-        # the fraction of the exact quotient of the inputs (the double quotient rounds it)
-        f = mp.mpf(device.delay) / mp.mpf(device.sample_time) - d if frac > 0.0 else mp.mpf(0)
         a, b = _continuous(device)
-        _, psi1 = _psi(a, mp.mpf(1))
-        e = a * psi1
+        e, g0, g1, d, f = _sample(a, b, device.delay, device.sample_time)
         for i in range(a.rows):
             e[i, 0] = mp.mpf(0)           # nothing depends on the motor position (A's first column is zero)
-        if f == 0:
-            return MpPlant(e, psi1 * b, mp.zeros(a.rows, 1), d, f, digits)
-        ex_late, psi_late = _psi(a, 1 - f)
-        _, psi_early = _psi(a, f)
-        return MpPlant(e, psi_late * b, ex_late * psi_early * b, d, f, digits)
+        return MpPlant(e, g0, g1, d, f, digits)
+
+
+def _sample(a: mp.matrix, b: mp.matrix, delay: float, sample_time: float) -> tuple:
+    """(E, Γ0, Γ1, d, f): the continuous (A, B) (time in samples) sampled with a zero-order hold and the delay's d
+    whole samples and fraction f in the working precision; f is the fraction of the exact quotient of the inputs
+    (the double quotient rounds it)."""
+    d, frac = split_delay_samples(delay / sample_time)
+    f = mp.mpf(delay) / mp.mpf(sample_time) - d if frac > 0.0 else mp.mpf(0)
+    _, psi1 = _psi(a, mp.mpf(1))
+    e = a * psi1
+    if f == 0:
+        return e, psi1 * b, mp.zeros(a.rows, 1), d, f
+    ex_late, psi_late = _psi(a, 1 - f)
+    _, psi_early = _psi(a, f)
+    return e, psi_late * b, ex_late * psi_early * b, d, f
 
 
 def mp_plant_response(plant: MpPlant, theta) -> mp.mpc:
@@ -171,15 +178,8 @@ def mp_sampled(a, b, c, direct: float, delay: float, sample_time: float, digits:
                 am[i, j] = mp.mpf(float(a[i][j]))
         bm = mp.matrix([mp.mpf(float(x)) for x in b]) if n else mp.matrix(0, 1)
         cm = mp.matrix([[mp.mpf(float(x)) for x in c]]) if n else mp.matrix(1, 0)
-        d, frac = split_delay_samples(delay / sample_time)
-        f = mp.mpf(delay) / mp.mpf(sample_time) - d if frac > 0.0 else mp.mpf(0)
-        _, psi1 = _psi(am, mp.mpf(1))
-        e = am * psi1
-        if f == 0:
-            return MpSampled(e, psi1 * bm, mp.zeros(n, 1), cm, mp.mpf(direct), d, f, digits)
-        ex_late, psi_late = _psi(am, 1 - f)
-        _, psi_early = _psi(am, f)
-        return MpSampled(e, psi_late * bm, ex_late * psi_early * bm, cm, mp.mpf(direct), d, f, digits)
+        e, g0, g1, d, f = _sample(am, bm, delay, sample_time)
+        return MpSampled(e, g0, g1, cm, mp.mpf(direct), d, f, digits)
 
 
 def mp_sampled_response(plant: MpSampled, theta) -> mp.mpc:

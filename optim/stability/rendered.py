@@ -43,7 +43,7 @@ import numpy as np
 
 from models.device import Device
 from models.discretize import RigidZOH, StateSpaceZOH
-from models.velocity_filter import Rendering, VelocityTransfer
+from models.velocity_filter import Rendering, VelocityTransfer, poly_at
 from optim.errors import InputError
 from optim.stability.crossovers import (
     Crossing,
@@ -59,8 +59,10 @@ from optim.stability.rendered_rigid import (
     LOOP_B,
     LOOP_K,
     LOOP_M,
+    TWO_PI_PIECES,
     cable_real_crossings,
     circle_zero_angles,
+    divide_by_one_plus_w,
     equal_form,
     rigid_real_crossings,
     v_zero_at_pi,
@@ -76,10 +78,7 @@ Decision = Literal["stable", "unstable", "undecided"]
 _TINY = 1e-300
 #: π − math.pi (the float π's rounding), as math.pi − θ's correction in the factored V_n
 _PI_TAIL = 1.2246467991473532e-16
-#: 2π in three pieces (Cody–Waite): the first two of 32 bits, so m·piece is exact for m < 2²¹
-_TWO_PI_1 = 6.2831853069365025
-_TWO_PI_2 = 2.4308402025215864e-10
-_TWO_PI_3 = 8.089064995183803e-21
+_TWO_PI_1, _TWO_PI_2, _TWO_PI_3 = TWO_PI_PIECES
 #: the samples within this (relative) of a pole of h on the circle are dropped and the pole bracketed by two at
 #: θ_p·(1 ∓ POLE_GAP) (real_crossings)
 POLE_GAP = 1e-12
@@ -128,15 +127,7 @@ def _pi_factored(velocity: VelocityTransfer) -> tuple[int, tuple[float, ...]]:
     """(m, R̃) with R = (1 + w)^m·R̃, R̃(−1) ≠ 0: R divided by 1 + w while the remainder is exactly 0 (rational
     arithmetic on the float coefficients), R̃ rounded once (exact for the even average's (1, 0, 1, …, 1)/n and the
     Butterworth's r₀)."""
-    q = [Fraction(c) for c in velocity.r]
-    m = 0
-    while len(q) > 1:
-        out = [q[0]]
-        for c in q[1:-1]:
-            out.append(c - out[-1])
-        if q[-1] - out[-1] != 0:
-            break
-        q, m = out, m + 1
+    m, q = divide_by_one_plus_w([Fraction(c) for c in velocity.r])
     return m, tuple(float(c) for c in q)
 
 
@@ -153,14 +144,14 @@ def velocity_response(velocity: VelocityTransfer, theta: np.ndarray) -> np.ndarr
     n, c = equal_form(velocity)
     if n:
         theta = np.asarray(theta, dtype=float)
-        return c * _one_minus_w_power(n, theta) / _horner(velocity.d, np.exp(-1j * theta))
+        return c * _one_minus_w_power(n, theta) / poly_at(velocity.d, np.exp(-1j * theta))
     if not v_zero_at_pi(velocity):
         return velocity.response(theta)
     m, rt = _pi_factored(velocity)
     theta = np.asarray(theta, dtype=float)
     w = np.exp(-1j * theta)
     out = -np.expm1(-1j * theta) * (-np.expm1(1j * ((math.pi - theta) + _PI_TAIL))) ** m
-    return out * _horner(rt, w) / _horner(velocity.d, w)
+    return out * poly_at(rt, w) / poly_at(velocity.d, w)
 
 
 def _one_minus_w_power(n: int, theta: np.ndarray) -> np.ndarray:
@@ -185,13 +176,6 @@ def loop_poles(velocity: VelocityTransfer) -> tuple[float, ...]:
                                             "of the damper's and the mass's loops) cannot be decided: its numerator "
                                             "shares a factor with its reversal other than (1 + z⁻¹)^m")
     return poles
-
-
-def _horner(coeffs: tuple[float, ...], w: np.ndarray) -> np.ndarray:
-    out = np.full(np.shape(w), coeffs[-1], dtype=complex)
-    for c in coeffs[-2::-1]:
-        out = out * w + c
-    return out
 
 
 def _b_loop(device: Device, rendering: Rendering, mu: float):

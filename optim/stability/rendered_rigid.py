@@ -68,7 +68,8 @@ from optim.stability.cable_loop import cable_loop
 from optim.stability.compiled import kernel
 
 __all__ = ["LOOP_K", "LOOP_B", "LOOP_M", "rigid_real_crossings", "cable_real_crossings", "compile_kernels", "MAX_PIECES",
-           "MAX_DEGREE", "v_zero_at_pi", "equal_form", "circle_zero_angles"]
+           "MAX_DEGREE", "v_zero_at_pi", "equal_form", "circle_zero_angles", "divide_by_one_plus_w",
+           "TWO_PI_PIECES"]
 
 LOOP_K, LOOP_B, LOOP_M = 0, 1, 2
 #: a cable loop's certified crossings are given up (the scan answers) where h's terms exceed |h| by more than this
@@ -159,6 +160,11 @@ def circle_zero_angles(velocity: VelocityTransfer) -> tuple[float, ...] | None:
     return () if _no_other_circle_zero(velocity.r) else None
 
 
+#: 2π in three pieces (Cody–Waite): the first two of 32 bits, so m·piece is exact for m < 2²¹ (V's 1 − wⁿ, here
+#: and in optim.stability.rendered)
+TWO_PI_PIECES = (6.2831853069365025, 2.4308402025215864e-10, 8.089064995183803e-21)
+_TWO_PI_1, _TWO_PI_2, _TWO_PI_3 = TWO_PI_PIECES
+
 #: primes for the modular gcd (2⁶¹ − 1 and 2³¹ − 1)
 _PRIMES = (2305843009213693951, 2147483647)
 
@@ -177,7 +183,7 @@ def _no_other_circle_zero(r: tuple[float, ...]) -> bool:
     for c in q:
         scale = scale * c.denominator // math.gcd(scale, c.denominator)
     ints = [int(c * scale) for c in q]
-    m = _pi_multiplicity(q)
+    m, _ = divide_by_one_plus_w(q)
     for p in _PRIMES:
         if ints[0] % p == 0 or ints[-1] % p == 0:
             continue
@@ -186,17 +192,18 @@ def _no_other_circle_zero(r: tuple[float, ...]) -> bool:
     return False
 
 
-def _pi_multiplicity(q: list[Fraction]) -> int:
-    """How many times 1 + w divides R exactly (synthetic division by w = −1 in rational arithmetic)."""
+def divide_by_one_plus_w(q: list[Fraction]) -> tuple[int, list[Fraction]]:
+    """(m, Q) with Σ q_k w^k = (1 + w)^m·Q(w), Q(−1) ≠ 0: synthetic division by w = −1 in rational arithmetic
+    (ascending coefficients), repeated while the remainder is exactly 0."""
     m = 0
     while len(q) > 1:
-        out = [q[-1]]
-        for c in q[-2:0:-1]:
-            out.append(c - out[-1])                # dividing Σ q_k w^k by (w + 1) from the top
-        if q[0] - out[-1] != 0:
+        out = [q[0]]
+        for c in q[1:-1]:
+            out.append(c - out[-1])
+        if q[-1] - out[-1] != 0:
             break
-        q, m = out[::-1], m + 1
-    return m
+        q, m = out, m + 1
+    return m, q
 
 
 def _gcd_degree_mod(a: list[int], b: list[int], p: int) -> int:
@@ -475,7 +482,7 @@ def _one_minus_w_power(n, theta):
     t1 = split - (split - theta)
     t2 = theta - t1
     m = float(round(n * theta / (2.0 * math.pi)))
-    r = (((n * t1 - m * 6.2831853069365025) + n * t2) - m * 2.4308402025215864e-10) - m * 8.089064995183803e-21
+    r = (((n * t1 - m * _TWO_PI_1) + n * t2) - m * _TWO_PI_2) - m * _TWO_PI_3
     s = math.sin(0.5 * r)
     return complex(2.0 * s * s, math.sin(r))
 
