@@ -25,7 +25,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from models.device import MAX_DELAY_SAMPLES, Device
+from models.device import Device
 from optim.studies.cable_chunks import grouped_arrays, is_grouped_cable
 
 __all__ = ["evaluate_cable_columns", "CABLE_COLUMN_REQUIREMENTS"]
@@ -47,7 +47,7 @@ def evaluate_cable_columns(problem: str, device: Mapping[str, Any], requirements
     """(handled, columns, errors) of the chunk's points as optim.studies.columns.evaluate_columns gives them, or None
     when the chunk is not for the cable column path (module docstring)."""
     from optim.studies.columns import critical_columns, scatter_columns
-    from optim.studies.problems import point_builder
+    from optim.studies.problems import point_builder, reuses_base
 
     if problem != "critical_stiffness":
         return None
@@ -99,8 +99,7 @@ def evaluate_cable_columns(problem: str, device: Mapping[str, Any], requirements
             delay = vals[delay_axis]
             rest = tuple([vals[k] for k in others])
             j = by_rest.get(rest)
-            if j is not None and not (type(delay) is float and 0.0 <= delay < math.inf
-                                      and delay / limits[j] <= MAX_DELAY_SAMPLES):
+            if j is not None and not reuses_base(delay, limits[j]):
                 j = None
         if j is None:
             try:

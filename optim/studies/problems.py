@@ -35,7 +35,7 @@ from optim.solver_info import plain
 
 __all__ = ["MAX_STUDY_POINTS", "PROBLEMS", "StudyInputError", "ProblemUnavailable", "Axis", "StudyPlan",
            "Problem", "get_problem", "plan_study", "device_paths", "evaluate_point", "evaluate_chunk",
-           "point_builder", "with_delay"]
+           "point_builder", "reuses_base"]
 
 #: Cost limit: the largest number of points one study may have (grid product or LHS samples).
 MAX_STUDY_POINTS = 1_000_000
@@ -594,6 +594,13 @@ def evaluate_chunk(problem: str, device: Mapping[str, Any], requirements: Mappin
 _UNCHECKED = object()
 
 
+def reuses_base(delay: Any, sample_time: float) -> bool:
+    """A point whose non-delay values a validated device already has takes that device with its own delay
+    (models.device.with_delay, nothing validated) where the delay is a plain finite float ≥ 0 within the samples
+    limit; any other point is validated whole (and so gets its own error)."""
+    return type(delay) is float and 0.0 <= delay < math.inf and delay / sample_time <= MAX_DELAY_SAMPLES
+
+
 def _evaluate_chunk_batch(prob: Problem, device: Mapping[str, Any], requirements: Mapping[str, Any],
                           axes: Sequence[tuple[str, str]], rows: Sequence[tuple[int, Sequence[float]]]) -> list[tuple]:
     """evaluate_chunk of a vectorised problem: each point validated alone, the valid ones evaluated together."""
@@ -626,8 +633,7 @@ def _evaluate_chunk_batch(prob: Problem, device: Mapping[str, Any], requirements
                 delay = values[delay_axis]
                 rest = tuple([values[j] for j in others])
                 known = by_rest.get(rest)
-                if (known is not None and type(delay) is float and 0.0 <= delay < math.inf
-                        and delay / known.sample_time <= MAX_DELAY_SAMPLES):
+                if known is not None and reuses_base(delay, known.sample_time):
                     dev = with_delay(known, delay)
             if dev is None:
                 dev = validate(build(values)[0] if dev_in is None else dev_in)

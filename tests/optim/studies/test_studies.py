@@ -205,11 +205,10 @@ def test_studies_refuse_what_they_would_ignore(device, sweep, field):
 
 
 def test_with_delay_is_model_copy_with_the_delay():
-    """problems.with_delay (issue 32: a study point's device, copied with its delay) makes what
+    """models.device.with_delay (issue 32: a study point's device, copied with its delay) makes what
     model_copy(update={"delay": …}) makes: the same fields (nested blocks shared, as its shallow copy shares them),
     fields set, extra and private state, equality, hash and dump; the original is unchanged."""
-    from models.device import Device
-    from optim.studies.problems import with_delay
+    from models.device import Device, with_delay
 
     for dev in (Device(mass=5.4, damping=3.5), Device(preset="lhifam", delay=0.002),
                 Device.model_validate(Device(preset="lhifam").model_dump(exclude={"preset"}))):
