@@ -120,11 +120,17 @@ def undamped_unstable(modes: WallModes, sample_time: float, delay: float) -> boo
     """B = 0 and an undamped mode seen along n: K_cr = 0 when a ≤ τ·c₀ (c₀ = Σ c_i of the undamped modes,
     a = Σ c_i/λ_i of the damped ones, τ = t_d + T/2).  Small K puts the loop's poles at s ≈ ±j√(K c₀) with real part
     −K(a − τ c₀)/2: G_n e^{−sτ} = (c₀ + (a − τ c₀)s + O(s²))/s² (the ZOH is e^{−sT/2}(1 + O(s²)) on 1/s²)."""
-    c0 = math.fsum(ci for ci, li in zip(modes.c, modes.lam) if li == 0.0)
+    c0, a = undamped_weights(modes)
     if c0 == 0.0:
         return False
-    a = math.fsum(ci / li for ci, li in zip(modes.c, modes.lam) if li > 0.0)
     return a <= (delay + 0.5 * sample_time) * c0
+
+
+def undamped_weights(modes: WallModes) -> tuple[float, float]:
+    """(c₀, a): the undamped modes' weight Σ c_i (λ_i = 0) and the damped ones' Σ c_i/λ_i (λ_i > 0)."""
+    c0 = math.fsum(ci for ci, li in zip(modes.c, modes.lam) if li == 0.0)
+    a = math.fsum(ci / li for ci, li in zip(modes.c, modes.lam) if li > 0.0)
+    return c0, a
 
 
 @dataclass(frozen=True)
@@ -149,8 +155,7 @@ def _grid(modes: WallModes, sample_time: float, delay_samples: float, beta: floa
     if low == 0.0 and beta == 0.0:
         # an undamped mode seen and a > τ·c₀ (undamped_unstable is False): the lowest crossover is at θ ~ √r with
         # r = a/(τ c₀) − 1 the margin of the small-K rule; the scan starts below it
-        c0 = math.fsum(ci for ci, li in zip(modes.c, modes.lam) if li == 0.0)
-        a = math.fsum(ci / li for ci, li in zip(modes.c, modes.lam) if li > 0.0)
+        c0, a = undamped_weights(modes)
         tau = (delay_samples + 0.5) * sample_time
         low = min(max(a / (tau * c0) - 1.0, 0.0), 1.0)
     damp = min([low] + deltas) + beta
